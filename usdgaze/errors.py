@@ -1,0 +1,18 @@
+"""Errors that reach the user as one line (the CLI prints them and exits with code 2)."""
+
+from __future__ import annotations
+
+
+class UsdGazeError(Exception):
+    """Bad input: the message is one line naming the file, prim or attribute and what is wrong."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(" ".join(str(message).split()))
+
+
+class GazeMapError(UsdGazeError):
+    """A gaze map (on a prim or in memory) is malformed."""
+
+
+class RigError(UsdGazeError):
+    """A skeleton's gaze chain cannot be bound."""

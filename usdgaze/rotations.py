@@ -1,0 +1,225 @@
+"""Quaternion and rotation helpers: the one module that knows conventions.
+
+Conventions used everywhere in usdgaze:
+
+* Quaternions are numpy arrays of shape ``(..., 4)`` in **(x, y, z, w)** order, the order of
+  ``Vt.QuatfArray`` buffers and of ``scipy.spatial.transform.Rotation``.
+* Rotation matrices act on **column vectors** (``v' = R @ v``). USD's ``GfMatrix4d`` acts on row
+  vectors; :func:`matrices_from_usd` / :func:`matrices_to_usd` convert at the boundary.
+* The *canonical character frame* is right-handed with +X = the character's left, +Y = up,
+  +Z = forward. Gaze-map offsets are expressed in it.
+* Angles in the public interface are degrees; everything in here is radians unless the name says
+  ``_deg``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
+LEFT = np.array([1.0, 0.0, 0.0])
+UP = np.array([0.0, 1.0, 0.0])
+FORWARD = np.array([0.0, 0.0, 1.0])
+
+
+def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Identity quaternions of the given batch shape."""
+    out = np.zeros(shape + (4,))
+    out[..., 3] = 1.0
+    return out
+
+
+def normalize(q: np.ndarray) -> np.ndarray:
+    """Unit quaternions (or unit vectors); zero-length inputs stay zero."""
+    q = np.asarray(q, dtype=float)
+    n = np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.divide(q, n, out=np.zeros_like(q), where=n > 0)
+
+
+def positive_w(q: np.ndarray) -> np.ndarray:
+    """The representative with w >= 0 (the same rotation), so lerp blends stay on one hemisphere."""
+    q = np.asarray(q, dtype=float)
+    return np.where(q[..., 3:4] < 0.0, -q, q)
+
+
+def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product ``a * b`` (apply ``b`` first, then ``a``), broadcasting over batches."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    ax, ay, az, aw = np.moveaxis(a, -1, 0)
+    bx, by, bz, bw = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ],
+        axis=-1,
+    )
+
+
+def conjugate(q: np.ndarray) -> np.ndarray:
+    """Inverse of a unit quaternion."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([-1.0, -1.0, -1.0, 1.0])
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)``."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    u = q[..., :3]
+    w = q[..., 3:4]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def to_rotvec(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors (axis * angle, angle in [0, pi]) of quaternions ``(..., 4)``."""
+    q = positive_w(normalize(q))
+    v = q[..., :3]
+    s = np.linalg.norm(v, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(s, q[..., 3:4])
+    # angle / sin(angle/2) -> 2 as the angle goes to zero
+    scale = np.divide(angle, s, out=np.full_like(s, 2.0), where=s > 1e-12)
+    return v * scale
+
+
+def from_rotvec(r: np.ndarray) -> np.ndarray:
+    """Quaternions from rotation vectors ``(..., 3)`` (any angle, including beyond pi)."""
+    r = np.asarray(r, dtype=float)
+    angle = np.linalg.norm(r, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    # sin(half)/angle -> 1/2 as the angle goes to zero
+    k = np.divide(np.sin(half), angle, out=np.full_like(angle, 0.5), where=angle > 1e-12)
+    return np.concatenate([r * k, np.cos(half)], axis=-1)
+
+
+def angle(q: np.ndarray) -> np.ndarray:
+    """Rotation angle in radians, in [0, pi]."""
+    return np.linalg.norm(to_rotvec(q), axis=-1)
+
+
+def power(q: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Scale the rotation angle of ``q`` by ``s`` (``q ** s``); ``s`` broadcasts against ``q[..., 0]``."""
+    return from_rotvec(to_rotvec(q) * np.asarray(s, dtype=float)[..., None])
+
+
+def relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a^-1 * b``: the rotation that takes ``a`` to ``b`` in ``a``'s frame."""
+    return multiply(conjugate(a), b)
+
+
+def from_axis_angle(axis: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
+    """Quaternions rotating by ``angle_rad`` about ``axis`` (broadcasting)."""
+    axis = normalize(np.asarray(axis, dtype=float))
+    return from_rotvec(axis * np.asarray(angle_rad, dtype=float)[..., None])
+
+
+def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The minimal rotation taking direction ``u`` to direction ``v`` (Listing's law for eyes)."""
+    u = normalize(u)
+    v = normalize(v)
+    u, v = np.broadcast_arrays(u, v)
+    d = np.sum(u * v, axis=-1, keepdims=True)
+    axis = np.cross(u, v)
+    q = np.concatenate([axis, 1.0 + d], axis=-1)
+    # Antiparallel: rotate 180 deg about any axis perpendicular to u.
+    anti = (1.0 + d[..., 0]) < 1e-12
+    if np.any(anti):
+        ua = u[anti]
+        helper = np.where(np.abs(ua[:, :1]) < 0.9, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
+        perp = normalize(np.cross(ua, helper))
+        q[anti] = np.concatenate([perp, np.zeros((len(ua), 1))], axis=-1)
+    return normalize(q)
+
+
+def from_matrix(m: np.ndarray) -> np.ndarray:
+    """Quaternions from (column-vector) rotation matrices ``(..., 3, 3)``; scale is removed first."""
+    m = np.asarray(m, dtype=float)
+    shape = m.shape[:-2]
+    cols = m / np.linalg.norm(m, axis=-2, keepdims=True)
+    q = Rotation.from_matrix(cols.reshape(-1, 3, 3)).as_quat()
+    return positive_w(q).reshape(shape + (4,))
+
+
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """(Column-vector) rotation matrices ``(..., 3, 3)`` of quaternions."""
+    q = np.asarray(q, dtype=float)
+    shape = q.shape[:-1]
+    return Rotation.from_quat(q.reshape(-1, 4)).as_matrix().reshape(shape + (3, 3))
+
+
+def frame_rotation(left: np.ndarray, up: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """Quaternion mapping the canonical frame (X left, Y up, Z forward) onto the given axes."""
+    m = np.stack([left, up, forward], axis=-1)
+    return from_matrix(m)
+
+
+def yaw_pitch_to_direction(yaw_deg: np.ndarray, pitch_deg: np.ndarray) -> np.ndarray:
+    """Unit direction in the canonical frame for azimuth ``yaw`` (toward +X) and elevation ``pitch``."""
+    y = np.radians(yaw_deg)
+    p = np.radians(pitch_deg)
+    return np.stack([np.sin(y) * np.cos(p), np.sin(p), np.cos(y) * np.cos(p)], axis=-1)
+
+
+def direction_to_yaw_pitch(d: np.ndarray, yaw_hint_deg: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Azimuth and elevation (degrees) of canonical-frame directions.
+
+    The azimuth is unwrapped to the branch nearest ``yaw_hint_deg`` so that a left turn of 180 deg
+    reads +180 and a right turn -180.
+    """
+    d = normalize(d)
+    yaw = np.degrees(np.arctan2(d[..., 0], d[..., 2]))
+    yaw = unwrap_near(yaw, yaw_hint_deg)
+    pitch = np.degrees(np.arcsin(np.clip(d[..., 1], -1.0, 1.0)))
+    return yaw, pitch
+
+
+def unwrap_near(angle_deg: np.ndarray, hint_deg: np.ndarray | float) -> np.ndarray:
+    """The representative of ``angle_deg`` (mod 360) nearest to ``hint_deg``."""
+    hint = np.asarray(hint_deg, dtype=float)
+    return hint + (np.asarray(angle_deg) - hint + 180.0) % 360.0 - 180.0
+
+
+def yaw_pitch_rotation(yaw_deg: np.ndarray, pitch_deg: np.ndarray) -> np.ndarray:
+    """Canonical-frame rotation: yaw about +Y (toward the left) after pitch up about the left axis."""
+    yaw = from_axis_angle(UP, np.radians(yaw_deg))
+    pitch = from_axis_angle(-LEFT, np.radians(pitch_deg))
+    return multiply(yaw, pitch)
+
+
+def conjugate_into(frame: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Express the rotation ``q`` given in a frame whose axes are ``frame`` (a quaternion) in the outer frame."""
+    return multiply(multiply(frame, q), conjugate(frame))
+
+
+def matrices_from_usd(m: np.ndarray) -> np.ndarray:
+    """Column-vector 4x4 matrices from USD row-vector matrices ``(..., 4, 4)``."""
+    return np.swapaxes(np.asarray(m, dtype=float), -1, -2)
+
+
+def matrices_to_usd(m: np.ndarray) -> np.ndarray:
+    """USD row-vector 4x4 matrices from column-vector ones."""
+    return np.swapaxes(np.asarray(m, dtype=float), -1, -2)
+
+
+def compose_trs(translation: np.ndarray, rotation: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Column-vector 4x4 matrices ``T * R * S`` (UsdSkel's local transform order)."""
+    translation = np.asarray(translation, dtype=float)
+    shape = translation.shape[:-1]
+    m = np.zeros(shape + (4, 4))
+    m[..., :3, :3] = to_matrix(rotation) * np.asarray(scale, dtype=float)[..., None, :]
+    m[..., :3, 3] = translation
+    m[..., 3, 3] = 1.0
+    return m
+
+
+def decompose_tr(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Translation, rotation and per-axis scale of column-vector 4x4 matrices without shear."""
+    m = np.asarray(m, dtype=float)
+    lin = m[..., :3, :3]
+    scale = np.linalg.norm(lin, axis=-2)
+    return m[..., :3, 3].copy(), from_matrix(lin), scale
