@@ -171,11 +171,10 @@ def blend(motions: GazeMotions, weights: np.ndarray) -> GazeMotions:
     return GazeMotions(offsets, timing)
 
 
-def chain_rotation(offsets: np.ndarray, include_eyes: bool = True) -> np.ndarray:
-    """Composite canonical-frame rotation of the segment chain (pelvis first, hierarchical)."""
-    n = len(SEGMENTS) if include_eyes else len(SEGMENTS) - 1
+def chain_rotation(offsets: np.ndarray) -> np.ndarray:
+    """Composite canonical-frame rotation of consecutive segments ``(..., n, 4)``, root first."""
     q = offsets[..., 0, :]
-    for j in range(1, n):
+    for j in range(1, offsets.shape[-2]):
         q = rot.multiply(q, offsets[..., j, :])
     return q
 
@@ -196,8 +195,6 @@ def aim_eyes(body_offsets: np.ndarray, yaw_deg: np.ndarray, pitch_deg: np.ndarra
 
     ``body_offsets`` are the four non-eye segments ``(..., 4, 4)``.
     """
-    body = body_offsets[..., 0, :]
-    for j in range(1, body_offsets.shape[-2]):
-        body = rot.multiply(body, body_offsets[..., j, :])
+    body = chain_rotation(body_offsets)
     target = rot.yaw_pitch_to_direction(yaw_deg, pitch_deg)
     return rot.shortest_arc(rot.FORWARD, rot.rotate(rot.conjugate(body), target))

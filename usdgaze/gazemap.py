@@ -1,0 +1,220 @@
+"""The parametric gaze map: blending-based synthesis over (yaw, pitch) (Kovar & Gleicher 2004).
+
+Build: the (yaw, pitch) space is sampled densely with random convex blends of nearby examples; each
+blend's *real* parameter is measured as the gaze change its blended pose achieves on the canonical
+chain (:func:`usdgaze.motion.achieved_gaze`). The examples themselves are samples too.
+
+Query: the k nearest samples (in measured parameter space) are interpolated with the non-negative
+weights of Kovar & Gleicher (``1/d_i - 1/d_k``, normalized), giving non-negative example weights.
+That interpolation is only as smooth as the sampling (about 1 deg of error here), so a few
+Gauss-Newton steps then adjust the weights of the examples it already blends until the blend's
+measured gaze change meets the request (weights stay non-negative).
+
+Outside the sampled region (e.g. pitch beyond the examples' rows, |yaw| beyond 180) the query is
+clamped into the sampled box, and the rotation still missing is added to the neck (its share set by
+``SynthesisSettings.neck_share``) with the eyes re-aimed to take the rest, so the map still returns a
+motion that reaches the request on the canonical chain, with the timing of the nearest region.
+Yaw is never wrapped: -180 and +180 are a right and a left turn.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import Delaunay, QhullError, cKDTree
+
+from . import motion
+from . import rotations as rot
+from .definition import GazeMapDefinition
+from .motion import GazeMotions
+
+
+@dataclass(frozen=True)
+class QueryResult:
+    """Motions answered for a batch of queries, with their example weights and measured gaze change."""
+
+    motions: GazeMotions
+    weights: np.ndarray
+    achieved: np.ndarray
+    extrapolated: np.ndarray
+
+
+def _random_blends(params: np.ndarray, count: int, blend_size: int, rng: np.random.Generator) -> np.ndarray:
+    """Blend weights ``(count, E)`` of random blends of nearby examples.
+
+    Two thirds are uniform points in the Delaunay triangles of the examples' nominal parameters
+    (area-weighted, so the samples cover the space evenly instead of piling up at blend centroids);
+    the rest mix an example with one of its ``blend_size`` nearest neighbours, which reaches the
+    edges of the region and serves maps whose examples lie on one line.
+    """
+    n = len(params)
+    weights = np.zeros((max(count, 0), n))
+    if count <= 0 or n < 2:
+        return weights
+    try:
+        triangles = Delaunay(params).simplices
+    except (QhullError, ValueError):
+        triangles = np.zeros((0, 3), dtype=int)
+    n_tri = (2 * count) // 3 if len(triangles) else 0
+    if n_tri:
+        a, b, c = (params[triangles[:, i]] for i in range(3))
+        area = 0.5 * np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+        pick = rng.choice(len(triangles), size=n_tri, p=area / area.sum())
+        r1, r2 = np.sqrt(rng.uniform(size=n_tri)), rng.uniform(size=n_tri)
+        bary = np.column_stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2])
+        rows = np.repeat(np.arange(n_tri), 3)
+        np.add.at(weights, (rows, triangles[pick].ravel()), bary.ravel())
+    k = int(min(max(blend_size, 2), n))
+    _, near = cKDTree(params).query(params, k=k)
+    n_pair = count - n_tri
+    first = rng.integers(0, n, size=n_pair)
+    second = near[first, rng.integers(1, k, size=n_pair)]
+    frac = rng.uniform(size=n_pair)
+    rows = np.arange(n_tri, count)
+    np.add.at(weights, (rows, first), 1.0 - frac)
+    np.add.at(weights, (rows, second), frac)
+    return weights
+
+
+_CHUNK = 1024  # queries corrected together: bounds the (Q, C, E) probe arrays
+_CANDIDATES = 8  # examples a correction may reweight
+
+
+class ParametricGazeMap:
+    """A queryable gaze map built from a :class:`GazeMapDefinition`."""
+
+    def __init__(self, definition: GazeMapDefinition) -> None:
+        self.definition = definition
+        self.examples = definition.motions
+        self.params = definition.params
+        s = definition.settings
+        rng = np.random.default_rng(s.seed)
+
+        weights = _random_blends(self.params, s.samples, s.blend_size, rng)
+        weights = np.concatenate([np.eye(len(self.params)), weights])
+        self.sample_weights = weights
+        self.sample_params = self._measure(weights)
+        self._tree = cKDTree(self.sample_params)
+        self._example_tree = cKDTree(self.params)
+        self.k = int(min(max(s.neighbors, 1), len(weights)))
+        self.low = self.sample_params.min(axis=0)
+        self.high = self.sample_params.max(axis=0)
+
+    # -- measuring -------------------------------------------------------------------------
+    def _measure(self, weights: np.ndarray) -> np.ndarray:
+        """Measured (yaw, pitch) of blends; yaw unwrapped near the blend's mean example yaw."""
+        blended = motion.blend(self.examples, weights)
+        hint = (weights / weights.sum(axis=1, keepdims=True)) @ self.params[:, 0]
+        return motion.achieved_gaze(blended.offsets, hint)
+
+    # -- querying --------------------------------------------------------------------------
+    def _interpolate(self, points: np.ndarray) -> np.ndarray:
+        """Kovar & Gleicher k-NN interpolation of sample blend weights at ``points (Q, 2)``."""
+        k = self.k
+        dist, idx = self._tree.query(points, k=k + 1 if k + 1 <= len(self.sample_params) else k)
+        dist = dist.reshape(len(points), -1)
+        idx = idx.reshape(len(points), -1)
+        if dist.shape[1] > k:
+            cutoff = dist[:, k:k + 1]
+            dist, idx = dist[:, :k], idx[:, :k]
+        else:
+            cutoff = dist[:, -1:] * (1.0 + 1e-9) + 1e-12
+        with np.errstate(divide="ignore"):
+            w = np.maximum(1.0 / np.maximum(dist, 1e-12) - 1.0 / np.maximum(cutoff, 1e-12), 0.0)
+        exact = dist[:, 0] < 1e-9
+        w[exact] = 0.0
+        w[exact, 0] = 1.0
+        # All k at the same distance as the cutoff: fall back to equal weights.
+        empty = w.sum(axis=1) <= 0
+        w[empty] = 1.0
+        w /= w.sum(axis=1, keepdims=True)
+        return np.einsum("qk,qke->qe", w, self.sample_weights[idx])
+
+    def _correct(self, weights: np.ndarray, target: np.ndarray, iterations: int) -> np.ndarray:
+        """Gauss-Newton steps on the blend weights toward ``target``.
+
+        The examples that may change are those the k-NN answer blends plus the examples nearest the
+        target (so an answer stuck on one meridian can lean on the next), weights stay
+        non-negative, and a step is kept only where it brings the measured change closer.
+        """
+        q, n = weights.shape
+        c = min(n, _CANDIDATES)
+        eps = 1e-4
+        dist, _ = self._example_tree.query(target, k=n)
+        order = np.argsort(self._example_tree.query(target, k=n)[1], axis=1)
+        dist_by_example = np.take_along_axis(dist, order, axis=1)
+        score = np.where(weights > 1e-9, -1.0, dist_by_example)
+        cand = np.argsort(score, axis=1, kind="stable")[:, :c]  # (Q, C) example indices
+        rows = np.arange(q)[:, None]
+        achieved = self._measure(weights)
+        for _ in range(iterations):
+            err = target - achieved
+            probe = np.repeat(weights[:, None, :], c, axis=1)
+            probe[rows, np.arange(c)[None, :], cand] += eps
+            moved = self._measure(probe.reshape(-1, n)).reshape(q, c, 2)
+            jac = np.swapaxes(moved - achieved[:, None, :], 1, 2) / eps  # (Q, 2, C)
+            normal = jac @ np.swapaxes(jac, 1, 2) + 1e-9 * np.eye(2)
+            step = np.einsum("qcm,qc->qm", jac, np.linalg.solve(normal, err[..., None])[..., 0])
+            # Backtracking from the same start: the non-negativity clip can spoil a full step.
+            base = weights
+            best_err = np.linalg.norm(err, axis=1)
+            for scale in (1.0, 0.5, 0.25):
+                candidate = base.copy()
+                candidate[rows, cand] = np.maximum(candidate[rows, cand] + scale * step, 0.0)
+                total = candidate.sum(axis=1, keepdims=True)
+                candidate = np.where(total > 0, candidate / np.where(total > 0, total, 1.0), base)
+                cand_achieved = self._measure(candidate)
+                cand_err = np.linalg.norm(target - cand_achieved, axis=1)
+                better = cand_err < best_err
+                weights = np.where(better[:, None], candidate, weights)
+                achieved = np.where(better[:, None], cand_achieved, achieved)
+                best_err = np.minimum(cand_err, best_err)
+        return weights
+
+    def query_full(self, yaw_deg, pitch_deg) -> QueryResult:
+        """Answer a batch of gaze changes; broadcasting ``yaw_deg`` and ``pitch_deg`` to one shape."""
+        yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
+        shape = yaw.shape
+        request = np.stack([yaw.ravel(), pitch.ravel()], axis=-1)
+        inside = np.clip(request, self.low, self.high)
+        extrapolated = np.any(np.abs(inside - request) > 1e-9, axis=1)
+
+        weights = self._interpolate(inside)
+        for lo in range(0, len(inside), _CHUNK):
+            part = slice(lo, lo + _CHUNK)
+            weights[part] = self._correct(weights[part], inside[part], self.definition.settings.refine)
+        achieved = self._measure(weights)
+
+        blended = motion.blend(self.examples, weights)
+        offsets = blended.offsets
+        if np.any(extrapolated):
+            offsets = offsets.copy()
+            offsets[extrapolated] = self._extend(offsets[extrapolated], request[extrapolated])
+            achieved[extrapolated] = motion.achieved_gaze(offsets[extrapolated], request[extrapolated, 0])
+        motions = GazeMotions(offsets.reshape(shape + (5, 4)), blended.timing.reshape(shape + (7,)))
+        return QueryResult(
+            motions,
+            weights.reshape(shape + (-1,)),
+            achieved.reshape(shape + (2,)),
+            extrapolated.reshape(shape),
+        )
+
+    def query(self, yaw_deg, pitch_deg) -> GazeMotions:
+        """Gaze displacement motions for requested gaze changes (degrees)."""
+        return self.query_full(yaw_deg, pitch_deg).motions
+
+    def _extend(self, offsets: np.ndarray, request: np.ndarray) -> np.ndarray:
+        """Add the rotation the clamped answer lacks: part to the neck, the rest by re-aiming the eyes."""
+        yaw = np.clip(request[:, 0], -180.0, 180.0)
+        pitch = np.clip(request[:, 1], -89.0, 89.0)
+        below_neck = motion.chain_rotation(offsets[:, :3])
+        current = rot.rotate(motion.chain_rotation(offsets), rot.FORWARD)
+        wanted = rot.yaw_pitch_to_direction(yaw, pitch)
+        missing = rot.power(rot.shortest_arc(current, wanted), self.definition.settings.neck_share)
+        # Express the missing world rotation in the neck's parent frame, then apply it there.
+        neck_extra = rot.multiply(rot.multiply(rot.conjugate(below_neck), missing), below_neck)
+        out = offsets.copy()
+        out[:, 3] = rot.multiply(neck_extra, offsets[:, 3])
+        out[:, 4] = motion.aim_eyes(out[:, :4], yaw, pitch)
+        return rot.positive_w(out)
