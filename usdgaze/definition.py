@@ -55,3 +55,147 @@ class GazeMapDefinition:
 
     def __len__(self) -> int:
         return len(self.params)
+
+
+# -- storage names and value checks ----------------------------------------------------------------
+# The USD attribute names live here (not in the pxr-side schema module) so that in-memory maps and
+# stored maps are checked by the same code and report problems under the same names.
+
+from .errors import GazeMapError  # noqa: E402  (kept next to the code that uses it)
+from .motion import SEGMENTS, TIMING_FIELDS  # noqa: E402
+
+API_NAME = "GazeMapAPI"
+YAW_ATTR = "gaze:examples:yaw"
+PITCH_ATTR = "gaze:examples:pitch"
+OFFSET_ATTRS = tuple(f"gaze:examples:{segment}Offset" for segment in SEGMENTS)
+"""One quatf[] per P+ segment, in :data:`usdgaze.motion.SEGMENTS` order."""
+TIMING_ATTRS = tuple(f"gaze:examples:{name}" for name in TIMING_FIELDS)
+"""One float[] per timing float, in :data:`usdgaze.motion.TIMING_FIELDS` order."""
+BINDING_ATTRS = {role: f"gaze:binding:{role}" for role in ROLES}
+FORWARD_ATTR = "gaze:binding:forward"
+SETTING_ATTRS = {
+    "samples": "gaze:synthesis:samples",
+    "blend_size": "gaze:synthesis:blendSize",
+    "neighbors": "gaze:synthesis:neighbors",
+    "refine": "gaze:synthesis:refine",
+    "seed": "gaze:synthesis:seed",
+    "neck_share": "gaze:synthesis:neckShare",
+}
+""":class:`SynthesisSettings` field -> attribute."""
+EXAMPLE_ATTRS = (YAW_ATTR, PITCH_ATTR) + OFFSET_ATTRS + TIMING_ATTRS
+"""Every per-example array; all hold one entry per example."""
+
+UNIT_TOLERANCE = 1e-3
+"""How far a stored quaternion's length may be from 1."""
+
+_TIMING_RANGES = {
+    # field: (low, low inclusive, high, high inclusive, unit)
+    "duration": (0.0, True, np.inf, False, " s"),
+    "pelvisStart": (0.0, True, 1.0, False, ""),
+    "lowerSpineStart": (0.0, True, 1.0, False, ""),
+    "upperSpineStart": (0.0, True, 1.0, False, ""),
+    "neckStart": (0.0, True, 1.0, False, ""),
+    "overshootTime": (0.0, False, 1.0, True, ""),
+    "overshoot": (0.0, True, 1.0, True, ""),
+}
+_SETTING_MINIMA = {"samples": 1, "blend_size": 1, "neighbors": 1, "refine": 0, "seed": 0}  # numpy seeds are >= 0
+
+
+def _range_text(low: float, low_in: bool, high: float, high_in: bool) -> str:
+    if np.isinf(high):
+        return f">= {low:g}" if low_in else f"> {low:g}"
+    return f"in {'[' if low_in else '('}{low:g}, {high:g}{']' if high_in else ')'}"
+
+
+def _first_bad(ok: np.ndarray) -> int | None:
+    bad = np.flatnonzero(~ok)
+    return int(bad[0]) if bad.size else None
+
+
+def _check_range(values: np.ndarray, low: float, low_in: bool, high: float, high_in: bool) -> np.ndarray:
+    """Mask of values inside the range; NaN is never inside."""
+    above = values >= low if low_in else values > low
+    below = values <= high if high_in else values < high
+    return above & below & ~np.isnan(values)
+
+
+def check_unit_quaternions(q: np.ndarray, where: str) -> None:
+    """Raise unless every quaternion ``(E, 4)`` is finite and unit within :data:`UNIT_TOLERANCE`.
+
+    ``where`` is ``SOURCE.ATTRIBUTE``. Stored maps are checked before :class:`GazeMotions`
+    normalizes them, which would hide a wrong length.
+    """
+    q = np.asarray(q, dtype=float).reshape(-1, 4)
+    length = np.linalg.norm(q, axis=-1)
+    i = _first_bad(np.isfinite(q).all(axis=-1) & (np.abs(length - 1.0) <= UNIT_TOLERANCE))
+    if i is not None:
+        shown = "not finite" if not np.isfinite(q[i]).all() else f"of length {length[i]:.6g}"
+        raise GazeMapError(f"{where}: example {i} is {shown}, expected a unit quaternion (within {UNIT_TOLERANCE:g})")
+
+
+def validate(definition: GazeMapDefinition, source: str) -> None:
+    """Raise :class:`GazeMapError` at the first malformed value of a gaze map.
+
+    ``source`` names where the map comes from, ``FILE:PRIMPATH`` for a stored map; messages read
+    ``SOURCE.ATTRIBUTE: problem`` so that an in-memory map and a stored one report alike.
+    """
+    params = definition.params
+    if len(params) == 0:
+        raise GazeMapError(f"{source}.{YAW_ATTR}: no examples, expected at least one")
+    for column, attr, limit in ((0, YAW_ATTR, 180.0), (1, PITCH_ATTR, 90.0)):
+        i = _first_bad(_check_range(params[:, column], -limit, True, limit, True))
+        if i is not None:
+            raise GazeMapError(f"{source}.{attr}: example {i} is {params[i, column]:g} deg, expected in [-{limit:g}, {limit:g}]")
+
+    # Duplicates: sort rows lexicographically, then equal rows are neighbours.
+    order = np.lexsort((params[:, 1], params[:, 0]))
+    same = np.all(params[order[1:]] == params[order[:-1]], axis=-1)
+    if same.any():
+        k = int(np.flatnonzero(same)[0])
+        a, b = sorted((int(order[k]), int(order[k + 1])))
+        raise GazeMapError(
+            f"{source}.{YAW_ATTR}: examples {a} and {b} share (yaw, pitch) = "
+            f"({params[a, 0]:g}, {params[a, 1]:g}); each example must be a different gaze change"
+        )
+
+    offsets = definition.motions.offsets
+    for j, attr in enumerate(OFFSET_ATTRS):
+        check_unit_quaternions(offsets[:, j, :], f"{source}.{attr}")
+
+    timing = definition.motions.timing
+    for c, (name, attr) in enumerate(zip(TIMING_FIELDS, TIMING_ATTRS)):
+        low, low_in, high, high_in, unit = _TIMING_RANGES[name]
+        i = _first_bad(_check_range(timing[:, c], low, low_in, high, high_in))
+        if i is not None:
+            raise GazeMapError(
+                f"{source}.{attr}: example {i} is {timing[i, c]:g}{unit}, expected {_range_text(low, low_in, high, high_in)}"
+            )
+
+    for role, joints in definition.bindings.items():
+        if role not in BINDING_ATTRS:
+            raise GazeMapError(f"{source}: unknown joint role {role!r}, expected one of {', '.join(ROLES)}")
+        attr = BINDING_ATTRS[role]
+        if isinstance(joints, str):
+            raise GazeMapError(f"{source}.{attr}: a single string {joints!r}, expected a sequence of joint paths")
+        for k, joint in enumerate(joints):
+            if not isinstance(joint, str) or not joint.strip():
+                raise GazeMapError(f"{source}.{attr}: entry {k} is {joint!r}, expected a joint path")
+
+    if definition.forward is not None:
+        forward = np.asarray(definition.forward, dtype=float)
+        if forward.shape != (3,) or not np.isfinite(forward).all() or not forward.any():
+            raise GazeMapError(
+                f"{source}.{FORWARD_ATTR}: {tuple(forward.ravel().tolist())} is not a direction "
+                f"(leave it unset to work forward out from the rest pose)"
+            )
+
+    settings = definition.settings
+    for name, attr in SETTING_ATTRS.items():
+        value = getattr(settings, name)
+        if name == "neck_share":
+            if not (isinstance(value, (int, float, np.floating)) and 0.0 <= value <= 1.0):
+                raise GazeMapError(f"{source}.{attr}: {value!r}, expected a number in [0, 1]")
+        elif not isinstance(value, (int, np.integer)) or isinstance(value, bool):
+            raise GazeMapError(f"{source}.{attr}: {value!r}, expected an integer")
+        elif name in _SETTING_MINIMA and value < _SETTING_MINIMA[name]:
+            raise GazeMapError(f"{source}.{attr}: {value}, expected >= {_SETTING_MINIMA[name]}")

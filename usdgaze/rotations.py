@@ -223,3 +223,13 @@ def decompose_tr(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     lin = m[..., :3, :3]
     scale = np.linalg.norm(lin, axis=-2)
     return m[..., :3, 3].copy(), from_matrix(lin), scale
+
+
+def align_hemisphere(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """``q`` with its sign flipped where that brings it onto ``ref``'s hemisphere (same rotations).
+
+    Keeps consecutive samples of a joint on one hemisphere, as the input had them, so that
+    interpolation between time samples never takes the long way round.
+    """
+    q = np.asarray(q, dtype=float)
+    return np.where(np.sum(q * np.asarray(ref, dtype=float), axis=-1, keepdims=True) < 0.0, -q, q)

@@ -1,0 +1,124 @@
+"""Independent measurements for tests: UsdSkel's own forward kinematics, plain numpy geometry.
+
+Nothing here calls usdgaze's math, so a test that compares usdgaze's output with these numbers
+checks the tool against USD rather than against itself.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdSkel
+
+
+def sha256(path) -> str:
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+@dataclass
+class Posed:
+    joints: list[str]
+    times: np.ndarray
+    world: np.ndarray  # (F, J, 4, 4) row-vector world matrices, as USD gives them
+    up: np.ndarray
+    rest_skel: np.ndarray  # (J, 4, 4) rest pose in skeleton space (row-vector)
+    skel_to_world: np.ndarray  # (4, 4) at the first time
+
+    def index(self, leaf: str) -> int:
+        hits = [i for i, j in enumerate(self.joints) if j.rsplit("/", 1)[-1] == leaf]
+        assert hits, f"no joint {leaf}"
+        return hits[0]
+
+    def position(self, leaf: str) -> np.ndarray:
+        return self.world[:, self.index(leaf), 3, :3]
+
+    def axis(self, leaf: str, local_axis: np.ndarray) -> np.ndarray:
+        """World direction of a joint-local axis (row vectors: v @ M)."""
+        m = self.world[:, self.index(leaf), :3, :3]
+        d = np.einsum("i,fij->fj", local_axis, m)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def posed(stage_path: str, skeleton: str, mute: list[str] | None = None) -> Posed:
+    """World transforms of every joint at every animation time sample, by UsdSkel."""
+    stage = Usd.Stage.Open(stage_path)
+    for layer in mute or []:
+        stage.MuteLayer(layer)
+    skel = UsdSkel.Skeleton(stage.GetPrimAtPath(skeleton))
+    cache = UsdSkel.Cache()
+    root = UsdSkel.Root.Find(skel.GetPrim())
+    cache.Populate(root, Usd.PrimDefaultPredicate)
+    query = cache.GetSkelQuery(skel)
+    xf = UsdGeom.Xformable(skel.GetPrim())
+    times = np.array(query.GetAnimQuery().GetJointTransformTimeSamples())
+    world = np.stack([
+        np.array(query.ComputeJointSkelTransforms(Usd.TimeCode(t)))
+        @ np.array(xf.ComputeLocalToWorldTransform(Usd.TimeCode(t)))
+        for t in times
+    ])
+    up = np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0])
+    rest = np.array(query.ComputeJointSkelTransforms(Usd.TimeCode.Default(), atRest=True))
+    s2w = np.array(xf.ComputeLocalToWorldTransform(Usd.TimeCode(times[0])))
+    return Posed([str(j) for j in query.GetJointOrder()], times, world, up, rest, s2w)
+
+
+def character_forward_skel(p: Posed, left_leaf: str, right_leaf: str) -> np.ndarray:
+    """Forward in skeleton space from two rest-pose joints and the stage up: left x up."""
+    up_s = np.linalg.solve(p.skel_to_world[:3, :3].T, p.up)
+    up_s /= np.linalg.norm(up_s)
+    left = p.rest_skel[p.index(left_leaf), 3, :3] - p.rest_skel[p.index(right_leaf), 3, :3]
+    left -= left.dot(up_s) * up_s
+    f = np.cross(left, up_s)
+    return f / np.linalg.norm(f)
+
+
+def local_forward(p: Posed, leaf: str, forward_skel: np.ndarray) -> np.ndarray:
+    """The joint-local axis that points along the character forward at rest."""
+    m = p.rest_skel[p.index(leaf), :3, :3]
+    v = np.linalg.solve(m.T, forward_skel)  # v @ m = forward
+    return v / np.linalg.norm(v)
+
+
+def az_el(d: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Azimuth (counter-clockwise seen from above) and elevation, degrees."""
+    if abs(up[2]) > 0.5:  # Z up: x, y horizontal
+        e1, e2 = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+    else:  # Y up: (x, -z) keeps (e1, e2, up) right-handed
+        e1, e2 = np.array([1.0, 0, 0]), np.array([0, 0, -1.0])
+    az = np.degrees(np.arctan2(d @ e2, d @ e1))
+    el = np.degrees(np.arcsin(np.clip(d @ up, -1, 1)))
+    return np.stack([az, el], axis=-1)
+
+
+def wrap(a: np.ndarray) -> np.ndarray:
+    return (a + 180.0) % 360.0 - 180.0
+
+
+def sight_line(p: Posed, left_eye: str, right_eye: str, eye_axis_l, eye_axis_r) -> np.ndarray:
+    """Line of sight: from the eyes' midpoint to the midpoint of the two gaze rays' closest approach."""
+    pl, pr = p.position(left_eye), p.position(right_eye)
+    dl, dr = p.axis(left_eye, eye_axis_l), p.axis(right_eye, eye_axis_r)
+    w0 = pl - pr
+    a, b, c = (dl * dl).sum(-1), (dl * dr).sum(-1), (dr * dr).sum(-1)
+    d, e = (dl * w0).sum(-1), (dr * w0).sum(-1)
+    den = a * c - b * b
+    s = (b * e - c * d) / den
+    t = (a * e - b * d) / den
+    point = 0.5 * (pl + s[:, None] * dl + pr + t[:, None] * dr)
+    v = point - 0.5 * (pl + pr)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Degrees between unit vectors, row by row."""
+    return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1)))
+
+
+def rotation_angle_deg(m_a: np.ndarray, m_b: np.ndarray) -> np.ndarray:
+    """Angle of the rotation between two stacks of 3x3 rotation(-ish) matrices."""
+    def unit(m):
+        return m / np.linalg.norm(m, axis=-1, keepdims=True)
+    r = np.einsum("fij,fkj->fik", unit(m_a), unit(m_b))
+    return np.degrees(np.arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1) / 2, -1, 1)))

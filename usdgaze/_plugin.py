@@ -1,0 +1,59 @@
+"""Registers the codeless GazeMapAPI schema plugin with OpenUSD.
+
+OpenUSD builds its schema registry once, the first time anything in the process asks it about a
+schema (defining or opening a typed prim is enough), from the plugins known at that moment; a
+plugin registered later is ignored without a word. So ``import usdgaze`` calls :func:`register` before anything else.
+"""
+
+from __future__ import annotations
+
+import importlib.resources
+import warnings
+from pathlib import Path
+
+PLUGIN_NAME = "usdGaze"
+"""``Name`` in plugInfo.json (the schema's ``libraryName``)."""
+SCHEMA_NAME = "GazeMapAPI"
+"""The applied API schema's identifier, as written in ``apiSchemas``."""
+
+_registered = False
+
+
+def plugin_dir() -> Path:
+    """The folder holding the schema's plugInfo.json and generatedSchema.usda."""
+    try:
+        installed = Path(str(importlib.resources.files("usdgaze.schemas")))
+    except ModuleNotFoundError:
+        installed = None
+    if installed is not None and (installed / "plugInfo.json").is_file():
+        return installed
+    # Source checkout: ``usdgaze.schemas`` only exists once setuptools maps it onto schemas/.
+    checkout = Path(__file__).resolve().parent.parent / "schemas"
+    if (checkout / "plugInfo.json").is_file():
+        return checkout
+    raise FileNotFoundError(f"usdgaze's schema plugin (plugInfo.json) is neither in {installed} nor in {checkout}")
+
+
+def register() -> None:
+    """Make ``GazeMapAPI`` known to OpenUSD; calling it again does nothing.
+
+    A plugin of the same name that is already registered (``PXR_PLUGINPATH_NAME`` pointing at
+    this or another copy of the schema) is kept as it is.
+    """
+    global _registered
+    if _registered:
+        return
+    from pxr import Plug, Usd
+
+    registry = Plug.Registry()
+    if registry.GetPluginWithName(PLUGIN_NAME) is None:
+        registry.RegisterPlugins(str(plugin_dir()))
+    _registered = True
+    if not Usd.SchemaRegistry.GetTypeFromSchemaTypeName(SCHEMA_NAME):
+        warnings.warn(
+            f"OpenUSD's schema registry was built before usdgaze registered {SCHEMA_NAME}, so gaze maps "
+            f"cannot be read or written in this process: import usdgaze before opening any stage, or set "
+            f"PXR_PLUGINPATH_NAME={plugin_dir()}",
+            RuntimeWarning,
+            stacklevel=2,
+        )

@@ -1,0 +1,240 @@
+"""The Python API of the gaze pass: read stage -> arrays -> model -> arrays -> write layer."""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from . import rotations as rot
+from .clip import SkelClip
+from .defaults import default_definition
+from .definition import GazeMapDefinition
+from .errors import UsdGazeError
+from .gazemap import ParametricGazeMap
+from .gazepass import PassOptions, PassResult, Shift, apply_gaze
+from .layers import AnimOverride, LayerInfo, atomic_export, build_override, check_output_path, insert_sublayer, write_preview
+from .rig import Chain, CharacterFrame, bind_chain, character_frame
+
+_SHIFT = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)(s?)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*$")
+
+
+@dataclass(frozen=True)
+class ShiftRequest:
+    """A shift as the user wrote it: at a time code, or at seconds from the stage start."""
+
+    time: float
+    seconds: bool
+    yaw: float
+    pitch: float
+
+    @classmethod
+    def parse(cls, text: str) -> "ShiftRequest":
+        """Parse ``TIME:YAW:PITCH`` (``TIME`` a time code, or seconds with an ``s`` suffix)."""
+        m = _SHIFT.match(text)
+        if not m:
+            raise UsdGazeError(f"--shift '{text}': expected TIME:YAW:PITCH, e.g. 48:60:-10 or 2.5s:60:-10")
+        shift = cls(float(m.group(1)), m.group(2) == "s", float(m.group(3)), float(m.group(4)))
+        if not all(np.isfinite([shift.time, shift.yaw, shift.pitch])):
+            raise UsdGazeError(f"--shift '{text}': values must be finite")
+        if abs(shift.pitch) > 90.0:
+            raise UsdGazeError(f"--shift '{text}': pitch must lie in [-90, 90] deg")
+        return shift
+
+    def to_shift(self, clip: SkelClip) -> Shift:
+        seconds = self.time if self.seconds else (self.time - clip.start_time) / clip.time_codes_per_second
+        return Shift(seconds, self.yaw, self.pitch)
+
+    def __str__(self) -> str:
+        return f"{self.time:g}{'s' if self.seconds else ''}:{self.yaw:g}:{self.pitch:g}"
+
+
+@dataclass
+class CharacterReport:
+    """What the pass did to one skeleton."""
+
+    skel_root: str
+    skeleton: str
+    animation: str
+    map_source: str
+    chain: dict[str, list[str]]
+    forward: list[float]
+    frames: int
+    added_joints: list[str]
+    result: PassResult
+
+
+@dataclass
+class ApplyReport:
+    output: str
+    characters: list[CharacterReport] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    preview: str | None = None
+    sublayered_into: str | None = None
+
+
+def _schema():
+    from . import schema
+
+    return schema
+
+
+def select_roots(stage, source: str, skel_root: str | None):
+    """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
+    from pxr import UsdSkel
+
+    from .skelio import skel_roots
+
+    if skel_root:
+        prim = stage.GetPrimAtPath(skel_root)
+        if not prim or not prim.IsValid():
+            raise UsdGazeError(f"{source}:{skel_root}: no such prim")
+        if not prim.IsA(UsdSkel.Root):
+            raise UsdGazeError(f"{source}:{skel_root}: is a {prim.GetTypeName() or 'typeless prim'}, not a SkelRoot")
+        return [prim]
+    roots = skel_roots(stage)
+    if not roots:
+        raise UsdGazeError(f"{source}: no SkelRoot on the stage")
+    with_map = [r for r in roots if _schema().has_map(r)]
+    if with_map:
+        return with_map
+    if len(roots) > 1:
+        listed = ", ".join(str(r.GetPath()) for r in roots[:6])
+        raise UsdGazeError(f"{source}: {len(roots)} SkelRoots and none has a GazeMapAPI; pick one with --skel-root ({listed})")
+    return roots
+
+
+def _character_frame(clip: SkelClip, forward) -> CharacterFrame:
+    sw = clip.skel_to_world[0, :3, :3]
+    up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
+    return character_frame(clip.joints, clip.rest_world(), up_s, forward, where=f"{clip.source}:{clip.skeleton}")
+
+
+def bind(clip: SkelClip, definition: GazeMapDefinition | None) -> tuple[Chain, CharacterFrame]:
+    """Chain and character frame of a clip, with the map's explicit bindings taking precedence."""
+    bindings = definition.bindings if definition else {}
+    forward = definition.forward if definition else None
+    chain = bind_chain(clip.joints, clip.parents, bindings, where=f"{clip.source}:{clip.skeleton}")
+    return chain, _character_frame(clip, forward)
+
+
+def apply(
+    input_path: str | os.PathLike,
+    shifts: list[ShiftRequest | str],
+    out: str | os.PathLike,
+    skel_root: str | None = None,
+    map_spec: str | None = None,
+    sublayer_into: str | os.PathLike | None = None,
+    preview: str | os.PathLike | None = None,
+    options: PassOptions = PassOptions(),
+    progress=None,
+) -> ApplyReport:
+    """Add gaze shifts to the skeletal animation(s) of ``input_path``; write ``out`` as an override layer.
+
+    Nothing is written unless everything succeeds; the input is never modified (``sublayer_into``
+    changes only that layer's subLayers).
+    """
+    from .skelio import open_stage, read_clip, skeletons_under
+
+    source = str(input_path)
+    if not Path(source).is_file():
+        raise UsdGazeError(f"{source}: no such file")
+    out_path = check_output_path(out)
+    if preview is not None:
+        check_output_path(preview)
+    if sublayer_into is not None and preview is not None:
+        raise UsdGazeError("--sublayer-into and --preview are alternatives; pass one")
+    for p in (preview, sublayer_into):
+        if p is not None and os.path.abspath(p) == os.path.abspath(source):
+            if p is preview:
+                raise UsdGazeError(f"{p}: --preview would overwrite the input")
+    if os.path.abspath(out_path) == os.path.abspath(source):
+        raise UsdGazeError(f"{out_path}: --out would overwrite the input")
+    requests = [s if isinstance(s, ShiftRequest) else ShiftRequest.parse(s) for s in shifts]
+    if not requests:
+        raise UsdGazeError("no --shift given; nothing to do")
+
+    stage = open_stage(source)
+    roots = select_roots(stage, source, skel_root)
+    forced = _schema().load_map(map_spec) if map_spec else None
+    maps: dict[int, ParametricGazeMap] = {}
+    report = ApplyReport(output=str(out_path))
+    overrides: list[AnimOverride] = []
+    seen_anims: dict[str, str] = {}
+    info: LayerInfo | None = None
+
+    for root in roots:
+        own = _schema().read_map(root, source) if _schema().has_map(root) else None
+        definition = forced or own or default_definition()
+        map_source = map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
+        gaze_map = maps.get(id(definition))
+        if gaze_map is None:
+            gaze_map = maps[id(definition)] = ParametricGazeMap(definition)
+        skels = skeletons_under(root)
+        if not skels:
+            raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
+        for skel in skels:
+            clip = read_clip(stage, skel, root, source)
+            if clip.animation in seen_anims:
+                raise UsdGazeError(
+                    f"{source}:{clip.animation}: drives both {seen_anims[clip.animation]} and {clip.skeleton}; "
+                    "give each skeleton its own SkelAnimation or pick one with --skel-root"
+                )
+            seen_anims[clip.animation] = clip.skeleton
+            chain, frame = bind(clip, own)
+            result = apply_gaze(clip, chain, frame, gaze_map, [r.to_shift(clip) for r in requests], options)
+            report.warnings.extend(result.warnings)
+            override = AnimOverride(
+                animation=clip.animation,
+                times=clip.times,
+                joints=result.anim_joints,
+                rotations=result.rotations,
+                translations=result.translations if (chain.leg_roots or result.added_joints
+                                                     or len(result.anim_joints) > len(clip.anim_joints)) else None,
+                scales=result.scales if len(result.anim_joints) > len(clip.anim_joints) else None,
+                write_joints=len(result.anim_joints) > len(clip.anim_joints),
+            )
+            if result.added_joints:
+                override.skeleton = clip.skeleton
+                override.skeleton_joints = clip.joints + result.added_joints
+                override.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
+                override.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
+                if clip.joint_names is not None:
+                    override.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
+            overrides.append(override)
+            report.characters.append(CharacterReport(
+                skel_root=clip.skel_root, skeleton=clip.skeleton, animation=clip.animation,
+                map_source=map_source,
+                chain={r: [clip.joints[j] for j in idx] for r, idx in chain.roles.items()},
+                forward=[float(v) for v in frame.forward], frames=len(clip.times),
+                added_joints=result.added_joints, result=result,
+            ))
+            if info is None:
+                info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time,
+                                 clip.end_time, clip.up_axis, clip.meters_per_unit)
+            if progress:
+                progress(clip)
+
+    info.custom = {
+        "usdgaze": {
+            "version": __version__,
+            "input": os.path.basename(source),
+            "shifts": [str(r) for r in requests],
+            "maps": sorted({c.map_source for c in report.characters}),
+            "characters": [c.skel_root for c in report.characters],
+        }
+    }
+    layer = build_override(overrides, info, fmt=out_path.suffix.lstrip("."))
+    atomic_export(layer, out_path)
+    if preview is not None:
+        default_prim = stage.GetRootLayer().defaultPrim or None
+        write_preview(preview, out_path, source, info, default_prim)
+        report.preview = str(preview)
+    if sublayer_into is not None:
+        insert_sublayer(sublayer_into, out_path, [c.animation for c in report.characters])
+        report.sublayered_into = str(sublayer_into)
+    return report

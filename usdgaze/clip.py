@@ -1,0 +1,73 @@
+"""A skeleton and its animation as plain arrays: what flows from the stage reader to the model."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import rotations as rot
+
+
+@dataclass
+class SkelClip:
+    """One skeleton and its bound SkelAnimation.
+
+    Joint-indexed arrays are in skeleton order (``joints``) unless named ``anim_*``; matrices are
+    column-vector (see :mod:`usdgaze.rotations`). Animation samples keep their USD types (float32
+    quaternions xyzw, float32 translations, float16 scales) so untouched joints are written back
+    bit for bit.
+    """
+
+    source: str
+    skel_root: str
+    skeleton: str
+    animation: str
+    joints: list[str]
+    parents: np.ndarray
+    rest_local: np.ndarray
+    bind_world: np.ndarray
+    anim_joints: list[str]
+    anim_to_skel: np.ndarray
+    times: np.ndarray
+    rotations: np.ndarray
+    translations: np.ndarray
+    scales: np.ndarray
+    skel_to_world: np.ndarray
+    up_axis: str
+    meters_per_unit: float
+    time_codes_per_second: float
+    frames_per_second: float
+    start_time: float
+    end_time: float
+    joint_names: list[str] | None = None
+
+    def where(self, attribute: str = "") -> str:
+        """``file:/prim/path.attribute`` of the animation, for messages."""
+        return f"{self.source}:{self.animation}{'.' + attribute if attribute else ''}"
+
+    @property
+    def seconds(self) -> np.ndarray:
+        """Sample times in seconds from the stage's start time code."""
+        return (self.times - self.start_time) / self.time_codes_per_second
+
+    @property
+    def world_up(self) -> np.ndarray:
+        return np.array([0.0, 0.0, 1.0]) if self.up_axis == "Z" else np.array([0.0, 1.0, 0.0])
+
+    def rest_world(self) -> np.ndarray:
+        """Skeleton-space rest transforms ``(J, 4, 4)``."""
+        from .kinematics import world_matrices
+
+        return world_matrices(self.rest_local[None], self.parents)[0]
+
+    def local_trs(self, joint: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Translation, rotation, scale of one skeleton joint per frame (float64), animated or rest."""
+        f = len(self.times)
+        hits = np.flatnonzero(self.anim_to_skel == joint)
+        if len(hits):
+            a = hits[0]
+            return (self.translations[:, a].astype(float), self.rotations[:, a].astype(float),
+                    self.scales[:, a].astype(float))
+        t, q, s = rot.decompose_tr(self.rest_local[joint])
+        return np.tile(t, (f, 1)), np.tile(q, (f, 1)), np.tile(s, (f, 1))

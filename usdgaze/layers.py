@@ -1,0 +1,195 @@
+"""Layer writing: the override layer, the preview root, sublayer insertion; all atomic.
+
+Everything is authored at the Sdf level inside one ``Sdf.ChangeBlock`` and written to a temp file in
+the destination's folder, then renamed over the destination, so a crash never leaves a partial file.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pxr import Sdf, Vt
+
+from . import rotations as rot
+from .errors import UsdGazeError
+
+_FORMATS = {".usda", ".usdc", ".usd"}
+
+
+def check_output_path(path: str | os.PathLike) -> Path:
+    """The output path, or a one-line error if its extension or folder is unusable."""
+    p = Path(path)
+    if p.suffix.lower() not in _FORMATS:
+        raise UsdGazeError(f"{p}: output must end in .usda, .usdc or .usd")
+    if not p.parent.exists():
+        raise UsdGazeError(f"{p}: folder {p.parent} does not exist")
+    return p
+
+
+def atomic_export(layer: Sdf.Layer, path: str | os.PathLike) -> None:
+    """Write ``layer`` to ``path`` through a temp file in the same folder and an atomic rename."""
+    path = check_output_path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        if not layer.Export(tmp):
+            raise UsdGazeError(f"{path}: USD could not write the layer")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+@dataclass
+class AnimOverride:
+    """New full arrays for one SkelAnimation (and, when joints were added, its Skeleton)."""
+
+    animation: str
+    times: np.ndarray
+    joints: list[str]
+    rotations: np.ndarray | None = None
+    translations: np.ndarray | None = None
+    scales: np.ndarray | None = None
+    write_joints: bool = False
+    skeleton: str | None = None
+    skeleton_joints: list[str] | None = None
+    rest_transforms: np.ndarray | None = None
+    bind_transforms: np.ndarray | None = None
+    joint_names: list[str] | None = None
+
+
+@dataclass
+class LayerInfo:
+    """Timing metadata copied from the input so samples are neither rescaled nor shifted."""
+
+    time_codes_per_second: float
+    frames_per_second: float
+    start_time: float
+    end_time: float
+    up_axis: str | None = None
+    meters_per_unit: float | None = None
+    custom: dict = field(default_factory=dict)
+
+
+def _attr(prim: Sdf.PrimSpec, name: str, type_name, uniform: bool = False) -> Sdf.AttributeSpec:
+    spec = prim.attributes[name] if name in prim.attributes else None
+    if spec is None:
+        variability = Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying
+        spec = Sdf.AttributeSpec(prim, name, type_name, variability)
+    return spec
+
+
+def _to_vt(value):
+    """Python containers -> types USD can store in customLayerData (lists become typed arrays)."""
+    if isinstance(value, dict):
+        return {str(k): _to_vt(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        if all(isinstance(v, str) for v in value):
+            return Vt.StringArray(list(value))
+        return Vt.DoubleArray([float(v) for v in value])
+    return value
+
+
+def _set_info(layer: Sdf.Layer, info: LayerInfo) -> None:
+    layer.timeCodesPerSecond = info.time_codes_per_second
+    layer.framesPerSecond = info.frames_per_second
+    layer.startTimeCode = info.start_time
+    layer.endTimeCode = info.end_time
+    meta = {}
+    if info.up_axis:
+        meta["upAxis"] = info.up_axis
+    if info.meters_per_unit:
+        meta["metersPerUnit"] = info.meters_per_unit
+    for key, value in meta.items():
+        layer.pseudoRoot.SetInfo(key, value)
+    if info.custom:
+        layer.customLayerData = _to_vt(info.custom)
+
+
+def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "usdc") -> Sdf.Layer:
+    """An anonymous layer holding only ``over`` opinions for the given animations and skeletons."""
+    layer = Sdf.Layer.CreateAnonymous(f"usdgaze_override.{fmt}")
+    with Sdf.ChangeBlock():
+        _set_info(layer, info)
+        for o in overrides:
+            prim = Sdf.CreatePrimInLayer(layer, o.animation)
+            prim.specifier = Sdf.SpecifierOver
+            if o.write_joints:
+                _attr(prim, "joints", Sdf.ValueTypeNames.TokenArray, uniform=True).default = Vt.TokenArray(o.joints)
+            columns = (
+                ("rotations", Sdf.ValueTypeNames.QuatfArray, o.rotations, Vt.QuatfArray),
+                ("translations", Sdf.ValueTypeNames.Float3Array, o.translations, Vt.Vec3fArray),
+                ("scales", Sdf.ValueTypeNames.Half3Array, o.scales, Vt.Vec3hArray),
+            )
+            for name, type_name, values, vt in columns:
+                if values is None:
+                    continue
+                path = _attr(prim, name, type_name).path
+                for t, row in zip(o.times, values):
+                    layer.SetTimeSample(path, float(t), vt.FromNumpy(row))
+            if o.skeleton and o.skeleton_joints is not None:
+                skel = Sdf.CreatePrimInLayer(layer, o.skeleton)
+                skel.specifier = Sdf.SpecifierOver
+                _attr(skel, "joints", Sdf.ValueTypeNames.TokenArray, True).default = Vt.TokenArray(o.skeleton_joints)
+                for name, mats in (("restTransforms", o.rest_transforms), ("bindTransforms", o.bind_transforms)):
+                    if mats is not None:
+                        usd = rot.matrices_to_usd(mats)
+                        _attr(skel, name, Sdf.ValueTypeNames.Matrix4dArray, True).default = Vt.Matrix4dArray.FromNumpy(usd)
+                if o.joint_names is not None:
+                    _attr(skel, "jointNames", Sdf.ValueTypeNames.TokenArray, True).default = Vt.TokenArray(o.joint_names)
+    return layer
+
+
+def relative_asset_path(target: str | os.PathLike, from_layer: str | os.PathLike) -> str:
+    """``target`` relative to the folder of ``from_layer``, with forward slashes and a ./ prefix."""
+    rel = os.path.relpath(os.path.abspath(target), os.path.dirname(os.path.abspath(from_layer)))
+    rel = rel.replace(os.sep, "/")
+    return rel if rel.startswith("../") else f"./{rel}"
+
+
+def write_preview(preview: str | os.PathLike, override: str | os.PathLike, input_path: str | os.PathLike,
+                  info: LayerInfo, default_prim: str | None) -> None:
+    """A new root layer sublayering [override, input]: open it to see the result, mute the first to compare."""
+    fmt = Path(preview).suffix.lstrip(".") or "usda"
+    layer = Sdf.Layer.CreateAnonymous(f"usdgaze_preview.{fmt}")
+    with Sdf.ChangeBlock():
+        _set_info(layer, LayerInfo(info.time_codes_per_second, info.frames_per_second, info.start_time,
+                                   info.end_time, info.up_axis, info.meters_per_unit))
+        layer.subLayerPaths.append(relative_asset_path(override, preview))
+        layer.subLayerPaths.append(relative_asset_path(input_path, preview))
+        if default_prim:
+            layer.defaultPrim = default_prim
+    atomic_export(layer, preview)
+
+
+def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str]) -> bool:
+    """Make ``override`` the strongest sublayer of ``root``, changing nothing but its subLayers.
+
+    Returns False if it already was there. Refuses when ``root`` itself holds opinions on the
+    animations, since a sublayer is weaker than its root layer's own opinions.
+    """
+    layer = Sdf.Layer.FindOrOpen(str(root))
+    if layer is None:
+        raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into")
+    for path in anim_paths:
+        for name in ("rotations", "translations", "scales"):
+            spec = layer.GetAttributeAtPath(Sdf.Path(path).AppendProperty(name))
+            if spec is not None and (spec.HasDefaultValue() or layer.GetNumTimeSamplesForPath(spec.path)):
+                raise UsdGazeError(
+                    f"{root}:{path}.{name}: this layer's own opinion would win over any sublayer; "
+                    "use --preview, or insert into a layer that sublayers this one"
+                )
+    rel = relative_asset_path(override, root)
+    resolved = {os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(root)), p)) for p in layer.subLayerPaths}
+    if os.path.normpath(os.path.abspath(override)) in resolved:
+        return False
+    layer.subLayerPaths.insert(0, rel)
+    atomic_export(layer, root)
+    # Keep the in-memory layer in step with the file we wrote.
+    layer.Reload(force=True)
+    return True

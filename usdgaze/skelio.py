@@ -1,0 +1,174 @@
+"""UsdSkel I/O: find skeletons and their animations on a stage and read them into numpy arrays."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdSkel
+
+from . import rotations as rot
+from .clip import SkelClip
+from .kinematics import world_matrices
+from .errors import UsdGazeError
+
+
+def open_stage(path: str) -> Usd.Stage:
+    """Open a stage, turning USD's failure into a one-line error naming the file."""
+    try:
+        stage = Usd.Stage.Open(str(path))
+    except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
+        first = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise UsdGazeError(f"{path}: cannot open as a USD stage ({first.strip()})") from None
+    if stage is None:
+        raise UsdGazeError(f"{path}: cannot open as a USD stage")
+    return stage
+
+
+def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:
+    """Every SkelRoot prim on the stage (instance proxies included), in traversal order."""
+    return [p for p in stage.Traverse(Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Root)]
+
+
+def skeletons_under(root: Usd.Prim) -> list[Usd.Prim]:
+    """Skeleton prims below a SkelRoot."""
+    return [p for p in Usd.PrimRange(root, Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Skeleton)]
+
+
+def _animation_of(skel: Usd.Prim) -> Usd.Prim | None:
+    binding = UsdSkel.BindingAPI(skel)
+    rel = binding.GetAnimationSourceRel()
+    targets = rel.GetForwardedTargets() if rel else []
+    if not targets:
+        return None
+    prim = skel.GetStage().GetPrimAtPath(targets[0])
+    return prim if prim and prim.IsA(UsdSkel.Animation) else None
+
+
+def _joint_parents(joints: list[str], where: str) -> np.ndarray:
+    index = {j: i for i, j in enumerate(joints)}
+    parents = np.full(len(joints), -1, dtype=int)
+    for i, j in enumerate(joints):
+        parent = j.rsplit("/", 1)[0] if "/" in j else None
+        if parent is not None:
+            if parent not in index or index[parent] >= i:
+                raise UsdGazeError(f"{where}.joints: joint '{j}' comes before or without its parent '{parent}'")
+            parents[i] = index[parent]
+    return parents
+
+
+def _matrices(attr: Usd.Attribute) -> np.ndarray | None:
+    value = attr.Get() if attr and attr.HasAuthoredValue() else None
+    if value is None or len(value) == 0:
+        return None
+    return rot.matrices_from_usd(np.array(value, dtype=float).reshape(-1, 4, 4))
+
+
+def _samples(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray:
+    """Values of an array attribute at ``times`` as ``(F, count, width)``; a default is broadcast."""
+    if not attr or not attr.HasAuthoredValue():
+        raise UsdGazeError(
+            f"{where}: not authored (UsdSkel needs translations, rotations and scales for every animated joint)"
+        )
+    if attr.GetNumTimeSamples() == 0:
+        value = np.asarray(attr.Get(), dtype=dtype)
+        rows = [value] * len(times)
+    else:
+        rows = [np.asarray(attr.Get(float(t)), dtype=dtype) for t in times]
+    for i, r in enumerate(rows):
+        if r.shape != (count, width):
+            at = "default" if attr.GetNumTimeSamples() == 0 else f"time {times[i]:g}"
+            raise UsdGazeError(f"{where}: {r.shape[0] if r.ndim else 0} entries at {at}, expected {count} (one per joint)")
+    return np.stack(rows) if rows else np.zeros((0, count, width), dtype=dtype)
+
+
+def _skel_to_world(skel: Usd.Prim, times: np.ndarray) -> np.ndarray:
+    """Skeleton-space to world matrices (column-vector): one if static, else one per frame."""
+    xformable = UsdGeom.Xformable(skel)
+    varying = False
+    prim = skel
+    while prim and not prim.IsPseudoRoot():
+        x = UsdGeom.Xformable(prim)
+        if x and x.TransformMightBeTimeVarying():
+            varying = True
+            break
+        prim = prim.GetParent()
+    sample_times = times if varying else times[:1] if len(times) else np.array([Usd.TimeCode.Default().GetValue()])
+    mats = [np.array(xformable.ComputeLocalToWorldTransform(Usd.TimeCode(float(t))), dtype=float) for t in sample_times]
+    return rot.matrices_from_usd(np.stack(mats))
+
+
+def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> SkelClip:
+    """Read a Skeleton, its rest/bind pose and its bound animation's samples into a :class:`SkelClip`."""
+    skeleton = UsdSkel.Skeleton(skel)
+    where_skel = f"{source}:{skel.GetPath()}"
+    joints = [str(j) for j in (skeleton.GetJointsAttr().Get() or [])]
+    if not joints:
+        raise UsdGazeError(f"{where_skel}.joints: the skeleton has no joints")
+    parents = _joint_parents(joints, where_skel)
+    anim_prim = _animation_of(skel)
+    if anim_prim is None:
+        raise UsdGazeError(f"{where_skel}: no skel:animationSource bound to a SkelAnimation; nothing to add gaze to")
+    anim = UsdSkel.Animation(anim_prim)
+    where_anim = f"{source}:{anim_prim.GetPath()}"
+
+    rest_local = _matrices(skeleton.GetRestTransformsAttr())
+    bind_world = _matrices(skeleton.GetBindTransformsAttr())
+    for name, m in (("restTransforms", rest_local), ("bindTransforms", bind_world)):
+        if m is not None and len(m) != len(joints):
+            raise UsdGazeError(f"{where_skel}.{name}: {len(m)} entries, expected {len(joints)} (one per joint)")
+    if rest_local is None and bind_world is None:
+        raise UsdGazeError(f"{where_skel}: neither restTransforms nor bindTransforms is authored; the rest pose is unknown")
+    if rest_local is None:
+        parent_world = np.where(parents[:, None, None] >= 0, bind_world[np.maximum(parents, 0)], np.eye(4))
+        rest_local = np.linalg.solve(parent_world, bind_world)
+    if bind_world is None:
+        bind_world = world_matrices(rest_local[None], parents)[0]
+
+    anim_joints = [str(j) for j in (anim.GetJointsAttr().Get() or [])]
+    if not anim_joints:
+        raise UsdGazeError(f"{where_anim}.joints: the animation names no joints")
+    index = {j: i for i, j in enumerate(joints)}
+    missing = [j for j in anim_joints if j not in index]
+    if missing:
+        raise UsdGazeError(f"{where_anim}.joints: '{missing[0]}' is not a joint of {skel.GetPath()}")
+    anim_to_skel = np.array([index[j] for j in anim_joints], dtype=int)
+
+    attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
+    times = sorted({t for a in attrs if a for t in a.GetTimeSamples()})
+    if not times:
+        raise UsdGazeError(f"{where_anim}: no time samples on rotations, translations or scales; nothing is animated")
+    times = np.array(times, dtype=float)
+    n = len(anim_joints)
+    rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
+    translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
+    scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
+    if not (np.all(np.isfinite(rotations)) and np.all(np.isfinite(translations))):
+        raise UsdGazeError(f"{where_anim}: rotations or translations hold NaN or infinite values")
+    if np.any(np.abs(np.linalg.norm(rotations.astype(float), axis=-1) - 1.0) > 1e-2):
+        raise UsdGazeError(f"{where_anim}.rotations: not unit quaternions")
+
+    names_attr = skeleton.GetJointNamesAttr()
+    joint_names = [str(j) for j in names_attr.Get()] if names_attr and names_attr.HasAuthoredValue() else None
+    return SkelClip(
+        source=source,
+        skel_root=str(root.GetPath()),
+        skeleton=str(skel.GetPath()),
+        animation=str(anim_prim.GetPath()),
+        joints=joints,
+        parents=parents,
+        rest_local=rest_local,
+        bind_world=bind_world,
+        anim_joints=anim_joints,
+        anim_to_skel=anim_to_skel,
+        times=times,
+        rotations=rotations,
+        translations=translations,
+        scales=scales,
+        skel_to_world=_skel_to_world(skel, times),
+        up_axis=str(UsdGeom.GetStageUpAxis(stage)),
+        meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
+        time_codes_per_second=float(stage.GetTimeCodesPerSecond()),
+        frames_per_second=float(stage.GetFramesPerSecond()),
+        start_time=float(stage.GetStartTimeCode()),
+        end_time=float(stage.GetEndTimeCode()),
+        joint_names=joint_names,
+    )
