@@ -32,7 +32,7 @@ from . import rotations as rot
 from .clip import SkelClip
 from .errors import UsdGazeError
 from .gazemap import ParametricGazeMap
-from .kinematics import Pose, forward, with_ancestors
+from .kinematics import forward, with_ancestors
 from .rig import CharacterFrame, Chain
 
 NECK_SEGMENT = 3

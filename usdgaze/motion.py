@@ -96,7 +96,11 @@ class GazeMotions:
             raise ValueError(f"offsets must have shape (..., 5, 4), got {offsets.shape}")
         if timing.shape[-1] != len(TIMING_FIELDS) or timing.shape[:-1] != offsets.shape[:-2]:
             raise ValueError(f"timing must have shape {offsets.shape[:-2] + (7,)}, got {timing.shape}")
-        object.__setattr__(self, "offsets", rot.positive_w(rot.normalize(offsets)))
+        # Renormalize only what is visibly off unit length: values read from float32 storage stay
+        # bit for bit, so a map read and written back is unchanged.
+        norm = np.linalg.norm(offsets, axis=-1, keepdims=True)
+        offsets = np.where(np.abs(norm - 1.0) > 1e-6, rot.normalize(offsets), offsets)
+        object.__setattr__(self, "offsets", rot.positive_w(offsets))
         object.__setattr__(self, "timing", timing)
 
     @property

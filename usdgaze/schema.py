@@ -22,7 +22,6 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdSkel, Vt
 
 from . import _plugin
-from . import rotations as rot
 from .definition import (
     API_NAME,
     BINDING_ATTRS,
@@ -58,7 +57,6 @@ _TYPES: dict[str, tuple[Sdf.ValueTypeName, type | tuple[type, ...]]] = {
 }
 _INT32 = (-(2**31), 2**31 - 1)
 # A float32 that reads back within this of length 1 was a unit quaternion before it was stored.
-_STORED_UNIT = 1e-6
 
 
 def has_map(prim: Usd.Prim) -> bool:
@@ -122,7 +120,7 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
 
     definition = GazeMapDefinition(
         params=params,
-        motions=_stored_motions(offsets, timing),
+        motions=GazeMotions(offsets, timing),
         settings=SynthesisSettings(**settings),
         bindings=bindings,
         forward=forward,
@@ -254,18 +252,6 @@ def _get(prim: Usd.Prim, name: str, where: str, required: bool = False) -> Any:
 def _shortest(x: float) -> float:
     """A float32 read back as the shortest decimal that rounds to it (0.3, not 0.30000001192...)."""
     return float(str(np.float32(x)))
-
-
-def _stored_motions(offsets: np.ndarray, timing: np.ndarray) -> GazeMotions:
-    """GazeMotions holding the stored quaternions bit for bit where they were unit when written.
-
-    GazeMotions renormalizes in float64, which moves about 1% of float32-stored unit quaternions
-    by one float32 ulp; keeping the stored values makes write(read(x)) author the same bits.
-    """
-    motions = GazeMotions(offsets, timing)
-    near_unit = np.abs(np.linalg.norm(offsets, axis=-1, keepdims=True) - 1.0) <= _STORED_UNIT
-    object.__setattr__(motions, "offsets", np.where(near_unit, rot.positive_w(offsets), motions.offsets))
-    return motions
 
 
 def _require_schema(where: str) -> None:
