@@ -473,13 +473,15 @@ def test_editing_the_shared_map_changes_every_character(tmp_path):
     shutil.copytree(SHARED.parent / "cmu", root / "cmu")
     layer = Sdf.Layer.FindOrOpen(str(root / "shared_map" / "gaze_map.usda"))
     layer.GetAttributeAtPath("/GazeMap.gaze:synthesis:neckShare").default = 0.8
-    layer.GetAttributeAtPath("/GazeMap.gaze:examples:yaw").default = Vt.FloatArray([45, -40, 0])
+    yaw = np.array(layer.GetAttributeAtPath("/GazeMap.gaze:examples:yaw").default)
+    yaw[0] = -179.5
+    layer.GetAttributeAtPath("/GazeMap.gaze:examples:yaw").default = Vt.FloatArray.FromNumpy(yaw)
     layer.Save()
     stage = Usd.Stage.Open(str(root / "shared_map" / "crowd.usda"))
     for path in ("/CrowdA/Body", "/CrowdB/Body"):
         definition = schema.read_map(stage.GetPrimAtPath(path))
         assert definition.settings.neck_share == 0.8
-        assert definition.params[0, 0] == 45.0
+        assert definition.params[0, 0] == -179.5
 
 
 def test_make_map_script_reproduces_committed_map(tmp_path):

@@ -93,6 +93,8 @@ class PassResult:
     """Eye-in-head (yaw, pitch) per frame and eye ``(F, 2, 2)``."""
     settled: np.ndarray | None = None
     """Frames in a hold phase (a shift finished, no new one begun)."""
+    seconds: np.ndarray | None = None
+    """Sample times in seconds from the stage start."""
     shift_timing: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
@@ -427,6 +429,7 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         achieved=achieved,
         eye_angles=eye_angles,
         settled=plan.settled,
+        seconds=seconds,
         shift_timing=plan.timing,
         warnings=warnings,
     )

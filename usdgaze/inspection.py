@@ -1,0 +1,51 @@
+"""``usdgaze inspect``: what a stage holds, as the gaze pass will see it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .errors import UsdGazeError
+
+
+def inspect_stage(path: str) -> dict:
+    """Skeletons, the chain found on each, maps present and the time range, as plain data."""
+    from pxr import UsdGeom
+
+    from . import api, schema
+    from .skelio import open_stage, read_clip, skel_roots, skeletons_under
+
+    if not Path(path).is_file():
+        raise UsdGazeError(f"{path}: no such file")
+    stage = open_stage(path)
+    info = {
+        "file": str(path),
+        "up_axis": str(UsdGeom.GetStageUpAxis(stage)),
+        "meters_per_unit": float(UsdGeom.GetStageMetersPerUnit(stage)),
+        "start": float(stage.GetStartTimeCode()),
+        "end": float(stage.GetEndTimeCode()),
+        "time_codes_per_second": float(stage.GetTimeCodesPerSecond()),
+        "skel_roots": [],
+    }
+    for root in skel_roots(stage):
+        has = schema.has_map(root)
+        definition = schema.read_map(root, str(path)) if has else None
+        entry = {"path": str(root.GetPath()),
+                 "map": f"GazeMapAPI, {len(definition)} examples" if has else "none (the built-in map is used)",
+                 "skeletons": []}
+        for skel in skeletons_under(root):
+            s = {"path": str(skel.GetPath()), "joints": len(skel.GetAttribute("joints").Get() or [])}
+            try:
+                clip = read_clip(stage, skel, root, str(path))
+                chain, frame = api.bind(clip, definition)
+            except UsdGazeError as exc:
+                s["error"] = str(exc)
+            else:
+                s.update(animation=clip.animation, frames=len(clip.times), first=float(clip.times[0]),
+                         last=float(clip.times[-1]),
+                         chain={r: [clip.joints[j].rsplit("/", 1)[-1] for j in idx] for r, idx in chain.roles.items()},
+                         forward=[float(v) for v in frame.forward])
+            entry["skeletons"].append(s)
+        info["skel_roots"].append(entry)
+    if not info["skel_roots"]:
+        raise UsdGazeError(f"{path}: no SkelRoot on the stage")
+    return info
