@@ -390,9 +390,20 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         err = np.abs(achieved[hold] - plan.requested[hold]).max(axis=0)
         if np.max(err) > options.tolerance_deg:
             reach = achieved[hold].mean(axis=0)
+            wanted_el = base_ae[hold, 1] + plan.requested[hold, 1]
+            at_limit = np.any(np.abs(eye_angles[hold, :, 0]) >= limits.yaw - 1e-6) or np.any(
+                (eye_angles[hold, :, 1] >= limits.up - 1e-6) | (eye_angles[hold, :, 1] <= -limits.down + 1e-6))
+            if np.any(np.abs(wanted_el) > 89.0):
+                why = (f"the base line of sight already points {np.abs(base_ae[hold, 1]).max():.0f} deg "
+                       f"{'down' if base_ae[hold, 1].mean() < 0 else 'up'}, and the gaze cannot pass straight "
+                       f"{'down' if base_ae[hold, 1].mean() < 0 else 'up'}")
+            elif at_limit:
+                why = "the eyes reach their range (yaw +-{:g}, up {:g}, down {:g} deg)".format(limits.yaw, limits.up, limits.down)
+            else:
+                why = "the chain cannot turn that far"
             warnings.append(
                 f"{clip.where()}: shift at {sh.time_s:g} s asks for yaw {sh.yaw:g}, pitch {sh.pitch:g} deg; "
-                f"the chain and eye range reach about yaw {reach[0]:.1f}, pitch {reach[1]:.1f}"
+                f"reached about yaw {reach[0]:.1f}, pitch {reach[1]:.1f} ({why})"
             )
 
     # Assemble the animation arrays: copy, then overwrite the joints we drive.

@@ -1,0 +1,141 @@
+"""Batch entry for farms: run the gaze jobs of a TOML manifest.
+
+    python pipeline/batch.py MANIFEST.toml [--task-index I] [--workers N] [--report report.json]
+
+A manifest lists jobs (paths relative to the manifest)::
+
+    [defaults]            # optional; any job key
+    fixation = 2.0
+
+    [[job]]
+    name = "walk_01"
+    input = "../../sample_stages/cmu/cmu_131_01.usdc"
+    out = "out/walk_01_gaze.usdc"
+    preview = "out/walk_01_preview.usda"     # or sublayer_into = "shot.usda"
+    shifts = ["2s:60:0", "5s:-120:10", "7.5s:0:0"]
+    # map = "maps/studio.usda:/GazeMap"; skel_root = "/Char/Body"
+
+Each job runs on its own and is reported on its own: a bad job (exit 2) or a crash (exit 1) does not
+stop the others. ``--task-index`` runs just one job, for farm array tasks (see pipeline/farm/). The
+exit code is the worst of the jobs run: 0 all done, 2 some bad input, 1 some internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+KEYS = {"name", "input", "out", "preview", "sublayer_into", "shifts", "map", "skel_root", "fixation"}
+
+
+def load_manifest(path: Path) -> list[dict]:
+    """Jobs of a manifest with defaults applied and paths resolved against the manifest's folder."""
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.ingest.tomlio import load_toml
+
+    data = load_toml(path)
+    defaults = data.get("defaults", {})
+    jobs = data.get("job", [])
+    if not isinstance(jobs, list) or not jobs:
+        raise UsdGazeError(f"{path}: no [[job]] entries")
+    out = []
+    for i, raw in enumerate(jobs):
+        job = {**defaults, **raw}
+        unknown = set(job) - KEYS
+        if unknown:
+            raise UsdGazeError(f"{path}: job {i}: unknown key '{sorted(unknown)[0]}' (keys: {', '.join(sorted(KEYS))})")
+        for key in ("input", "out", "shifts"):
+            if key not in job:
+                raise UsdGazeError(f"{path}: job {i}: missing '{key}'")
+        if isinstance(job["shifts"], str) or not all(isinstance(s, str) for s in job["shifts"]):
+            raise UsdGazeError(f"{path}: job {i}: 'shifts' must be a list of \"TIME:YAW:PITCH\" strings")
+        for key in ("input", "out", "preview", "sublayer_into"):
+            if job.get(key):
+                job[key] = str((path.parent / job[key]).resolve())
+        if job.get("map"):
+            file, sep, prim = job["map"].partition(":/")
+            job["map"] = str((path.parent / file).resolve()) + (f":/{prim}" if sep else "")
+        job.setdefault("name", Path(job["input"]).stem)
+        out.append(job)
+    return out
+
+
+def run_job(job: dict) -> dict:
+    """Run one job; never raises. Returns its status record."""
+    from usdgaze.api import apply
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.gazepass import PassOptions
+
+    start = time.perf_counter()
+    record = {"name": job["name"], "input": job["input"], "out": job["out"]}
+    try:
+        if job.get("out"):
+            Path(job["out"]).parent.mkdir(parents=True, exist_ok=True)
+        if job.get("preview"):
+            Path(job["preview"]).parent.mkdir(parents=True, exist_ok=True)
+        report = apply(
+            job["input"], job["shifts"], job["out"], skel_root=job.get("skel_root"), map_spec=job.get("map"),
+            sublayer_into=job.get("sublayer_into"), preview=job.get("preview"),
+            options=PassOptions(fixation_m=float(job.get("fixation", 2.0))),
+        )
+        record.update(exit_code=0, status="done", characters=[c.skel_root for c in report.characters],
+                      warnings=report.warnings)
+    except UsdGazeError as exc:
+        record.update(exit_code=2, status="bad input", message=str(exc))
+    except Exception as exc:  # a bug: report it and let the other jobs run
+        record.update(exit_code=1, status="internal error", message=f"{type(exc).__name__}: {exc}",
+                      traceback=traceback.format_exc())
+    record["seconds"] = round(time.perf_counter() - start, 3)
+    return record
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("manifest", type=Path)
+    parser.add_argument("--task-index", type=int, default=None, help="run only job I (0-based), for farm array tasks")
+    parser.add_argument("--workers", type=int, default=1, help="jobs run in parallel processes")
+    parser.add_argument("--report", type=Path, default=None, help="write the job records as JSON here")
+    args = parser.parse_args(argv)
+
+    import usdgaze  # noqa: F401  (registers the schema before any stage is opened)
+    from usdgaze.errors import UsdGazeError
+
+    try:
+        jobs = load_manifest(args.manifest)
+        if args.task_index is not None:
+            if not 0 <= args.task_index < len(jobs):
+                raise UsdGazeError(f"{args.manifest}: --task-index {args.task_index} out of range (0..{len(jobs) - 1})")
+            jobs = [jobs[args.task_index]]
+    except UsdGazeError as exc:
+        print(f"usdgaze-batch: error: {exc}", file=sys.stderr)
+        return 2
+
+    if args.workers > 1 and len(jobs) > 1:
+        with ProcessPoolExecutor(max_workers=args.workers) as pool:
+            records = list(pool.map(run_job, jobs))
+    else:
+        records = [run_job(j) for j in jobs]
+
+    for r in records:
+        line = f"{r['status']:<14} {r['name']}  {r['seconds']:.2f}s"
+        if r.get("message"):
+            line += f"  {r['message']}"
+        print(line, file=sys.stderr if r["exit_code"] else sys.stdout)
+        for w in r.get("warnings", []):
+            print(f"warning        {r['name']}  {w}", file=sys.stderr)
+    if args.report:
+        tmp = args.report.with_name(f".{args.report.name}.tmp")
+        tmp.write_text(json.dumps(records, indent=2))
+        os.replace(tmp, args.report)
+    codes = [r["exit_code"] for r in records]
+    return 2 if 2 in codes else 1 if 1 in codes else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
