@@ -108,6 +108,13 @@ def select_roots(stage, source: str, skel_root: str | None):
     return roots
 
 
+def _map_key(definition: GazeMapDefinition) -> bytes:
+    """Content key: characters sharing one map (by composition) build it once."""
+    m = definition.motions
+    return b"|".join([definition.params.tobytes(), m.offsets.tobytes(), m.timing.tobytes(),
+                      repr(definition.settings).encode()])
+
+
 def _character_frame(clip: SkelClip, forward) -> CharacterFrame:
     sw = clip.skel_to_world[0, :3, :3]
     up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
@@ -161,7 +168,7 @@ def apply(
     stage = open_stage(source)
     roots = select_roots(stage, source, skel_root)
     forced = _schema().load_map(map_spec) if map_spec else None
-    maps: dict[int, ParametricGazeMap] = {}
+    maps: dict[bytes, ParametricGazeMap] = {}
     report = ApplyReport(output=str(out_path))
     overrides: list[AnimOverride] = []
     seen_anims: dict[str, str] = {}
@@ -171,9 +178,10 @@ def apply(
         own = _schema().read_map(root, source) if _schema().has_map(root) else None
         definition = forced or own or default_definition()
         map_source = map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
-        gaze_map = maps.get(id(definition))
+        key = _map_key(definition)
+        gaze_map = maps.get(key)
         if gaze_map is None:
-            gaze_map = maps[id(definition)] = ParametricGazeMap(definition)
+            gaze_map = maps[key] = ParametricGazeMap(definition)
         skels = skeletons_under(root)
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
