@@ -40,8 +40,10 @@ def cli() -> None:
 @click.option("--preview", default=None, type=click.Path(dir_okay=False), metavar="NEW_ROOT",
               help="Write a new root layer that sublayers [override, input].")
 @click.option("--fixation", default=2.0, show_default=True, type=float, help="Distance of the point of sight, metres.")
+@click.option("--plot", default=None, type=click.Path(dir_okay=False), metavar="FILE.png",
+              help="Also draw wanted vs achieved gaze, segment angles and eye angles (needs matplotlib).")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
-def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, as_json) -> None:
+def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, as_json) -> None:
     """Add gaze SHIFTs to the skeletal animation in INPUT and write them to --out."""
     from .api import apply as run
     from .gazepass import PassOptions
@@ -52,6 +54,10 @@ def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, 
                  sublayer_into=sublayer_into, preview=preview, options=PassOptions(fixation_m=fixation))
     for w in report.warnings:
         click.echo(f"usdgaze: warning: {w}", err=True)
+    if plot:
+        from .plotting import plot_report
+
+        plot_report(report, plot)
     summary = _summary(report)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
@@ -66,6 +72,8 @@ def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, 
                        f"duration {s['duration_s']:.2f}s  overshoot {s['overshoot']:.2f}  "
                        f"hold error {s['hold_error_deg']}")
     click.echo(f"wrote {report.output}")
+    if plot:
+        click.echo(f"wrote {plot}")
     if report.preview:
         click.echo(f"wrote {report.preview}  (open it to see the result; mute {os.path.basename(report.output)} to compare)")
     if report.sublayered_into:

@@ -95,6 +95,8 @@ class PassResult:
     """Frames in a hold phase (a shift finished, no new one begun)."""
     seconds: np.ndarray | None = None
     """Sample times in seconds from the stage start."""
+    segment_angles: np.ndarray | None = None
+    """Rotation angle of each model segment's displacement per frame ``(F, 5)`` (deg)."""
     shift_timing: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
@@ -441,6 +443,7 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         eye_angles=eye_angles,
         settled=plan.settled,
         seconds=seconds,
+        segment_angles=np.degrees(rot.angle(disp)),
         shift_timing=plan.timing,
         warnings=warnings,
     )
