@@ -16,7 +16,7 @@ ROLES = ("pelvis", "lowerSpine", "upperSpine", "neck", "head", "leftEye", "right
 class SynthesisSettings:
     """Kovar & Gleicher blending-based synthesis settings (stored as ``gaze:synthesis:*``)."""
 
-    samples: int = 20000
+    samples: int = 5000
     """Random blends drawn to sample the (yaw, pitch) space densely."""
     blend_size: int = 6
     """How many nearby examples one random blend mixes."""

@@ -154,8 +154,19 @@ class ParametricGazeMap:
             probe[rows, np.arange(c)[None, :], cand] += eps
             moved = self._measure(probe.reshape(-1, n)).reshape(q, c, 2)
             jac = np.swapaxes(moved - achieved[:, None, :], 1, 2) / eps  # (Q, 2, C)
-            normal = jac @ np.swapaxes(jac, 1, 2) + 1e-9 * np.eye(2)
-            step = np.einsum("qcm,qc->qm", jac, np.linalg.solve(normal, err[..., None])[..., 0])
+            # Projected step: a candidate at zero weight that the step would push negative is
+            # held at zero and the step recomputed without it, instead of clipping the step
+            # afterwards (which spoils it and stalls the correction at ~0.5 deg).
+            at_zero = weights[rows, cand] <= 1e-12
+            free = np.ones((q, c), dtype=bool)
+            for _ in range(c):
+                jac_free = jac * free[:, None, :]
+                normal = jac_free @ np.swapaxes(jac_free, 1, 2) + 1e-9 * np.eye(2)
+                step = np.einsum("qcm,qc->qm", jac_free, np.linalg.solve(normal, err[..., None])[..., 0])
+                blocked = free & at_zero & (step < 0.0)
+                if not blocked.any():
+                    break
+                free &= ~blocked
             # Backtracking from the same start: the non-negativity clip can spoil a full step.
             base = weights
             best_err = np.linalg.norm(err, axis=1)
