@@ -23,6 +23,7 @@ How a request is met:
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -266,6 +267,7 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         rest_q = np.concatenate([rest_q, rest_q[[head, head]]])
         rest_world = np.concatenate([rest_world, rest_world[head] @ rest_local[-2:]])
 
+    @functools.lru_cache(maxsize=None)
     def local(j: int):
         if j < len(clip.joints):
             return clip.local_trs(j)
@@ -423,8 +425,9 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         for j in appended:
             anim_index[j] = len(anim_joints)
             anim_joints.append(joints[j])
-    rotations = rotations.copy()
-    translations = translations.copy()
+    if not appended:  # concatenate already made new arrays; otherwise never write into the clip's
+        rotations = rotations.copy()
+        translations = translations.copy() if new_trans else translations
     for j, q in new_rot.items():
         column = anim_index[j]
         rotations[:, column] = rot.align_hemisphere(q, rotations[:, column].astype(float)).astype(np.float32)
