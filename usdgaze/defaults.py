@@ -37,10 +37,13 @@ TRUNK_SPLIT = {  # assumed from regional axial mobility: lumbar spine ~10 deg, t
 }
 
 # -- vertical split --------------------------------------------------------------------------------
-EYE_UP_PLATEAU = 24.0  # Eom et al. 2019: elevation limit 27.7 deg, kept below it by the overshoot margin
+EYE_ELEVATION_RANGE = 27.7  # Eom et al. 2019 (from Serway et al. 2018 / Shin et al. 2016)
+EYE_UP_LIMIT = 25.0  # that range less the 10% head-shift overshoot (27.7 / 1.1 = 25.2)
 EYE_DOWN_PLATEAU = 35.0  # Pejsa et al. 2016: eye range 35 deg up/down (depression limit 47.1, Eom)
-# Freedman & Sparks 1997: the more vertical the shift, the larger the eye share -> vertical shifts stay
-# eye-only up to the same 20 deg and the eye plateau is reached later than horizontally (no trunk pitch).
+# Freedman & Sparks 1997: the more vertical the shift, the larger the eye share. Upward, the eyes carry
+# the whole shift up to their (overshoot-safe) limit and the head takes the rest; downward, the eyes
+# are eye-only to 20 deg like horizontally but level off at the larger depression range. No trunk pitch:
+# the +-30 deg rows stay below the ~40 deg where the trunk joins (McCluskey & Cullen 2007).
 
 # -- timing ------------------------------------------------------------------------------------------
 SACCADE_BASE_S = 0.025  # saccade main sequence: duration ~ 25 ms + 2.4 ms/deg
@@ -88,7 +91,7 @@ def split(yaw: np.ndarray, pitch: np.ndarray) -> dict[str, np.ndarray]:
     trunk = trunk_minimum(h)
     head_yaw = np.minimum(np.maximum(h - eye_yaw - trunk, 0.0), HEAD_YAW_MAX)
     trunk = np.maximum(h - eye_yaw - head_yaw, 0.0)
-    eye_pitch = np.where(pitch >= 0.0, _eye_share(pitch, EYE_UP_PLATEAU), _eye_share(pitch, EYE_DOWN_PLATEAU))
+    eye_pitch = np.where(pitch >= 0.0, np.minimum(pitch, EYE_UP_LIMIT), _eye_share(pitch, EYE_DOWN_PLATEAU))
     sign = np.sign(yaw)
     out = {name: sign * share * trunk for name, share in TRUNK_SPLIT.items()}
     out["headYaw"] = sign * head_yaw
@@ -96,6 +99,12 @@ def split(yaw: np.ndarray, pitch: np.ndarray) -> dict[str, np.ndarray]:
     out["eyeYaw"] = sign * eye_yaw
     out["eyePitch"] = eye_pitch
     return out
+
+
+def _overshoot(offsets: np.ndarray) -> np.ndarray:
+    """beta: small for eye-only shifts, full once the head turns 20 deg or more."""
+    head_moves = np.clip(np.degrees(rot.angle(offsets[:, 3])) / EYE_ONLY_LIMIT, 0.0, 1.0)
+    return EYE_ONLY_OVERSHOOT + (HEAD_OVERSHOOT - EYE_ONLY_OVERSHOOT) * head_moves
 
 
 def example_motions(yaw: np.ndarray, pitch: np.ndarray) -> GazeMotions:
@@ -107,9 +116,19 @@ def example_motions(yaw: np.ndarray, pitch: np.ndarray) -> GazeMotions:
     offsets = np.empty((n, 5, 4))
     for j, name in enumerate(("pelvis", "lowerSpine", "upperSpine")):
         offsets[:, j] = rot.from_axis_angle(rot.UP, np.radians(parts[name]))
-    offsets[:, 3] = rot.yaw_pitch_rotation(parts["headYaw"], parts["headPitch"])
-    # The eyes make up the exact target (Heck 5.2.2.2 step 3), without torsion (Listing's law).
-    offsets[:, 4] = motion.aim_eyes(offsets[:, :4], yaw, pitch)
+    head_pitch = parts["headPitch"].copy()
+    for _ in range(3):
+        offsets[:, 3] = rot.yaw_pitch_rotation(parts["headYaw"], head_pitch)
+        # The eyes make up the exact target (Heck 5.2.2.2 step 3), without torsion (Listing's law).
+        offsets[:, 4] = motion.aim_eyes(offsets[:, :4], yaw, pitch)
+        # An oblique upward target can still lift the eyes past their elevation range at the
+        # overshoot peak; the head takes that excess.
+        beta = _overshoot(offsets)
+        peak = rot.rotate(rot.power(offsets[:, 4], 1.0 + beta), rot.FORWARD)
+        excess = np.degrees(np.arcsin(np.clip(peak[:, 1], -1.0, 1.0))) - (EYE_ELEVATION_RANGE - 0.2)
+        if not np.any(excess > 0):
+            break
+        head_pitch = head_pitch + np.maximum(excess, 0.0) / (1.0 + beta)
 
     amp = np.degrees(rot.angle(offsets))  # (n, 5) per-segment rotation angles
     eye_time = SACCADE_BASE_S + SACCADE_PER_DEG_S * amp[:, 4]
@@ -119,8 +138,7 @@ def example_motions(yaw: np.ndarray, pitch: np.ndarray) -> GazeMotions:
     gross = np.maximum(eye_time, segment_time.max(axis=1))
     duration = np.maximum(MIN_DURATION_S, gross / PEAK_TIME)
 
-    head_moves = np.clip(amp[:, 3] / EYE_ONLY_LIMIT, 0.0, 1.0)
-    beta = EYE_ONLY_OVERSHOOT + (HEAD_OVERSHOOT - EYE_ONLY_OVERSHOOT) * head_moves
+    beta = _overshoot(offsets)
     timing = np.column_stack(
         [duration, latencies[None, :] / duration[:, None], np.full(n, PEAK_TIME), beta]
     )
