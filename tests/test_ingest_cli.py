@@ -1,0 +1,86 @@
+"""``usdgaze build-map``: the command, the map file it writes, the report and series files."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from pxr import Sdf
+
+from usdgaze.cli import main
+from usdgaze.ingest import build
+
+from . import ingest_synth as syn
+
+PARAMS = np.array([[0.0, 0.0], [36.0, 0.0], [-36.0, 0.0], [108.0, 12.0], [-144.0, -12.0], [180.0, 0.0]])
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    return syn.write_c3d_session(tmp_path_factory.mktemp("cli"), seed=5, params=PARAMS)
+
+
+def test_build_map_writes_map_report_and_series(session, tmp_path, capsys):
+    out, report, series = tmp_path / "map.usda", tmp_path / "report.csv", tmp_path / "series"
+    code = main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out", str(out),
+                 "--report", str(report), "--series", str(series)])
+    stdout = capsys.readouterr().out
+    assert code == 0
+    lines = stdout.splitlines()
+    assert lines[0].split()[:3] == ["trial", "status", "crop"]
+    assert all(any(line.startswith(t.name) for line in lines) for t in session.trials)
+    assert f"wrote {out}: 6 examples" in stdout
+
+    expected = build(session.sheet, session.markerset)
+    from usdgaze.schema import load_map
+
+    stored = load_map(str(out))
+    np.testing.assert_array_equal(stored.params, PARAMS)  # examples in sheet order
+    np.testing.assert_allclose(stored.motions.offsets, expected.definition.motions.offsets, atol=1e-6)
+    np.testing.assert_allclose(stored.motions.timing, expected.definition.motions.timing, rtol=1e-6, atol=1e-6)
+
+    data = Sdf.Layer.FindOrOpen(str(out)).customLayerData["usdgaze:buildMap"]
+    assert data["sheet"] == str(session.sheet)
+    assert data["thresholds"]["rest_speed_mm_s"] == 6.0 and data["thresholds"]["start_speed_deg_s"] == 18.0
+    assert data["trials"]["y+000_p+00"]["cropSource"] == "manual"
+    assert data["trials"]["y+036_p+00"]["yaw"] == 36.0
+
+    with report.open() as f:
+        rows = list(csv.DictReader(f))
+    assert [r["trial"] for r in rows] == [t.name for t in session.trials]
+    for row, rep in zip(rows, expected.reports):
+        assert row["status"] == "ok"
+        assert (int(row["crop_start"]), int(row["crop_end"])) == rep.crop
+        assert float(row["beta"]) == pytest.approx(rep.extraction.timing[6], abs=1e-6)
+    assert sorted(p.name for p in series.iterdir()) == sorted(f"{t.name}.csv" for t in session.trials)
+
+
+def test_thresholds_reach_the_build_and_the_layer(session, tmp_path, capsys):
+    out, report = tmp_path / "map.usda", tmp_path / "report.json"
+    code = main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out", str(out),
+                 "--report", str(report), "--start-speed", "1000", "--k", "4", "--quiet"])
+    assert code == 0
+    assert "trial" not in capsys.readouterr().out.splitlines()[0]  # --quiet: no table
+    rows = json.loads(report.read_text())
+    # nothing turns at 1000 deg/s: every start is 0 and the report says so
+    assert all(r["neck_start_s"] == 0.0 and "start 0" in r["warnings"] for r in rows)
+    data = Sdf.Layer.FindOrOpen(str(out)).customLayerData["usdgaze:buildMap"]
+    assert data["thresholds"]["start_speed_deg_s"] == 1000.0 and data["thresholds"]["velocity_k"] == 4
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--report", "r.txt"], "a report must be .csv or .json"),
+        (["--k", "0"], "velocity_k = 0 is out of range"),
+        (["--min-trials", "7"], "only 6 of 6 trials gave an example, a map needs at least 7"),
+    ],
+)
+def test_bad_options_exit_2(session, tmp_path, capsys, args, message):
+    code = main(["build-map", str(session.sheet), "--markers", str(session.markerset),
+                 "--out", str(tmp_path / "m.usda"), "--quiet"] + [a if a != "r.txt" else str(tmp_path / a) for a in args])
+    assert code == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "m.usda").exists()

@@ -1,0 +1,95 @@
+"""UsdSkel example clips: binding the chain by name or explicitly, and clear errors when it cannot be."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Usd, UsdGeom
+
+from usdgaze import rotations as rot
+from usdgaze.ingest import BuildSettings, build
+
+from . import ingest_synth as syn
+
+TARGETS = np.array([[108.0, 12.0], [-144.0, 0.0], [36.0, -12.0]])
+CUSTOM = {"Hips": "root", "Spine": "sA", "Spine1": "sB", "Spine2": "sC", "Neck": "nk", "Head": "skull",
+          "LeftUpLeg": "thighA", "RightUpLeg": "thighB", "LeftShoulder": "armA", "RightShoulder": "armB"}
+
+
+def _session(directory, rename=None, extra=""):
+    motions = syn.known_motions(TARGETS)
+    rows = [extra]
+    for i, (yaw, pitch) in enumerate(TARGETS):
+        m = motions[i]
+        frames = 40 + int(round((float(m.duration) + 0.8) * syn.RATE))
+        syn.write_skel_clip(directory / f"t{i}.usda", m, 40, frames, rename=rename)
+        rows.append(f'[[trial]]\nname = "t{i}"\nfile = "t{i}.usda"\nyaw = {yaw:g}\npitch = {pitch:g}\n')
+    (directory / "sheet.toml").write_text("\n".join(rows))
+    return motions, directory / "sheet.toml"
+
+
+def _pose_errors(motions, result):
+    assert all(r.status == "ok" for r in result.reports), [r.error for r in result.reports]
+    return np.degrees(rot.angle(rot.relative(motions.offsets, result.definition.motions.offsets)))
+
+
+def test_mixamo_prefixed_names_bind_by_themselves(tmp_path):
+    rename = {k: f"mixamorig_{k}" for k in CUSTOM}
+    motions, sheet = _session(tmp_path, rename)
+    assert _pose_errors(motions, build(sheet)).max() <= 0.5
+
+
+def test_unknown_names_are_a_clear_error_until_bound(tmp_path):
+    motions, sheet = _session(tmp_path, CUSTOM)
+    result = build(sheet, settings=BuildSettings(min_trials=1))
+    assert result.definition is None
+    for report in result.reports:
+        assert report.error.startswith(f"trial {report.trial} ({report.trial}.usda): no gaze chain (pelvis and head) found by name")
+        assert "\n" not in report.error
+    # bound in the sheet, with the forward given since no joint says left or right
+    text = sheet.read_text()
+    sheet.write_text('[skeleton]\npelvis = "root"\nlower_spine = "sA"\nupper_spine = "sC"\nneck = "nk"\nhead = "skull"\n'
+                     "forward = [0.0, -1.0, 0.0]\n" + text)
+    assert _pose_errors(motions, build(sheet)).max() <= 0.5
+
+
+def test_binding_a_missing_joint_names_it(tmp_path):
+    _, sheet = _session(tmp_path, extra='[skeleton]\nhead = "Skull"\n')
+    result = build(sheet, settings=BuildSettings(min_trials=1))
+    assert all("skeleton.head = 'Skull' is not a joint of the skeleton" in r.error for r in result.reports)
+
+
+def test_a_stage_without_an_animated_skeleton(tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "empty.usda"))
+    UsdGeom.Xform.Define(stage, "/World")
+    stage.Save()
+    (tmp_path / "sheet.csv").write_text("file,yaw,pitch\nempty.usda,36,0\n")
+    (report,) = build(tmp_path / "sheet.csv", settings=BuildSettings(min_trials=1)).reports
+    assert report.error == "trial empty (empty.usda): no Skeleton with a bound SkelAnimation"
+
+
+def test_sparse_keyframes_are_sampled_every_time_code(tmp_path):
+    """An artist's clip keyed every 4th frame reads at the stage's rate, not a quarter of it."""
+    from pxr import Sdf
+
+    from usdgaze.ingest.skelclips import read_skeleton_series
+
+    motions = syn.known_motions(TARGETS[:1])
+    frames = 40 + int(round((float(motions.duration[0]) + 0.8) * syn.RATE))
+    frames += (4 - (frames - 1) % 4) % 4  # keep the last frame a key
+    path = tmp_path / "keys.usda"
+    syn.write_skel_clip(path, motions[0], 40, frames)
+    dense = read_skeleton_series(path)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    for attr in ("rotations", "translations"):
+        spec = Sdf.Path(f"/Rig/Skel/Anim.{attr}")
+        for t in range(frames):
+            if t % 4:
+                layer.EraseTimeSample(spec, float(t))
+    layer.Save()
+    sparse = read_skeleton_series(path)
+    assert sparse.rate == dense.rate == syn.RATE
+    assert sparse.frames == dense.frames == frames
+    # keys agree exactly; in between UsdSkel interpolates the keys
+    keys = np.arange(0, frames, 4)
+    np.testing.assert_allclose(np.degrees(rot.angle(rot.relative(sparse.orientations[keys], dense.orientations[keys]))), 0.0, atol=1e-3)

@@ -1,0 +1,292 @@
+"""``build-map`` orchestration: sheet -> per-trial series -> crop -> extraction -> gaze map + report.
+
+A trial that fails is reported (one line: trial, file, what is wrong) and skipped; the map is built
+from the rest when at least ``BuildSettings.min_trials`` remain. All trials must share one frame rate
+(the session's most common), because k and m count frames.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..definition import GazeMapDefinition, SynthesisSettings
+from ..errors import UsdGazeError
+from ..motion import GazeMotions
+from .cleaning import CleaningError, crop_by_rest, mean_marker_speed, rest_periods
+from .extract import CHAIN, Extraction, extract
+from .markers import MarkerSet, SkeletonBinding, load_markerset
+from .series import TrialSeries, read_marker_series
+from .settings import BuildSettings
+from .sheet import Sheet, Trial, load_sheet
+
+
+LANDMARK_NAMES = ("pelvis", "lowerSpine", "upperSpine", "head")
+"""The measured landmarks; the report gives each one's net rotation over the crop."""
+
+
+class TrialError(UsdGazeError):
+    """One trial cannot become an example."""
+
+
+class BuildError(UsdGazeError):
+    """The session as a whole cannot become a map."""
+
+
+@dataclass
+class TrialReport:
+    """What happened to one trial: the report table's row."""
+
+    trial: str
+    file: str
+    yaw: float
+    pitch: float
+    status: str = "failed"
+    crop: tuple[int, int] | None = None
+    crop_source: str = ""
+    rate: float | None = None
+    units: str = ""
+    filled_samples: int = 0
+    extraction: Extraction | None = None
+    error: str = ""
+    warnings: list[str] = field(default_factory=list)
+
+    def row(self) -> dict:
+        """Flat, JSON/CSV-friendly values (times in seconds from the crop start, angles in degrees).
+
+        ``peak_angle_deg`` is the head's rotation at the overshoot peak and ``*_angle_deg`` each
+        landmark's net rotation from the first to the last pose, both from the first pose.
+        """
+        ex = self.extraction
+        row = {
+            "trial": self.trial,
+            "file": self.file,
+            "yaw": self.yaw,
+            "pitch": self.pitch,
+            "status": self.status,
+            "crop_start": self.crop[0] if self.crop else None,
+            "crop_end": self.crop[1] if self.crop else None,
+            "crop_source": self.crop_source,
+            "rate": self.rate,
+            "units": self.units,
+            "filled_samples": self.filled_samples,
+            "duration_s": None,
+        }
+        for name in CHAIN:
+            row[f"{name}_start_s"] = None
+        row.update({"peak_s": None, "t_beta": None, "beta": None, "peak_angle_deg": None})
+        for name in LANDMARK_NAMES:
+            row[f"{name}_angle_deg"] = None
+        if ex is not None:
+            row["duration_s"] = round(float(ex.timing[0]), 6)
+            for name, frame in zip(CHAIN, ex.start_frames):
+                row[f"{name}_start_s"] = round(max(int(frame), 0) / self.rate, 6)
+            row["peak_s"] = None if ex.peak_frame is None else round(ex.peak_frame / self.rate, 6)
+            row["t_beta"] = round(float(ex.timing[5]), 6)
+            row["beta"] = round(float(ex.timing[6]), 6)
+            row["peak_angle_deg"] = round(ex.peak_angle_deg, 4)
+            for name, value in zip(LANDMARK_NAMES, ex.segment_angles_deg):
+                row[f"{name}_angle_deg"] = round(float(value), 4)
+        row["warnings"] = "; ".join(self.warnings)
+        row["error"] = self.error
+        return row
+
+
+@dataclass
+class BuildResult:
+    """The map definition (None if too few trials survived) and one report per sheet trial."""
+
+    definition: GazeMapDefinition | None
+    reports: list[TrialReport]
+    settings: BuildSettings
+    rate: float | None
+    series: dict[str, TrialSeries] = field(default_factory=dict)
+    """Cropped series of the good trials (for exporting per-frame orientations)."""
+
+    @property
+    def good(self) -> list[TrialReport]:
+        return [r for r in self.reports if r.status == "ok"]
+
+
+def load_series(trial: Trial, markerset: MarkerSet | None, binding: SkeletonBinding, where: str) -> TrialSeries:
+    """Read one trial's file into a :class:`TrialSeries` (C3D markers or a UsdSkel clip)."""
+    if not trial.file.is_file():
+        raise TrialError(f"{where}: no such file")
+    if trial.is_skeletal:
+        from .skelclips import read_skeleton_series  # pxr only for skeletal sessions
+
+        return read_skeleton_series(trial.file, binding, trial.skeleton, where)
+    if trial.file.suffix.lower() != ".c3d":
+        raise TrialError(f"{where}: unknown file type '{trial.file.suffix}' (expected .c3d or a USD file)")
+    if markerset is None:
+        raise TrialError(f"{where}: a C3D trial needs a marker set (--markers)")
+    return read_marker_series(str(trial.file), markerset, where)
+
+
+def find_crop(trial: Trial, series: TrialSeries, settings: BuildSettings, where: str) -> tuple[tuple[int, int], str]:
+    """The sheet's manual crop, else Heck's rest-period crop."""
+    last = series.frames - 1
+    if trial.crop is not None:
+        start, end = trial.crop
+        if end > last:
+            raise TrialError(f"{where}: crop_end {end} is past the last frame {last}")
+        return (start, end), "manual"
+    span = max(int(round(settings.speed_span_s * series.rate)), 1)
+    speed = mean_marker_speed(series.points, series.rate, span)
+    threshold = settings.rest_speed_mm_s / series.mm_per_unit
+    rests = rest_periods(speed, threshold, settings.rest_merge_s * series.rate, settings.min_rest_s * series.rate)
+    try:
+        return crop_by_rest(rests, series.frames), "auto"
+    except CleaningError as exc:
+        raise TrialError(f"{where}: {exc}; give crop_start and crop_end in the sheet") from None
+
+
+def process(trial: Trial, series: TrialSeries, settings: BuildSettings, where: str) -> tuple[Extraction, tuple[int, int], str]:
+    """Crop and extract one trial."""
+    (start, end), source = find_crop(trial, series, settings, where)
+    frame = series.frame_at(start)
+    try:
+        ex = extract(series.orientations, (start, end), frame, series.rate, trial.yaw, trial.pitch, settings)
+    except UsdGazeError as exc:
+        raise TrialError(f"{where}: {exc}") from None
+    return ex, (start, end), source
+
+
+def _session_rate(rates: list[float], tolerance: float) -> float:
+    """The most common rate (ties: the first trial's)."""
+    groups: list[list[float]] = []
+    for r in rates:
+        for g in groups:
+            if abs(r - g[0]) <= tolerance * g[0]:
+                g.append(r)
+                break
+        else:
+            groups.append([r])
+    best = max(groups, key=len)  # max keeps the first of equal lengths
+    return best[0]
+
+
+def build(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path | None = None,
+          settings: BuildSettings = BuildSettings(), synthesis: SynthesisSettings = SynthesisSettings()) -> BuildResult:
+    """Build a gaze map definition from a session; never raises for one bad trial."""
+    if not isinstance(sheet, Sheet):
+        sheet = load_sheet(sheet)
+    if markerset is None and sheet.markers is not None:
+        markerset = sheet.markers
+    if markerset is not None and not isinstance(markerset, MarkerSet):
+        markerset = load_markerset(markerset)
+    # The sheet's [skeleton] table wins over the marker set's.
+    binding = sheet.skeleton
+    if binding == SkeletonBinding() and markerset is not None:
+        binding = markerset.skeleton
+
+    if markerset is not None and any(not t.is_skeletal for t in sheet.trials):
+        markerset.require_complete()
+
+    reports: list[TrialReport] = []
+    loaded: dict[str, TrialSeries] = {}
+    for trial in sheet.trials:
+        where = f"trial {trial.name} ({trial.file.name})"
+        report = TrialReport(trial.name, str(trial.file), trial.yaw, trial.pitch)
+        reports.append(report)
+        try:
+            series = load_series(trial, markerset, binding, where)
+        except UsdGazeError as exc:
+            report.error = str(exc)
+            continue
+        loaded[trial.name] = series
+        report.rate, report.units, report.filled_samples = series.rate, series.units, series.filled
+
+    rate = _session_rate([s.rate for s in loaded.values()], settings.rate_tolerance) if loaded else None
+    offsets, timing, params, kept = [], [], [], {}
+    targets: dict[tuple[float, float], str] = {}
+    for trial, report in zip(sheet.trials, reports):
+        series = loaded.get(trial.name)
+        if series is None:
+            continue
+        where = f"trial {trial.name} ({trial.file.name})"
+        try:
+            if abs(series.rate - rate) > settings.rate_tolerance * rate:
+                raise TrialError(f"{where}: frame rate {series.rate:g} Hz differs from the session's {rate:g} Hz")
+            key = (trial.yaw, trial.pitch)
+            if key in targets:
+                raise TrialError(f"{where}: same target ({trial.yaw:g}, {trial.pitch:g}) as trial {targets[key]}; a map holds one example per target")
+            ex, crop, source = process(trial, series, settings, where)
+        except UsdGazeError as exc:
+            report.error = str(exc)
+            continue
+        targets[key] = trial.name
+        timing_row = ex.timing.copy()
+        span = ex.frames - 1
+        # Stored ranges: starts in [0, 1), t_beta in (0, 1], overshoot in [0, 1].
+        timing_row[1:5] = np.minimum(timing_row[1:5], (span - 1) / span)
+        timing_row[5] = np.clip(timing_row[5], 1.0 / span, 1.0)
+        if timing_row[6] > 1.0:
+            ex.warnings.append(f"overshoot {timing_row[6]:.2f} clipped to 1")
+            timing_row[6] = 1.0
+        report.status, report.extraction, report.crop, report.crop_source = "ok", ex, crop, source
+        report.warnings.extend(ex.warnings)
+        offsets.append(ex.offsets)
+        timing.append(timing_row)
+        params.append(key)
+        kept[trial.name] = TrialSeries(
+            source=series.source,
+            orientations=series.orientations[crop[0] : crop[1] + 1],
+            points=series.points[crop[0] : crop[1] + 1],
+            frame_at=(lambda i, f=series.frame_at, c=crop[0]: f(i + c)),
+            rate=series.rate,
+            units=series.units,
+            mm_per_unit=series.mm_per_unit,
+            filled=series.filled,
+        )
+
+    definition = None
+    if len(offsets) >= settings.min_trials:
+        motions = GazeMotions(np.array(offsets), np.array(timing))
+        definition = GazeMapDefinition(params=np.array(params), motions=motions, settings=synthesis)
+    return BuildResult(definition=definition, reports=reports, settings=settings, rate=rate, series=kept)
+
+
+def require_definition(result: BuildResult) -> GazeMapDefinition:
+    """The definition, or a one-line error saying how many trials failed and the first reason."""
+    if result.definition is not None:
+        return result.definition
+    failed = [r for r in result.reports if r.status != "ok"]
+    first = f"; first failure: {failed[0].error}" if failed else ""
+    raise BuildError(
+        f"only {len(result.good)} of {len(result.reports)} trials gave an example, "
+        f"a map needs at least {result.settings.min_trials}{first}"
+    )
+
+
+def layer_data(result: BuildResult, sheet: Sheet) -> dict:
+    """What goes into the map layer's customLayerData: the sheet, the thresholds and the outcome."""
+    trials = {}
+    for trial, report in zip(sheet.trials, result.reports):
+        entry = {"file": str(trial.file), "yaw": float(trial.yaw), "pitch": float(trial.pitch), "status": report.status}
+        if report.crop:
+            entry["cropStart"], entry["cropEnd"] = int(report.crop[0]), int(report.crop[1])
+            entry["cropSource"] = report.crop_source
+        if report.error:
+            entry["error"] = report.error
+        trials[trial.name] = entry
+    settings = {k: (float(v) if isinstance(v, float) else int(v)) for k, v in result.settings.as_dict().items()}
+    return {
+        "usdgaze:buildMap": {
+            "sheet": str(sheet.path),
+            "rate": float(result.rate or 0.0),
+            "thresholds": settings,
+            "trials": trials,
+        }
+    }
+
+
+def write_map(result: BuildResult, sheet: Sheet, out: str | Path) -> GazeMapDefinition:
+    """Write the map (``usdgaze.schema.dump_map``) with the sheet and thresholds as layer data."""
+    from ..schema import dump_map  # pxr only when writing
+
+    definition = require_definition(result)
+    dump_map(definition, out, prim_path="/GazeMap", custom_layer_data=layer_data(result, sheet))
+    return definition

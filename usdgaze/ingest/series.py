@@ -1,0 +1,91 @@
+"""A trial as time series: chain landmark orientations plus the points whose speed finds the rests.
+
+:func:`marker_series` turns a C3D capture into one (gap fill and root stabilization included);
+:mod:`.skelclips` does the same for UsdSkel clips. Both feed :mod:`.build`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from .c3dio import MarkerCapture, read_c3d
+from .cleaning import fill_gaps, missing_markers, stabilize
+from .frames import character_frame, fit_frames, landmark_frames, square_axes, square_is_mirrored
+from .markers import LANDMARKS, MarkerSet, MarkerSetError, resolve_labels
+
+
+@dataclass(frozen=True)
+class TrialSeries:
+    """One trial, uncropped.
+
+    ``orientations`` ``(F, 4, 4)``: global orientations of the pelvis, lower-spine, upper-spine and
+    head landmarks (lab or skeleton space); ``points`` ``(F, P, 3)``: root-stabilized points whose
+    mean speed finds the rests (the base itself excluded); ``frame_at``: the canonical character
+    frame (quaternion, canonical -> this space) at a frame index.
+    """
+
+    source: str
+    orientations: np.ndarray
+    points: np.ndarray
+    frame_at: Callable[[int], np.ndarray]
+    rate: float
+    units: str
+    mm_per_unit: float
+    filled: int = 0
+    """Occluded samples filled by :func:`.cleaning.fill_gaps`."""
+
+    @property
+    def frames(self) -> int:
+        return self.orientations.shape[0]
+
+
+def marker_series(capture: MarkerCapture, markerset: MarkerSet, where: str) -> TrialSeries:
+    """Gap-fill, stabilize and turn a capture's landmark markers into a :class:`TrialSeries`."""
+    markerset.require_complete()
+    wanted = markerset.labels()
+    idx = resolve_labels(wanted, capture.labels, markerset.subject, where)
+    points = capture.points[:, idx]
+    never = missing_markers(points)
+    if np.any(never):
+        raise MarkerSetError(f"{where}: marker '{capture.labels[idx[int(np.flatnonzero(never)[0])]]}' has no sample in the whole trial")
+    filled, mask = fill_gaps(points)
+    base = wanted.index(markerset.base_of_spine)
+    stable = stabilize(filled, base)
+    landmarks, pos = [], 0
+    for name in LANDMARKS:
+        n = len(markerset.landmarks[name])
+        landmarks.append(stable[:, pos : pos + n])
+        pos += n
+    groups = list(landmarks)
+    if markerset.head_top:
+        top = stable[:, wanted.index(markerset.head_top)]
+        if square_is_mirrored(landmarks[3], top):
+            raise MarkerSetError(
+                f"{where}: the head square is listed mirrored (head_top lies below it); list it left-front, left-back, right-back, right-front"
+            )
+        groups[3] = np.concatenate([landmarks[3], top[:, None]], axis=1)
+    orientations = np.stack(
+        [fit_frames(g, landmark_frames(p, f"{where}: {name} markers")) for name, p, g in zip(LANDMARKS, landmarks, groups)],
+        axis=1,
+    )
+    _, forward = square_axes(landmarks[3])
+    up = markerset.up
+    keep = np.setdiff1d(np.arange(stable.shape[1]), [base])
+    return TrialSeries(
+        source=where,
+        orientations=orientations,
+        points=stable[:, keep],
+        frame_at=lambda i: character_frame(forward[i], up, f"{where}: head square at frame {i}"),
+        rate=capture.rate,
+        units=capture.units,
+        mm_per_unit=capture.mm_per_unit,
+        filled=int(mask.sum()),
+    )
+
+
+def read_marker_series(path: str, markerset: MarkerSet, where: str) -> TrialSeries:
+    """:func:`marker_series` of a C3D file."""
+    return marker_series(read_c3d(path), markerset, where)

@@ -1,0 +1,140 @@
+"""The trial sheet: one row per example trial with its file, known target and optional manual crop.
+
+CSV: a header row with ``file``, ``yaw``, ``pitch`` and optionally ``trial``, ``crop_start``,
+``crop_end`` (frames: 0-based sample indices into the file, end inclusive) and ``skeleton`` (the
+Skeleton prim of a UsdSkel clip). TOML: ``[[trial]]`` tables with the same keys (``crop = [start,
+end]`` also works), an optional top-level ``markers = "markerset.toml"`` and an optional
+``[skeleton]`` binding table. Relative paths are relative to the sheet. Yaw is positive toward the
+subject's left and never wrapped (-180 and +180 are a right and a left turn).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import UsdGazeError
+from .markers import SkeletonBinding, skeleton_binding
+from .tomlio import load_toml
+
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+
+
+class SheetError(UsdGazeError):
+    """The trial sheet is malformed."""
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One example: its name, file, known target (degrees) and optional manual crop (frames)."""
+
+    name: str
+    file: Path
+    yaw: float
+    pitch: float
+    crop: tuple[int, int] | None = None
+    skeleton: str | None = None
+
+    @property
+    def is_skeletal(self) -> bool:
+        return self.file.suffix.lower() in USD_SUFFIXES
+
+
+@dataclass(frozen=True)
+class Sheet:
+    """The parsed sheet: trials in order, plus what a TOML sheet may add."""
+
+    path: Path
+    trials: tuple[Trial, ...]
+    markers: Path | None = None
+    skeleton: SkeletonBinding = field(default_factory=SkeletonBinding)
+
+
+_ALIASES = {"name": "trial", "target_yaw": "yaw", "target_pitch": "pitch", "path": "file"}
+
+
+def _number(value, key: str, where: str) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise SheetError(f"{where}: {key} '{value}' is not a number") from None
+    if not math.isfinite(x):
+        raise SheetError(f"{where}: {key} is {value}")
+    return x
+
+
+def _frame(value, key: str, where: str) -> int:
+    x = _number(value, key, where)
+    if x != int(x) or x < 0:
+        raise SheetError(f"{where}: {key} '{value}' is not a frame index (a whole number >= 0)")
+    return int(x)
+
+
+def _trial(row: dict, index: int, base: Path, where: str, seen: set[str]) -> Trial:
+    row = {_ALIASES.get(str(k).strip().lower(), str(k).strip().lower()): v for k, v in row.items() if k is not None}
+    row = {k: (v.strip() if isinstance(v, str) else v) for k, v in row.items()}
+    for key in ("file", "yaw", "pitch"):
+        if row.get(key) in (None, ""):
+            raise SheetError(f"{where}: no {key}")
+    file = Path(str(row["file"]))
+    file = file if file.is_absolute() else base / file
+    name = str(row.get("trial") or "") or file.stem
+    if name in seen:
+        raise SheetError(f"{where}: trial name '{name}' appears twice")
+    seen.add(name)
+    yaw = _number(row["yaw"], "yaw", where)
+    pitch = _number(row["pitch"], "pitch", where)
+    if not -180.0 <= yaw <= 180.0 or not -90.0 <= pitch <= 90.0:
+        raise SheetError(f"{where}: target ({yaw:g}, {pitch:g}) is outside yaw -180..180, pitch -90..90")
+    crop = None
+    if isinstance(row.get("crop"), (list, tuple)):
+        if len(row["crop"]) != 2:
+            raise SheetError(f"{where}: crop must be [start, end]")
+        row["crop_start"], row["crop_end"] = row["crop"]
+    start, end = row.get("crop_start"), row.get("crop_end")
+    if start not in (None, "") or end not in (None, ""):
+        if start in (None, "") or end in (None, ""):
+            raise SheetError(f"{where}: give both crop_start and crop_end, or neither")
+        crop = (_frame(start, "crop_start", where), _frame(end, "crop_end", where))
+        if crop[1] <= crop[0]:
+            raise SheetError(f"{where}: crop_end {crop[1]} is not after crop_start {crop[0]}")
+    skeleton = row.get("skeleton") or None
+    return Trial(name=name, file=file, yaw=yaw, pitch=pitch, crop=crop, skeleton=skeleton)
+
+
+def load_sheet(path: str | Path) -> Sheet:
+    """Read a CSV or TOML trial sheet."""
+    path = Path(path)
+    if not path.is_file():
+        raise SheetError(f"{path}: no such trial sheet")
+    base = path.parent
+    seen: set[str] = set()
+    markers = None
+    binding = SkeletonBinding()
+    if path.suffix.lower() == ".toml":
+        data = load_toml(path, SheetError)
+        rows = data.get("trial", data.get("trials", []))
+        if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+            raise SheetError(f"{path}: trials must be [[trial]] tables")
+        trials = [_trial(r, i, base, f"{path} trial {i + 1}", seen) for i, r in enumerate(rows)]
+        if data.get("markers"):
+            markers = Path(str(data["markers"]))
+            markers = markers if markers.is_absolute() else base / markers
+        if "skeleton" in data:
+            binding = skeleton_binding(data["skeleton"], str(path))
+    else:
+        with path.open(newline="", encoding="utf-8-sig") as f:
+            lines = [line for line in f if line.strip() and not line.lstrip().startswith("#")]
+        reader = csv.DictReader(lines)
+        if not reader.fieldnames:
+            raise SheetError(f"{path}: empty sheet (expected a header with file, yaw, pitch)")
+        header = {_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in reader.fieldnames if h}
+        missing = [k for k in ("file", "yaw", "pitch") if k not in header]
+        if missing:
+            raise SheetError(f"{path}: the header lacks column {missing[0]} (has {', '.join(reader.fieldnames)})")
+        trials = [_trial(r, i, base, f"{path} row {i + 2}", seen) for i, r in enumerate(reader)]
+    if not trials:
+        raise SheetError(f"{path}: no trials")
+    return Sheet(path=path, trials=tuple(trials), markers=markers, skeleton=binding)

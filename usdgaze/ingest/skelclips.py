@@ -1,0 +1,149 @@
+"""Skeletal example clips (UsdSkel, keyframed or solved capture) as trial series.
+
+The chain's orientations come from the skeleton instead of marker triangles: the skeleton-space
+transforms of the last pelvis, lower-spine and upper-spine joints and of the head
+(``UsdSkel.SkeletonQuery.ComputeJointSkelTransforms``), bound by name (Mixamo, CMU, Rigify, ... via
+:func:`usdgaze.rig.bind_chain`) or explicitly by a ``[skeleton]`` table in the marker set or a TOML
+sheet (``pelvis = "Hips"``, a joint name or path per role). The rests are found on the speed of
+virtual markers: three points 100 mm out along the axes of each of the four chain joints (a marker
+triangle's worth, so that a turn of the head alone moves markers as it does on a capture; joint
+positions alone would not see it), relative to the pelvis joint (the base-of-spine reference),
+in the stage's units. Up is the stage's up axis carried into skeleton space (through the
+Skeleton's transform) unless the binding sets ``up_axis`` (skeleton space); forward comes from
+left/right-named joints at the crop's first frame, or the binding's ``forward`` (skeleton space).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdSkel
+
+from .. import rotations as rot
+from ..definition import ROLES
+from ..errors import RigError, UsdGazeError
+from ..rig import bind_chain, character_frame, leaf
+from .markers import SkeletonBinding, parse_axis
+from .series import TrialSeries
+
+
+VIRTUAL_MARKER_MM = 100.0
+"""How far out along each chain joint's axes the virtual markers for rest detection sit."""
+
+
+class SkeletonClipError(UsdGazeError):
+    """A UsdSkel example clip cannot be read."""
+
+
+def _open(path: Path, where: str) -> Usd.Stage:
+    try:
+        stage = Usd.Stage.Open(str(path))
+    except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
+        text = str(exc).strip().splitlines()
+        raise SkeletonClipError(f"{where}: cannot open as a USD stage ({text[-1].strip() if text else type(exc).__name__})") from None
+    if stage is None:
+        raise SkeletonClipError(f"{where}: cannot open as a USD stage")
+    return stage
+
+
+def _skeleton(stage: Usd.Stage, path: str | None, where: str) -> UsdSkel.Skeleton:
+    if path:
+        prim = stage.GetPrimAtPath(path)
+        if not prim or not prim.IsA(UsdSkel.Skeleton):
+            raise SkeletonClipError(f"{where}: {path} is not a Skeleton prim")
+        return UsdSkel.Skeleton(prim)
+    found = [p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton)]
+    animated = [p for p in found if UsdSkel.BindingAPI(p).GetAnimationSourceRel().GetTargets()]
+    if not animated:
+        raise SkeletonClipError(f"{where}: no Skeleton with a bound SkelAnimation")
+    if len(animated) > 1:
+        raise SkeletonClipError(f"{where}: {len(animated)} animated skeletons; name one in the sheet's skeleton column")
+    return UsdSkel.Skeleton(animated[0])
+
+
+def _resolve(binding: SkeletonBinding, joints: list[str], where: str) -> dict[str, tuple[str, ...]]:
+    """Role -> joint paths from names or paths (a name matches a joint's leaf, namespaces ignored)."""
+    out = {}
+    for role, name in binding.joints.items():
+        if role not in ROLES:
+            raise SkeletonClipError(f"{where}: unknown skeleton role '{role}' (roles: {', '.join(ROLES)})")
+        if name in joints:
+            out[role] = (name,)
+            continue
+        hits = [j for j in joints if leaf(j) == leaf(name)] or [j for j in joints if leaf(j).lower() == leaf(name).lower()]
+        if not hits:
+            raise SkeletonClipError(f"{where}: skeleton.{role} = '{name}' is not a joint of the skeleton")
+        if len(hits) > 1:
+            raise SkeletonClipError(f"{where}: skeleton.{role} = '{name}' matches {len(hits)} joints; give the joint path")
+        out[role] = (hits[0],)
+    return out
+
+
+def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBinding(), skeleton: str | None = None,
+                         where: str | None = None) -> TrialSeries:
+    """Read a UsdSkel clip into a :class:`TrialSeries` (skeleton space)."""
+    path = Path(path)
+    where = where or str(path)
+    stage = _open(path, where)
+    skel = _skeleton(stage, skeleton or binding.skeleton, where)
+    root = UsdSkel.Root.Find(skel.GetPrim())
+    cache = UsdSkel.Cache()
+    if root:
+        cache.Populate(root, Usd.PrimDefaultPredicate)
+    query = cache.GetSkelQuery(skel)
+    if not query:
+        raise SkeletonClipError(f"{where}: {skel.GetPath()} is not a valid skeleton (joints, rest transforms)")
+    anim = query.GetAnimQuery()
+    times = list(anim.GetJointTransformTimeSamples()) if anim else []
+    if len(times) < 2:
+        raise SkeletonClipError(f"{where}: {skel.GetPath()} has no animation (fewer than 2 time samples)")
+    joints = [str(j) for j in query.GetJointOrder()]
+    parents = np.array(query.GetTopology().GetParentIndices(), dtype=int)
+    try:
+        chain = bind_chain(joints, parents, _resolve(binding, joints, where), where)
+    except RigError as exc:
+        raise SkeletonClipError(f"{exc} (for build-map: name the joints in a [skeleton] table of the marker set or TOML sheet)") from None
+    landmarks = [chain.roles["pelvis"][-1], chain.roles["lowerSpine"][-1], chain.roles["upperSpine"][-1], chain.head]
+
+    rate = float(stage.GetTimeCodesPerSecond())
+    step = float(np.min(np.diff(times)))
+    if step < 1.0 - 1e-6:
+        # Sub-frame samples: read them as they are if they are evenly spaced.
+        if np.any(np.abs(np.diff(times) - step) > 1e-6):
+            raise SkeletonClipError(f"{where}: sub-frame time samples are not evenly spaced; resample the clip")
+        rate /= step
+    else:
+        # One sample per time code; keys further apart (keyframed clips) are interpolated by UsdSkel.
+        times = list(np.arange(times[0], times[-1] + 1e-9, 1.0))
+
+    # One USD call per sample; everything after is vectorized over frames.
+    world = rot.matrices_from_usd(
+        np.stack([np.array(query.ComputeJointSkelTransforms(Usd.TimeCode(float(t))), dtype=float) for t in times])
+    )
+    chain_world = world[:, landmarks]
+    orientations = rot.from_matrix(chain_world[..., :3, :3])
+    meters = float(UsdGeom.GetStageMetersPerUnit(stage))
+    reach = VIRTUAL_MARKER_MM / (meters * 1000.0)
+    axes = chain_world[..., :3, :3] / np.linalg.norm(chain_world[..., :3, :3], axis=-2, keepdims=True)
+    points = chain_world[..., None, :3, 3] + reach * np.swapaxes(axes, -1, -2)  # (F, 4, 3 axes, xyz)
+    points = points.reshape(len(times), -1, 3) - world[:, chain.pelvis, :3, 3][:, None, :]
+
+    if binding.up_axis:
+        up = parse_axis(binding.up_axis, where)  # given in skeleton space
+    else:
+        # The stage's up axis carried into skeleton space (a rig may sit under a rotating Xform).
+        to_world = rot.matrices_from_usd(np.array(
+            UsdGeom.Xformable(skel.GetPrim()).ComputeLocalToWorldTransform(Usd.TimeCode(float(times[0]))), dtype=float))
+        up = np.linalg.solve(to_world[:3, :3], parse_axis(str(UsdGeom.GetStageUpAxis(stage)), where))
+        up = up / np.linalg.norm(up)
+    forward = None if binding.forward is None else np.asarray(binding.forward, dtype=float)
+    return TrialSeries(
+        source=where,
+        orientations=orientations,
+        points=points,
+        frame_at=lambda i: character_frame(joints, world[i], up, forward, f"{where} frame {i}").rotation,
+        rate=rate,
+        units=f"{meters:g} m",
+        mm_per_unit=meters * 1000.0,
+    )

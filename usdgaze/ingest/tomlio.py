@@ -1,0 +1,29 @@
+"""TOML loading (tomllib on Python >= 3.11, tomli before) with one-line errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import UsdGazeError
+
+try:
+    import tomllib as _toml
+except ModuleNotFoundError:  # Python 3.10
+    try:
+        import tomli as _toml
+    except ModuleNotFoundError:
+        _toml = None
+
+
+def load_toml(path: str | Path, error: type[UsdGazeError] = UsdGazeError) -> dict:
+    """Parse a TOML file, raising ``error`` with the file and the parser's reason."""
+    path = Path(path)
+    if _toml is None:
+        raise error(f"{path}: reading TOML on Python 3.10 needs tomli: pip install tomli")
+    try:
+        with path.open("rb") as f:
+            return _toml.load(f)
+    except FileNotFoundError:
+        raise error(f"{path}: no such file") from None
+    except _toml.TOMLDecodeError as exc:
+        raise error(f"{path}: not valid TOML ({exc})") from None
