@@ -17,7 +17,8 @@ from .definition import GazeMapDefinition
 from .errors import UsdGazeError
 from .gazemap import ParametricGazeMap
 from .gazepass import PassOptions, PassResult, Shift, apply_gaze
-from .layers import AnimOverride, LayerInfo, atomic_export, build_override, check_output_path, insert_sublayer, write_preview
+from .layers import (AnimOverride, LayerInfo, atomic_export, build_override, check_output_path, check_sublayer_target,
+                     insert_sublayer, write_preview)
 from .rig import Chain, CharacterFrame, bind_chain, character_frame
 
 _SHIFT = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)(s?)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*$")
@@ -85,11 +86,14 @@ def _schema():
 
 def select_roots(stage, source: str, skel_root: str | None):
     """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
-    from pxr import UsdSkel
+    from pxr import Sdf, UsdSkel
 
     from .skelio import skel_roots
 
     if skel_root:
+        if not Sdf.Path.IsValidPathString(skel_root) or not (Sdf.Path(skel_root).IsAbsolutePath()
+                                                               and Sdf.Path(skel_root).IsPrimPath()):
+            raise UsdGazeError(f"{source}: --skel-root '{skel_root}' is not an absolute prim path such as /Character")
         prim = stage.GetPrimAtPath(skel_root)
         if not prim or not prim.IsValid():
             raise UsdGazeError(f"{source}:{skel_root}: no such prim")
@@ -195,6 +199,12 @@ def apply(
             seen_anims[clip.animation] = clip.skeleton
             chain, frame = bind(clip, own)
             result = apply_gaze(clip, chain, frame, gaze_map, [r.to_shift(clip) for r in requests], options)
+            for r in requests:
+                if r.to_shift(clip).time_s > clip.seconds[-1]:
+                    report.warnings.append(
+                        f"{clip.where()}: shift {r} starts at {r.to_shift(clip).time_s:g} s, after the animation's "
+                        f"last sample ({clip.seconds[-1]:g} s); it changes nothing"
+                    )
             report.warnings.extend(result.warnings)
             override = AnimOverride(
                 animation=clip.animation,
@@ -236,6 +246,8 @@ def apply(
             "characters": [c.skel_root for c in report.characters],
         }
     }
+    if sublayer_into is not None:  # refuse before anything is written
+        check_sublayer_target(sublayer_into, [c.animation for c in report.characters])
     layer = build_override(overrides, info, fmt=out_path.suffix.lstrip("."))
     atomic_export(layer, out_path)
     if preview is not None:

@@ -176,6 +176,9 @@ def main(argv: list[str] | None = None) -> int:
     except UsdGazeError as exc:
         _fail(str(exc))
         return EXIT_BAD_INPUT
+    except click.exceptions.NoArgsIsHelpError as exc:  # plain ``usdgaze``: the help, as --help gives it
+        click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
+        return 0
     except click.exceptions.Abort:
         _fail("aborted")
         return EXIT_BAD_INPUT

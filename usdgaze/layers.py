@@ -167,13 +167,22 @@ def write_preview(preview: str | os.PathLike, override: str | os.PathLike, input
     atomic_export(layer, preview)
 
 
-def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str]) -> bool:
-    """Make ``override`` the strongest sublayer of ``root``, changing nothing but its subLayers.
+def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str]) -> Sdf.Layer:
+    """The layer ``root`` if the override can go in as its strongest sublayer, else a one-line error.
 
-    Returns False if it already was there. Refuses when ``root`` itself holds opinions on the
-    animations, since a sublayer is weaker than its root layer's own opinions.
+    Refuses when ``root`` itself holds opinions on the animations, since a sublayer is weaker than
+    its root layer's own opinions. Called before anything is written.
     """
-    layer = Sdf.Layer.FindOrOpen(str(root))
+    if Path(root).suffix.lower() not in _FORMATS:
+        raise UsdGazeError(f"{root}: --sublayer-into must name a .usda, .usdc or .usd layer")
+    if not os.path.isfile(root):
+        raise UsdGazeError(f"{root}: no such file to insert the sublayer into")
+    try:
+        layer = Sdf.Layer.FindOrOpen(str(root))
+    except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
+        from .skelio import usd_failure
+
+        raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into ({usd_failure(exc)})") from None
     if layer is None:
         raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into")
     for path in anim_paths:
@@ -184,6 +193,16 @@ def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_p
                     f"{root}:{path}.{name}: this layer's own opinion would win over any sublayer; "
                     "use --preview, or insert into a layer that sublayers this one"
                 )
+    return layer
+
+
+def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str]) -> bool:
+    """Make ``override`` the strongest sublayer of ``root``, changing nothing but its subLayers.
+
+    Returns False if it already was there. Refuses (see :func:`check_sublayer_target`) when
+    ``root`` itself holds opinions on the animations.
+    """
+    layer = check_sublayer_target(root, anim_paths)
     rel = relative_asset_path(override, root)
     resolved = {os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(root)), p)) for p in layer.subLayerPaths}
     if os.path.normpath(os.path.abspath(override)) in resolved:

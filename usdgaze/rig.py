@@ -15,13 +15,21 @@ from .definition import ROLES
 from .errors import RigError
 
 
+# UsdSkel joint tokens are path elements, which cannot hold ':', '-' or '.', so exporters write
+# Mixamo's "mixamorig:Head" as "mixamorig_Head" and Rigify's "DEF-spine.001" / "DEF-eye.L" as
+# "DEF_spine_001" / "DEF_eye_L". Both spellings must bind alike.
+_MIXAMO_PREFIX = re.compile(r"^mixamorig\d*_")
+_SANITIZED_SUFFIX = re.compile(r"_(\d{3}|[LRlr])$")
+
+
 def leaf(joint: str) -> str:
-    """The joint's own name without its path or a namespace prefix (``mixamorig:Head`` -> ``Head``)."""
-    return joint.rsplit("/", 1)[-1].rsplit(":", 1)[-1]
+    """The joint's own name without its path or a namespace prefix (``mixamorig:Head``,
+    ``mixamorig_Head`` -> ``Head``)."""
+    return _MIXAMO_PREFIX.sub("", joint.rsplit("/", 1)[-1].rsplit(":", 1)[-1])
 
 
 def _key(name: str) -> str:
-    return re.sub(r"[^a-z0-9.]", "", leaf(name).lower())
+    return re.sub(r"[^a-z0-9.]", "", _SANITIZED_SUFFIX.sub(r".\1", leaf(name)).lower())
 
 
 # Exact (normalized) leaf names per role for the conventions we know. Order inside a role does not

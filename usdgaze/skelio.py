@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
-from pxr import Usd, UsdGeom, UsdSkel
+from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
 from . import rotations as rot
 from .clip import SkelClip
@@ -11,13 +13,22 @@ from .kinematics import world_matrices
 from .errors import UsdGazeError
 
 
+def usd_failure(exc: BaseException) -> str:
+    """The first (root-cause) message of a Tf.ErrorException, without USD's source location."""
+    for line in str(exc).splitlines():
+        line = line.strip()
+        if line:
+            m = re.match(r"^Error in '.*?' at line \d+ in file .*? : '(.*)'$", line)
+            return m.group(1) if m else line
+    return type(exc).__name__
+
+
 def open_stage(path: str) -> Usd.Stage:
     """Open a stage, turning USD's failure into a one-line error naming the file."""
     try:
         stage = Usd.Stage.Open(str(path))
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
-        first = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
-        raise UsdGazeError(f"{path}: cannot open as a USD stage ({first.strip()})") from None
+        raise UsdGazeError(f"{path}: cannot open as a USD stage ({usd_failure(exc)})") from None
     if stage is None:
         raise UsdGazeError(f"{path}: cannot open as a USD stage")
     return stage
@@ -47,6 +58,12 @@ def _joint_parents(joints: list[str], where: str) -> np.ndarray:
     index = {j: i for i, j in enumerate(joints)}
     parents = np.full(len(joints), -1, dtype=int)
     for i, j in enumerate(joints):
+        if not Sdf.Path.IsValidPathString(j) or Sdf.Path(j).IsAbsolutePath():
+            # UsdSkel parses joint tokens as relative paths; it reads an ill-formed one as a root joint.
+            raise UsdGazeError(
+                f"{where}.joints: '{j}' is not a valid joint path (UsdSkel reads an ill-formed joint as a root); "
+                f"use letters, digits and '_' in joint names, as exporters write 'mixamorig:Hips' as 'mixamorig_Hips'"
+            )
         parent = j.rsplit("/", 1)[0] if "/" in j else None
         if parent is not None:
             if parent not in index or index[parent] >= i:

@@ -1,0 +1,242 @@
+"""Gaze pass against a bare copy pass, side by side.
+
+    python benchmarks/bench_pass.py [--frames 20000 --joints 100 --runs 5] [--profile]
+
+On ``sample_stages/cmu/cmu_131_02.usdc`` (31 joints x 1247 frames, real capture) and on a synthetic
+walk (``--joints`` x ``--frames``, written to a temp folder by tests/synthetic.py):
+
+* gaze: ``usdgaze.api.apply`` with four shifts, writing a .usdc override;
+* bare: the same animation read with ``usdgaze.skelio.read_clip`` and written back unchanged with
+  ``usdgaze.layers.build_override`` + ``atomic_export``, as the same attributes the gaze pass writes
+  (found in its output layer), so the difference is what the gaze model costs.
+
+Best of ``--runs`` each, the two interleaved. Prints both times, the ratio gaze/bare (goal <= 1.3) and
+where the time goes (read, map build, model, write). ``--profile`` adds cProfile's top functions of
+one gaze pass on each input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import importlib.util
+import io
+import pstats
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
+from pxr import Sdf
+
+from usdgaze import api, gazemap, layers, skelio
+
+ROOT = Path(__file__).resolve().parents[1]
+CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc"
+
+
+def _synthetic():
+    spec = importlib.util.spec_from_file_location("usdgaze_bench_synthetic", ROOT / "tests" / "synthetic.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+# -- timing --------------------------------------------------------------------------------------
+
+class Stages:
+    """Wall time per stage, gathered by wrapping the functions the passes call."""
+
+    WRAP = {
+        "read": [(skelio, "open_stage"), (skelio, "read_clip")],
+        "map build": [(gazemap.ParametricGazeMap, "__init__")],
+        "model": [(api, "apply_gaze"), (api, "bind")],
+        "write": [(api, "build_override"), (api, "atomic_export"), (layers, "build_override"),
+                  (layers, "atomic_export")],
+    }
+
+    def __init__(self):
+        self.times: dict[str, float] = defaultdict(float)
+        self._depth = 0
+
+    @contextmanager
+    def installed(self):
+        saved = []
+        for stage, targets in self.WRAP.items():
+            for owner, name in targets:
+                original = getattr(owner, name)
+                saved.append((owner, name, original))
+                setattr(owner, name, self._wrap(stage, original))
+        try:
+            yield self
+        finally:
+            for owner, name, original in reversed(saved):
+                setattr(owner, name, original)
+
+    def _wrap(self, stage, fn):
+        def timed(*args, **kwargs):
+            if self._depth:  # nested wrapped call: counted by the outer one
+                return fn(*args, **kwargs)
+            self._depth += 1
+            t0 = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self.times[stage] += time.perf_counter() - t0
+                self._depth -= 1
+        return timed
+
+
+# -- the two passes ------------------------------------------------------------------------------
+
+def gaze_pass(src: Path, shifts: list[str], out: Path) -> None:
+    api.apply(src, shifts, out)
+
+
+def written_attributes(out: Path) -> dict[str, set[str]]:
+    """Prim path -> attribute names the gaze pass authored in its output layer."""
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    layer.Reload(force=True)
+    found: dict[str, set[str]] = {}
+
+    def visit(path):
+        if path.IsPropertyPath():
+            found.setdefault(str(path.GetPrimPath()), set()).add(path.name)
+
+    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
+    return found
+
+
+def bare_pass(src: Path, out: Path, attrs: dict[str, set[str]]) -> None:
+    """Read the animation(s) as the gaze pass does and write them back unchanged, same attributes."""
+    stage = skelio.open_stage(str(src))
+    overrides, info = [], None
+    for root in api.select_roots(stage, str(src), None):
+        for skel in skelio.skeletons_under(root):
+            clip = skelio.read_clip(stage, skel, root, str(src))
+            a = attrs.get(clip.animation, set())
+            s = attrs.get(clip.skeleton, set())
+            o = layers.AnimOverride(
+                animation=clip.animation, times=clip.times, joints=clip.anim_joints,
+                rotations=clip.rotations if "rotations" in a else None,
+                translations=clip.translations if "translations" in a else None,
+                scales=clip.scales if "scales" in a else None,
+                write_joints="joints" in a,
+            )
+            if "joints" in s:
+                o.skeleton = clip.skeleton
+                o.skeleton_joints = clip.joints
+                o.rest_transforms = clip.rest_local if "restTransforms" in s else None
+                o.bind_transforms = clip.bind_world if "bindTransforms" in s else None
+                o.joint_names = clip.joint_names if "jointNames" in s else None
+            overrides.append(o)
+            if info is None:
+                info = layers.LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time,
+                                        clip.end_time, clip.up_axis, clip.meters_per_unit)
+    layer = layers.build_override(overrides, info, fmt="usdc")
+    layers.atomic_export(layer, out)
+
+
+def shifts_for(src: Path) -> list[str]:
+    """Four shifts spread over the clip, in seconds from the stage start."""
+    stage = skelio.open_stage(str(src))
+    length = (stage.GetEndTimeCode() - stage.GetStartTimeCode()) / stage.GetTimeCodesPerSecond()
+    return [f"{length * f:.3f}s:{yaw}:{pitch}" for f, yaw, pitch in
+            ((0.1, 60, 0), (0.35, -120, 10), (0.6, 0, 0), (0.85, 30, -20))]
+
+
+def bench(label: str, src: Path, work: Path, runs: int, profile: bool) -> dict:
+    shifts = shifts_for(src)
+    gaze_out, bare_out = work / f"{label}_gaze.usdc", work / f"{label}_bare.usdc"
+    gaze_pass(src, shifts, gaze_out)  # warm up (imports, caches) and learn what it writes
+    attrs = written_attributes(gaze_out)
+    bare_pass(src, bare_out, attrs)
+
+    best = {"gaze": (np.inf, None), "bare": (np.inf, None)}
+    for i in range(runs):
+        order = (("gaze", lambda: gaze_pass(src, shifts, gaze_out)), ("bare", lambda: bare_pass(src, bare_out, attrs)))
+        for name, fn in (order if i % 2 == 0 else order[::-1]):
+            stages = Stages()
+            with stages.installed():
+                t0 = time.perf_counter()
+                fn()
+                total = time.perf_counter() - t0
+            if total < best[name][0]:
+                best[name] = (total, dict(stages.times))
+
+    clip_info = skelio.read_clip(*_first_clip(src))
+    result = dict(label=label, src=src, frames=len(clip_info.times), joints=len(clip_info.joints),
+                  shifts=shifts, attrs=attrs, gaze=best["gaze"], bare=best["bare"],
+                  size=(gaze_out.stat().st_size, bare_out.stat().st_size))
+    if profile:
+        prof = cProfile.Profile()
+        prof.enable()
+        gaze_pass(src, shifts, gaze_out)
+        prof.disable()
+        text = io.StringIO()
+        pstats.Stats(prof, stream=text).sort_stats("tottime").print_stats(15)
+        result["profile"] = text.getvalue()
+    return result
+
+
+def _first_clip(src: Path):
+    stage = skelio.open_stage(str(src))
+    root = api.select_roots(stage, str(src), None)[0]
+    return stage, skelio.skeletons_under(root)[0], root, str(src)
+
+
+def report(r: dict) -> None:
+    (g, gs), (b, bs) = r["gaze"], r["bare"]
+    print(f"\n{r['label']}: {r['src'].name}  {r['joints']} joints x {r['frames']} frames, shifts {' '.join(r['shifts'])}")
+    written = "; ".join(f"{p} [{' '.join(sorted(a))}]" for p, a in sorted(r["attrs"].items()))
+    print(f"  writes: {written}")
+    print(f"  gaze pass  {g * 1e3:9.1f} ms   (override {r['size'][0] / 1e6:.1f} MB)")
+    print(f"  bare copy  {b * 1e3:9.1f} ms   (override {r['size'][1] / 1e6:.1f} MB)")
+    print(f"  ratio gaze/bare  {g / b:.2f}x   (goal <= 1.3x)")
+    print("  breakdown (ms)      read  map build     model     write     other")
+    for name, total, stages in (("gaze", g, gs), ("bare", b, bs)):
+        parts = [stages.get(k, 0.0) for k in ("read", "map build", "model", "write")]
+        print(f"    {name:<12} " + "".join(f"{v * 1e3:10.1f}" for v in parts) + f"{(total - sum(parts)) * 1e3:10.1f}")
+    if "profile" in r:
+        print("  cProfile, one gaze pass (top by own time):")
+        print(textwrap_indent(r["profile"], "    "))
+
+
+def textwrap_indent(text: str, prefix: str) -> str:
+    lines = [line for line in text.splitlines() if line.strip()]
+    start = next((i for i, line in enumerate(lines) if "ncalls" in line), 0)
+    return "\n".join(prefix + line for line in lines[start:])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frames", type=int, default=20000)
+    parser.add_argument("--joints", type=int, default=100)
+    parser.add_argument("--runs", type=int, default=5, help="best of N, gaze and bare interleaved")
+    parser.add_argument("--profile", action="store_true", help="cProfile one gaze pass per input")
+    parser.add_argument("--keep", type=Path, default=None, help="write the files here instead of a temp folder")
+    args = parser.parse_args(argv)
+
+    with tempfile.TemporaryDirectory(prefix="usdgaze_bench_") as tmp:
+        work = args.keep or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        t0 = time.perf_counter()
+        rig = _synthetic().make_rig(work / "synthetic.usdc", joints=args.joints, frames=args.frames,
+                                    time_codes_per_second=60, turn_deg_per_s=6, mesh=True)
+        print(f"generated {rig.path.name}: {len(rig.joints)} joints x {args.frames} frames in {time.perf_counter() - t0:.1f} s")
+        results = [bench("cmu", CMU, work, args.runs, args.profile),
+                   bench("synthetic", rig.path, work, args.runs, args.profile)]
+    for r in results:
+        report(r)
+    print(f"\nbest of {args.runs}, python {sys.version.split()[0]}, numpy {np.__version__}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

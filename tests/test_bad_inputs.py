@@ -1,0 +1,473 @@
+"""Bad inputs: exit code 2, exactly one line on stderr naming what is wrong, nothing half-written.
+
+The catalogue lives in docs/bad-inputs.md (one table row per case: id, input, message); this file
+builds each case and runs the ``usdgaze`` console command on it in a subprocess (all of them at
+once, in parallel). A row's message is a pattern: ``{dir}`` stands for the case's folder, ``…`` for
+any text. Every row must have a ``b_<id>`` builder here and every builder a row.
+
+Also here: an ``apply`` killed in the middle of writing leaves no file at ``--out`` (and an older
+output there untouched).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import textwrap
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
+from pxr import Sdf, Vt
+
+from . import measure
+from . import synthetic as syn
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC = ROOT / "docs" / "bad-inputs.md"
+CROWD = ROOT / "sample_stages" / "shared_map" / "crowd.usda"
+CLI = [sys.executable, "-m", "usdgaze.cli"]
+SHIFT = ["--shift", "0.5s:30:0"]
+
+
+def _rig(d: Path, name: str = "in.usda", **kw) -> syn.Rig:
+    kw.setdefault("frames", 90)
+    kw.setdefault("mesh", False)
+    return syn.make_rig(d / name, **kw)
+
+
+def _apply(d: Path, src: Path, *extra: str, shifts=SHIFT, out: str = "gaze.usdc") -> list[str]:
+    return ["apply", str(src), *shifts, "--out", str(d / out), *extra]
+
+
+def _edited(d: Path, fn, **kw) -> Path:
+    rig = _rig(d, **kw)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    fn(layer, rig)
+    layer.Save()
+    return rig.path
+
+
+def _remove(layer: Sdf.Layer, path: str) -> None:
+    p = Sdf.Path(path)
+    if p.IsPropertyPath():
+        owner = layer.GetPrimAtPath(p.GetPrimPath())
+        owner.RemoveProperty(owner.properties[p.name])
+    else:
+        del layer.GetPrimAtPath(p.GetParentPath()).nameChildren[p.name]
+
+
+def _set_sample(layer: Sdf.Layer, rig: syn.Rig, attr: str, value, at: int = 5) -> None:
+    layer.SetTimeSample(Sdf.Path(f"{rig.animation}.{attr}"), float(rig.times[at]), value)
+
+
+def _quats(n: int, nan: bool = False):
+    q = np.zeros((n, 4), dtype=np.float32)
+    q[:, 3] = 1.0
+    if nan:
+        q[n // 2] = np.nan
+    return Vt.QuatfArray.FromNumpy(q)
+
+
+# -- builders: id -> (case dir) -> argv -----------------------------------------------------------
+
+def b_missing_input(d):
+    return _apply(d, d / "nothere.usda")
+
+
+def b_text_garbage(d):
+    (d / "in.usda").write_text("this is not\na USD layer {\n")
+    return _apply(d, d / "in.usda")
+
+
+def b_zero_bytes_usda(d):
+    (d / "in.usda").write_bytes(b"")
+    return _apply(d, d / "in.usda")
+
+
+def b_zero_bytes_usdc(d):
+    (d / "in.usdc").write_bytes(b"")
+    return _apply(d, d / "in.usdc")
+
+
+def b_not_a_usd_extension(d):
+    rig = _rig(d)
+    txt = d / "in.txt"
+    txt.write_bytes(rig.path.read_bytes())
+    rig.path.unlink()
+    return _apply(d, txt)
+
+
+def b_input_is_a_folder(d):
+    (d / "in.usda").mkdir()
+    return _apply(d, d / "in.usda")
+
+
+def b_no_skelroot(d):
+    src = _edited(d, lambda layer, rig: setattr(layer.GetPrimAtPath(rig.skel_root), "typeName", "Xform"))
+    return _apply(d, src)
+
+
+def b_several_skelroots(d):
+    def two(layer, rig):
+        Sdf.CopySpec(layer, rig.skel_root, layer, "/Character2")
+        rel = layer.GetRelationshipAtPath("/Character2/Skel.skel:animationSource")
+        rel.targetPathList.explicitItems = [Sdf.Path("/Character2/Anim")]
+    return _apply(d, _edited(d, two))
+
+
+def b_skel_root_missing(d):
+    return _apply(d, _rig(d).path, "--skel-root", "/Nobody")
+
+
+def b_skel_root_not_a_skelroot(d):
+    return _apply(d, _rig(d).path, "--skel-root", "/Character/Skel")
+
+
+def b_skel_root_not_a_path(d):
+    return _apply(d, _rig(d).path, "--skel-root", "Character")
+
+
+def b_skel_root_ill_formed(d):
+    return _apply(d, _rig(d).path, "--skel-root", "/Character/")
+
+
+def b_skelroot_without_skeleton(d):
+    return _apply(d, _edited(d, lambda layer, rig: _remove(layer, rig.skeleton)))
+
+
+def b_skeleton_without_animation_source(d):
+    return _apply(d, _edited(d, lambda layer, rig: _remove(layer, rig.skeleton + ".skel:animationSource")))
+
+
+def b_animation_source_not_an_animation(d):
+    def retarget(layer, rig):
+        layer.GetRelationshipAtPath(rig.skeleton + ".skel:animationSource").targetPathList.explicitItems = [
+            Sdf.Path(rig.skel_root)]
+    return _apply(d, _edited(d, retarget))
+
+
+def b_two_skeletons_one_animation(d):
+    return _apply(d, _edited(d, lambda layer, rig: Sdf.CopySpec(layer, rig.skeleton, layer, rig.skel_root + "/Skel2")))
+
+
+def b_animation_without_time_samples(d):
+    def still(layer, rig):
+        for name in ("rotations", "translations", "scales"):
+            spec = layer.GetAttributeAtPath(f"{rig.animation}.{name}")
+            first = layer.QueryTimeSample(spec.path, float(rig.times[0]))
+            for t in rig.times:
+                layer.EraseTimeSample(spec.path, float(t))
+            spec.default = first
+    return _apply(d, _edited(d, still))
+
+
+def b_rotations_length_not_joints(d):
+    return _apply(d, _edited(d, lambda layer, rig: _set_sample(layer, rig, "rotations", _quats(len(rig.anim_joints) - 3))))
+
+
+def b_scales_missing(d):
+    return _apply(d, _edited(d, lambda layer, rig: _remove(layer, rig.animation + ".scales")))
+
+
+def b_nan_rotations(d):
+    return _apply(d, _edited(d, lambda layer, rig: _set_sample(layer, rig, "rotations", _quats(len(rig.anim_joints), nan=True))))
+
+
+def b_zero_quaternions(d):
+    def zero(layer, rig):
+        _set_sample(layer, rig, "rotations", Vt.QuatfArray.FromNumpy(np.zeros((len(rig.anim_joints), 4), np.float32)))
+    return _apply(d, _edited(d, zero))
+
+
+def b_animation_names_unknown_joint(d):
+    def rename(layer, rig):
+        spec = layer.GetAttributeAtPath(rig.animation + ".joints")
+        joints = list(spec.default)
+        joints[3] = joints[3] + "_old"
+        spec.default = Vt.TokenArray(joints)
+    return _apply(d, _edited(d, rename))
+
+
+def b_rest_transforms_count(d):
+    def short(layer, rig):
+        spec = layer.GetAttributeAtPath(rig.skeleton + ".restTransforms")
+        spec.default = Vt.Matrix4dArray(list(spec.default)[:-2])
+    return _apply(d, _edited(d, short))
+
+
+def b_no_rest_pose(d):
+    def bare(layer, rig):
+        _remove(layer, rig.skeleton + ".restTransforms")
+        _remove(layer, rig.skeleton + ".bindTransforms")
+    return _apply(d, _edited(d, bare))
+
+
+def b_skeleton_without_joints(d):
+    def empty(layer, rig):
+        layer.GetAttributeAtPath(rig.skeleton + ".joints").default = Vt.TokenArray([])
+    return _apply(d, _edited(d, empty))
+
+
+def b_joints_out_of_order(d):
+    def swap(layer, rig):
+        spec = layer.GetAttributeAtPath(rig.skeleton + ".joints")
+        joints = list(spec.default)
+        joints[0], joints[1] = joints[1], joints[0]
+        spec.default = Vt.TokenArray(joints)
+    return _apply(d, _edited(d, swap))
+
+
+def b_joint_token_not_a_path(d):
+    def colon(layer, rig):
+        for prim in (rig.skeleton, rig.animation):
+            spec = layer.GetAttributeAtPath(prim + ".joints")
+            spec.default = Vt.TokenArray([j.replace("mixamorig_", "mixamorig:") for j in spec.default])
+    return _apply(d, _edited(d, colon))
+
+
+def b_chain_not_found(d):
+    return _apply(d, _rig(d, convention="generic").path)
+
+
+def b_only_one_eye(d):
+    return _apply(d, _rig(d, eyes="left").path)
+
+
+def b_input_map_malformed(d):
+    def api_only(layer, rig):
+        op = Sdf.TokenListOp()
+        op.prependedItems = ["GazeMapAPI"]
+        layer.GetPrimAtPath(rig.skel_root).SetInfo("apiSchemas", op)
+    return _apply(d, _edited(d, api_only))
+
+
+def b_shift_missing_field(d):
+    return _apply(d, _rig(d).path, shifts=["--shift", "0.5s:30"])
+
+
+def b_shift_text(d):
+    return _apply(d, _rig(d).path, shifts=["--shift", "soon:30:0"])
+
+
+def b_shift_pitch_out_of_range(d):
+    return _apply(d, _rig(d).path, shifts=["--shift", "0.5s:30:120"])
+
+
+def b_shift_not_finite(d):
+    return _apply(d, _rig(d).path, shifts=["--shift", "1e999:30:0"])
+
+
+def b_no_shift(d):
+    return _apply(d, _rig(d).path, shifts=[])
+
+
+def b_two_shifts_same_time(d):
+    # 30 time codes at 60 time codes per second is 0.5 s.
+    return _apply(d, _rig(d).path, shifts=["--shift", "0.5s:30:0", "--shift", "30:-20:5"])
+
+
+def b_out_bad_extension(d):
+    return _apply(d, _rig(d).path, out="gaze.txt")
+
+
+def b_out_missing_folder(d):
+    return _apply(d, _rig(d).path, out="nofolder/gaze.usdc")
+
+
+def b_out_is_input(d):
+    return _apply(d, _rig(d).path, out="in.usda")
+
+
+def b_preview_is_input(d):
+    return _apply(d, _rig(d).path, "--preview", str(d / "in.usda"))
+
+
+def b_preview_bad_extension(d):
+    return _apply(d, _rig(d).path, "--preview", str(d / "preview.txt"))
+
+
+def b_map_file_missing(d):
+    return _apply(d, _rig(d).path, "--map", str(d / "nomap.usda"))
+
+
+def b_map_prim_missing(d):
+    subprocess.run([*CLI, "dump-map", str(d / "map.usda")], check=True, capture_output=True)
+    return _apply(d, _rig(d).path, "--map", f"{d / 'map.usda'}:/Elsewhere")
+
+
+def b_map_prim_without_map(d):
+    rig = _rig(d)
+    return _apply(d, rig.path, "--map", f"{rig.path}:{rig.skel_root}")
+
+
+def b_map_malformed(d):
+    subprocess.run([*CLI, "dump-map", str(d / "map.usda")], check=True, capture_output=True)
+    layer = Sdf.Layer.FindOrOpen(str(d / "map.usda"))
+    spec = layer.GetAttributeAtPath("/GazeMap.gaze:examples:duration")
+    values = list(spec.default)
+    values[2] = -1.0
+    spec.default = Vt.FloatArray(values)
+    layer.Save()
+    return _apply(d, _rig(d).path, "--map", str(d / "map.usda"))
+
+
+def b_map_file_garbage(d):
+    (d / "map.usda").write_text("no map here\n")
+    return _apply(d, _rig(d).path, "--map", str(d / "map.usda"))
+
+
+def b_map_file_several_maps(d):
+    return _apply(d, _rig(d).path, "--map", str(CROWD))
+
+
+def b_sublayer_into_and_preview(d):
+    return _apply(d, _rig(d).path, "--sublayer-into", str(d / "shot.usda"), "--preview", str(d / "preview.usda"))
+
+
+def b_sublayer_into_the_input(d):
+    return _apply(d, _rig(d).path, "--sublayer-into", str(d / "in.usda"))
+
+
+def b_sublayer_into_missing_file(d):
+    return _apply(d, _rig(d).path, "--sublayer-into", str(d / "shot.usda"))
+
+
+def b_sublayer_into_garbage(d):
+    (d / "shot.usda").write_text("not a layer\n")
+    return _apply(d, _rig(d).path, "--sublayer-into", str(d / "shot.usda"))
+
+
+def b_fixation_zero(d):
+    return _apply(d, _rig(d).path, "--fixation", "0")
+
+
+def b_fixation_not_a_number(d):
+    return _apply(d, _rig(d).path, "--fixation", "far")
+
+
+def b_unknown_option(d):
+    return _apply(d, _rig(d).path, "--gaze-at", "camera")
+
+
+def b_inspect_garbage(d):
+    (d / "in.usda").write_text("garbage\n")
+    return ["inspect", str(d / "in.usda")]
+
+
+def b_dump_map_bad_extension(d):
+    return ["dump-map", str(d / "map.json")]
+
+
+BUILDERS = {name[2:].replace("_", "-"): fn for name, fn in dict(globals()).items() if name.startswith("b_")}
+
+
+# -- the catalogue --------------------------------------------------------------------------------
+
+def catalogue() -> dict[str, tuple[str, str]]:
+    """id -> (input, message pattern), from the table in docs/bad-inputs.md."""
+    rows = {}
+    for line in DOC.read_text().splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")] if line.startswith("|") else []
+        if len(cells) == 3 and cells[0].startswith("`") and cells[0] != "`id`":
+            rows[cells[0].strip("`")] = (cells[1], cells[2].strip("`"))
+    return rows
+
+
+def pattern(message: str, d: Path) -> re.Pattern:
+    """A doc message -> regex over the whole stderr line (``{dir}``: the case folder, ``…``: any text)."""
+    parts = re.split(r"(\{dir\}|…)", message)
+    body = "".join(re.escape(str(d)) if p == "{dir}" else ".*?" if p == "…" else re.escape(p) for p in parts)
+    return re.compile("usdgaze: error: " + body + "$")
+
+
+def _snapshot(d: Path) -> dict[str, str]:
+    return {str(p.relative_to(d)): (measure.sha256(p) if p.is_file() else "dir") for p in sorted(d.rglob("*"))}
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """Build every case, then run the commands in parallel (each is a fresh process)."""
+    cases = {}
+    for case_id, build in BUILDERS.items():
+        d = tmp_path_factory.mktemp(case_id)
+        argv = build(d)
+        cases[case_id] = (d, argv, _snapshot(d))
+
+    def run(item):
+        case_id, (d, argv, before) = item
+        p = subprocess.run([*CLI, *argv], capture_output=True, text=True, cwd=d, timeout=120)
+        return case_id, (d, argv, before, p)
+
+    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
+        return dict(pool.map(run, cases.items()))
+
+
+def test_catalogue_and_builders_match():
+    rows = catalogue()
+    assert rows, f"no table rows in {DOC}"
+    assert sorted(rows) == sorted(BUILDERS), (sorted(set(rows) ^ set(BUILDERS)))
+
+
+@pytest.mark.parametrize("case_id", sorted(catalogue()))
+def test_bad_input(results, case_id):
+    d, argv, before, p = results[case_id]
+    _, message = catalogue()[case_id]
+    lines = p.stderr.splitlines()
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    assert "Traceback" not in p.stderr
+    assert len(lines) == 1, p.stderr
+    assert pattern(message, d).match(lines[0]), (lines[0], message)
+    assert p.stdout == ""
+    # Nothing written, nothing changed: no --out, no temp files, every file as it was.
+    assert not (d / "gaze.usdc").exists()
+    assert _snapshot(d) == before
+
+
+# -- atomic write -------------------------------------------------------------------------------
+
+_DRIVER = textwrap.dedent("""
+    import os, sys
+    import usdgaze
+    from pxr import Sdf
+
+    def dying_export(self, path, *args, **kwargs):
+        with open(path, "wb") as f:       # a partial file at the temp path ...
+            f.write(b"PXR-USDC" + b"\\0" * 64)
+            f.flush()
+        os._exit(9)                       # ... and the process dies mid-write
+
+    Sdf.Layer.Export = dying_export
+    from usdgaze.cli import main
+    sys.exit(main(sys.argv[1:]))
+""")
+
+
+@pytest.mark.parametrize("previous", [False, True], ids=["fresh", "over-previous-output"])
+def test_killed_mid_write_leaves_no_partial_output(tmp_path, previous):
+    rig = _rig(tmp_path)
+    out = tmp_path / "gaze.usdc"
+    if previous:
+        ok = subprocess.run([*CLI, *_apply(tmp_path, rig.path)], capture_output=True, text=True)
+        assert ok.returncode == 0, ok.stderr
+        before = measure.sha256(out)
+    src_hash = measure.sha256(rig.path)
+    driver = tmp_path / "driver.py"
+    driver.write_text(_DRIVER)
+    p = subprocess.run([sys.executable, str(driver), *_apply(tmp_path, rig.path, shifts=["--shift", "0.5s:-60:10"])],
+                       capture_output=True, text=True)
+    assert p.returncode == 9, (p.returncode, p.stderr)
+    if previous:
+        assert measure.sha256(out) == before
+        assert Sdf.Layer.OpenAsAnonymous(str(out)) is not None
+    else:
+        assert not out.exists()
+    assert measure.sha256(rig.path) == src_hash
+    # The partial bytes went to a temp file beside the output, never to the output path.
+    leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".gaze.usdc.")]
+    assert len(leftovers) == 1
