@@ -171,14 +171,10 @@ def test_interrupted_shift_is_continuous_and_ends_on_the_new_request(run):
     assert np.abs(change[hold_new] - [-40.0, 10.0]).max() <= 0.5
 
 
-@pytest.mark.xfail(reason="gazepass starts an interrupting shift from rest (its profile has zero start velocity): "
-                          "the gaze change's speed drops from ~220 deg/s to 0 in one frame", strict=False)
 def test_interruption_keeps_the_gaze_speed(run):
     """Where a shift is interrupted, the gaze change keeps at least half its speed into the next frame
-    (a C1 join; at 60 fps and above, where a frame is short against the shift)."""
+    (a C1 join; measured 76% at 60 fps, 57-61% at 24-30 fps where a frame spans more of the change)."""
     change, _, rate, switch = _sight_steps(run)
-    if rate < 60:
-        pytest.skip("at low frame rates a frame spans most of the speed change anyway")
     speed = np.linalg.norm(np.diff(change, axis=0), axis=1) * rate  # deg/s, frame i to i + 1
     before, after = speed[switch - 1], speed[switch]
     assert before > 100.0  # the interrupted shift was moving fast

@@ -13,7 +13,8 @@ measured gaze change meets the request (weights stay non-negative).
 Outside the sampled region (e.g. pitch beyond the examples' rows, |yaw| beyond 180) the query is
 clamped into the sampled box, and the rotation still missing is added to the neck (its share set by
 ``SynthesisSettings.neck_share``) with the eyes re-aimed to take the rest, so the map still returns a
-motion that reaches the request on the canonical chain, with the timing of the nearest region.
+motion that reaches the request on the canonical chain. Its timing is the nearest region's, with the
+duration stretched by the ratio of gaze amplitudes so the extra rotation is not done faster.
 Yaw is never wrapped: -180 and +180 are a right and a left turn.
 """
 
@@ -183,8 +184,12 @@ class ParametricGazeMap:
                 best_err = np.minimum(cand_err, best_err)
         return weights
 
-    def query_full(self, yaw_deg, pitch_deg) -> QueryResult:
-        """Answer a batch of gaze changes; broadcasting ``yaw_deg`` and ``pitch_deg`` to one shape."""
+    def query_full(self, yaw_deg, pitch_deg, correct: bool = True) -> QueryResult:
+        """Answer a batch of gaze changes; broadcasting ``yaw_deg`` and ``pitch_deg`` to one shape.
+
+        ``correct=False`` skips the Gauss-Newton correction: the plain Kovar & Gleicher answer, for
+        callers that need only the timing floats.
+        """
         yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
         shape = yaw.shape
         request = np.stack([yaw.ravel(), pitch.ravel()], axis=-1)
@@ -192,18 +197,23 @@ class ParametricGazeMap:
         extrapolated = np.any(np.abs(inside - request) > 1e-9, axis=1)
 
         weights = self._interpolate(inside)
-        for lo in range(0, len(inside), _CHUNK):
+        for lo in range(0, len(inside) if correct else 0, _CHUNK):
             part = slice(lo, lo + _CHUNK)
             weights[part] = self._correct(weights[part], inside[part], self.definition.settings.refine)
         achieved = self._measure(weights)
 
         blended = motion.blend(self.examples, weights)
-        offsets = blended.offsets
+        offsets, timing = blended.offsets, blended.timing
         if np.any(extrapolated):
-            offsets = offsets.copy()
+            offsets, timing = offsets.copy(), timing.copy()
             offsets[extrapolated] = self._extend(offsets[extrapolated], request[extrapolated])
             achieved[extrapolated] = motion.achieved_gaze(offsets[extrapolated], request[extrapolated, 0])
-        motions = GazeMotions(offsets.reshape(shape + (5, 4)), blended.timing.reshape(shape + (7,)))
+            # The extra rotation must not make the shift faster than the region it borrows its
+            # timing from: stretch the duration by the ratio of gaze amplitudes.
+            ratio = np.linalg.norm(request[extrapolated], axis=1) / np.maximum(
+                np.linalg.norm(inside[extrapolated], axis=1), 1e-9)
+            timing[extrapolated, motion.DURATION] *= np.maximum(ratio, 1.0)
+        motions = GazeMotions(offsets.reshape(shape + (5, 4)), timing.reshape(shape + (7,)))
         return QueryResult(
             motions,
             weights.reshape(shape + (-1,)),
