@@ -375,7 +375,7 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     for e in eyes:
         p = int(parents[e])
         t_e = local(e)[0]
-        eye_pos.append(moved.position[p] + np.einsum("fij,fj->fi", moved.linear[p], t_e))
+        eye_pos.append(moved.place(p, t_e))
     centre = 0.5 * (eye_pos[0] + eye_pos[1])
     distance_s = options.fixation_m / clip.meters_per_unit / world_scale
     sight_point = centre + np.broadcast_to(distance_s, (f,))[:, None] * wanted_s

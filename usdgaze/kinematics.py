@@ -34,22 +34,36 @@ class Pose:
     rotation: dict[int, np.ndarray]
     """Unit quaternions ``(F, 4)``; exact for uniform scales."""
     linear: dict[int, np.ndarray]
-    """Full 3x3 linear part ``(F, 3, 3)`` including scale, for placing children."""
+    """Full 3x3 linear part ``(F, 3, 3)`` including scale; empty when every scale is 1."""
     position: dict[int, np.ndarray]
     """Joint origins ``(F, 3)``."""
 
+    def place(self, j: int, offset: np.ndarray) -> np.ndarray:
+        """World position of a point given in joint ``j``'s local frame (e.g. a child's translation)."""
+        if j in self.linear:
+            return self.position[j] + np.einsum("fij,fj->fi", self.linear[j], offset)
+        return self.position[j] + rot.rotate(self.rotation[j], offset)
+
 
 def forward(joints: list[int], parents: np.ndarray, local) -> Pose:
-    """FK of ``joints`` (closed under ancestors, parents first); ``local(j)`` gives (t, q, s) per frame."""
+    """FK of ``joints`` (closed under ancestors, parents first); ``local(j)`` gives (t, q, s) per frame.
+
+    With all scales exactly 1 (mocap, most rigs) positions come from quaternions alone; otherwise
+    full 3x3 linear parts carry the scales down the chain.
+    """
     pose = Pose({}, {}, {})
+    trs = {j: local(j) for j in joints}
+    unit = all(np.all(s == 1.0) for _, _, s in trs.values())
     for j in joints:
-        t, q, s = local(j)
-        lin = rot.to_matrix(q) * s[..., None, :]
+        t, q, s = trs[j]
         p = int(parents[j])
         if p < 0:
-            pose.rotation[j], pose.linear[j], pose.position[j] = rot.normalize(q), lin, t
-        else:
-            pose.rotation[j] = rot.normalize(rot.multiply(pose.rotation[p], q))
-            pose.linear[j] = pose.linear[p] @ lin
-            pose.position[j] = pose.position[p] + np.einsum("fij,fj->fi", pose.linear[p], t)
+            pose.rotation[j], pose.position[j] = rot.normalize(q), t
+            if not unit:
+                pose.linear[j] = rot.to_matrix(q) * s[..., None, :]
+            continue
+        pose.position[j] = pose.place(p, t)
+        pose.rotation[j] = rot.normalize(rot.multiply(pose.rotation[p], q))
+        if not unit:
+            pose.linear[j] = pose.linear[p] @ (rot.to_matrix(q) * s[..., None, :])
     return pose
