@@ -263,6 +263,10 @@ def b_shift_not_finite(d):
     return _apply(d, _rig(d).path, shifts=["--shift", "1e999:30:0"])
 
 
+def b_shift_yaw_out_of_range(d):
+    return _apply(d, _rig(d).path, shifts=["--shift", "0.5s:100000:0"])
+
+
 def b_no_shift(d):
     return _apply(d, _rig(d).path, shifts=[])
 

@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 
 from usdgaze import motion
 from usdgaze import rotations as rot
-from usdgaze.ingest.extract import ExtractionError, extract, first_above, overshoot_peak, pose_offsets
+from usdgaze.ingest.extract import ExtractionError, extract, first_above, onset_fit, overshoot_peak, pose_offsets
 from usdgaze.ingest.frames import FrameError, character_frame, fit_frames, square_frames, triangle_frames
 from usdgaze.ingest.settings import BuildSettings
 
@@ -100,18 +100,50 @@ def test_extract_noise_free_single_segment_motion():
     settings = BuildSettings(start_hold_s=0.0)
     ex = extract(chain, (onset, frames - 1), rot.IDENTITY, rate, 30.0, 0.0, settings)
     np.testing.assert_allclose(np.degrees(rot.angle(rot.relative(ex.offsets[:4], m.offsets[:4]))), 0.0, atol=1e-6)
-    assert ex.start_frames[:3].tolist() == [-1, -1, -1]
-    # the neck's speed 40 * |s'(t)| crosses 18 deg/s (checked on a dense grid of the profile)
+    assert ex.start_frames[:3].tolist() == [-1, -1, -1] and ex.detected_frames[:3].tolist() == [-1, -1, -1]
+    # the neck's speed 40 * |s'(t)| crosses 18 deg/s (checked on a dense grid of the profile)...
     tt = np.linspace(0, 1, 100001)
     speed = 40.0 * np.gradient(m.profiles(tt)[:, 3], tt) / 1.5
     crossing = tt[np.argmax(speed > 18.0)] * 1.5 * rate + onset
-    assert abs(onset + ex.start_frames[3] - crossing) <= 1.0
+    assert abs(onset + ex.detected_frames[3] - crossing) <= 1.0
+    # ...4 frames after the model's t_j = 0.1 (9 frames into the crop), where the refinement puts the start
+    t_j = 0.1 * 1.5 * rate
+    assert crossing - onset - t_j > 3.5
+    assert ex.start_frames[3] == pytest.approx(t_j, abs=0.25)
+    assert ex.timing[4] == pytest.approx(ex.start_frames[3] / (frames - 1 - onset))
+    # without the refinement the start is the paper's bare threshold crossing
+    bare = extract(chain, (onset, frames - 1), rot.IDENTITY, rate, 30.0, 0.0, BuildSettings(start_hold_s=0.0, start_refine=False))
+    np.testing.assert_array_equal(bare.start_frames, ex.detected_frames)
+    assert bare.timing[4] == pytest.approx(ex.detected_frames[3] / (frames - 1 - onset))
     # differencing over +-k frames puts the flip a little late when the rise is faster than the settle
     assert 0.0 <= ex.peak_frame - 0.5 * 1.5 * rate <= 2.0
     assert ex.timing[motion.BETA] == pytest.approx(0.1, abs=1e-3)
     assert ex.timing[motion.DURATION] == pytest.approx((frames - 1 - onset) / rate)
     with pytest.raises(ExtractionError, match="crop"):
         extract(chain, (10, 10), rot.IDENTITY, rate, 0.0, 0.0)
+
+
+def test_onset_fit_inverts_the_ease_in():
+    """Known rises (t_j, t_peak, A): the fit finds t_j from the late threshold detections, also when
+    the given peak is a few frames late, and keeps the start within [0, detection]."""
+    frames = np.arange(80.0)
+    t_j = np.array([12.3, 17.8, -2.0, 20.0])  # the third began before the crop, the fourth never crosses
+    t_peak = np.array([40.0, 41.0, 40.0, 40.0])
+    amplitude = np.array([30.0, 6.0, 20.0, 0.5])
+    theta = amplitude * motion.ease((frames[:, None] - t_j) / (t_peak - t_j))
+    theta[:, 2] -= theta[0, 2]  # angles are from the first cropped pose
+    detected = np.array([16, 24, 3, -1])
+    for late in (0.0, 2.5):
+        starts = onset_fit(theta, detected, np.full(4, 40.0 + late), amplitude)
+        np.testing.assert_allclose(starts[:2], t_j[:2], atol=0.1)
+        assert starts[2] == 0.0 and starts[3] == -1
+    # noise-like wiggles before the rise do not pull the start past the detection or below 0
+    noisy = theta + np.random.default_rng(0).normal(0.0, 0.2, theta.shape)
+    starts = onset_fit(noisy, detected, np.full(4, 41.0), amplitude)
+    assert np.all((starts[:3] >= 0) & (starts[:3] <= detected[:3]))
+    np.testing.assert_allclose(starts[0], t_j[0], atol=1.0)
+    # nothing to fit: no detection, or the rise ending at the detection
+    np.testing.assert_array_equal(onset_fit(theta, detected, np.full(4, 16.0), amplitude), [16.0, 24.0, 3.0, -1.0])
 
 
 def test_a_body_turning_away_from_the_target_is_flagged():

@@ -44,6 +44,8 @@ class ShiftRequest:
             raise UsdGazeError(f"--shift '{text}': values must be finite")
         if abs(shift.pitch) > 90.0:
             raise UsdGazeError(f"--shift '{text}': pitch must lie in [-90, 90] deg")
+        if abs(shift.yaw) > 360.0:
+            raise UsdGazeError(f"--shift '{text}': yaw must lie in [-360, 360] deg (more than a full turn is no gaze shift)")
         return shift
 
     def to_shift(self, clip: SkelClip) -> Shift:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 
 class UsdGazeError(Exception):
     """Bad input: the message is one line naming the file, prim or attribute and what is wrong."""
@@ -16,3 +18,13 @@ class GazeMapError(UsdGazeError):
 
 class RigError(UsdGazeError):
     """A skeleton's gaze chain cannot be bound."""
+
+
+def usd_failure(exc: BaseException) -> str:
+    """The first (root-cause) message of a Tf.ErrorException, without USD's source location."""
+    for line in str(exc).splitlines():
+        line = line.strip()
+        if line:
+            m = re.match(r"^Error in '.*?' at line \d+ in file .*? : '(.*)'$", line)
+            return m.group(1) if m else line
+    return type(exc).__name__

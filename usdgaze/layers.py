@@ -15,7 +15,7 @@ import numpy as np
 from pxr import Sdf, Vt
 
 from . import rotations as rot
-from .errors import UsdGazeError
+from .errors import UsdGazeError, usd_failure
 
 _FORMATS = {".usda", ".usdc", ".usd"}
 
@@ -180,8 +180,6 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str]) -> Sdf
     try:
         layer = Sdf.Layer.FindOrOpen(str(root))
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
-        from .skelio import usd_failure
-
         raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into ({usd_failure(exc)})") from None
     if layer is None:
         raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into")

@@ -6,7 +6,6 @@ import os
 import tempfile
 from pathlib import Path
 
-import numpy as np
 
 from .errors import UsdGazeError
 from .motion import SEGMENTS

@@ -37,7 +37,7 @@ from .definition import (
     check_unit_quaternions,
     validate,
 )
-from .errors import GazeMapError
+from .errors import GazeMapError, usd_failure
 from .motion import GazeMotions
 
 # Normally done by ``import usdgaze`` already; it must precede any stage in the process.
@@ -142,10 +142,12 @@ def load_map(spec: str) -> GazeMapDefinition:
     """
     file, prim_path = _split_spec(spec)
     _require_schema(file)
+    if not os.path.isfile(file):
+        raise GazeMapError(f"{file}: no such file")
     try:
         stage = Usd.Stage.Open(file)
     except Tf.ErrorException as exc:
-        raise GazeMapError(f"{file}: cannot open: {_first_line(exc)}") from None
+        raise GazeMapError(f"{file}: cannot open as a USD stage ({usd_failure(exc)})") from None
     if stage is None:
         raise GazeMapError(f"{file}: cannot open")
     if prim_path is not None:
@@ -196,7 +198,7 @@ def dump_map(
         try:
             ok = layer.Export(str(tmp))
         except Tf.ErrorException as exc:
-            raise GazeMapError(f"{path}: cannot write: {_first_line(exc)}") from None
+            raise GazeMapError(f"{path}: cannot write: {usd_failure(exc)}") from None
         if not ok:
             raise GazeMapError(f"{path}: cannot write")
         os.replace(tmp, path)
@@ -218,11 +220,6 @@ def _where(prim: Usd.Prim, source: str | None) -> str:
 
 def _type_name(prim: Usd.Prim) -> str:
     return prim.GetTypeName() or "(none)"
-
-
-def _first_line(exc: BaseException) -> str:
-    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    return lines[-1] if lines else type(exc).__name__
 
 
 def _authored_type(attr: Usd.Attribute, value: Any) -> str:

@@ -2,25 +2,13 @@
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
 from . import rotations as rot
 from .clip import SkelClip
 from .kinematics import world_matrices
-from .errors import UsdGazeError
-
-
-def usd_failure(exc: BaseException) -> str:
-    """The first (root-cause) message of a Tf.ErrorException, without USD's source location."""
-    for line in str(exc).splitlines():
-        line = line.strip()
-        if line:
-            m = re.match(r"^Error in '.*?' at line \d+ in file .*? : '(.*)'$", line)
-            return m.group(1) if m else line
-    return type(exc).__name__
+from .errors import UsdGazeError, usd_failure
 
 
 def open_stage(path: str) -> Usd.Stage:

@@ -56,6 +56,9 @@ class TrialReport:
     def row(self) -> dict:
         """Flat, JSON/CSV-friendly values (times in seconds from the crop start, angles in degrees).
 
+        ``*_start_s`` are the start times the map keeps (0 where the segment never crossed the start
+        threshold; the model's t_j fitted back from the crossing with ``start_refine``), and
+        ``*_detected_s`` the threshold crossings themselves (None where never).
         ``peak_angle_deg`` is the head's rotation at the overshoot peak and ``*_angle_deg`` each
         landmark's net rotation from the first to the last pose, both from the first pose.
         """
@@ -76,13 +79,16 @@ class TrialReport:
         }
         for name in CHAIN:
             row[f"{name}_start_s"] = None
+        for name in CHAIN:
+            row[f"{name}_detected_s"] = None
         row.update({"peak_s": None, "t_beta": None, "beta": None, "peak_angle_deg": None})
         for name in LANDMARK_NAMES:
             row[f"{name}_angle_deg"] = None
         if ex is not None:
             row["duration_s"] = round(float(ex.timing[0]), 6)
-            for name, frame in zip(CHAIN, ex.start_frames):
-                row[f"{name}_start_s"] = round(max(int(frame), 0) / self.rate, 6)
+            for name, frame, crossing in zip(CHAIN, ex.start_frames, ex.detected_frames):
+                row[f"{name}_start_s"] = round(max(float(frame), 0.0) / self.rate, 6)
+                row[f"{name}_detected_s"] = None if crossing < 0 else round(int(crossing) / self.rate, 6)
             row["peak_s"] = None if ex.peak_frame is None else round(ex.peak_frame / self.rate, 6)
             row["t_beta"] = round(float(ex.timing[5]), 6)
             row["beta"] = round(float(ex.timing[6]), 6)
@@ -272,7 +278,8 @@ def layer_data(result: BuildResult, sheet: Sheet) -> dict:
         if report.error:
             entry["error"] = report.error
         trials[trial.name] = entry
-    settings = {k: (float(v) if isinstance(v, float) else int(v)) for k, v in result.settings.as_dict().items()}
+    settings = {k: (v if isinstance(v, bool) else float(v) if isinstance(v, float) else int(v))
+                for k, v in result.settings.as_dict().items()}
     return {
         "usdgaze:buildMap": {
             "sheet": str(sheet.path),

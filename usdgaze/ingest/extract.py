@@ -17,6 +17,10 @@ on every frame of the trial, the crop, the canonical character frame, and the kn
 * Start times: the first frame where the local (parent-relative) angular speed, differenced the same
   way, exceeds the threshold (and stays above it a few frames, so that one jittery frame is not a
   start: not in the paper); 0 when it never does (Heck: "begins moving slowly at the start").
+  The model's t_j is where the quintic ease-in leaves zero speed, which the threshold sees 2-10
+  frames later; with ``start_refine`` (not in the paper) each detected start is then moved back to
+  the t_j whose model rise ``A * ease((t - t_j) / (t_peak - t_j))`` fits the segment's measured angle
+  from its first pose best (:func:`onset_fit`), within [0, detection].
 * l = the crop's length; times are normalized by it (frame / (frames - 1)).
 
 Warnings (reported, not fatal): segments that never start, no overshoot peak, a landmark turning
@@ -54,7 +58,10 @@ class Extraction:
     timing: np.ndarray
     """The seven floats in :data:`usdgaze.motion.TIMING_FIELDS` order."""
     start_frames: np.ndarray
-    """Detected start frame of each chain segment (crop-relative), -1 where none was found."""
+    """Start frame of each chain segment (crop-relative, fractional): the model's t_j fitted back from
+    the detection (or the detection itself without ``start_refine``), -1 where none was detected."""
+    detected_frames: np.ndarray
+    """Frame where each segment's local speed first crossed the threshold (crop-relative), -1 where never."""
     peak_frame: float | None
     """Overshoot peak (crop-relative, fractional: the velocity's zero crossing), None where none was found."""
     segment_angles_deg: np.ndarray
@@ -138,6 +145,93 @@ def overshoot_peak(velocity: np.ndarray, m: int) -> int | None:
     return int(candidates[ok][0]) if np.any(ok) else None
 
 
+def _rise_cost(theta: np.ndarray, used: np.ndarray, amplitude: np.ndarray, onset: np.ndarray,
+               end: np.ndarray) -> np.ndarray:
+    """Squared misfit ``(S, K)`` of rises ``A * ease((t - onset) / (end - onset))`` with candidate
+    ``onset`` and ``end`` ``(S, K)`` to ``theta`` ``(n, S)`` over the frames marked ``used`` ``(n, S)``."""
+    i = np.arange(len(theta), dtype=float)
+    u = (i[None, None, :] - onset[..., None]) / np.maximum(end - onset, 1e-9)[..., None]  # (S, K, n)
+    curve = motion.ease(u) * used.T[:, None, :]
+    y = (theta * used).T[:, None, :]
+    return ((y - amplitude[:, None, None] * curve) ** 2).sum(axis=-1)
+
+
+def onset_fit(theta: np.ndarray, detected: np.ndarray, rise_end: np.ndarray, amplitude: np.ndarray,
+              fit_fraction: float = 0.9, end_range: tuple[float, float] = (-6.0, 3.0)) -> np.ndarray:
+    """Model start times ``t_j`` (fractional frames) from threshold detections, by inverting the ease-in.
+
+    ``theta`` ``(F, S)``: each segment's signed rotation angle from its first pose, frame by frame;
+    ``detected`` ``(S,)``: its threshold-crossing frame (-1: none); ``rise_end`` ``(S,)``: the
+    (fractional) frame where its rise ends as detected (the overshoot peak) and ``amplitude`` ``(S,)``
+    its angle there. During the rise :mod:`usdgaze.motion` gives
+    ``theta(t) = A * ease((t - t_j) / (t_peak - t_j))``. The curve is fitted (least squares) to
+    ``theta`` from the first frame to the first frame at or after the detection where ``theta``
+    reaches ``fit_fraction * A``, over candidate ``t_j`` in ``[0, detected]`` and ``t_peak`` within
+    ``end_range`` frames of ``rise_end`` (the detected peak comes late, see :func:`overshoot_peak`):
+    a grid of 1/4 frame, then one of 1/20 frame around its best. Returns ``detected`` (as floats)
+    where there is no detection or nothing to fit (amplitude not positive, rise ending at or before
+    the detection).
+    """
+    theta = np.asarray(theta, dtype=float)
+    detected = np.asarray(detected)
+    rise_end = np.asarray(rise_end, dtype=float)
+    amplitude = np.asarray(amplitude, dtype=float)
+    frames = len(theta)
+    out = detected.astype(float)
+    ok = (detected >= 0) & (amplitude > 0) & (rise_end > detected)
+    if not np.any(ok):
+        return out
+    i = np.arange(frames)
+    # last frame of each fit: the first at or after the detection reaching fit_fraction of the amplitude
+    reached = (i[:, None] >= detected) & (theta >= fit_fraction * amplitude)
+    last = np.where(reached.any(axis=0), reached.argmax(axis=0), frames - 1)
+    last = np.minimum(last, np.floor(rise_end)).astype(int)
+    n = int(last[ok].max()) + 1
+    theta, used = theta[:n], (i[:n, None] <= last)
+    d = np.maximum(detected, 0).astype(float)
+
+    def search(onsets: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Best (onset, end) per segment among the candidate grids ``(S, A)`` x ``(S, B)``."""
+        c = np.repeat(onsets, ends.shape[1], axis=1)
+        e = np.tile(ends, (1, onsets.shape[1]))
+        cost = _rise_cost(theta, used, amplitude, c, e)
+        cost[(c < 0) | (c > d[:, None]) | (e <= d[:, None])] = np.inf
+        k = np.argmin(cost, axis=1)
+        rows = np.arange(len(k))
+        return c[rows, k], e[rows, k]
+
+    coarse = np.arange(0.0, float(d[ok].max()) + 0.25, 0.25)
+    spread = np.arange(end_range[0], end_range[1] + 0.25, 0.5)
+    c, e = search(np.broadcast_to(coarse, (len(d), len(coarse))), rise_end[:, None] + spread[None, :])
+    fine = np.arange(-0.25, 0.25 + 1e-9, 0.05)
+    c, e = search(c[:, None] + fine[None, :], e[:, None] + 2 * fine[None, :])
+    out[ok] = np.clip(c, 0.0, d)[ok]
+    return out
+
+
+def start_angles(local: np.ndarray, first: np.ndarray, detected: np.ndarray, peak: float | None,
+                 span: int, window: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Inputs of :func:`onset_fit` from the cropped local orientations ``(F, S, 4)``.
+
+    Each segment's rise ends at the overshoot peak (the model's ``t_beta`` is shared by all segments),
+    or at the crop's end where there is no peak or the segment was detected after it. Its amplitude
+    is the rotation vector from the first local pose ``first`` ``(S, 4)``, averaged over the frames
+    within ``window`` of that end (the ease is flat there); theta is each frame's rotation vector
+    projected on that amplitude's axis. Returns theta ``(F, S)`` (deg), rise ends and amplitudes.
+    """
+    rotvec = rot.to_rotvec(rot.relative(first[None], local))  # (F, S, 3)
+    end = np.full(len(detected), float(span))
+    if peak is not None:
+        end = np.where(np.asarray(detected) < peak, peak, end)
+    i = np.arange(len(local))
+    near = np.abs(i[:, None] - np.round(end)[None, :]) <= window  # (F, S)
+    mean = (rotvec * near[..., None]).sum(axis=0) / np.maximum(near.sum(axis=0), 1)[:, None]
+    amplitude = np.linalg.norm(mean, axis=-1)
+    axis = mean / np.maximum(amplitude, 1e-12)[:, None]
+    theta = np.degrees((rotvec * axis[None]).sum(axis=-1))
+    return theta, end, np.degrees(amplitude)
+
+
 def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, rate: float, yaw: float,
             pitch: float, settings: BuildSettings = BuildSettings()) -> Extraction:
     """Gaze displacement motion of one example.
@@ -173,8 +267,8 @@ def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, 
     local = local_orientations(orientations)
     speeds = np.stack([angular_speed(local[:, j], k, rate) for j in range(local.shape[1])])[:, start : end + 1]
     hold = max(int(round(settings.start_hold_s * rate)), 1)
-    starts = np.array([first_above(s, settings.start_speed_deg_s, hold) for s in speeds])
-    slow = [name for name, s in zip(CHAIN, starts) if s < 0]
+    detected = np.array([first_above(s, settings.start_speed_deg_s, hold) for s in speeds])
+    slow = [name for name, s in zip(CHAIN, detected) if s < 0]
     if slow:
         warnings.append(f"start 0 (never above {settings.start_speed_deg_s:g} deg/s): {', '.join(slow)}")
 
@@ -196,6 +290,13 @@ def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, 
             t_peak = peak / span
     if peak is None:
         warnings.append("no overshoot peak (t_beta = 1, beta = 0)")
+    # The threshold crossing comes after the model's t_j (the ease-in leaves it at zero speed): fit
+    # each detected segment's rise to move its start back to t_j.
+    starts = detected.astype(float)
+    if settings.start_refine:
+        first_local = local_orientations(first[None])[0]
+        theta, rise_end, amplitude = start_angles(local[start : end + 1], first_local, detected, peak, span)
+        starts = onset_fit(theta, detected, rise_end, amplitude, settings.start_fit_fraction)
     timing = np.zeros(len(motion.TIMING_FIELDS))
     timing[motion.DURATION] = span / rate
     timing[motion.START_SLICE] = np.maximum(starts, 0) / span
@@ -205,6 +306,7 @@ def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, 
         offsets=offsets,
         timing=timing,
         start_frames=starts,
+        detected_frames=detected,
         peak_frame=peak,
         segment_angles_deg=net_angles,
         head_angle_deg=float(np.degrees(final)),

@@ -34,7 +34,16 @@ class BuildSettings:
     """A joint starts moving at the first frame its local angular speed exceeds this (Heck: 18 deg/s)."""
     start_hold_s: float = 0.05
     """The speed must stay above the start threshold this long (not in the paper: one jittery frame is
-    not a start); the start is the first of those frames."""
+    not a start); the crossing is the first of those frames."""
+    start_refine: bool = True
+    """Move each detected start back to the model's t_j (not in the paper). The quintic ease-in leaves
+    t_j at zero speed, so the threshold crossing comes 2-10 frames after it. The segment's angle from
+    its first pose is fitted (least squares) with the model's rise ``A * ease((t - t_j) / (t_peak - t_j))``,
+    A its angle at the head's overshoot peak and t_peak searched within a few frames of that peak
+    (a differenced peak comes late); t_j is kept within [0, detection]. The report keeps both the
+    crossing and the start. False: the start is the paper's bare threshold crossing."""
+    start_fit_fraction: float = 0.9
+    """That fit runs from the crop's first frame to where the angle first reaches this fraction of A."""
     min_trials: int = 3
     """Fewest good trials a map is built from."""
     rate_tolerance: float = 1e-3
@@ -51,6 +60,7 @@ class BuildSettings:
             ("pose_window_s", self.pose_window_s >= 0),
             ("start_speed_deg_s", self.start_speed_deg_s > 0),
             ("start_hold_s", self.start_hold_s >= 0),
+            ("start_fit_fraction", 0 < self.start_fit_fraction <= 1),
             ("min_trials", self.min_trials >= 1),
         )
         for name, ok in checks:
