@@ -20,7 +20,6 @@ import os
 import platform
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -32,15 +31,7 @@ from usdgaze.cli import main  # noqa: E402
 from usdgaze.ingest import build, load_sheet, write_map  # noqa: E402
 from usdgaze.ingest.c3dio import read_c3d  # noqa: E402
 
-
-def best_of(fn, repeats: int) -> float:
-    """Smallest wall time (s) of ``repeats`` calls of ``fn``."""
-    best = float("inf")
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
+from _timing import best_of  # noqa: E402  (benchmarks/ is on sys.path when run as a script)
 
 
 def main_bench() -> None:

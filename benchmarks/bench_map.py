@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import os
 import platform
-import time
 
 import numpy as np
 
@@ -17,15 +16,7 @@ from usdgaze.definition import GazeMapDefinition
 from usdgaze.gazemap import ParametricGazeMap
 from usdgaze.motion import GazeMotions
 
-
-def best_of(fn, repeats: int) -> float:
-    """Smallest wall time (s) of ``repeats`` calls of ``fn``."""
-    best = float("inf")
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
+from _timing import best_of  # noqa: E402  (benchmarks/ is on sys.path when run as a script)
 
 
 def paper_grid(full: GazeMapDefinition) -> GazeMapDefinition:
@@ -64,7 +55,7 @@ def main() -> None:
     t_single = best_of(singles, 3) / n_single
     batch_qps = n_batch / t_batch
     single_qps = 1.0 / t_single
-    print(f"\n[query] default map, random (yaw, pitch) in [-180, 180] x [-30, 30]")
+    print("\n[query] default map, random (yaw, pitch) in [-180, 180] x [-30, 30]")
     print(f"  vectorized, batch of {n_batch}: {t_batch * 1e3:8.1f} ms  -> {batch_qps:10.0f} queries/s  (best of 3)")
     print(f"  one at a time ({n_single} calls):  {t_single * 1e3:8.3f} ms each -> {single_qps:10.0f} queries/s  (best of 3)")
     print(f"  ratio vectorized / one-at-a-time: {batch_qps / single_qps:.1f}x")

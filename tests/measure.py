@@ -122,3 +122,16 @@ def rotation_angle_deg(m_a: np.ndarray, m_b: np.ndarray) -> np.ndarray:
         return m / np.linalg.norm(m, axis=-1, keepdims=True)
     r = np.einsum("fij,fkj->fik", unit(m_a), unit(m_b))
     return np.degrees(np.arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1) / 2, -1, 1)))
+
+
+def eye_in_head(p: Posed, head: str, eye: str, forward, left, up) -> tuple[np.ndarray, np.ndarray]:
+    """Eye-in-head yaw (+ toward the left) and pitch (+ up), degrees, per frame.
+
+    ``forward``/``left``/``up`` are the character axes in skeleton space; each joint's local axes
+    are taken from the rest pose, where the eyes look straight ahead.
+    """
+    f, l, u = (p.axis(head, local_forward(p, head, v)) for v in (forward, left, up))
+    d = p.axis(eye, local_forward(p, eye, forward))
+    yaw = np.degrees(np.arctan2((d * l).sum(-1), (d * f).sum(-1)))
+    pitch = np.degrees(np.arcsin(np.clip((d * u).sum(-1), -1, 1)))
+    return yaw, pitch

@@ -144,12 +144,8 @@ def test_eyes_within_the_eye_range(run):
     up_s = np.linalg.solve(new.skel_to_world[:3, :3].T, new.up)
     up_s /= np.linalg.norm(up_s)
     left_s = np.cross(up_s, fwd)
-    head_axes = [measure.local_forward(new, HEAD, v) for v in (fwd, left_s, up_s)]
-    f, l, u = (new.axis(HEAD, a) for a in head_axes)
     for eye in ("LeftEye", "RightEye"):
-        d = new.axis(eye, measure.local_forward(new, eye, fwd))
-        yaw = np.degrees(np.arctan2((d * l).sum(-1), (d * f).sum(-1)))
-        pitch = np.degrees(np.arcsin(np.clip((d * u).sum(-1), -1, 1)))
+        yaw, pitch = measure.eye_in_head(new, HEAD, eye, fwd, left_s, up_s)
         assert np.abs(yaw).max() <= 44.2 + 1e-3
         assert pitch.max() <= 27.7 + 1e-3 and pitch.min() >= -47.1 - 1e-3
         assert np.abs(yaw).max() > 20  # the eyes really carry part of the shifts

@@ -185,11 +185,8 @@ def test_eyes_within_their_range(run):
     new, rig = run["new"], run["rig"]
     fwd, left, up = rig.forward, rig.left, rig.up
     head = rig.leaf["head"]
-    f, l, u = (new.axis(head, measure.local_forward(new, head, v)) for v in (fwd, left, up))
     for eye in rig.eye_leaves:
-        d = new.axis(eye, measure.local_forward(new, eye, fwd))
-        yaw = np.degrees(np.arctan2((d * l).sum(-1), (d * f).sum(-1)))
-        pitch = np.degrees(np.arcsin(np.clip((d * u).sum(-1), -1, 1)))
+        yaw, pitch = measure.eye_in_head(new, head, eye, fwd, left, up)
         assert np.abs(yaw).max() <= 44.2 + 1e-3
         assert pitch.max() <= 27.7 + 1e-3 and pitch.min() >= -47.1 - 1e-3
         assert np.abs(yaw).max() > 20.0  # the eyes do carry part of the shifts
