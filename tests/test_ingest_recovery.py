@@ -13,15 +13,15 @@ and the bare detections with the instant the exact (noise-free, densely sampled)
 18 deg/s, where the crossing is well defined (the segment's peak speed is at least twice the
 threshold); segments that never reach half of it must get no start (start 0).
 
-Measured (C3D, this seed / worst of seeds 0-5): P+ 0.58 / 0.77 deg; clear starts against t_j 1.08 /
-1.25 frames (bias -0.01 frames; the bare crossing is 4.0 frames late on average, up to 8.3 / 11.3);
+Measured (C3D, this seed / worst of seeds 0-5): P+ 0.58 / 0.77 deg; clear starts against t_j 1.02 /
+1.32 frames (mean -0.03 frames; the bare crossing is 4.0 frames late on average and up to 8.3 / 11.3);
 detections against the exact crossing 1.7 / 3.6 frames (the one miss over 2 frames in ~450: an
 occlusion gap at that triangle's onset, where linear gap filling bends the triangle); t_beta 1.9 /
 2.0 frames and beta 0.003 / 0.006 where the head overshoots by >= 1 deg (below that the overshoot is
 a few times the head's jitter: t_beta 2.4 / 4.3 frames, beta 0.029 / 0.044); map queries 0.02 / 0.05
 deg of gaze, 0.51 / 0.64 deg per segment.
-UsdSkel clips (no noise): P+ 0.21 deg, starts 1.7 frames against t_j (the crop's first still frame
-comes 1.7 frames after the neck's t_j there, and a start is not before the crop), t_beta 1.6 frames,
+UsdSkel clips (no noise): P+ 0.21 deg, starts 1.7 frames against t_j (there the crop's first still
+frame comes 1.7 frames after the neck's t_j, and no start is before the crop), t_beta 1.6 frames,
 beta 0.0005.
 """
 
@@ -35,6 +35,7 @@ from usdgaze import motion
 from usdgaze import rotations as rot
 from usdgaze.definition import GazeMapDefinition
 from usdgaze.ingest import build
+from usdgaze.ingest.extract import CHAIN
 from usdgaze.ingest.settings import BuildSettings
 
 THRESHOLD = BuildSettings().start_speed_deg_s
@@ -107,6 +108,13 @@ def test_c3d_session_builds_all_trials_in_order(c3d_session):
         assert timing[motion.DURATION] == pytest.approx((end - start) / 60.0)
         starts = np.maximum(report.extraction.start_frames, 0) / (end - start)
         np.testing.assert_allclose(timing[motion.START_SLICE], starts)
+    # the report keeps both the refined start and the threshold crossing it came from (s from the crop)
+    for report in result.reports:
+        row, ex = report.row(), report.extraction
+        for name, refined, crossing in zip(CHAIN, ex.start_frames, ex.detected_frames):
+            assert row[f"{name}_start_s"] == pytest.approx(max(refined, 0.0) / 60.0, abs=1e-6)
+            assert row[f"{name}_detected_s"] == (None if crossing < 0 else pytest.approx(crossing / 60.0, abs=1e-6))
+            assert row[f"{name}_start_s"] <= (row[f"{name}_detected_s"] or 0.0)
 
 
 def test_c3d_crop_brackets_the_motion(c3d_session):

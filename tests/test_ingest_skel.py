@@ -36,7 +36,20 @@ def _pose_errors(motions, result):
 def test_mixamo_prefixed_names_bind_by_themselves(tmp_path):
     rename = {k: f"mixamorig_{k}" for k in CUSTOM}
     motions, sheet = _session(tmp_path, rename)
-    assert _pose_errors(motions, build(sheet)).max() <= 0.5
+    result = build(sheet)
+    assert _pose_errors(motions, result).max() <= 0.5
+    # start times at the known t_j wherever a segment clearly moves (the shifts begin at frame 40); a
+    # start is not before the crop, whose first still frame can come a frame or two after the neck's t_j
+    checked = 0
+    for i, report in enumerate(result.reports):
+        m = motions[i]
+        truth = syn.TrialTruth(report.trial, *TARGETS[i], m, 40, 0, syn.RATE)
+        clear = truth.local_speeds()[1].max(axis=0) >= 2 * BuildSettings().start_speed_deg_s
+        known = np.maximum(truth.frame_of(m.starts[:4]) - report.crop[0], 0.0)
+        starts = report.extraction.start_frames
+        assert np.all(np.abs(starts - known)[clear] <= 1.0), (report.trial, starts, known)
+        checked += int(clear.sum())
+    assert checked >= 6
 
 
 def test_unknown_names_are_a_clear_error_until_bound(tmp_path):

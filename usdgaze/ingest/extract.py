@@ -156,80 +156,89 @@ def _rise_cost(theta: np.ndarray, used: np.ndarray, amplitude: np.ndarray, onset
     return ((y - amplitude[:, None, None] * curve) ** 2).sum(axis=-1)
 
 
-def onset_fit(theta: np.ndarray, detected: np.ndarray, rise_end: np.ndarray, amplitude: np.ndarray,
-              fit_fraction: float = 0.9, end_range: tuple[float, float] = (-6.0, 3.0)) -> np.ndarray:
+def onset_fit(theta: np.ndarray, detected: np.ndarray, peak: np.ndarray, amplitude: np.ndarray,
+              fit_fraction: float = 0.9, late: float = 3.0) -> np.ndarray:
     """Model start times ``t_j`` (fractional frames) from threshold detections, by inverting the ease-in.
 
     ``theta`` ``(F, S)``: each segment's signed rotation angle from its first pose, frame by frame;
-    ``detected`` ``(S,)``: its threshold-crossing frame (-1: none); ``rise_end`` ``(S,)``: the
-    (fractional) frame where its rise ends as detected (the overshoot peak) and ``amplitude`` ``(S,)``
-    its angle there. During the rise :mod:`usdgaze.motion` gives
-    ``theta(t) = A * ease((t - t_j) / (t_peak - t_j))``. The curve is fitted (least squares) to
-    ``theta`` from the first frame to the first frame at or after the detection where ``theta``
-    reaches ``fit_fraction * A``, over candidate ``t_j`` in ``[0, detected]`` and ``t_peak`` within
-    ``end_range`` frames of ``rise_end`` (the detected peak comes late, see :func:`overshoot_peak`):
-    a grid of 1/4 frame, then one of 1/20 frame around its best. Returns ``detected`` (as floats)
-    where there is no detection or nothing to fit (amplitude not positive, rise ending at or before
-    the detection).
+    ``detected`` ``(S,)``: its threshold-crossing frame (-1: none); ``peak`` ``(S,)``: the frame of its
+    largest angle (the overshoot peak, or somewhere on the final plateau) and ``amplitude`` ``(S,)``
+    that angle. During the rise :mod:`usdgaze.motion` gives
+    ``theta(t) = A * ease((t - t_j) / (t_end - t_j))``, ``t_end`` the overshoot peak ``t_beta`` (or
+    where the segment reaches its final angle when it does not overshoot). That
+    curve is fitted (least squares) to ``theta`` from the first frame to the first frame at or after
+    the detection where ``theta`` reaches ``fit_fraction * A``, over candidate ``t_j`` in
+    ``[0, detected]`` and ``t_end`` after the detection and at most ``late`` frames past ``peak``
+    (a peak found on a noisy plateau is rough), on a grid of 1 by 2 frames, then finer ones around
+    its best down to 1/20 by 1/10 frame. Returns ``detected`` (as floats) where there is no
+    detection or nothing to fit (amplitude not positive, peak not after the detection).
     """
     theta = np.asarray(theta, dtype=float)
     detected = np.asarray(detected)
-    rise_end = np.asarray(rise_end, dtype=float)
+    peak = np.asarray(peak, dtype=float)
     amplitude = np.asarray(amplitude, dtype=float)
     frames = len(theta)
     out = detected.astype(float)
-    ok = (detected >= 0) & (amplitude > 0) & (rise_end > detected)
+    ok = (detected >= 0) & (amplitude > 0) & (peak > detected)
     if not np.any(ok):
         return out
     i = np.arange(frames)
     # last frame of each fit: the first at or after the detection reaching fit_fraction of the amplitude
     reached = (i[:, None] >= detected) & (theta >= fit_fraction * amplitude)
     last = np.where(reached.any(axis=0), reached.argmax(axis=0), frames - 1)
-    last = np.minimum(last, np.floor(rise_end)).astype(int)
+    last = np.minimum(last, np.floor(peak)).astype(int)
     n = int(last[ok].max()) + 1
     theta, used = theta[:n], (i[:n, None] <= last)
-    d = np.maximum(detected, 0).astype(float)
+    d = np.where(ok, detected, 0).astype(float)
+    low = d + 0.5  # (S,) the rise's end: after the detection...
+    high = np.where(ok, peak + late, low)  # ...and not long after the peak
 
     def search(onsets: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Best (onset, end) per segment among the candidate grids ``(S, A)`` x ``(S, B)``."""
         c = np.repeat(onsets, ends.shape[1], axis=1)
         e = np.tile(ends, (1, onsets.shape[1]))
         cost = _rise_cost(theta, used, amplitude, c, e)
-        cost[(c < 0) | (c > d[:, None]) | (e <= d[:, None])] = np.inf
+        cost[(c < 0) | (c > d[:, None])] = np.inf
         k = np.argmin(cost, axis=1)
         rows = np.arange(len(k))
         return c[rows, k], e[rows, k]
 
-    coarse = np.arange(0.0, float(d[ok].max()) + 0.25, 0.25)
-    spread = np.arange(end_range[0], end_range[1] + 0.25, 0.5)
-    c, e = search(np.broadcast_to(coarse, (len(d), len(coarse))), rise_end[:, None] + spread[None, :])
-    fine = np.arange(-0.25, 0.25 + 1e-9, 0.05)
-    c, e = search(c[:, None] + fine[None, :], e[:, None] + 2 * fine[None, :])
+    # a grid of 1 x 2 frames over the whole range, then finer grids (1/5, 1/20 frame) around the best
+    onsets = np.tile(np.arange(d.max() + 1.0), (len(d), 1))
+    ends = np.minimum(low[:, None] + np.arange(0.0, (high - low).max() + 2.0, 2.0)[None, :], high[:, None])
+    c, e = search(onsets, ends)
+    for step, reach in ((0.2, 1.0), (0.05, 0.2)):
+        around = np.arange(-reach, reach + step / 2, step)
+        ends = np.clip(e[:, None] + 2 * around[None, :], low[:, None], high[:, None])
+        c, e = search(c[:, None] + around[None, :], ends)
     out[ok] = np.clip(c, 0.0, d)[ok]
     return out
 
 
-def start_angles(local: np.ndarray, first: np.ndarray, detected: np.ndarray, peak: float | None,
-                 span: int, window: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def start_angles(local: np.ndarray, first: np.ndarray, detected: np.ndarray,
+                 window: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Inputs of :func:`onset_fit` from the cropped local orientations ``(F, S, 4)``.
 
-    Each segment's rise ends at the overshoot peak (the model's ``t_beta`` is shared by all segments),
-    or at the crop's end where there is no peak or the segment was detected after it. Its amplitude
-    is the rotation vector from the first local pose ``first`` ``(S, 4)``, averaged over the frames
-    within ``window`` of that end (the ease is flat there); theta is each frame's rotation vector
-    projected on that amplitude's axis. Returns theta ``(F, S)`` (deg), rise ends and amplitudes.
+    Each segment's peak is the frame, at or after its detection, where its rotation from the first
+    local pose ``first`` ``(S, 4)`` is largest (averaged over ``window`` frames either side, so one
+    noisy frame does not make it); its amplitude is that rotation vector averaged over those frames,
+    and theta each frame's rotation vector projected on that amplitude's axis (the model turns each
+    segment about one axis). Returns theta ``(F, S)`` (deg), peak frames and amplitudes (deg).
     """
     rotvec = rot.to_rotvec(rot.relative(first[None], local))  # (F, S, 3)
-    end = np.full(len(detected), float(span))
-    if peak is not None:
-        end = np.where(np.asarray(detected) < peak, peak, end)
-    i = np.arange(len(local))
-    near = np.abs(i[:, None] - np.round(end)[None, :]) <= window  # (F, S)
-    mean = (rotvec * near[..., None]).sum(axis=0) / np.maximum(near.sum(axis=0), 1)[:, None]
+    frames = len(local)
+    lo, hi = _window(frames, window)
+    total = np.concatenate([np.zeros((1, rotvec.shape[1])), np.cumsum(np.linalg.norm(rotvec, axis=-1), axis=0)])
+    smooth = (total[hi + 1] - total[lo]) / (hi - lo + 1)[:, None]  # (F, S)
+    i = np.arange(frames)
+    smooth[i[:, None] < np.asarray(detected)[None, :]] = -np.inf
+    peak = smooth.argmax(axis=0)
+    near = np.abs(i[:, None] - peak[None, :]) <= window  # (F, S)
+    mean = (rotvec * near[..., None]).sum(axis=0) / near.sum(axis=0)[:, None]
     amplitude = np.linalg.norm(mean, axis=-1)
     axis = mean / np.maximum(amplitude, 1e-12)[:, None]
     theta = np.degrees((rotvec * axis[None]).sum(axis=-1))
-    return theta, end, np.degrees(amplitude)
+    return theta, peak.astype(float), np.degrees(amplitude)
 
 
 def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, rate: float, yaw: float,
@@ -295,8 +304,8 @@ def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, 
     starts = detected.astype(float)
     if settings.start_refine:
         first_local = local_orientations(first[None])[0]
-        theta, rise_end, amplitude = start_angles(local[start : end + 1], first_local, detected, peak, span)
-        starts = onset_fit(theta, detected, rise_end, amplitude, settings.start_fit_fraction)
+        theta, peaks, amplitude = start_angles(local[start : end + 1], first_local, detected)
+        starts = onset_fit(theta, detected, peaks, amplitude, settings.start_fit_fraction)
     timing = np.zeros(len(motion.TIMING_FIELDS))
     timing[motion.DURATION] = span / rate
     timing[motion.START_SLICE] = np.maximum(starts, 0) / span

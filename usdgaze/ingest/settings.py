@@ -38,10 +38,10 @@ class BuildSettings:
     start_refine: bool = True
     """Move each detected start back to the model's t_j (not in the paper). The quintic ease-in leaves
     t_j at zero speed, so the threshold crossing comes 2-10 frames after it. The segment's angle from
-    its first pose is fitted (least squares) with the model's rise ``A * ease((t - t_j) / (t_peak - t_j))``,
-    A its angle at the head's overshoot peak and t_peak searched within a few frames of that peak
-    (a differenced peak comes late); t_j is kept within [0, detection]. The report keeps both the
-    crossing and the start. False: the start is the paper's bare threshold crossing."""
+    its first pose is fitted (least squares) with the model's rise ``A * ease((t - t_j) / (t_end - t_j))``,
+    A its largest angle (the overshoot peak) and t_end searched between the detection and that peak;
+    t_j is kept within [0, detection]. The report keeps both the crossing and the start.
+    False: the start is the paper's bare threshold crossing."""
     start_fit_fraction: float = 0.9
     """That fit runs from the crop's first frame to where the angle first reaches this fraction of A."""
     min_trials: int = 3
