@@ -43,11 +43,14 @@ _DEFAULTS = BuildSettings()
               help="A joint starts moving when its local angular speed exceeds this, deg/s.")
 @click.option("--start-hold", default=_DEFAULTS.start_hold_s, show_default=True, type=float,
               help="...and stays above it this long, seconds.")
+@click.option("--start-refine/--no-start-refine", default=_DEFAULTS.start_refine, show_default=True,
+              help="Refine each detected start back to where the model's ease-in began (off: the paper's bare "
+                   "threshold crossing, which lags the real onset by several frames).")
 @click.option("--min-trials", default=_DEFAULTS.min_trials, show_default=True, type=int,
               help="Fewest good trials to build a map from.")
 @click.option("--quiet", is_flag=True, help="Do not print the report table.")
 def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_merge, min_rest, speed_span,
-              velocity_k, peak_window_m, pose_window, start_speed, start_hold, min_trials, quiet) -> None:
+              velocity_k, peak_window_m, pose_window, start_speed, start_hold, start_refine, min_trials, quiet) -> None:
     """Build a gaze map from the example trials listed in SHEET (CSV or TOML) and write it to --out.
 
     Each trial is a C3D marker capture (with --markers) or a UsdSkel clip, with its known target
@@ -56,7 +59,7 @@ def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_mer
     settings = BuildSettings(
         rest_speed_mm_s=rest_speed, rest_merge_s=rest_merge, min_rest_s=min_rest, speed_span_s=speed_span,
         velocity_k=velocity_k, peak_window_m=peak_window_m, pose_window_s=pose_window,
-        start_speed_deg_s=start_speed, start_hold_s=start_hold, min_trials=min_trials,
+        start_speed_deg_s=start_speed, start_hold_s=start_hold, start_refine=start_refine, min_trials=min_trials,
     )
     parsed = load_sheet(sheet)
     result = build(parsed, markers, settings, SynthesisSettings())
