@@ -161,12 +161,11 @@ def apply(
         check_output_path(preview)
     if sublayer_into is not None and preview is not None:
         raise UsdGazeError("--sublayer-into and --preview are alternatives; pass one")
-    for p in (preview, sublayer_into):
-        if p is not None and os.path.abspath(p) == os.path.abspath(source):
-            if p is preview:
-                raise UsdGazeError(f"{p}: --preview would overwrite the input")
-    if os.path.abspath(out_path) == os.path.abspath(source):
-        raise UsdGazeError(f"{out_path}: --out would overwrite the input")
+    # --sublayer-into may name the input (it is then refused for holding the animation's own
+    # opinions); --out and --preview never may.
+    for flag, path in (("--out", out_path), ("--preview", preview)):
+        if path is not None and os.path.abspath(path) == os.path.abspath(source):
+            raise UsdGazeError(f"{path}: {flag} would overwrite the input")
     requests = [s if isinstance(s, ShiftRequest) else ShiftRequest.parse(s) for s in shifts]
     if not requests:
         raise UsdGazeError("no --shift given; nothing to do")
