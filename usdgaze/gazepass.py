@@ -33,7 +33,7 @@ from . import rotations as rot
 from .clip import SkelClip
 from .errors import UsdGazeError
 from .gazemap import ParametricGazeMap
-from .kinematics import forward, with_ancestors
+from .kinematics import Pose, forward, with_ancestors
 from .rig import CharacterFrame, Chain
 
 NECK_SEGMENT = 3
@@ -246,8 +246,208 @@ def line_of_sight(left_pos, left_dir, right_pos, right_dir) -> tuple[np.ndarray,
 
 # -- the pass ---------------------------------------------------------------------------------------
 
-def _rest_rotations(clip: SkelClip) -> np.ndarray:
-    return rot.from_matrix(clip.rest_world()[:, :3, :3])
+@dataclass
+class _Rig:
+    """The skeleton as the pass sees it: the clip's joints plus added eyes, and per-joint locals."""
+
+    clip: SkelClip
+    joints: list[str]
+    parents: np.ndarray
+    rest_local: np.ndarray
+    rest_q: np.ndarray
+    """Rest-pose skeleton-space rotations per joint."""
+    eyes: tuple[int, int]
+    added: list[str]
+    added_t: dict[int, np.ndarray]
+
+    def __post_init__(self) -> None:
+        # Each joint's columns are read and converted once, however many steps look at them.
+        self.local = functools.lru_cache(maxsize=None)(self._local)
+
+    def _local(self, j: int):
+        f = len(self.clip.times)
+        if j < len(self.clip.joints):
+            return self.clip.local_trs(j)
+        return np.tile(self.added_t[j], (f, 1)), np.tile(rot.IDENTITY, (f, 1)), np.ones((f, 3))
+
+
+def _with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> _Rig:
+    """The rig with its eye joints: existing ones, or a left and a right added under the head."""
+    rest_world = clip.rest_world()
+    rest_q = rot.from_matrix(rest_world[:, :3, :3])
+    if chain.eyes is not None:
+        return _Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {})
+    head = chain.head
+    # Eye placement scales with the character: the head joint (skull base) of an adult stands ~1.5 m up.
+    height = (rest_world[head, :3, 3] - rest_world[:, :3, 3]) @ frame.up
+    units_per_m = max(float(height.max()), 1e-9) / 1.5
+    joints, added, locals_ = list(clip.joints), [], []
+    for side, name in ((1.0, "LeftEye"), (-1.0, "RightEye")):
+        offset = units_per_m * (options.eye_above_head_m * frame.up + options.eye_ahead_of_head_m * frame.forward
+                                + side * 0.5 * options.interocular_m * frame.left)
+        m = np.eye(4)
+        m[:3, 3] = np.linalg.solve(rest_world[head, :3, :3], offset)
+        locals_.append(m)
+        joints.append(f"{clip.joints[head]}/{name}")
+        added.append(joints[-1])
+    eyes = (len(joints) - 2, len(joints) - 1)
+    return _Rig(
+        clip, joints,
+        parents=np.concatenate([clip.parents, [head, head]]),
+        rest_local=np.concatenate([clip.rest_local, np.stack(locals_)]),
+        rest_q=np.concatenate([rest_q, rest_q[[head, head]]]),  # added eyes start aligned with the head
+        eyes=eyes, added=added,
+        added_t={e: m[:3, 3] for e, m in zip(eyes, locals_)},
+    )
+
+
+def _drive_chain(rig: _Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray, base: Pose
+                 ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+    """New local rotations along the chain (parents first) and their new world rotations."""
+    f = len(disp)
+    canon = frame.rotation  # canonical -> skeleton space
+    counts = np.zeros(4, dtype=int)
+    for role, seg in SEGMENT_OF_ROLE.items():
+        counts[seg] += len(chain.roles[role])
+    role_of = {j: role for role in SEGMENT_OF_ROLE for j in chain.roles[role]}
+    new_rot: dict[int, np.ndarray] = {}
+    new_world: dict[int, np.ndarray] = {}
+    for j in chain.path:
+        _, q_j, _ = rig.local(j)
+        p = int(rig.parents[j])
+        parent_world = new_world.get(p, base.rotation.get(p)) if p >= 0 else np.tile(rot.IDENTITY, (f, 1))
+        role = role_of.get(j)
+        if role is None:
+            q_new = q_j
+        else:
+            seg = SEGMENT_OF_ROLE[role]
+            q = rot.power(disp[:, seg], 1.0 / counts[seg])  # a role's rotation spread over its joints
+            if role == "pelvis":
+                # Heading frame: the character frame turned about up to where the pelvis faces now.
+                facing = rot.rotate(rot.multiply(base.rotation[j], rot.conjugate(rig.rest_q[j])), frame.forward)
+                flat = facing - np.outer(facing @ frame.up, frame.up)
+                heading = np.arctan2(np.cross(frame.forward, flat) @ frame.up, flat @ frame.forward)
+                q_world = rot.conjugate_into(rot.multiply(rot.from_axis_angle(frame.up, heading), canon), q)
+                q_new = rot.multiply(rot.conjugate_into(rot.conjugate(parent_world), q_world), q_j)
+            else:
+                # In the parent's frame as it sits at rest, as the paper's dress-pose offsets are.
+                k = rot.multiply(rot.conjugate(rig.rest_q[p]), canon) if p >= 0 else canon
+                q_new = rot.multiply(rot.conjugate_into(k, q), q_j)
+        new_rot[j] = rot.normalize(q_new)
+        new_world[j] = rot.normalize(rot.multiply(parent_world, new_rot[j]))
+    return new_rot, new_world
+
+
+def _counter_rotate_legs(rig: _Rig, chain: Chain, base: Pose, new_world: dict[int, np.ndarray]
+                         ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+    """Leg roots keep their world transform: undo the pelvis's change in the pelvis frame."""
+    pelvis = chain.pelvis
+    undo = rot.multiply(rot.conjugate(new_world[pelvis]), base.rotation[pelvis])
+    rotations, translations = {}, {}
+    for j in chain.leg_roots:
+        t_j, q_j, _ = rig.local(j)
+        rotations[j] = rot.normalize(rot.multiply(undo, q_j))
+        translations[j] = rot.rotate(undo, t_j)
+    return rotations, translations
+
+
+@dataclass
+class _Eyes:
+    rotations: dict[int, np.ndarray]
+    angles: np.ndarray
+    """Eye-in-head (yaw, pitch) per frame and eye ``(F, 2, 2)``, after the range clamp."""
+    positions: list[np.ndarray]
+    directions: list[np.ndarray]
+
+
+def _aim_eyes(rig: _Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange) -> _Eyes:
+    """Point each eye at the point of sight (Listing's law: no torsion), within the eye range."""
+    f = len(sight_point)
+    out = _Eyes({}, np.zeros((f, 2, 2)), [], [])
+    for i, e in enumerate(rig.eyes):
+        p = int(rig.parents[e])
+        to_head = rot.conjugate(rig.rest_q[p])
+        fwd_h, left_h, up_h = (rot.rotate(to_head, v) for v in (frame.forward, frame.left, frame.up))
+        pos = moved.place(p, rig.local(e)[0])
+        u_h = rot.rotate(rot.conjugate(moved.rotation[p]), rot.normalize(sight_point - pos))
+        yaw = np.clip(np.degrees(np.arctan2(u_h @ left_h, u_h @ fwd_h)), -limits.yaw, limits.yaw)
+        pitch = np.clip(np.degrees(np.arcsin(np.clip(u_h @ up_h, -1.0, 1.0))), -limits.down, limits.up)
+        y, pc = np.radians(yaw), np.radians(pitch)
+        u_h = ((np.cos(pc) * np.sin(y))[:, None] * left_h + (np.cos(pc) * np.cos(y))[:, None] * fwd_h
+               + np.sin(pc)[:, None] * up_h)
+        out.angles[:, i] = np.column_stack([yaw, pitch])
+        rest_eye = rot.from_matrix(rig.rest_local[e, :3, :3])
+        out.rotations[e] = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h, u_h), rest_eye))
+        out.positions.append(pos)
+        out.directions.append(rot.rotate(moved.rotation[p], u_h))
+    return out
+
+
+def _reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae: np.ndarray,
+                    achieved: np.ndarray, eye_angles: np.ndarray, options: PassOptions) -> list[str]:
+    """One line per shift whose hold misses the request by more than the tolerance, saying why."""
+    limits = options.eye_range
+    seconds = clip.seconds
+    warnings = []
+    for k, sh in enumerate(shifts):
+        end = shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
+        hold = plan.settled & (seconds >= sh.time_s) & (seconds < end)
+        if not np.any(hold) or np.abs(achieved[hold] - plan.requested[hold]).max() <= options.tolerance_deg:
+            continue
+        reach = achieved[hold].mean(axis=0)
+        angles = eye_angles[hold]
+        at_limit = np.any(np.abs(angles[..., 0]) >= limits.yaw - 1e-6) or np.any(
+            (angles[..., 1] >= limits.up - 1e-6) | (angles[..., 1] <= -limits.down + 1e-6))
+        if np.any(np.abs(base_ae[hold, 1] + plan.requested[hold, 1]) > 89.0):
+            way = "down" if base_ae[hold, 1].mean() < 0 else "up"
+            why = (f"the base line of sight already points {np.abs(base_ae[hold, 1]).max():.0f} deg {way}, "
+                   f"and the gaze cannot pass straight {way}")
+        elif at_limit:
+            why = f"the eyes reach their range (yaw +-{limits.yaw:g}, up {limits.up:g}, down {limits.down:g} deg)"
+        else:
+            why = "the chain cannot turn that far"
+        warnings.append(
+            f"{clip.where()}: shift at {sh.time_s:g} s asks for yaw {sh.yaw:g}, pitch {sh.pitch:g} deg; "
+            f"reached about yaw {reach[0]:.1f}, pitch {reach[1]:.1f} ({why})"
+        )
+    return warnings
+
+
+def _assemble(rig: _Rig, rotations_new: dict[int, np.ndarray], translations_new: dict[int, np.ndarray]
+              ) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+    """Full animation arrays: the input's values, with the driven joints overwritten.
+
+    Driven joints the animation does not list (added eyes, an unanimated chain joint) are appended,
+    so every existing index stays valid and untouched joints keep their exact bits.
+    """
+    clip = rig.clip
+    animated = set(int(j) for j in clip.anim_to_skel)
+    appended = sorted({j for j in list(rotations_new) + list(translations_new) if j not in animated})
+    anim_index = {int(s): a for a, s in enumerate(clip.anim_to_skel)}
+    anim_joints = list(clip.anim_joints)
+    rotations, translations, scales = clip.rotations, clip.translations, clip.scales
+    if appended:
+        t_add, q_add, s_add = zip(*(rig.local(j) for j in appended))
+        rotations = np.concatenate([rotations, np.stack(q_add, 1).astype(np.float32)], axis=1)
+        translations = np.concatenate([translations, np.stack(t_add, 1).astype(np.float32)], axis=1)
+        scales = np.concatenate([scales, np.stack(s_add, 1).astype(np.float16)], axis=1)
+        for j in appended:
+            anim_index[j] = len(anim_joints)
+            anim_joints.append(rig.joints[j])
+    else:  # concatenate already made new arrays; otherwise never write into the clip's
+        rotations = rotations.copy()
+        translations = translations.copy() if translations_new else translations
+    for j, q in rotations_new.items():
+        column = anim_index[j]
+        rotations[:, column] = rot.align_hemisphere(q, rotations[:, column].astype(float)).astype(np.float32)
+    for j, t in translations_new.items():
+        translations[:, anim_index[j]] = t.astype(np.float32)
+    return anim_joints, rotations, translations, scales
+
+
+def _to_world(m: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Directions through per-frame (or one) 3x3 maps, normalized."""
+    return rot.normalize(np.einsum("fij,fj->fi", np.broadcast_to(m, (len(v), 3, 3)), v))
 
 
 def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: ParametricGazeMap,
@@ -257,226 +457,65 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     for a, b in zip(shifts, shifts[1:]):
         if a.time_s == b.time_s:
             raise UsdGazeError(f"{clip.where()}: two shifts at the same time {a.time_s:g} s")
-    f = len(clip.times)
     seconds = clip.seconds
-    parents = clip.parents.copy()
-    rest_q = _rest_rotations(clip)
-    rest_world = clip.rest_world()
-    canon = frame.rotation  # canonical -> skeleton space
-
-    # Eyes: existing joints, or two new ones under the head.
-    joints = list(clip.joints)
-    rest_local = clip.rest_local
-    added: list[str] = []
-    eyes = chain.eyes
-    eye_local_t: dict[int, np.ndarray] = {}
-    if eyes is None:
-        head = chain.head
-        height = (rest_world[head, :3, 3] - rest_world[:, :3, 3]) @ frame.up
-        units_per_m = max(float(height.max()), 1e-9) / 1.5
-        added_rest = []
-        for side, name in ((1.0, "LeftEye"), (-1.0, "RightEye")):
-            offset_s = units_per_m * (options.eye_above_head_m * frame.up + options.eye_ahead_of_head_m * frame.forward
-                                      + side * 0.5 * options.interocular_m * frame.left)
-            lin = rest_world[head, :3, :3]
-            local_t = np.linalg.solve(lin, offset_s)
-            m = np.eye(4)
-            m[:3, 3] = local_t
-            added_rest.append(m)
-            joints.append(f"{clip.joints[head]}/{name}")
-            added.append(joints[-1])
-        parents = np.concatenate([parents, [head, head]])
-        rest_local = np.concatenate([rest_local, np.stack(added_rest)])
-        eyes = (len(joints) - 2, len(joints) - 1)
-        for e in eyes:
-            eye_local_t[e] = rest_local[e, :3, 3]
-        rest_q = np.concatenate([rest_q, rest_q[[head, head]]])
-        rest_world = np.concatenate([rest_world, rest_world[head] @ rest_local[-2:]])
-
-    @functools.lru_cache(maxsize=None)
-    def local(j: int):
-        if j < len(clip.joints):
-            return clip.local_trs(j)
-        return np.tile(eye_local_t[j], (f, 1)), np.tile(rot.IDENTITY, (f, 1)), np.ones((f, 3))
-
-    needed = with_ancestors(list(chain.path) + list(chain.leg_roots) + list(eyes), parents)
-    base = forward(needed, parents, local)
-
-    # Up and the world <-> skeleton maps.
-    sw = clip.skel_to_world[:, :3, :3]
+    rig = _with_eyes(clip, chain, frame, options)
+    base = forward(with_ancestors(list(chain.path) + list(chain.leg_roots) + list(rig.eyes), rig.parents),
+                   rig.parents, rig.local)
+    skel_to_world = clip.skel_to_world[:, :3, :3]
     up_w = clip.world_up
-    sw_inv = np.linalg.inv(sw)
-    world_scale = np.cbrt(np.abs(np.linalg.det(sw)))
 
-    # Base line of sight: where the head looks.
-    head = chain.head
-    head_fwd_local = rot.rotate(rot.conjugate(rest_q[head]), frame.forward)
-    base_dir_s = rot.rotate(base.rotation[head], head_fwd_local)
-    base_dir_w = rot.normalize(np.einsum("fij,fj->fi", np.broadcast_to(sw, (f, 3, 3)), base_dir_s))
-    base_ae = azimuth_elevation(base_dir_w, up_w)
+    # The base line of sight: where the head looks.
+    head_axis = rot.rotate(rot.conjugate(rig.rest_q[chain.head]), frame.forward)
+    base_ae = azimuth_elevation(_to_world(skel_to_world, rot.rotate(base.rotation[chain.head], head_axis)), up_w)
 
     plan = schedule(gaze_map, shifts, seconds)
-    disp = plan.displacement
-
-    # New local rotations along the chain, parents first.
-    counts = np.zeros(4, dtype=int)
-    for role, seg in SEGMENT_OF_ROLE.items():
-        counts[seg] += len(chain.roles[role])
-    role_of = {j: role for role in SEGMENT_OF_ROLE for j in chain.roles[role]}
-    new_rot: dict[int, np.ndarray] = {}
-    new_world_q: dict[int, np.ndarray] = {}
-    up_s, fwd_s = frame.up, frame.forward
-    for j in chain.path:
-        t_j, q_j, _ = local(j)
-        p = int(parents[j])
-        parent_world = new_world_q.get(p, base.rotation.get(p)) if p >= 0 else np.tile(rot.IDENTITY, (f, 1))
-        role = role_of.get(j)
-        if role is None:
-            q_new = q_j
-        else:
-            seg = SEGMENT_OF_ROLE[role]
-            q = rot.power(disp[:, seg], 1.0 / counts[seg])
-            if role == "pelvis":
-                # Heading frame: the character frame turned about up to where the pelvis faces now.
-                facing = rot.rotate(rot.multiply(base.rotation[j], rot.conjugate(rest_q[j])), fwd_s)
-                flat = facing - np.outer(facing @ up_s, up_s)
-                heading = np.arctan2(np.cross(fwd_s, flat) @ up_s, flat @ fwd_s)
-                frame_q = rot.multiply(rot.from_axis_angle(up_s, heading), canon)
-                q_world = rot.conjugate_into(frame_q, q)
-                q_new = rot.multiply(rot.multiply(rot.conjugate(parent_world), rot.multiply(q_world, parent_world)), q_j)
-            else:
-                k = rot.multiply(rot.conjugate(rest_q[p]), canon) if p >= 0 else canon
-                q_new = rot.multiply(rot.conjugate_into(k, q), q_j)
-        new_rot[j] = rot.normalize(q_new)
-        new_world_q[j] = rot.normalize(rot.multiply(parent_world, new_rot[j]))
-
-    # Leg roots keep their world transform: undo the pelvis's change in the pelvis frame.
-    pelvis = chain.pelvis
-    undo = rot.multiply(rot.conjugate(new_world_q[pelvis]), base.rotation[pelvis])
-    new_trans: dict[int, np.ndarray] = {}
-    for j in chain.leg_roots:
-        t_j, q_j, _ = local(j)
-        new_rot[j] = rot.normalize(rot.multiply(undo, q_j))
-        new_trans[j] = rot.rotate(undo, t_j)
+    new_rot, new_world = _drive_chain(rig, chain, frame, plan.displacement, base)
+    leg_rot, new_trans = _counter_rotate_legs(rig, chain, base, new_world)
+    new_rot.update(leg_rot)
 
     def new_local(j: int):
-        t, q, s = local(j)
+        t, q, s = rig.local(j)
         return new_trans.get(j, t), new_rot.get(j, q), s
 
-    eye_parents = {int(parents[e]) for e in eyes}
-    moved = forward(with_ancestors(sorted(eye_parents), parents), parents, new_local)
+    eye_parents = sorted({int(rig.parents[e]) for e in rig.eyes})
+    moved = forward(with_ancestors(eye_parents, rig.parents), rig.parents, new_local)
 
-    # Wanted line of sight and the point of sight.
+    # The wanted line of sight and, at the fixation distance along it, the point of sight.
     wanted_ae = base_ae + plan.requested
     wanted_ae[:, 1] = np.clip(wanted_ae[:, 1], -89.0, 89.0)
-    wanted_w = direction_from(wanted_ae, up_w)
-    wanted_s = rot.normalize(np.einsum("fij,fj->fi", np.broadcast_to(sw_inv, (f, 3, 3)), wanted_w))
-    eye_pos = []
-    for e in eyes:
-        p = int(parents[e])
-        t_e = local(e)[0]
-        eye_pos.append(moved.place(p, t_e))
-    centre = 0.5 * (eye_pos[0] + eye_pos[1])
-    distance_s = options.fixation_m / clip.meters_per_unit / world_scale
-    sight_point = centre + np.broadcast_to(distance_s, (f,))[:, None] * wanted_s
-
-    limits = options.eye_range
-    eye_angles = np.zeros((f, 2, 2))
-    eye_dirs = []
-    for i, e in enumerate(eyes):
-        p = int(parents[e])
-        par_rest = rest_q[p]
-        fwd_h = rot.rotate(rot.conjugate(par_rest), fwd_s)
-        left_h = rot.rotate(rot.conjugate(par_rest), frame.left)
-        up_h = rot.rotate(rot.conjugate(par_rest), up_s)
-        u = rot.normalize(sight_point - eye_pos[i])
-        u_h = rot.rotate(rot.conjugate(moved.rotation[p]), u)
-        yaw = np.degrees(np.arctan2(u_h @ left_h, u_h @ fwd_h))
-        pitch = np.degrees(np.arcsin(np.clip(u_h @ up_h, -1.0, 1.0)))
-        yaw_c = np.clip(yaw, -limits.yaw, limits.yaw)
-        pitch_c = np.clip(pitch, -limits.down, limits.up)
-        y, pch = np.radians(yaw_c), np.radians(pitch_c)
-        u_h = (np.cos(pch) * np.sin(y))[:, None] * left_h + (np.cos(pch) * np.cos(y))[:, None] * fwd_h + np.sin(pch)[:, None] * up_h
-        eye_angles[:, i] = np.column_stack([yaw_c, pitch_c])
-        rest_eye_local = rot.from_matrix(rest_local[e, :3, :3])
-        new_rot[e] = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h, u_h), rest_eye_local))
-        eye_dirs.append(rot.rotate(moved.rotation[p], u_h))
+    wanted_s = _to_world(np.linalg.inv(skel_to_world), direction_from(wanted_ae, up_w))
+    centre = 0.5 * sum(moved.place(int(rig.parents[e]), rig.local(e)[0]) for e in rig.eyes)
+    world_scale = np.cbrt(np.abs(np.linalg.det(skel_to_world)))
+    distance = np.broadcast_to(options.fixation_m / clip.meters_per_unit / world_scale, (len(seconds),))
+    eyes = _aim_eyes(rig, frame, moved, centre + distance[:, None] * wanted_s, options.eye_range)
+    new_rot.update(eyes.rotations)
 
     # What was achieved, measured like a viewer would: from the eyes' midpoint to their point of sight.
-    _, sight = line_of_sight(eye_pos[0], eye_dirs[0], eye_pos[1], eye_dirs[1])
-    sight_w = rot.normalize(np.einsum("fij,fj->fi", np.broadcast_to(sw, (f, 3, 3)), sight))
-    achieved_ae = azimuth_elevation(sight_w, up_w)
+    _, sight = line_of_sight(eyes.positions[0], eyes.directions[0], eyes.positions[1], eyes.directions[1])
+    achieved_ae = azimuth_elevation(_to_world(skel_to_world, sight), up_w)
     achieved = np.column_stack([
         rot.unwrap_near(achieved_ae[:, 0] - base_ae[:, 0], plan.requested[:, 0]),
         achieved_ae[:, 1] - base_ae[:, 1],
     ])
 
-    warnings = []
-    for k, sh in enumerate(shifts):
-        end = shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
-        hold = plan.settled & (seconds >= sh.time_s) & (seconds < end)
-        if not np.any(hold):
-            continue
-        err = np.abs(achieved[hold] - plan.requested[hold]).max(axis=0)
-        if np.max(err) > options.tolerance_deg:
-            reach = achieved[hold].mean(axis=0)
-            wanted_el = base_ae[hold, 1] + plan.requested[hold, 1]
-            at_limit = np.any(np.abs(eye_angles[hold, :, 0]) >= limits.yaw - 1e-6) or np.any(
-                (eye_angles[hold, :, 1] >= limits.up - 1e-6) | (eye_angles[hold, :, 1] <= -limits.down + 1e-6))
-            if np.any(np.abs(wanted_el) > 89.0):
-                why = (f"the base line of sight already points {np.abs(base_ae[hold, 1]).max():.0f} deg "
-                       f"{'down' if base_ae[hold, 1].mean() < 0 else 'up'}, and the gaze cannot pass straight "
-                       f"{'down' if base_ae[hold, 1].mean() < 0 else 'up'}")
-            elif at_limit:
-                why = "the eyes reach their range (yaw +-{:g}, up {:g}, down {:g} deg)".format(limits.yaw, limits.up, limits.down)
-            else:
-                why = "the chain cannot turn that far"
-            warnings.append(
-                f"{clip.where()}: shift at {sh.time_s:g} s asks for yaw {sh.yaw:g}, pitch {sh.pitch:g} deg; "
-                f"reached about yaw {reach[0]:.1f}, pitch {reach[1]:.1f} ({why})"
-            )
-
-    # Assemble the animation arrays: copy, then overwrite the joints we drive.
-    extra = [j for j in list(new_rot) + list(new_trans) if j < len(clip.joints) and j not in set(clip.anim_to_skel)]
-    extra = sorted(set(extra))
-    anim_index = {int(s): a for a, s in enumerate(clip.anim_to_skel)}
-    anim_joints = list(clip.anim_joints)
-    rotations, translations, scales = clip.rotations, clip.translations, clip.scales
-    appended = extra + ([e for e in eyes] if added else [])
-    if appended:
-        t_add, q_add, s_add = zip(*(local(j) for j in appended))
-        rotations = np.concatenate([rotations, np.stack(q_add, 1).astype(np.float32)], axis=1)
-        translations = np.concatenate([translations, np.stack(t_add, 1).astype(np.float32)], axis=1)
-        scales = np.concatenate([scales, np.stack(s_add, 1).astype(np.float16)], axis=1)
-        for j in appended:
-            anim_index[j] = len(anim_joints)
-            anim_joints.append(joints[j])
-    if not appended:  # concatenate already made new arrays; otherwise never write into the clip's
-        rotations = rotations.copy()
-        translations = translations.copy() if new_trans else translations
-    for j, q in new_rot.items():
-        column = anim_index[j]
-        rotations[:, column] = rot.align_hemisphere(q, rotations[:, column].astype(float)).astype(np.float32)
-    for j, t in new_trans.items():
-        translations[:, anim_index[j]] = t.astype(np.float32)
-
+    anim_joints, rotations, translations, scales = _assemble(rig, new_rot, new_trans)
     result = PassResult(
         anim_joints=anim_joints,
         rotations=rotations,
         translations=translations,
         scales=scales,
-        added_joints=added,
-        changed_joints=[joints[j] for j in sorted(set(new_rot) | set(new_trans))],
+        added_joints=rig.added,
+        changed_joints=[rig.joints[j] for j in sorted(set(new_rot) | set(new_trans))],
         requested=plan.requested,
         achieved=achieved,
-        eye_angles=eye_angles,
+        eye_angles=eyes.angles,
         settled=plan.settled,
         seconds=seconds,
-        segment_angles=np.degrees(rot.angle(disp)),
+        segment_angles=np.degrees(rot.angle(plan.displacement)),
         shift_timing=plan.timing,
-        warnings=warnings,
+        warnings=_reach_warnings(clip, shifts, plan, base_ae, achieved, eyes.angles, options),
     )
-    if added:
-        result.added_rest_local = rest_local[-2:]
-        result.added_bind_world = clip.bind_world[chain.head] @ rest_local[-2:]
+    if rig.added:
+        result.added_rest_local = rig.rest_local[-2:]
+        result.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
     return result
