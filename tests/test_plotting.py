@@ -25,3 +25,11 @@ def test_plot_rejects_unknown_extension(tmp_path):
     report = api.apply(CMU, ["2s:60:0"], tmp_path / "g.usdc")
     with pytest.raises(UsdGazeError, match="g.gif: plot must end in"):
         plot_report(report, tmp_path / "g.gif")
+
+
+def test_plot_problems_are_found_before_anything_is_written(tmp_path):
+    from usdgaze.cli import main
+
+    out = tmp_path / "g.usdc"
+    code = main(["apply", str(CMU), "--shift", "2s:60:0", "--out", str(out), "--plot", str(tmp_path / "g.gif")])
+    assert code == 2 and not out.exists()

@@ -50,6 +50,10 @@ def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, 
 
     if not np.isfinite(fixation) or fixation <= 0:
         raise UsdGazeError(f"--fixation {fixation}: must be a positive distance in metres")
+    if plot:
+        from .plotting import check_plot_path
+
+        check_plot_path(plot)  # before any work: a missing matplotlib must not leave a written layer behind
     report = run(input_path, list(shifts), out, skel_root=skel_root, map_spec=map_spec,
                  sublayer_into=sublayer_into, preview=preview, options=PassOptions(fixation_m=fixation))
     for w in report.warnings:

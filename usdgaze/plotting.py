@@ -11,8 +11,13 @@ from .errors import UsdGazeError
 from .motion import SEGMENTS
 
 
-def plot_report(report, path: str | os.PathLike) -> None:
-    """One figure per character, stacked: wanted vs achieved gaze change, segment angles, eye angles."""
+def check_plot_path(path: str | os.PathLike):
+    """matplotlib's pyplot if ``path`` can be drawn to, else a one-line error (call before any work)."""
+    path = Path(path)
+    if path.suffix.lower() not in {".png", ".pdf", ".svg"}:
+        raise UsdGazeError(f"{path}: plot must end in .png, .pdf or .svg")
+    if not path.parent.is_dir():
+        raise UsdGazeError(f"{path}: folder {path.parent} does not exist")
     try:
         import matplotlib
 
@@ -20,9 +25,13 @@ def plot_report(report, path: str | os.PathLike) -> None:
         import matplotlib.pyplot as plt
     except ImportError:
         raise UsdGazeError(f"{path}: plotting needs matplotlib: pip install 'usdgaze[plot]'") from None
+    return plt
+
+
+def plot_report(report, path: str | os.PathLike) -> None:
+    """One figure per character, stacked: wanted vs achieved gaze change, segment angles, eye angles."""
+    plt = check_plot_path(path)
     path = Path(path)
-    if path.suffix.lower() not in {".png", ".pdf", ".svg"}:
-        raise UsdGazeError(f"{path}: plot must end in .png, .pdf or .svg")
     chars = report.characters
     fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 7.5 * len(chars)), sharex=False, squeeze=False)
     for n, c in enumerate(chars):
