@@ -63,14 +63,25 @@ def conjugate(q: np.ndarray) -> np.ndarray:
     return q * np.array([-1.0, -1.0, -1.0, 1.0])
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of 3-vectors, broadcasting (np.cross copies its inputs; this is hot)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)``."""
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
     u = q[..., :3]
     w = q[..., 3:4]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    t = 2.0 * cross(u, v)
+    return v + w * t + cross(u, t)
 
 
 def to_rotvec(q: np.ndarray) -> np.ndarray:
@@ -121,7 +132,7 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     v = normalize(v)
     u, v = np.broadcast_arrays(u, v)
     d = np.sum(u * v, axis=-1, keepdims=True)
-    axis = np.cross(u, v)
+    axis = cross(u, v)
     q = np.concatenate([axis, 1.0 + d], axis=-1)
     # Antiparallel: rotate 180 deg about any axis perpendicular to u.
     anti = (1.0 + d[..., 0]) < 1e-12
