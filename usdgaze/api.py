@@ -11,6 +11,7 @@ import numpy as np
 
 from . import __version__
 from . import rotations as rot
+from . import schema
 from .clip import SkelClip
 from .defaults import default_definition
 from .definition import GazeMapDefinition
@@ -80,12 +81,6 @@ class ApplyReport:
     sublayered_into: str | None = None
 
 
-def _schema():
-    from . import schema
-
-    return schema
-
-
 def select_roots(stage, source: str, skel_root: str | None):
     """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
     from pxr import Sdf, UsdSkel
@@ -105,7 +100,7 @@ def select_roots(stage, source: str, skel_root: str | None):
     roots = skel_roots(stage)
     if not roots:
         raise UsdGazeError(f"{source}: no SkelRoot on the stage")
-    with_map = [r for r in roots if _schema().has_map(r)]
+    with_map = [r for r in roots if schema.has_map(r)]
     if with_map:
         return with_map
     if len(roots) > 1:
@@ -172,7 +167,7 @@ def apply(
 
     stage = open_stage(source)
     roots = select_roots(stage, source, skel_root)
-    forced = _schema().load_map(map_spec) if map_spec else None
+    forced = schema.load_map(map_spec) if map_spec else None
     maps: dict[bytes, ParametricGazeMap] = {}
     report = ApplyReport(output=str(out_path))
     overrides: list[AnimOverride] = []
@@ -180,7 +175,7 @@ def apply(
     info: LayerInfo | None = None
 
     for root in roots:
-        own = _schema().read_map(root, source) if _schema().has_map(root) else None
+        own = schema.read_map(root, source) if schema.has_map(root) else None
         definition = forced or own or default_definition()
         map_source = map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
         key = _map_key(definition)

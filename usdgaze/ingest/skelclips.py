@@ -22,7 +22,7 @@ from pxr import Usd, UsdGeom, UsdSkel
 
 from .. import rotations as rot
 from ..definition import ROLES
-from ..errors import RigError, UsdGazeError
+from ..errors import RigError, UsdGazeError, usd_failure
 from ..rig import bind_chain, character_frame, leaf
 from .markers import SkeletonBinding, parse_axis
 from .series import TrialSeries
@@ -40,8 +40,7 @@ def _open(path: Path, where: str) -> Usd.Stage:
     try:
         stage = Usd.Stage.Open(str(path))
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
-        text = str(exc).strip().splitlines()
-        raise SkeletonClipError(f"{where}: cannot open as a USD stage ({text[-1].strip() if text else type(exc).__name__})") from None
+        raise SkeletonClipError(f"{where}: cannot open as a USD stage ({usd_failure(exc)})") from None
     if stage is None:
         raise SkeletonClipError(f"{where}: cannot open as a USD stage")
     return stage
