@@ -6,7 +6,7 @@ folder first and is not timed. Prints, best of N repeats (``time.perf_counter``)
 
 * build: sheet -> C3D reading -> gap fill, stabilization, rest cropping -> extraction -> definition;
 * of which reading the 33 C3D files (ezc3d);
-* writing the map layer (``usdgaze.schema.dump_map``);
+* writing the map layer (``usdgaze.usd.schema.dump_map``);
 * the whole ``usdgaze build-map`` command in-process (build + report table + map file).
 
 Nothing is asserted.
@@ -27,7 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from tests import ingest_synth as syn  # noqa: E402
-from usdgaze.cli import main  # noqa: E402
+from usdgaze.console.main import main  # noqa: E402
 from usdgaze.ingest import build, load_sheet, write_map  # noqa: E402
 from usdgaze.ingest.c3dio import read_c3d  # noqa: E402
 

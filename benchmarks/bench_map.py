@@ -11,10 +11,10 @@ import platform
 
 import numpy as np
 
-from usdgaze import defaults
-from usdgaze.definition import GazeMapDefinition
-from usdgaze.gazemap import ParametricGazeMap
-from usdgaze.motion import GazeMotions
+from usdgaze.gaze import defaults
+from usdgaze.gaze.definition import GazeMapDefinition
+from usdgaze.gaze.gazemap import ParametricGazeMap
+from usdgaze.gaze.motion import GazeMotions
 
 from _timing import best_of  # noqa: E402  (benchmarks/ is on sys.path when run as a script)
 

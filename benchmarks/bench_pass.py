@@ -6,8 +6,8 @@ On ``sample_stages/cmu/cmu_131_02.usdc`` (31 joints x 1247 frames, real capture)
 walk (``--joints`` x ``--frames``, written to a temp folder by tests/synthetic.py):
 
 * gaze: ``usdgaze.api.apply`` with four shifts, writing a .usdc override;
-* bare: the same animation read with ``usdgaze.skelio.read_clip`` and written back unchanged with
-  ``usdgaze.layers.build_override`` + ``atomic_export``, as the same attributes the gaze pass writes
+* bare: the same animation read with ``usdgaze.usd.skelio.read_clip`` and written back unchanged with
+  ``usdgaze.usd.layers.build_override`` + ``atomic_export``, as the same attributes the gaze pass writes
   (found in its output layer), so the difference is what the gaze model costs.
 
 Best of ``--runs`` each, the two interleaved. Prints both times, the ratio gaze/bare (goal <= 1.3) and
@@ -34,7 +34,9 @@ import numpy as np
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from pxr import Sdf
 
-from usdgaze import api, gazemap, layers, skelio
+from usdgaze import api
+from usdgaze.gaze import gazemap
+from usdgaze.usd import layers, skelio
 
 ROOT = Path(__file__).resolve().parents[1]
 CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc"

@@ -70,7 +70,7 @@ def run_job(job: dict) -> dict:
     """Run one job; never raises. Returns its status record."""
     from usdgaze.api import apply
     from usdgaze.errors import UsdGazeError
-    from usdgaze.gazepass import PassOptions
+    from usdgaze.passes.shift import PassOptions
 
     start = time.perf_counter()
     record = {"name": job["name"], "input": job["input"], "out": job["out"]}

@@ -1,7 +1,7 @@
 """Synthetic gaze capture sessions with known ground truth, for the build-map tests and benchmark.
 
 A subject does Heck's 33-trial protocol (5.2.1: yaw every 36 deg from -180 to 180, pitch -12/0/+12,
-60 Hz). Each trial's gaze motion is a *known* :class:`usdgaze.motion.GazeMotions` built here from
+60 Hz). Each trial's gaze motion is a *known* :class:`usdgaze.gaze.motion.GazeMotions` built here from
 plausible head-eye-trunk numbers; the markers (or the joints of a small Mixamo-named rig) are
 animated by forward kinematics of a four-segment spine chain driven by
 :meth:`GazeMotions.displacement`, so every marker position follows exactly from the known motion.
@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from usdgaze import motion
-from usdgaze import rotations as rot
-from usdgaze.motion import GazeMotions
+from usdgaze.gaze import motion
+from usdgaze.core import rotations as rot
+from usdgaze.gaze.motion import GazeMotions
 
 RATE = 60.0
 YAWS = np.arange(-180.0, 180.0 + 1e-9, 36.0)

@@ -31,7 +31,7 @@ from . import synthetic as syn
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "bad-inputs.md"
 CROWD = ROOT / "sample_stages" / "shared_map" / "crowd.usda"
-CLI = [sys.executable, "-m", "usdgaze.cli"]
+CLI = [sys.executable, "-m", "usdgaze"]
 SHIFT = ["--shift", "0.5s:30:0"]
 
 
@@ -447,7 +447,7 @@ _DRIVER = textwrap.dedent("""
         os._exit(9)                       # ... and the process dies mid-write
 
     Sdf.Layer.Export = dying_export
-    from usdgaze.cli import main
+    from usdgaze.console.main import main
     sys.exit(main(sys.argv[1:]))
 """)
 

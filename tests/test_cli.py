@@ -26,7 +26,7 @@ CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 TCPS = 120.00479955795427
 ANIM = "/root/Body/BodySkel/scaled_131_01"
 ENTRY = Path(sys.executable).with_name("usdgaze")  # the installed console script
-MODULE = [sys.executable, "-m", "usdgaze.cli"]
+MODULE = [sys.executable, "-m", "usdgaze"]
 SHIFTS = ["--shift", "150:60:0", "--shift", "2.5s:-30:-10"]
 
 
@@ -214,7 +214,7 @@ def test_internal_errors_exit_1_with_one_line_unless_debugging(src, tmp_path):
             raise RuntimeError("boom")
 
         usdgaze.api.apply = broken
-        from usdgaze.cli import main
+        from usdgaze.console.main import main
         sys.exit(main(sys.argv[1:]))
     """))
     args = [sys.executable, str(driver), "apply", str(src), "--shift", "10:5:0", "--out", str(tmp_path / "x.usdc")]

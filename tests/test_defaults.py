@@ -1,7 +1,7 @@
 """The built-in gaze map against the human head-eye data it claims to follow (REFERENCES.md).
 
 Everything is measured on the map's answers (``ParametricGazeMap.query``), not on the rules in
-``usdgaze.defaults``: segment angles and eye-in-head directions with scipy, expected bands from the
+``usdgaze.gaze.defaults``: segment angles and eye-in-head directions with scipy, expected bands from the
 literature, each row with its source.
 """
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from usdgaze import defaults
-from usdgaze.gazemap import ParametricGazeMap
+from usdgaze.gaze import defaults
+from usdgaze.gaze.gazemap import ParametricGazeMap
 
 EYE_YAW_LIMIT = 44.2  # Eom et al. 2019: eye yaw theta in [-44.2, 44.2] deg
 EYE_PITCH_LOW, EYE_PITCH_HIGH = -47.1, 27.7  # Eom et al. 2019: eye pitch psi in [-47.1, 27.7] deg
@@ -161,7 +161,7 @@ def test_more_vertical_shift_has_larger_eye_share(gaze_map, vertical, horizontal
     h = seg_deg(gaze_map.query(*horizontal).offsets)[EYES] / amplitude
     assert v > h, (
         f"eye share {v:.3f} for the vertical shift {vertical} is not larger than {h:.3f} for the horizontal "
-        f"shift {horizontal} (Freedman & Sparks 1997). In usdgaze.defaults the upward eye plateau "
+        f"shift {horizontal} (Freedman & Sparks 1997). In usdgaze.gaze.defaults the upward eye plateau "
         f"EYE_UP_LIMIT={defaults.EYE_UP_LIMIT} deg (kept under the 27.7 deg elevation limit with "
         f"overshoot) caps upward eye rotation below the horizontal eye share at this amplitude."
     )

@@ -1,6 +1,6 @@
 """The parametric gaze map (Heck 5.2.2.2-5.2.3; Kovar & Gleicher 2004 synthesis), measured.
 
-Accuracy is measured on the canonical chain with :func:`usdgaze.motion.achieved_gaze` (itself checked
+Accuracy is measured on the canonical chain with :func:`usdgaze.gaze.motion.achieved_gaze` (itself checked
 against a scipy composition in ``test_motion.py``); eye-in-head angles are measured with scipy.
 """
 
@@ -13,10 +13,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import usdgaze  # noqa: F401  (registers the schema before any stage is opened)
-from usdgaze import defaults, motion, schema
-from usdgaze.definition import GazeMapDefinition, SynthesisSettings
-from usdgaze.gazemap import ParametricGazeMap
-from usdgaze.motion import GazeMotions
+from usdgaze.gaze import defaults, motion
+from usdgaze.usd import schema
+from usdgaze.gaze.definition import GazeMapDefinition, SynthesisSettings
+from usdgaze.gaze.gazemap import ParametricGazeMap
+from usdgaze.gaze.motion import GazeMotions
 
 EYE_YAW_LIMIT = 44.2  # Eom et al. 2019: theta in [-44.2, 44.2] deg
 EYE_PITCH_RANGE = (-47.1, 27.7)  # Eom et al. 2019: psi in [-47.1, 27.7] deg

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from pxr import Sdf
 
-from usdgaze.cli import main
+from usdgaze.console.main import main
 from usdgaze.ingest import build
 
 from . import ingest_synth as syn
@@ -34,7 +34,7 @@ def test_build_map_writes_map_report_and_series(session, tmp_path, capsys):
     assert f"wrote {out}: 6 examples" in stdout
 
     expected = build(session.sheet, session.markerset)
-    from usdgaze.schema import load_map
+    from usdgaze.usd.schema import load_map
 
     stored = load_map(str(out))
     np.testing.assert_array_equal(stored.params, PARAMS)  # examples in sheet order

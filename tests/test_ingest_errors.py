@@ -8,7 +8,7 @@ import shutil
 import numpy as np
 import pytest
 
-from usdgaze.cli import main
+from usdgaze.console.main import main
 from usdgaze.ingest import BuildError, BuildSettings, build, require_definition
 
 from . import ingest_synth as syn

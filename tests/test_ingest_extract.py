@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from usdgaze import motion
-from usdgaze import rotations as rot
+from usdgaze.gaze import motion
+from usdgaze.core import rotations as rot
 from usdgaze.ingest.extract import ExtractionError, extract, first_above, onset_fit, overshoot_peak, pose_offsets
 from usdgaze.ingest.frames import FrameError, character_frame, fit_frames, square_frames, triangle_frames
 from usdgaze.ingest.settings import BuildSettings

@@ -31,9 +31,9 @@ import numpy as np
 import pytest
 
 from . import ingest_synth as syn
-from usdgaze import motion
-from usdgaze import rotations as rot
-from usdgaze.definition import GazeMapDefinition
+from usdgaze.gaze import motion
+from usdgaze.core import rotations as rot
+from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.ingest import build
 from usdgaze.ingest.extract import CHAIN
 from usdgaze.ingest.settings import BuildSettings
@@ -155,7 +155,7 @@ def test_c3d_start_times_follow_the_cascade(c3d_session):
 
 
 def _map_difference(built: GazeMapDefinition, known: GazeMapDefinition, rng: np.random.Generator):
-    from usdgaze.gazemap import ParametricGazeMap
+    from usdgaze.gaze.gazemap import ParametricGazeMap
 
     yaw = rng.uniform(-180.0, 180.0, 200)
     pitch = rng.uniform(-12.0, 12.0, 200)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from pxr import Usd, UsdGeom
 
-from usdgaze import rotations as rot
+from usdgaze.core import rotations as rot
 from usdgaze.ingest import BuildSettings, build
 
 from . import ingest_synth as syn

@@ -96,7 +96,7 @@ def test_cmu_skeleton_is_read_in_skeleton_space():
     assert series.orientations.shape == (994, 4, 4)
     # the rig is Z-up inside the skeleton (a root Xform turns it into the Y-up stage), facing about -Y
     frame = series.frame_at(0)
-    from usdgaze import rotations as rot
+    from usdgaze.core import rotations as rot
 
     np.testing.assert_allclose(rot.rotate(frame, rot.UP), [0.0, 0.0, 1.0], atol=1e-9)
     assert rot.rotate(frame, rot.FORWARD)[1] < -0.9

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from usdgaze import motion
-from usdgaze.motion import GazeMotions, blend, ease, normalized_time, profile, transition
+from usdgaze.gaze import motion
+from usdgaze.gaze.motion import GazeMotions, blend, ease, normalized_time, profile, transition
 
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
 
@@ -35,7 +35,7 @@ def quintic(u: float) -> float:
 
 
 def ref_profile(t: float, start: float, peak: float, beta: float) -> float:
-    """Heck eq. of 5.2.3, scalar, with the documented edge cases (module docstring of usdgaze.motion)."""
+    """Heck eq. of 5.2.3, scalar, with the documented edge cases (module docstring of usdgaze.gaze.motion)."""
     if t >= 1.0:
         return 1.0  # after the shift: P+
     if t < start:

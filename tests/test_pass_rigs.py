@@ -25,7 +25,7 @@ from pxr import Sdf, Usd, UsdSkel, UsdValidation
 
 from usdgaze import api
 from usdgaze.errors import UsdGazeError
-from usdgaze.gazepass import EyeRange, PassOptions
+from usdgaze.passes.shift import EyeRange, PassOptions
 
 from . import measure
 from . import synthetic as syn

@@ -8,7 +8,7 @@ import pytest
 
 from usdgaze import api
 from usdgaze.errors import UsdGazeError
-from usdgaze.plotting import plot_report
+from usdgaze.review.plotting import plot_report
 
 CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 
@@ -28,7 +28,7 @@ def test_plot_rejects_unknown_extension(tmp_path):
 
 
 def test_plot_problems_are_found_before_anything_is_written(tmp_path):
-    from usdgaze.cli import main
+    from usdgaze.console.main import main
 
     out = tmp_path / "g.usdc"
     code = main(["apply", str(CMU), "--shift", "2s:60:0", "--out", str(out), "--plot", str(tmp_path / "g.gif")])

@@ -13,16 +13,16 @@ from typing import Callable
 import numpy as np
 import pytest
 
-from usdgaze import _plugin
+from usdgaze.usd import plugin as _plugin
 
 _plugin.register()  # until usdgaze/__init__.py does it
 
 from pxr import Gf, Sdf, Usd, Vt  # noqa: E402
 
-from usdgaze import motion  # noqa: E402
-from usdgaze import rotations as rot  # noqa: E402
-from usdgaze import schema  # noqa: E402
-from usdgaze.definition import (  # noqa: E402
+from usdgaze.gaze import motion  # noqa: E402
+from usdgaze.core import rotations as rot  # noqa: E402
+from usdgaze.usd import schema  # noqa: E402
+from usdgaze.gaze.definition import (  # noqa: E402
     BINDING_ATTRS,
     EXAMPLE_ATTRS,
     FORWARD_ATTR,

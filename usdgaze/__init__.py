@@ -2,7 +2,7 @@
 
 # The schema registry is built once, the first time anything asks it about a schema: the plugin
 # must be registered before any other usdgaze (or user) code opens a stage.
-from . import _plugin
+from usdgaze.usd import plugin as _plugin
 
 _plugin.register()
 

@@ -9,18 +9,26 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from . import rotations as rot
-from . import schema
-from .clip import SkelClip
-from .defaults import default_definition
-from .definition import GazeMapDefinition
-from .errors import UsdGazeError
-from .gazemap import ParametricGazeMap
-from .gazepass import PassOptions, PassResult, Shift, apply_gaze
-from .layers import (AnimOverride, LayerInfo, atomic_export, build_override, check_output_path, check_sublayer_target,
-                     insert_sublayer, write_preview)
-from .rig import Chain, CharacterFrame, bind_chain, character_frame
+from usdgaze import __version__
+from usdgaze.core import rotations as rot
+from usdgaze.usd import schema
+from usdgaze.core.clip import SkelClip
+from usdgaze.gaze.defaults import default_definition
+from usdgaze.gaze.definition import GazeMapDefinition
+from usdgaze.errors import UsdGazeError
+from usdgaze.gaze.gazemap import ParametricGazeMap
+from usdgaze.passes.shift import PassOptions, PassResult, Shift, apply_gaze
+from usdgaze.usd.layers import (
+    AnimOverride,
+    LayerInfo,
+    atomic_export,
+    build_override,
+    check_output_path,
+    check_sublayer_target,
+    insert_sublayer,
+    write_preview,
+)
+from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 
 _SHIFT = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)(s?)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*$")
 
@@ -85,7 +93,7 @@ def select_roots(stage, source: str, skel_root: str | None):
     """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
     from pxr import Sdf, UsdSkel
 
-    from .skelio import skel_roots
+    from usdgaze.usd.skelio import skel_roots
 
     if skel_root:
         if not Sdf.Path.IsValidPathString(skel_root) or not (Sdf.Path(skel_root).IsAbsolutePath()
@@ -146,7 +154,7 @@ def apply(
     Nothing is written unless everything succeeds; the input is never modified (``sublayer_into``
     changes only that layer's subLayers).
     """
-    from .skelio import open_stage, read_clip, skeletons_under
+    from usdgaze.usd.skelio import open_stage, read_clip, skeletons_under
 
     source = str(input_path)
     if not Path(source).is_file():

@@ -15,12 +15,12 @@ try:
 except ModuleNotFoundError:  # source checkout without `pip install -e .`
     sys.path.insert(0, str(HERE.parents[1]))
 
-from usdgaze import _plugin  # noqa: E402
+from usdgaze.usd import plugin as _plugin  # noqa: E402
 
 _plugin.register()
 
-from usdgaze.defaults import default_definition  # noqa: E402
-from usdgaze.schema import dump_map  # noqa: E402
+from usdgaze.gaze.defaults import default_definition  # noqa: E402
+from usdgaze.usd.schema import dump_map  # noqa: E402
 
 
 def main() -> None:

@@ -13,10 +13,10 @@
 Only :mod:`.skelclips` and map writing import pxr.
 """
 
-from .build import BuildError, BuildResult, TrialError, TrialReport, build, require_definition, write_map
-from .markers import MarkerSet, load_markerset
-from .settings import BuildSettings
-from .sheet import Sheet, Trial, load_sheet
+from usdgaze.ingest.build import BuildError, BuildResult, TrialError, TrialReport, build, require_definition, write_map
+from usdgaze.ingest.markers import MarkerSet, load_markerset
+from usdgaze.ingest.settings import BuildSettings
+from usdgaze.ingest.sheet import Sheet, Trial, load_sheet
 
 __all__ = [
     "BuildError",

@@ -12,15 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..definition import GazeMapDefinition, SynthesisSettings
-from ..errors import UsdGazeError
-from ..motion import GazeMotions
-from .cleaning import CleaningError, crop_by_rest, mean_marker_speed, rest_periods
-from .extract import CHAIN, Extraction, extract
-from .markers import MarkerSet, SkeletonBinding, load_markerset
-from .series import TrialSeries, read_marker_series
-from .settings import BuildSettings
-from .sheet import Sheet, Trial, load_sheet
+from usdgaze.gaze.definition import GazeMapDefinition, SynthesisSettings
+from usdgaze.errors import UsdGazeError
+from usdgaze.gaze.motion import GazeMotions
+from usdgaze.ingest.cleaning import CleaningError, crop_by_rest, mean_marker_speed, rest_periods
+from usdgaze.ingest.extract import CHAIN, Extraction, extract
+from usdgaze.ingest.markers import MarkerSet, SkeletonBinding, load_markerset
+from usdgaze.ingest.series import TrialSeries, read_marker_series
+from usdgaze.ingest.settings import BuildSettings
+from usdgaze.ingest.sheet import Sheet, Trial, load_sheet
 
 
 LANDMARK_NAMES = ("pelvis", "lowerSpine", "upperSpine", "head")
@@ -121,7 +121,7 @@ def load_series(trial: Trial, markerset: MarkerSet | None, binding: SkeletonBind
     if not trial.file.is_file():
         raise TrialError(f"{where}: no such file")
     if trial.is_skeletal:
-        from .skelclips import read_skeleton_series  # pxr only for skeletal sessions
+        from usdgaze.ingest.skelclips import read_skeleton_series  # pxr only for skeletal sessions
 
         return read_skeleton_series(trial.file, binding, trial.skeleton, where)
     if trial.file.suffix.lower() != ".c3d":
@@ -291,8 +291,8 @@ def layer_data(result: BuildResult, sheet: Sheet) -> dict:
 
 
 def write_map(result: BuildResult, sheet: Sheet, out: str | Path) -> GazeMapDefinition:
-    """Write the map (``usdgaze.schema.dump_map``) with the sheet and thresholds as layer data."""
-    from ..schema import dump_map  # pxr only when writing
+    """Write the map (``usdgaze.usd.schema.dump_map``) with the sheet and thresholds as layer data."""
+    from usdgaze.usd.schema import dump_map  # pxr only when writing
 
     definition = require_definition(result)
     dump_map(definition, out, prim_path="/GazeMap", custom_layer_data=layer_data(result, sheet))

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UsdGazeError
+from usdgaze.errors import UsdGazeError
 
 MM_PER_UNIT = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "cm": 10.0, "dm": 100.0, "m": 1000.0,
                "meter": 1000.0, "metre": 1000.0, "in": 25.4, "inch": 25.4, "ft": 304.8}

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import UsdGazeError
+from usdgaze.errors import UsdGazeError
 
 
 class CleaningError(UsdGazeError):

@@ -7,7 +7,7 @@ on every frame of the trial, the crop, the canonical character frame, and the kn
   each the mean of the few still frames ending there, see :class:`BuildSettings`),
   expressed in the character frame, then made hierarchical (each segment relative to its parent's
   displacement). The head's displacement relative to the upper spine's is the neck segment. The eye
-  offset is :func:`usdgaze.motion.aim_eyes`: the one that makes the chain reach the target exactly.
+  offset is :func:`usdgaze.gaze.motion.aim_eyes`: the one that makes the chain reach the target exactly.
 * Overshoot: the head's angular velocity between frames i-k and i+k, signed by projecting it on the
   head's net rotation axis; a frame j is a candidate where the sign flips, and the peak is the first
   candidate whose m frames before move toward the target and whose m frames after move back (the
@@ -33,10 +33,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import motion
-from .. import rotations as rot
-from ..errors import UsdGazeError
-from .settings import BuildSettings
+from usdgaze.gaze import motion
+from usdgaze.core import rotations as rot
+from usdgaze.errors import UsdGazeError
+from usdgaze.ingest.settings import BuildSettings
 
 CHAIN = ("pelvis", "lowerSpine", "upperSpine", "neck")
 """The four measured segments, in P+ order; the last one's landmark is the head."""
@@ -56,7 +56,7 @@ class Extraction:
     offsets: np.ndarray
     """P+ ``(5, 4)`` in the canonical character frame."""
     timing: np.ndarray
-    """The seven floats in :data:`usdgaze.motion.TIMING_FIELDS` order."""
+    """The seven floats in :data:`usdgaze.gaze.motion.TIMING_FIELDS` order."""
     start_frames: np.ndarray
     """Start frame of each chain segment (crop-relative, fractional): the model's t_j fitted back from
     the detection (or the detection itself without ``start_refine``), -1 where none was detected."""
@@ -163,7 +163,7 @@ def onset_fit(theta: np.ndarray, detected: np.ndarray, peak: np.ndarray, amplitu
     ``theta`` ``(F, S)``: each segment's signed rotation angle from its first pose, frame by frame;
     ``detected`` ``(S,)``: its threshold-crossing frame (-1: none); ``peak`` ``(S,)``: the frame of its
     largest angle (the overshoot peak, or somewhere on the final plateau) and ``amplitude`` ``(S,)``
-    that angle. During the rise :mod:`usdgaze.motion` gives
+    that angle. During the rise :mod:`usdgaze.gaze.motion` gives
     ``theta(t) = A * ease((t - t_j) / (t_end - t_j))``, ``t_end`` the overshoot peak ``t_beta`` (or
     where the segment reaches its final angle when it does not overshoot). That
     curve is fitted (least squares) to ``theta`` from the first frame to the first frame at or after

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import rotations as rot
-from ..errors import UsdGazeError
+from usdgaze.core import rotations as rot
+from usdgaze.errors import UsdGazeError
 
 
 class FrameError(UsdGazeError):

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UsdGazeError
-from .tomlio import load_toml
+from usdgaze.errors import UsdGazeError
+from usdgaze.ingest.tomlio import load_toml
 
 LANDMARKS = ("lower_back", "upper_back", "neck_base", "head")
 """Marker landmarks in P+ segment order: pelvis, lowerSpine, upperSpine, neck."""

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import rotations as rot
-from ..errors import UsdGazeError
-from .build import BuildResult, TrialReport
-from .extract import CHAIN
+from usdgaze.core import rotations as rot
+from usdgaze.errors import UsdGazeError
+from usdgaze.ingest.build import BuildResult, TrialReport
+from usdgaze.ingest.extract import CHAIN
 
 TABLE_COLUMNS = (
     ("trial", "trial"),

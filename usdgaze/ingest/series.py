@@ -11,10 +11,10 @@ from typing import Callable
 
 import numpy as np
 
-from .c3dio import MarkerCapture, read_c3d
-from .cleaning import fill_gaps, missing_markers, stabilize
-from .frames import character_frame, fit_frames, landmark_frames, square_axes, square_is_mirrored
-from .markers import LANDMARKS, MarkerSet, MarkerSetError, resolve_labels
+from usdgaze.ingest.c3dio import MarkerCapture, read_c3d
+from usdgaze.ingest.cleaning import fill_gaps, missing_markers, stabilize
+from usdgaze.ingest.frames import character_frame, fit_frames, landmark_frames, square_axes, square_is_mirrored
+from usdgaze.ingest.markers import LANDMARKS, MarkerSet, MarkerSetError, resolve_labels
 
 
 @dataclass(frozen=True)

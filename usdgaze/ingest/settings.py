@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from ..errors import UsdGazeError
+from usdgaze.errors import UsdGazeError
 
 
 class SettingsError(UsdGazeError):

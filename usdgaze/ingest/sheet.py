@@ -15,9 +15,9 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import UsdGazeError
-from .markers import SkeletonBinding, skeleton_binding
-from .tomlio import load_toml
+from usdgaze.errors import UsdGazeError
+from usdgaze.ingest.markers import SkeletonBinding, skeleton_binding
+from usdgaze.ingest.tomlio import load_toml
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 

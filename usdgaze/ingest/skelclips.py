@@ -3,7 +3,7 @@
 The chain's orientations come from the skeleton instead of marker triangles: the skeleton-space
 transforms of the last pelvis, lower-spine and upper-spine joints and of the head
 (``UsdSkel.SkeletonQuery.ComputeJointSkelTransforms``), bound by name (Mixamo, CMU, Rigify, ... via
-:func:`usdgaze.rig.bind_chain`) or explicitly by a ``[skeleton]`` table in the marker set or a TOML
+:func:`usdgaze.core.rig.bind_chain`) or explicitly by a ``[skeleton]`` table in the marker set or a TOML
 sheet (``pelvis = "Hips"``, a joint name or path per role). The rests are found on the speed of
 virtual markers: three points 100 mm out along the axes of each of the four chain joints (a marker
 triangle's worth, so that a turn of the head alone moves markers as it does on a capture; joint
@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 from pxr import Usd, UsdGeom, UsdSkel
 
-from .. import rotations as rot
-from ..definition import ROLES
-from ..errors import RigError, UsdGazeError, usd_failure
-from ..rig import bind_chain, character_frame, leaf
-from .markers import SkeletonBinding, parse_axis
-from .series import TrialSeries
+from usdgaze.core import rotations as rot
+from usdgaze.gaze.definition import ROLES
+from usdgaze.errors import RigError, UsdGazeError, usd_failure
+from usdgaze.core.rig import bind_chain, character_frame, leaf
+from usdgaze.ingest.markers import SkeletonBinding, parse_axis
+from usdgaze.ingest.series import TrialSeries
 
 
 VIRTUAL_MARKER_MM = 100.0

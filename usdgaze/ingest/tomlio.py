@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import UsdGazeError
+from usdgaze.errors import UsdGazeError
 
 try:
     import tomllib as _toml

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 from pxr import Sdf, Vt
 
-from . import rotations as rot
-from .errors import UsdGazeError, usd_failure
+from usdgaze.core import rotations as rot
+from usdgaze.errors import UsdGazeError, usd_failure
 
 _FORMATS = {".usda", ".usdc", ".usd"}
 

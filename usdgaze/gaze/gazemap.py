@@ -2,7 +2,7 @@
 
 Build: the (yaw, pitch) space is sampled densely with random convex blends of nearby examples; each
 blend's *real* parameter is measured as the gaze change its blended pose achieves on the canonical
-chain (:func:`usdgaze.motion.achieved_gaze`). The examples themselves are samples too.
+chain (:func:`usdgaze.gaze.motion.achieved_gaze`). The examples themselves are samples too.
 
 Query: the k nearest samples (in measured parameter space) are interpolated with the non-negative
 weights of Kovar & Gleicher (``1/d_i - 1/d_k``, normalized), giving non-negative example weights.
@@ -25,10 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
-from . import motion
-from . import rotations as rot
-from .definition import GazeMapDefinition
-from .motion import GazeMotions
+from usdgaze.gaze import motion
+from usdgaze.core import rotations as rot
+from usdgaze.gaze.definition import GazeMapDefinition
+from usdgaze.gaze.motion import GazeMotions
 
 
 @dataclass(frozen=True)

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import motion
-from . import rotations as rot
-from .definition import GazeMapDefinition, SynthesisSettings
-from .motion import GazeMotions
+from usdgaze.gaze import motion
+from usdgaze.core import rotations as rot
+from usdgaze.gaze.definition import GazeMapDefinition, SynthesisSettings
+from usdgaze.gaze.motion import GazeMotions
 
 # -- the target grid -----------------------------------------------------------------------------
 YAWS = np.arange(-180.0, 180.0 + 1e-9, 36.0)  # Heck 5.2.1: 11 meridians, 36 deg apart

@@ -4,7 +4,7 @@ A :class:`GazeMotions` holds a batch of motions as arrays:
 
 * ``offsets`` ``(..., 5, 4)``: P+, one quaternion per :data:`SEGMENTS` entry, each a rotation of that
   segment relative to its parent, expressed in the canonical character frame (X left, Y up,
-  Z forward; see :mod:`usdgaze.rotations`).
+  Z forward; see :mod:`usdgaze.core.rotations`).
 * ``timing`` ``(..., 7)``: the seven floats, in :data:`TIMING_FIELDS` order.
 
 Evaluation follows the piecewise formula of section 5.2.3 with the linear terms replaced by a
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import rotations as rot
+from usdgaze.core import rotations as rot
 
 SEGMENTS = ("pelvis", "lowerSpine", "upperSpine", "neck", "eyes")
 """The five segments of P+, root to tip. ``neck`` moves the head relative to the upper spine."""

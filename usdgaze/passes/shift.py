@@ -1,7 +1,7 @@
 """The gaze pass: layer a schedule of gaze shifts onto a skeletal animation (Heck 5.2.3, extended).
 
-Pure numpy. Input: a :class:`~usdgaze.clip.SkelClip`, its bound :class:`~usdgaze.rig.Chain`, the
-character frame, a :class:`~usdgaze.gazemap.ParametricGazeMap` and the shifts. Output: new
+Pure numpy. Input: a :class:`~usdgaze.core.clip.SkelClip`, its bound :class:`~usdgaze.core.rig.Chain`, the
+character frame, a :class:`~usdgaze.gaze.gazemap.ParametricGazeMap` and the shifts. Output: new
 animation arrays in which only the chain joints, the leg roots under the pelvis and the eyes differ.
 
 How a request is met:
@@ -28,13 +28,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import motion
-from . import rotations as rot
-from .clip import SkelClip
-from .errors import UsdGazeError
-from .gazemap import ParametricGazeMap
-from .kinematics import Pose, forward, with_ancestors
-from .rig import CharacterFrame, Chain
+from usdgaze.gaze import motion
+from usdgaze.core import rotations as rot
+from usdgaze.core.clip import SkelClip
+from usdgaze.errors import UsdGazeError
+from usdgaze.gaze.gazemap import ParametricGazeMap
+from usdgaze.core.kinematics import Pose, forward, with_ancestors
+from usdgaze.core.rig import CharacterFrame, Chain
 
 NECK_SEGMENT = 3
 SEGMENT_OF_ROLE = {"pelvis": 0, "lowerSpine": 1, "upperSpine": 2, "neck": NECK_SEGMENT, "head": NECK_SEGMENT}

@@ -7,8 +7,8 @@ import tempfile
 from pathlib import Path
 
 
-from .errors import UsdGazeError
-from .motion import SEGMENTS
+from usdgaze.errors import UsdGazeError
+from usdgaze.gaze.motion import SEGMENTS
 
 
 def check_plot_path(path: str | os.PathLike):

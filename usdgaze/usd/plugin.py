@@ -28,7 +28,7 @@ def plugin_dir() -> Path:
     if installed is not None and (installed / "plugInfo.json").is_file():
         return installed
     # Source checkout: ``usdgaze.schemas`` only exists once setuptools maps it onto schemas/.
-    checkout = Path(__file__).resolve().parent.parent / "schemas"
+    checkout = Path(__file__).resolve().parents[2] / "schemas"
     if (checkout / "plugInfo.json").is_file():
         return checkout
     raise FileNotFoundError(f"usdgaze's schema plugin (plugInfo.json) is neither in {installed} nor in {checkout}")

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
-from . import rotations as rot
-from .clip import SkelClip
-from .kinematics import world_matrices
-from .errors import UsdGazeError, usd_failure
+from usdgaze.core import rotations as rot
+from usdgaze.core.clip import SkelClip
+from usdgaze.core.kinematics import world_matrices
+from usdgaze.errors import UsdGazeError, usd_failure
 
 
 def open_stage(path: str) -> Usd.Stage:

@@ -6,7 +6,7 @@ characters. Reading goes through composed values, so referenced and inherited ma
 
 Every problem is a one-line :class:`~usdgaze.errors.GazeMapError` reading
 ``FILE:PRIMPATH.ATTRIBUTE: problem``. This module checks storage (missing, mistyped, animated,
-unequal arrays, non-unit quaternions); :func:`usdgaze.definition.validate` checks values.
+unequal arrays, non-unit quaternions); :func:`usdgaze.gaze.definition.validate` checks values.
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from typing import Any, Mapping
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdSkel, Vt
 
-from . import _plugin
-from .definition import (
+from usdgaze.usd import plugin as _plugin
+from usdgaze.gaze.definition import (
     API_NAME,
     BINDING_ATTRS,
     EXAMPLE_ATTRS,
@@ -37,8 +37,8 @@ from .definition import (
     check_unit_quaternions,
     validate,
 )
-from .errors import GazeMapError, usd_failure
-from .motion import GazeMotions
+from usdgaze.errors import GazeMapError, usd_failure
+from usdgaze.gaze.motion import GazeMotions
 
 # Normally done by ``import usdgaze`` already; it must precede any stage in the process.
 _plugin.register()

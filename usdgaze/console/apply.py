@@ -1,33 +1,17 @@
-"""The ``usdgaze`` command line. Exit codes: 0 done, 2 bad input (one line on stderr), 1 internal error."""
+"""``usdgaze apply``: gaze shifts onto UsdSkel animation, written as an override layer."""
 
 from __future__ import annotations
 
 import json
 import os
-import sys
-import traceback
 
 import click
 import numpy as np
 
-from . import __version__
-from .errors import UsdGazeError
-
-EXIT_BAD_INPUT = 2
-EXIT_INTERNAL = 1
+from usdgaze.errors import UsdGazeError
 
 
-def _fail(message: str) -> None:
-    click.echo(f"usdgaze: error: {' '.join(str(message).split())}", err=True)
-
-
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="usdgaze")
-def cli() -> None:
-    """Add realistic gaze shifts to UsdSkel animation as a non-destructive override layer."""
-
-
-@cli.command()
+@click.command()
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option("--shift", "shifts", multiple=True, required=True, metavar="TIME:YAW:PITCH",
               help="A gaze shift: TIME a time code, or seconds from the stage start with an 's' suffix; "
@@ -45,13 +29,13 @@ def cli() -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, as_json) -> None:
     """Add gaze SHIFTs to the skeletal animation in INPUT and write them to --out."""
-    from .api import apply as run
-    from .gazepass import PassOptions
+    from usdgaze.api import apply as run
+    from usdgaze.passes.shift import PassOptions
 
     if not np.isfinite(fixation) or fixation <= 0:
         raise UsdGazeError(f"--fixation {fixation}: must be a positive distance in metres")
     if plot:
-        from .plotting import check_plot_path
+        from usdgaze.review.plotting import check_plot_path
 
         check_plot_path(plot)  # before any work: a missing matplotlib must not leave a written layer behind
     report = run(input_path, list(shifts), out, skel_root=skel_root, map_spec=map_spec,
@@ -59,7 +43,7 @@ def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, 
     for w in report.warnings:
         click.echo(f"usdgaze: warning: {w}", err=True)
     if plot:
-        from .plotting import plot_report
+        from usdgaze.review.plotting import plot_report
 
         plot_report(report, plot)
     summary = _summary(report)
@@ -114,90 +98,3 @@ def _hold_error(result, k: int) -> str:
     if not np.any(hold):
         return "n/a (no settled frame)"
     return f"{np.abs(result.achieved[hold] - result.requested[hold]).max():.3f} deg"
-
-
-@cli.command()
-@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
-@click.option("--json", "as_json", is_flag=True, help="Print as JSON.")
-def inspect(input_path, as_json) -> None:
-    """Print the skeletons of INPUT, the gaze chain found on each, maps present and the time range."""
-    from .inspection import inspect_stage
-
-    info = inspect_stage(input_path)
-    if as_json:
-        click.echo(json.dumps(info, indent=2))
-        return
-    click.echo(f"{info['file']}: upAxis {info['up_axis']}, metersPerUnit {info['meters_per_unit']:g}, "
-               f"time codes {info['start']:g}..{info['end']:g} at {info['time_codes_per_second']:g}/s")
-    for root in info["skel_roots"]:
-        click.echo(f"SkelRoot {root['path']}  gaze map: {root['map']}")
-        for s in root["skeletons"]:
-            click.echo(f"  Skeleton {s['path']}  {s['joints']} joints")
-            if s.get("error"):
-                click.echo(f"    cannot bind: {s['error']}")
-                continue
-            click.echo(f"    animation {s['animation']}  {s['frames']} samples, time codes {s['first']:g}..{s['last']:g}")
-            for role, joints in s["chain"].items():
-                click.echo(f"    {role:<11} {', '.join(joints) or '- (eye joints will be added)' if role.endswith('Eye') else ', '.join(joints)}")
-            click.echo(f"    forward (skeleton space) {tuple(round(v, 3) for v in s['forward'])}")
-
-
-@cli.command("dump-map")
-@click.argument("out", type=click.Path(dir_okay=False))
-@click.option("--prim", default="/GazeMap", show_default=True, help="Prim path of the map in the new file.")
-def dump_map(out, prim) -> None:
-    """Write the built-in gaze map to OUT, to edit and use with --map or by reference."""
-    from .defaults import default_definition
-    from .schema import dump_map as dump
-
-    dump(default_definition(), out, prim_path=prim, custom_layer_data={"usdgaze": {"version": __version__, "map": "built-in default"}})
-    click.echo(f"wrote {out}")
-
-
-@cli.command("plugin-path")
-def plugin_path() -> None:
-    """Print the folder to put on PXR_PLUGINPATH_NAME so usdview, Houdini and others know GazeMapAPI."""
-    from ._plugin import plugin_dir
-
-    click.echo(str(plugin_dir()))
-
-
-def _register_optional() -> None:
-    try:
-        from .ingest.command import build_map
-    except ImportError:  # the ingest package is optional at import time; its own command says what it needs
-        return
-    cli.add_command(build_map, "build-map")
-
-
-_register_optional()
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Entry point: run the CLI and map failures to exit codes (2 bad input, 1 internal)."""
-    try:
-        cli.main(args=argv, prog_name="usdgaze", standalone_mode=False)
-    except UsdGazeError as exc:
-        _fail(str(exc))
-        return EXIT_BAD_INPUT
-    except click.exceptions.NoArgsIsHelpError as exc:  # plain ``usdgaze``: the help, as --help gives it
-        click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
-        return 0
-    except click.exceptions.Abort:
-        _fail("aborted")
-        return EXIT_BAD_INPUT
-    except click.ClickException as exc:
-        _fail(exc.format_message())
-        return EXIT_BAD_INPUT
-    except click.exceptions.Exit as exc:
-        return exc.exit_code
-    except Exception as exc:  # a bug: say so in one line, keep the traceback for whoever debugs it
-        if os.environ.get("USDGAZE_DEBUG"):
-            traceback.print_exc()
-        _fail(f"internal error: {type(exc).__name__}: {exc} (set USDGAZE_DEBUG=1 for the traceback)")
-        return EXIT_INTERNAL
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import rotations as rot
-from .definition import ROLES
-from .errors import RigError
+from usdgaze.core import rotations as rot
+from usdgaze.gaze.definition import ROLES
+from usdgaze.errors import RigError
 
 
 # UsdSkel joint tokens are path elements, which cannot hold ':', '-' or '.', so exporters write

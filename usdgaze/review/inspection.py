@@ -4,15 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import UsdGazeError
+from usdgaze.errors import UsdGazeError
 
 
 def inspect_stage(path: str) -> dict:
     """Skeletons, the chain found on each, maps present and the time range, as plain data."""
     from pxr import UsdGeom
 
-    from . import api, schema
-    from .skelio import open_stage, read_clip, skel_roots, skeletons_under
+    from usdgaze import api
+    from usdgaze.usd import schema
+    from usdgaze.usd.skelio import open_stage, read_clip, skel_roots, skeletons_under
 
     if not Path(path).is_file():
         raise UsdGazeError(f"{path}: no such file")

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import rotations as rot
+from usdgaze.core import rotations as rot
 
 
 def world_matrices(local: np.ndarray, parents: np.ndarray) -> np.ndarray:

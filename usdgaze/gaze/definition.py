@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .motion import GazeMotions
+from usdgaze.gaze.motion import GazeMotions
 
 ROLES = ("pelvis", "lowerSpine", "upperSpine", "neck", "head", "leftEye", "rightEye")
 """Joint roles a map can bind. ``neck`` and ``head`` together carry the P+ neck segment."""
@@ -61,16 +61,16 @@ class GazeMapDefinition:
 # The USD attribute names live here (not in the pxr-side schema module) so that in-memory maps and
 # stored maps are checked by the same code and report problems under the same names.
 
-from .errors import GazeMapError  # noqa: E402  (kept next to the code that uses it)
-from .motion import SEGMENTS, TIMING_FIELDS  # noqa: E402
+from usdgaze.errors import GazeMapError  # noqa: E402  (kept next to the code that uses it)
+from usdgaze.gaze.motion import SEGMENTS, TIMING_FIELDS  # noqa: E402
 
 API_NAME = "GazeMapAPI"
 YAW_ATTR = "gaze:examples:yaw"
 PITCH_ATTR = "gaze:examples:pitch"
 OFFSET_ATTRS = tuple(f"gaze:examples:{segment}Offset" for segment in SEGMENTS)
-"""One quatf[] per P+ segment, in :data:`usdgaze.motion.SEGMENTS` order."""
+"""One quatf[] per P+ segment, in :data:`usdgaze.gaze.motion.SEGMENTS` order."""
 TIMING_ATTRS = tuple(f"gaze:examples:{name}" for name in TIMING_FIELDS)
-"""One float[] per timing float, in :data:`usdgaze.motion.TIMING_FIELDS` order."""
+"""One float[] per timing float, in :data:`usdgaze.gaze.motion.TIMING_FIELDS` order."""
 BINDING_ATTRS = {role: f"gaze:binding:{role}" for role in ROLES}
 FORWARD_ATTR = "gaze:binding:forward"
 SETTING_ATTRS = {

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import rotations as rot
+from usdgaze.core import rotations as rot
 
 
 @dataclass
@@ -14,7 +14,7 @@ class SkelClip:
     """One skeleton and its bound SkelAnimation.
 
     Joint-indexed arrays are in skeleton order (``joints``) unless named ``anim_*``; matrices are
-    column-vector (see :mod:`usdgaze.rotations`). Animation samples keep their USD types (float32
+    column-vector (see :mod:`usdgaze.core.rotations`). Animation samples keep their USD types (float32
     quaternions xyzw, float32 translations, float16 scales) so untouched joints are written back
     bit for bit.
     """
@@ -57,7 +57,7 @@ class SkelClip:
 
     def rest_world(self) -> np.ndarray:
         """Skeleton-space rest transforms ``(J, 4, 4)``."""
-        from .kinematics import world_matrices
+        from usdgaze.core.kinematics import world_matrices
 
         return world_matrices(self.rest_local[None], self.parents)[0]
 

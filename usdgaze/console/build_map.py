@@ -1,15 +1,15 @@
-"""The ``usdgaze build-map`` command (registered by :mod:`usdgaze.cli`)."""
+"""The ``usdgaze build-map`` command (registered by :mod:`usdgaze.console.main`)."""
 
 from __future__ import annotations
 
 import click
 
-from ..definition import SynthesisSettings
-from ..errors import UsdGazeError
-from .build import build, require_definition, write_map
-from .report import format_table, write_report, write_series
-from .settings import BuildSettings
-from .sheet import load_sheet
+from usdgaze.gaze.definition import SynthesisSettings
+from usdgaze.errors import UsdGazeError
+from usdgaze.ingest.build import build, require_definition, write_map
+from usdgaze.ingest.report import format_table, write_report, write_series
+from usdgaze.ingest.settings import BuildSettings
+from usdgaze.ingest.sheet import load_sheet
 
 _DEFAULTS = BuildSettings()
 

@@ -1,0 +1,1 @@
+"""The ``usdgaze`` command line, one module per command."""

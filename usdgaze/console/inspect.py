@@ -1,0 +1,32 @@
+"""``usdgaze inspect``: skeletons, the gaze chain bound on each, maps and time range."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+@click.command()
+@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="Print as JSON.")
+def inspect(input_path, as_json) -> None:
+    """Print the skeletons of INPUT, the gaze chain found on each, maps present and the time range."""
+    from usdgaze.review.inspection import inspect_stage
+
+    info = inspect_stage(input_path)
+    if as_json:
+        click.echo(json.dumps(info, indent=2))
+        return
+    click.echo(f"{info['file']}: upAxis {info['up_axis']}, metersPerUnit {info['meters_per_unit']:g}, "
+               f"time codes {info['start']:g}..{info['end']:g} at {info['time_codes_per_second']:g}/s")
+    for root in info["skel_roots"]:
+        click.echo(f"SkelRoot {root['path']}  gaze map: {root['map']}")
+        for s in root["skeletons"]:
+            click.echo(f"  Skeleton {s['path']}  {s['joints']} joints")
+            if s.get("error"):
+                click.echo(f"    cannot bind: {s['error']}")
+                continue
+            click.echo(f"    animation {s['animation']}  {s['frames']} samples, time codes {s['first']:g}..{s['last']:g}")
+            for role, joints in s["chain"].items():
+                click.echo(f"    {role:<11} {', '.join(joints) or '- (eye joints will be added)' if role.endswith('Eye') else ', '.join(joints)}")
+            click.echo(f"    forward (skeleton space) {tuple(round(v, 3) for v in s['forward'])}")

@@ -1,0 +1,77 @@
+"""The ``usdgaze`` command line. Exit codes: 0 done, 2 bad input (one line on stderr), 1 internal error."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+import traceback
+
+import click
+
+from usdgaze import __version__
+from usdgaze.errors import UsdGazeError
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 1
+
+
+def _fail(message: str) -> None:
+    click.echo(f"usdgaze: error: {' '.join(str(message).split())}", err=True)
+
+
+# One module per command, imported only when that command runs, so ``usdgaze --help`` stays cheap.
+_COMMANDS = {
+    "apply": ("usdgaze.console.apply", "apply"),
+    "inspect": ("usdgaze.console.inspect", "inspect"),
+    "dump-map": ("usdgaze.console.dump_map", "dump_map"),
+    "plugin-path": ("usdgaze.console.plugin_path", "plugin_path"),
+    "build-map": ("usdgaze.console.build_map", "build_map"),
+}
+
+
+class _LazyGroup(click.Group):
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(_COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name not in _COMMANDS:
+            return None
+        module, attr = _COMMANDS[name]
+        return getattr(importlib.import_module(module), attr)
+
+
+@click.group(cls=_LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="usdgaze")
+def cli() -> None:
+    """Add realistic gaze shifts to UsdSkel animation as a non-destructive override layer."""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: run the CLI and map failures to exit codes (2 bad input, 1 internal)."""
+    try:
+        cli.main(args=argv, prog_name="usdgaze", standalone_mode=False)
+    except UsdGazeError as exc:
+        _fail(str(exc))
+        return EXIT_BAD_INPUT
+    except click.exceptions.NoArgsIsHelpError as exc:  # plain ``usdgaze``: the help, as --help gives it
+        click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
+        return 0
+    except click.exceptions.Abort:
+        _fail("aborted")
+        return EXIT_BAD_INPUT
+    except click.ClickException as exc:
+        _fail(exc.format_message())
+        return EXIT_BAD_INPUT
+    except click.exceptions.Exit as exc:
+        return exc.exit_code
+    except Exception as exc:  # a bug: say so in one line, keep the traceback for whoever debugs it
+        if os.environ.get("USDGAZE_DEBUG"):
+            traceback.print_exc()
+        _fail(f"internal error: {type(exc).__name__}: {exc} (set USDGAZE_DEBUG=1 for the traceback)")
+        return EXIT_INTERNAL
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Data model: rotations (the one place that knows quaternion conventions), skeleton clips, forward kinematics, rig binding."""

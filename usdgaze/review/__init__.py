@@ -1,0 +1,1 @@
+"""Review: plots and stage inspection."""

@@ -1,0 +1,1 @@
+"""USD at the edges: reading UsdSkel stages, writing override layers, the gaze schemas and their plugin."""
