@@ -1,0 +1,123 @@
+"""Dynamics made of parts: eye, belief, body... stacked into one state and one control vector.
+
+Each part owns a slice of the state (``nx`` entries) and of the control (``nu`` entries) and computes
+its own next slice. A part may *read* other parts' slices (the belief reads the eye and the body
+through the point of sight), so its linearization returns full rows: (nx_part, NX) and (nx_part, NU).
+``Stacked`` assigns the slices in the order given and is itself a ``ddp.Dynamics``.
+
+A body part (kinematic offsets here, MuJoCo in ``usdgaze.physics``) additionally provides the head
+pose and its Jacobian, which is all the vision parts need from it (see ``BodyPart``).
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, Sequence, runtime_checkable
+
+import numpy as np
+
+
+class Part:
+    """Base for a dynamics part; ``Stacked`` calls ``bind`` to give it its slices."""
+
+    name: str = "part"
+    nx: int = 0
+    nu: int = 0
+    xs: slice = slice(0, 0)
+    us: slice = slice(0, 0)
+    stack: "Stacked | None" = None
+
+    def bind(self, stack: "Stacked", xs: slice, us: slice) -> None:
+        self.stack, self.xs, self.us = stack, xs, us
+
+    def step(self, x: np.ndarray, u: np.ndarray, k: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def linearize(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
+        pairs = [self.linearize(X[i], U[i], k0 + i) for i in range(len(U))]
+        return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+
+
+@runtime_checkable
+class BodyPart(Protocol):
+    """What the vision system needs from a body: the head pose over a window and its derivative.
+
+    ``head_pose(x, k)`` -> (p (3,), R (3, 3)): the eyes' midpoint in world space and the head's
+    world rotation whose columns are the head's forward, left and up axes (so the neutral eye looks
+    along column 0). ``head_pose_jacobian(x, k)`` -> (dp (3, NX), dR (3, 3, NX)) w.r.t. the FULL state.
+    """
+
+    nx: int
+    nu: int
+
+    def head_pose(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def head_pose_jacobian(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+class Stacked:
+    """The product of parts: x = [x_part0, x_part1, ...], u = [u_part0, ...]."""
+
+    def __init__(self, parts: Sequence[Part]) -> None:
+        self.parts = list(parts)
+        ix = iu = 0
+        self.by_name: dict[str, Part] = {}
+        for part in self.parts:
+            part.bind(self, slice(ix, ix + part.nx), slice(iu, iu + part.nu))
+            ix += part.nx
+            iu += part.nu
+            self.by_name[part.name] = part
+        self.nx, self.nu = ix, iu
+
+    def __getitem__(self, name: str) -> Part:
+        return self.by_name[name]
+
+    def step(self, x: np.ndarray, u: np.ndarray, k: int) -> np.ndarray:
+        return np.concatenate([p.step(x, u, k) for p in self.parts])
+
+    def linearize(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        rows = [p.linearize(x, u, k) for p in self.parts]
+        return np.vstack([r[0] for r in rows]), np.vstack([r[1] for r in rows])
+
+    def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
+        rows = [p.linearize_batch(X, U, k0) for p in self.parts]
+        return np.concatenate([r[0] for r in rows], axis=1), np.concatenate([r[1] for r in rows], axis=1)
+
+
+class SecondOrder(Part):
+    """A double integrator (semi-implicit Euler): state [q, qd], control qdd.
+
+    qd' = qd + h qdd,  q' = q + h qd'. Used for the kinematic gaze-chain offsets.
+    """
+
+    def __init__(self, n: int, h: float, name: str = "body") -> None:
+        self.n, self.h, self.name = n, float(h), name
+        self.nx, self.nu = 2 * n, n
+
+    def step(self, x, u, k):
+        q, qd = x[self.xs][: self.n], x[self.xs][self.n:]
+        qd_n = qd + self.h * u[self.us]
+        return np.concatenate([q + self.h * qd_n, qd_n])
+
+    def _rows(self):
+        st, n, h = self.stack, self.n, self.h
+        fx = np.zeros((self.nx, st.nx))
+        fu = np.zeros((self.nx, st.nu))
+        i0, j0 = self.xs.start, self.us.start
+        eye = np.eye(n)
+        fx[:n, i0:i0 + n] = eye
+        fx[:n, i0 + n:i0 + 2 * n] = h * eye
+        fx[n:, i0 + n:i0 + 2 * n] = eye
+        fu[:n, j0:j0 + n] = h * h * eye
+        fu[n:, j0:j0 + n] = h * eye
+        return fx, fu
+
+    def linearize(self, x, u, k):
+        return self._rows()
+
+    def linearize_batch(self, X, U, k0):
+        fx, fu = self._rows()
+        n = len(U)
+        return np.broadcast_to(fx, (n,) + fx.shape), np.broadcast_to(fu, (n,) + fu.shape)

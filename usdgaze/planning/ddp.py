@@ -1,0 +1,261 @@
+"""A general iLQR/DDP solver and a receding-horizon driver (pure numpy).
+
+The solver minimises  sum_{i<N} l(x_i, u_i, k0+i) + lf(x_N, k0+N)  subject to
+x_{i+1} = f(x_i, u_i, k0+i), with Gauss-Newton (first-order dynamics) DDP, i.e. iLQR: a backward
+Riccati-like pass over quadratic expansions of the cost and linearizations of the dynamics, then a
+forward pass along the new feedback policy.
+
+* Levenberg-Marquardt regularization: ``Quu + mu I``; mu grows when Quu is not positive definite or
+  no step decreases the cost, and shrinks after every accepted step.
+* Line search: step sizes ``alphas`` are tried in order; a step is accepted only if the true cost
+  decreases (and by at least ``armijo`` of the predicted decrease), so the cost is monotone
+  non-increasing within a solve (``Solution.costs``).
+* ``k`` is the absolute step index, so time-varying problems (references, object trajectories) are
+  written once and a receding-horizon driver only moves ``k0``.
+
+Dynamics and costs are protocols. Per-step methods are required; a batched method
+(``linearize_batch``, ``derivs_batch``, ``cost_batch``) is used when present, because the
+linearization of a whole window vectorizes over steps while the rollout cannot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Protocol, Sequence, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class Dynamics(Protocol):
+    """x_{k+1} = step(x_k, u_k, k); linearize gives (df/dx, df/du) at (x, u, k)."""
+
+    nx: int
+    nu: int
+
+    def step(self, x: np.ndarray, u: np.ndarray, k: int) -> np.ndarray: ...
+
+    def linearize(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@runtime_checkable
+class Cost(Protocol):
+    """Running cost l(x, u, k) and terminal cost lf(x, k) with their first and second derivatives.
+
+    ``derivs(x, u, k)`` returns (lx, lu, lxx, luu, lux) with lux of shape (nu, nx);
+    ``terminal_derivs(x, k)`` returns (lx, lxx).
+    """
+
+    def l(self, x: np.ndarray, u: np.ndarray, k: int) -> float: ...
+
+    def derivs(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, ...]: ...
+
+    def terminal(self, x: np.ndarray, k: int) -> float: ...
+
+    def terminal_derivs(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@dataclass
+class Options:
+    """Solver settings. ``tol`` is the relative cost decrease below which a solve stops."""
+
+    max_iter: int = 30
+    tol: float = 1e-7
+    mu_init: float = 1e-6
+    mu_min: float = 1e-9
+    mu_max: float = 1e10
+    mu_grow: float = 10.0
+    mu_shrink: float = 0.3
+    alphas: Sequence[float] = (1.0, 0.5, 0.25, 0.1, 0.03, 0.01)
+    armijo: float = 1e-4
+
+
+@dataclass
+class Solution:
+    """The optimised trajectory, the feedback policy u = U + K (x - X), and the cost per iteration."""
+
+    X: np.ndarray
+    U: np.ndarray
+    K: np.ndarray
+    cost: float
+    costs: list[float] = field(default_factory=list)
+    iterations: int = 0
+    converged: bool = False
+    mu: float = 0.0
+
+
+def rollout(dyn: Dynamics, x0: np.ndarray, U: np.ndarray, k0: int = 0) -> np.ndarray:
+    """States x_0..x_N under the open-loop controls U."""
+    X = np.empty((len(U) + 1, dyn.nx))
+    X[0] = x0
+    for i, u in enumerate(U):
+        X[i + 1] = dyn.step(X[i], u, k0 + i)
+    return X
+
+
+def total_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0) -> float:
+    """Sum of running costs plus the terminal cost."""
+    n = len(U)
+    if hasattr(cost, "cost_batch"):
+        running = float(np.sum(cost.cost_batch(X[:n], U, k0)))
+    else:
+        running = sum(cost.l(X[i], U[i], k0 + i) for i in range(n))
+    return running + float(cost.terminal(X[n], k0 + n))
+
+
+def linearize_trajectory(dyn: Dynamics, X: np.ndarray, U: np.ndarray, k0: int = 0):
+    """(fx, fu) stacked over the window: shapes (N, nx, nx), (N, nx, nu)."""
+    if hasattr(dyn, "linearize_batch"):
+        return dyn.linearize_batch(X[: len(U)], U, k0)
+    pairs = [dyn.linearize(X[i], U[i], k0 + i) for i in range(len(U))]
+    return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+
+
+def expand_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0):
+    """Running-cost derivatives stacked over the window, plus the terminal ones."""
+    n = len(U)
+    if hasattr(cost, "derivs_batch"):
+        running = cost.derivs_batch(X[:n], U, k0)
+    else:
+        parts = [cost.derivs(X[i], U[i], k0 + i) for i in range(n)]
+        running = tuple(np.stack([p[j] for p in parts]) for j in range(5))
+    return running, cost.terminal_derivs(X[n], k0 + n)
+
+
+def _backward(fx, fu, running, terminal, mu: float):
+    """Feedforward k, gains K and the predicted decrease terms; None if Quu + mu I is not PD."""
+    lx, lu, lxx, luu, lux = running
+    vx, vxx = terminal
+    n, nu = lu.shape
+    kff = np.empty((n, nu))
+    K = np.empty((n, nu, fx.shape[1]))
+    d1 = d2 = 0.0
+    eye = np.eye(nu)
+    for i in range(n - 1, -1, -1):
+        A, B = fx[i], fu[i]
+        vxx_b = vxx @ B
+        qx = lx[i] + A.T @ vx
+        qu = lu[i] + B.T @ vx
+        qxx = lxx[i] + A.T @ vxx @ A
+        quu = luu[i] + B.T @ vxx_b
+        qux = lux[i] + vxx_b.T @ A
+        try:
+            chol = np.linalg.cholesky(quu + mu * eye)
+        except np.linalg.LinAlgError:
+            return None
+        sol = _chol_solve(chol, np.column_stack([qu, qux]))
+        k_i, K_i = -sol[:, 0], -sol[:, 1:]
+        kff[i], K[i] = k_i, K_i
+        d1 += k_i @ qu
+        d2 += 0.5 * k_i @ quu @ k_i
+        vx = qx + K_i.T @ quu @ k_i + K_i.T @ qu + qux.T @ k_i
+        vxx = qxx + K_i.T @ quu @ K_i + K_i.T @ qux + qux.T @ K_i
+        vxx = 0.5 * (vxx + vxx.T)
+    return kff, K, d1, d2
+
+
+def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    from scipy.linalg import solve_triangular
+
+    y = solve_triangular(chol, rhs, lower=True, check_finite=False)
+    return solve_triangular(chol.T, y, lower=False, check_finite=False)
+
+
+def _forward(dyn, cost, X, U, kff, K, alpha, k0):
+    Xn = np.empty_like(X)
+    Un = np.empty_like(U)
+    Xn[0] = X[0]
+    for i in range(len(U)):
+        Un[i] = U[i] + alpha * kff[i] + K[i] @ (Xn[i] - X[i])
+        Xn[i + 1] = dyn.step(Xn[i], Un[i], k0 + i)
+    return Xn, Un, total_cost(cost, Xn, Un, k0)
+
+
+def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0,
+          options: Options | None = None) -> Solution:
+    """Minimise the window cost from x0, starting from the controls U0 (shape (N, nu))."""
+    opt = options or Options()
+    U = np.array(U0, dtype=float).reshape(-1, dyn.nu)
+    X = rollout(dyn, np.asarray(x0, dtype=float), U, k0)
+    J = total_cost(cost, X, U, k0)
+    costs = [J]
+    mu = opt.mu_init
+    K = np.zeros((len(U), dyn.nu, dyn.nx))
+    converged = False
+    it = 0
+    for it in range(1, opt.max_iter + 1):
+        fx, fu = linearize_trajectory(dyn, X, U, k0)
+        running, terminal = expand_cost(cost, X, U, k0)
+        accepted = False
+        while mu <= opt.mu_max and not accepted:
+            back = _backward(fx, fu, running, terminal, mu)
+            if back is None:
+                mu = _grow(mu, opt)
+                continue
+            kff, K_new, d1, d2 = back
+            if -(d1 + d2) < opt.tol * max(abs(J), 1e-12):  # nothing left to gain: converged
+                break
+            for alpha in opt.alphas:
+                expected = -(alpha * d1 + alpha * alpha * d2)
+                Xn, Un, Jn = _forward(dyn, cost, X, U, kff, K_new, alpha, k0)
+                if np.isfinite(Jn) and Jn < J and (expected <= 0 or (J - Jn) >= opt.armijo * expected):
+                    accepted = True
+                    break
+            if not accepted:
+                mu = _grow(mu, opt)
+        if not accepted:
+            converged = back is not None and mu <= opt.mu_max
+            break
+        rel = (J - Jn) / max(abs(J), 1e-12)
+        X, U, J, K = Xn, Un, Jn, K_new
+        costs.append(J)
+        mu = max(mu * opt.mu_shrink, opt.mu_min)
+        if rel < opt.tol:
+            converged = True
+            break
+    return Solution(X=X, U=U, K=K, cost=J, costs=costs, iterations=it, converged=converged, mu=mu)
+
+
+def _grow(mu: float, opt: Options) -> float:
+    return max(mu * opt.mu_grow, opt.mu_min, 1e-12)
+
+
+def shift_controls(U: np.ndarray) -> np.ndarray:
+    """Warm start for the next window: drop the first control, repeat the last."""
+    return np.concatenate([U[1:], U[-1:]], axis=0)
+
+
+class RecedingHorizon:
+    """Model-predictive control: solve a window, apply its first control, shift, repeat.
+
+    ``step`` takes the problem of the current window (the dynamics and cost may change between calls,
+    e.g. when the set of tracked objects changes; only ``nu`` must stay the same), warm-starts from the
+    previous solution shifted by one step, and returns the first control and the solution.
+    """
+
+    def __init__(self, horizon: int, nu: int, options: Options | None = None,
+                 U_init: np.ndarray | None = None) -> None:
+        if horizon < 2:
+            raise ValueError("the receding horizon needs at least two steps")
+        self.horizon = horizon
+        self.options = options or Options()
+        self.U = np.zeros((horizon, nu)) if U_init is None else np.array(U_init, dtype=float)
+        self.last: Solution | None = None
+
+    def step(self, dyn: Dynamics, cost: Cost, x: np.ndarray, k: int) -> tuple[np.ndarray, Solution]:
+        sol = solve(dyn, cost, x, self.U, k, self.options)
+        self.last = sol
+        self.U = shift_controls(sol.U)
+        return sol.U[0].copy(), sol
+
+    def run(self, dyn: Dynamics, cost: Cost, x0: np.ndarray, k0: int, n_steps: int,
+            simulate: Callable[[np.ndarray, np.ndarray, int], np.ndarray] | None = None):
+        """Closed loop for ``n_steps``; ``simulate`` is the true system (default: the model)."""
+        sim = simulate or dyn.step
+        xs = [np.asarray(x0, dtype=float)]
+        us = []
+        for k in range(k0, k0 + n_steps):
+            u, _ = self.step(dyn, cost, xs[-1], k)
+            us.append(u)
+            xs.append(sim(xs[-1], u, k))
+        return np.array(xs), np.array(us)

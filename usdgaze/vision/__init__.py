@@ -1,0 +1,1 @@
+"""Vision: the eye model, the point of sight, the Kalman belief over objects, the attention costs."""
