@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import ast
 import importlib
+import importlib.util
 import os
 import sys
 import traceback
@@ -30,9 +32,30 @@ _COMMANDS = {
 }
 
 
+def _short_help(name: str) -> str:
+    """First line of a command's docstring, read from its source so ``--help`` imports no command."""
+    module, attr = _COMMANDS[name]
+    try:
+        spec = importlib.util.find_spec(module)
+        tree = ast.parse(open(spec.origin, encoding="utf-8").read())
+        doc = next(ast.get_docstring(n) for n in tree.body
+                   if isinstance(n, (ast.FunctionDef, ast.ClassDef)) and n.name == attr) or ""
+    except (ImportError, OSError, SyntaxError, StopIteration, AttributeError, TypeError):
+        return ""
+    return doc.strip().split("\n")[0]
+
+
 class _LazyGroup(click.Group):
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(_COMMANDS)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        names = self.list_commands(ctx)
+        limit = formatter.width - 6 - max(map(len, names), default=0)  # as click.Group lays it out
+        rows = [(name, click.utils.make_default_short_help(_short_help(name), limit)) for name in names]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
 
     def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
         if name not in _COMMANDS:

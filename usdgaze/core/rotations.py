@@ -15,7 +15,6 @@ Conventions used everywhere in usdgaze:
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
 LEFT = np.array([1.0, 0.0, 0.0])
@@ -146,6 +145,8 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def from_matrix(m: np.ndarray) -> np.ndarray:
     """Quaternions from (column-vector) rotation matrices ``(..., 3, 3)``; scale is removed first."""
+    from scipy.spatial.transform import Rotation  # imported where used: scipy.spatial costs ~0.2 s
+
     m = np.asarray(m, dtype=float)
     shape = m.shape[:-2]
     cols = m / np.linalg.norm(m, axis=-2, keepdims=True)
@@ -155,6 +156,8 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
 
 def to_matrix(q: np.ndarray) -> np.ndarray:
     """(Column-vector) rotation matrices ``(..., 3, 3)`` of quaternions."""
+    from scipy.spatial.transform import Rotation
+
     q = np.asarray(q, dtype=float)
     shape = q.shape[:-1]
     return Rotation.from_quat(q.reshape(-1, 4)).as_matrix().reshape(shape + (3, 3))
