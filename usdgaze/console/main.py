@@ -29,6 +29,7 @@ _COMMANDS = {
     "dump-map": ("usdgaze.console.dump_map", "dump_map"),
     "plugin-path": ("usdgaze.console.plugin_path", "plugin_path"),
     "build-map": ("usdgaze.console.build_map", "build_map"),
+    "physics-model": ("usdgaze.console.physics_model", "physics_model"),
 }
 
 

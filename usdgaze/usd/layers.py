@@ -33,11 +33,29 @@ def check_output_path(path: str | os.PathLike) -> Path:
 def atomic_export(layer: Sdf.Layer, path: str | os.PathLike) -> None:
     """Write ``layer`` to ``path`` through a temp file in the same folder and an atomic rename."""
     path = check_output_path(path)
+
+    def export(tmp: str) -> None:
+        if not layer.Export(tmp):
+            raise UsdGazeError(f"{path}: USD could not write the layer")
+
+    atomic_write(path, export)
+
+
+def atomic_write(path: str | os.PathLike, write) -> None:
+    """Call ``write(tmp)`` on a temp file beside ``path``, then rename it over ``path`` (any format).
+
+    The file gets the mode a plain ``open`` would give it under the current umask; on any failure
+    the temp file is removed and ``path`` is left as it was."""
+    path = Path(path)
+    if not path.parent.exists():
+        raise UsdGazeError(f"{path}: folder {path.parent} does not exist")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
-        if not layer.Export(tmp):
-            raise UsdGazeError(f"{path}: USD could not write the layer")
+        write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

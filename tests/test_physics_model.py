@@ -1,0 +1,144 @@
+"""The MuJoCo body model of a skeleton, measured against UsdSkel's own forward kinematics.
+
+The expected joint positions come from UsdSkel (tests/measure.py) mapped to MuJoCo's Z-up metres by
+the conversion the model documents, written out here: metres = metersPerUnit * stage units, and on
+Y-up stages (x, y, z) -> (x, -z, y). The model's positions are MuJoCo's own ``mj_kinematics`` of
+the MJCF file the command writes, so usdgaze's math is on one side only.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from usdgaze.console.main import main
+from usdgaze.physics import build, retarget
+
+from . import measure
+from . import synthetic as syn
+
+ROOT = Path(__file__).resolve().parents[1]
+CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
+
+
+def to_mujoco(p: np.ndarray, up: str, mpu: float) -> np.ndarray:
+    p = np.asarray(p, dtype=float) * mpu
+    return p if up == "Z" else np.stack([p[..., 0], -p[..., 2], p[..., 1]], axis=-1)
+
+
+@pytest.fixture(scope="module", params=["cmu", "mixamo"])
+def case(request, tmp_path_factory):
+    tmp = tmp_path_factory.mktemp(request.param)
+    if request.param == "cmu":
+        stage, skeleton, up, mpu = CMU, "/root/Body/BodySkel", "Y", 1.0
+    else:  # Mixamo-style: Y up, centimetres, bone-aligned joint frames, fingers, eyes, end sites
+        rig = syn.make_rig(tmp / "mixamo.usda", convention="mixamo", up_axis="Y", meters_per_unit=0.01,
+                           frames=48, joints=70, turn_deg_per_s=20.0)
+        stage, skeleton, up, mpu = rig.path, rig.skeleton, "Y", 0.01
+    xml = tmp / "model.xml"
+    assert main(["physics-model", str(stage), "--out", str(xml)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    clip = build.load_clip(stage)
+    model, ref = build.body_model(clip)
+    posed = measure.posed(str(stage), skeleton)
+    return dict(stage=stage, mj=mj, model=model, ref=ref, clip=clip, posed=posed, up=up, mpu=mpu)
+
+
+def _body_ids(case) -> list[int]:
+    mj, model = case["mj"], case["model"]
+    return [mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name) for name in model.names]
+
+
+def test_joint_positions_match_usdskel_fk_at_rest(case):
+    mj, model, posed = case["mj"], case["model"], case["posed"]
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)  # qpos0: the rest pose, stood on the ground
+    ids = _body_ids(case)
+    rest_world = posed.rest_skel @ posed.skel_to_world  # row vectors
+    expected = to_mujoco(rest_world[model.bodies, 3, :3], case["up"], case["mpu"])
+    got = d.xpos[ids]
+    # The model stands the rest pose on the ground: compare relative to the base joint.
+    err = np.linalg.norm((got - got[0]) - (expected - expected[0]), axis=1)
+    assert err.max() < 0.01, f"{model.names[int(err.argmax())]} off by {err.max():.4f} m"
+    lowest = np.array([d.geom_xpos[g, 2] for g in range(1, mj.ngeom)])
+    assert lowest.min() > -0.2 and (got[:, 2] > -1e-6).all()
+
+
+def test_joint_positions_match_usdskel_fk_over_the_animation(case):
+    mj, model, posed, ref = case["mj"], case["model"], case["posed"], case["ref"]
+    qpos = retarget.to_qpos(model, ref)
+    assert qpos.shape == (len(posed.times), mj.nq)
+    d = mujoco.MjData(mj)
+    ids = _body_ids(case)
+    # Welded bodies (fingers, eyes, end sites) drop their own rotation; their children would move.
+    kept = [b for b in range(len(model.bodies)) if b == 0 or model.kind[model.body_parent[b]] != "weld"]
+    worst = 0.0
+    for f in range(0, len(qpos), max(1, len(qpos) // 25)):
+        d.qpos[:] = qpos[f]
+        mujoco.mj_kinematics(mj, d)
+        expected = to_mujoco(posed.world[f][model.bodies, 3, :3], case["up"], case["mpu"])
+        worst = max(worst, float(np.linalg.norm(d.xpos[ids][kept] - expected[kept], axis=1).max()))
+    assert worst < 0.01
+
+
+def _fk(joints_parents, t, q, s2w):
+    """Plain FK with scipy (not usdgaze): world positions (F, J, 3) from local TR and skel_to_world."""
+    parents = joints_parents
+    f, j = q.shape[:2]
+    r = Rotation.from_quat(q.reshape(-1, 4)).as_matrix().reshape(f, j, 3, 3)
+    wr = np.zeros_like(r)
+    wp = np.zeros((f, j, 3))
+    for k, p in enumerate(parents):
+        if p < 0:
+            wr[:, k], wp[:, k] = r[:, k], t[:, k]
+        else:
+            wr[:, k] = wr[:, p] @ r[:, k]
+            wp[:, k] = wp[:, p] + np.einsum("fij,fj->fi", wr[:, p], t[:, k])
+    m = s2w[:, :3, :3]
+    return np.einsum("fij,fkj->fki", m, wp) + s2w[:, None, :3, 3]
+
+
+def test_round_trip_moves_no_joint_more_than_a_centimetre(case):
+    model, ref, clip = case["model"], case["ref"], case["clip"]
+    qpos = retarget.to_qpos(model, ref)
+    rotations, translations = retarget.from_qpos(model, qpos, ref)
+    s2w = np.broadcast_to(ref.skel_to_world, (len(qpos), 4, 4))
+    before = _fk(clip.parents, ref.translations, ref.rotations, s2w)
+    after = _fk(clip.parents, translations, rotations, s2w)
+    moved = np.linalg.norm(after - before, axis=-1).max() * case["mpu"]
+    assert moved < 0.01
+    assert np.allclose(np.linalg.norm(rotations, axis=-1), 1.0, atol=1e-6)
+
+
+def test_model_is_physically_plausible(case):
+    mj, model = case["mj"], case["model"]
+    assert abs(mj.body_mass.sum() - 75.0) < 1e-3
+    names = [mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(mj.njnt)]
+    kinds = [int(t) for t in mj.jnt_type]
+    hinges = [n for n, t in zip(names, kinds) if t == mujoco.mjtJoint.mjJNT_HINGE]
+    assert len(hinges) == 4 and all(any(w in n.lower() for w in ("knee", "leg", "elbow", "forearm")) for n in hinges)
+    assert kinds[0] == mujoco.mjtJoint.mjJNT_FREE and mj.nu == mj.nv - 6
+    # Standing at rest, the centre of mass is laterally between the feet and at 45-65% of the height.
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    mujoco.mj_comPos(mj, d)
+    com = d.subtree_com[1]
+    ids = _body_ids(case)
+    feet = d.xpos[[ids[b] for b in model.feet]]
+    top = d.xpos[ids].max(axis=0)[2]
+    assert feet[:, 0].min() - 0.05 < com[0] < feet[:, 0].max() + 0.05
+    assert 0.4 < com[2] / top < 0.7
+
+
+def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "m.xml"
+    assert main(["physics-model", str(tmp_path / "missing.usda"), "--out", str(out)]) == 2
+    assert main(["physics-model", str(CMU), "--out", str(tmp_path / "m.usda")]) == 2
+    assert main(["physics-model", str(CMU), "--out", str(out), "--mass", "-3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and all(line.startswith("usdgaze: error:") for line in err)
+    assert list(tmp_path.iterdir()) == []

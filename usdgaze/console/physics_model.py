@@ -1,0 +1,21 @@
+"""``usdgaze physics-model``: write the MuJoCo (MJCF) body model of a skeleton for inspection."""
+
+from __future__ import annotations
+
+import click
+
+
+@click.command("physics-model")
+@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False), help="MJCF file to write (.xml).")
+@click.option("--mass", "mass", default=75.0, show_default=True, type=float, help="Total body mass, kg.")
+@click.option("--timestep", default=0.02, show_default=True, type=float, help="Simulation step h, seconds.")
+@click.option("--skel-root", default=None, help="SkelRoot prim path when the stage has several.")
+def physics_model(input_path, out, mass, timestep, skel_root) -> None:
+    """Write the MuJoCo body model of INPUT's skeleton: a body per joint, de Leva (1996) segment masses,
+    hinge knees and elbows, ball joints elsewhere, motors, a ground plane (Z-up, metres)."""
+    from usdgaze.physics.build import write_mjcf
+
+    info = write_mjcf(input_path, out, total_mass=mass, timestep=timestep, skel_root=skel_root)
+    kinds = ", ".join(f"{n} {k}" for k, n in info["joints"].items() if n)
+    click.echo(f"{out}: {info['bodies']} bodies ({kinds}), {info['mass']:g} kg, from {info['skeleton']}")

@@ -1,0 +1,1 @@
+"""Physics-based full body: an MJCF model from any UsdSkel skeleton, retargeting, MuJoCo dynamics."""

@@ -1,0 +1,58 @@
+"""Stage -> body model: read a skeleton, build its :class:`BodyModel` and MJCF (USD at this edge only)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from usdgaze.errors import UsdGazeError
+
+
+def load_clip(input_path: str | os.PathLike, skel_root: str | None = None):
+    """The one skeleton's clip of ``input_path`` (or the one under ``skel_root``)."""
+    from usdgaze.api import select_roots
+    from usdgaze.usd.skelio import open_stage, read_clip, skeletons_under
+
+    source = str(input_path)
+    if not Path(source).is_file():
+        raise UsdGazeError(f"{source}: no such file")
+    stage = open_stage(source)
+    roots = select_roots(stage, source, skel_root)
+    if len(roots) > 1:
+        raise UsdGazeError(f"{source}: {len(roots)} SkelRoots; pick one with --skel-root")
+    skels = skeletons_under(roots[0])
+    if not skels:
+        raise UsdGazeError(f"{source}:{roots[0].GetPath()}: no Skeleton under the SkelRoot")
+    return read_clip(stage, skels[0], roots[0], source)
+
+
+def body_model(clip, total_mass: float = 75.0):
+    """The body model of a clip's skeleton, hinge axes and ranges fitted to its animation."""
+    from usdgaze.physics.model import build
+    from usdgaze.physics.retarget import Reference
+
+    ref = Reference.from_clip(clip)
+    model = build(clip.joints, clip.parents, clip.rest_local, clip.skel_to_world, clip.up_axis,
+                  clip.meters_per_unit, total_mass=total_mass, reference=ref.rotations, where=clip.where())
+    return model, ref
+
+
+def write_mjcf(input_path, out, total_mass: float = 75.0, timestep: float = 0.02,
+               skel_root: str | None = None) -> dict:
+    """Write the MJCF model of ``input_path``'s skeleton to ``out``; a summary for the console."""
+    from usdgaze.physics import mjcf
+    from usdgaze.usd.layers import atomic_write
+
+    out = Path(out)
+    if out.suffix.lower() != ".xml":
+        raise UsdGazeError(f"{out}: the model is MJCF; --out must end in .xml")
+    if os.path.abspath(out) == os.path.abspath(str(input_path)):
+        raise UsdGazeError(f"{out}: --out would overwrite the input")
+    if not 0.001 <= timestep <= 0.05:
+        raise UsdGazeError(f"--timestep {timestep}: expected 0.001 to 0.05 s")
+    clip = load_clip(input_path, skel_root)
+    model, _ = body_model(clip, total_mass)
+    text = mjcf.write(model, timestep=timestep)
+    atomic_write(out, lambda tmp: Path(tmp).write_text(text))
+    return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
+            "mass": model.total_mass, "skeleton": clip.skeleton}

@@ -1,0 +1,83 @@
+"""MJCF text of a :class:`~usdgaze.physics.model.BodyModel` (plain XML; MuJoCo is not imported)."""
+
+from __future__ import annotations
+
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from usdgaze.physics.model import BodyModel
+
+
+def _v(a) -> str:
+    return " ".join(f"{float(x):.6g}" for x in np.ravel(a))
+
+
+def _wxyz(q) -> str:
+    q = np.asarray(q, dtype=float)
+    return _v([q[3], q[0], q[1], q[2]])
+
+
+def _motors(m: BodyModel, b: int) -> list[tuple[str, str]]:
+    """(joint name, gear) for each motor of body ``b``: three axes on a ball, one on a hinge."""
+    g = m.strength[b]
+    if m.kind[b] == "hinge":
+        return [(f"{m.names[b]}", _v([g]))]
+    if m.kind[b] == "ball":
+        return [(f"{m.names[b]}", _v(np.eye(3)[a] * g)) for a in range(3)]
+    return []
+
+
+def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> str:
+    """The model as MJCF. Semi-implicit Euler (``integrator="Euler"``) at ``timestep``; joint damping is
+    integrated implicitly by that integrator, which keeps 0.02-0.03 s steps stable; contacts are
+    softened to a time constant of at least two steps, as MuJoCo requires for stability."""
+    tc = max(0.02, 2.0 * timestep)
+    out = [f'<mujoco model={quoteattr(name)}>',
+           '  <compiler angle="degree" inertiafromgeom="false" autolimits="true"/>',
+           f'  <option timestep="{timestep:.6g}" integrator="Euler" gravity="0 0 -9.81"/>',
+           '  <size memory="8M"/>',
+           '  <default>',
+           f'    <geom contype="1" conaffinity="0" condim="3" friction="1.0 0.05 0.01" solref="{tc:.4g} 1" rgba="0.75 0.7 0.62 1"/>',
+           '    <joint damping="2" armature="0.02" limited="true"/>',
+           '    <motor ctrllimited="false"/>',
+           '  </default>',
+           '  <worldbody>',
+           '    <light pos="0 0 4" dir="0 0 -1" directional="true"/>',
+           f'    <geom name="ground" type="plane" size="0 0 0.05" contype="0" conaffinity="1" solref="{tc:.4g} 1" rgba="0.45 0.5 0.55 1"/>']
+    children = [[c for c in range(len(m.bodies)) if m.body_parent[c] == b] for b in range(len(m.bodies))]
+
+    def body(b: int, depth: int) -> None:
+        pad = "  " * depth
+        if b == 0:
+            pos, quat = m.base_pos + np.array([0, 0, m.lift]), m.base_quat
+        else:
+            pos, quat = m.offset[b], m.rel_quat[b]
+        out.append(f'{pad}<body name={quoteattr(m.names[b])} pos="{_v(pos)}" quat="{_wxyz(quat)}">')
+        out.append(f'{pad}  <inertial pos="{_v(m.com[b])}" quat="{_wxyz(m.inertia_quat[b])}" '
+                   f'mass="{m.mass[b]:.6g}" diaginertia="{_v(m.inertia[b])}"/>')
+        if m.kind[b] == "free":
+            out.append(f'{pad}  <freejoint name={quoteattr(m.names[b])}/>')
+        elif m.kind[b] == "ball":
+            out.append(f'{pad}  <joint name={quoteattr(m.names[b])} type="ball" range="0 {m.range_deg[b, 1]:.4g}" '
+                       f'damping="{0.05 * m.strength[b]:.4g}"/>')
+        elif m.kind[b] == "hinge":
+            out.append(f'{pad}  <joint name={quoteattr(m.names[b])} type="hinge" axis="{_v(m.axis[b])}" '
+                       f'range="{_v(m.range_deg[b])}" damping="{0.05 * m.strength[b]:.4g}"/>')
+        for g, (kind, v) in enumerate(m.geoms[b]):
+            gname = quoteattr(f"{m.names[b]}_{g}")
+            shape = f'fromto="{_v(v)}"' if kind == "capsule" else f'pos="{_v(v)}"'
+            out.append(f'{pad}  <geom name={gname} type="{kind}" {shape} size="{m.radius[b]:.4g}"/>')
+        for c in children[b]:
+            body(c, depth + 1)
+        out.append(f"{pad}</body>")
+
+    body(0, 2)
+    out.append("  </worldbody>")
+    out.append("  <actuator>")
+    for b in range(len(m.bodies)):
+        for a, (joint, gear) in enumerate(_motors(m, b)):
+            out.append(f'    <motor name={quoteattr(f"{joint}_{a}")} joint={quoteattr(joint)} gear="{gear}"/>')
+    out.append("  </actuator>")
+    out.append("</mujoco>")
+    return "\n".join(out) + "\n"

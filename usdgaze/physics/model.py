@@ -1,0 +1,272 @@
+"""A MuJoCo body model of any UsdSkel skeleton, as plain arrays (pure numpy; no pxr, no mujoco).
+
+Coordinates. MuJoCo works Z-up in metres. A point ``p`` in skeleton space goes to the model's world
+as ``p_mj = metersPerUnit * C @ (skel_to_world @ p)``, with ``C`` the identity on Z-up stages and, on
+Y-up stages, the rotation of +90 degrees about X, ``(x, y, z) -> (x, -z, y)``: the stage's up becomes
++Z, its X stays X, and handedness is kept. The ground plane is the stage's ``up = 0`` plane.
+
+Bodies. One body per skeleton joint from the floating base (the first pelvis/hips joint, else the
+root) down; its frame is the joint's frame in the rest pose (``restTransforms``, or those derived
+from ``bindTransforms``), orthonormalized, so ``qpos`` of all zeros but the root is the rest pose.
+Joints above the base or outside its subtree are not simulated and are carried from the reference.
+The base has a free joint; knees and elbows are hinges (axis fitted to the reference motion when
+given, else the anatomical flexion axis); exporter end sites are welded; every other joint is a
+ball. Masses and inertias follow de Leva (1996) (:mod:`usdgaze.physics.segments`).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.core.kinematics import world_matrices
+from usdgaze.core.rig import character_frame, leaf
+from usdgaze.errors import RigError, UsdGazeError
+from usdgaze.physics import segments as seg
+
+Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+_BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
+# Fractions of standing height used where the skeleton gives no length (leaf joints).
+_LEAF_LENGTH = {"head": 0.12, "hand": 0.06, "foot": 0.06, "other": 0.03}
+_EYE = re.compile(r"eye", re.I)
+_HINGES = {"shank": 1.0, "forearm": -1.0}  # flexion axis = sign * (bone direction x forward)
+
+
+def stage_to_model(up_axis: str, meters_per_unit: float) -> np.ndarray:
+    """The 3x3 linear map from stage world coordinates to the model's (Z-up metres)."""
+    c = np.eye(3) if up_axis == "Z" else Y_UP_TO_Z_UP
+    return float(meters_per_unit) * c
+
+
+@dataclass
+class BodyModel:
+    """Everything the MJCF writer and the retargeter need, one row per simulated body."""
+
+    joints: list[str]
+    parents: np.ndarray
+    bodies: np.ndarray  # skeleton joint index per body, parents first; bodies[0] is the base
+    body_parent: np.ndarray  # body index of each body's parent (-1 for the base)
+    kind: list[str]  # "free", "ball", "hinge", "weld"
+    role: list[str]
+    names: list[str]  # MJCF-safe body names
+    offset: np.ndarray  # (B, 3) body origin in its parent's frame, metres
+    rel_quat: np.ndarray  # (B, 4) xyzw, body frame in its parent's frame at rest
+    base_pos: np.ndarray  # (3,) base origin at rest, model world
+    base_quat: np.ndarray  # (4,) xyzw
+    axis: np.ndarray  # (B, 3) hinge axis in the body frame (zero for non-hinges)
+    range_deg: np.ndarray  # (B, 2): ball (0, max angle); hinge (lo, hi)
+    mass: np.ndarray  # (B,)
+    com: np.ndarray  # (B, 3) in the body frame
+    inertia: np.ndarray  # (B, 3) principal moments
+    inertia_quat: np.ndarray  # (B, 4) xyzw, principal axes (z along the segment) in the body frame
+    radius: np.ndarray  # (B,)
+    geoms: list[list[tuple[str, np.ndarray]]]  # per body: ("capsule", fromto(6)) | ("sphere", pos(3))
+    strength: np.ndarray  # (B,) N m per unit control
+    to_model: np.ndarray  # 3x3 stage-world -> model-world linear map (includes metersPerUnit)
+    total_mass: float
+    height: float
+    lift: float  # metres the rest pose is raised in the MJCF so that it stands on the ground
+    feet: list[int] = field(default_factory=list)  # body indices of the topmost foot bodies
+
+    @property
+    def dof_bodies(self) -> np.ndarray:
+        return np.array([b for b, k in enumerate(self.kind) if k in ("ball", "hinge")], dtype=int)
+
+    def layout(self) -> tuple[np.ndarray, np.ndarray]:
+        """First ``qpos`` and ``qvel`` index of each body's joint (MuJoCo's order: bodies in order)."""
+        nq = np.array([{"free": 7, "ball": 4, "hinge": 1, "weld": 0}[k] for k in self.kind])
+        nv = np.array([{"free": 6, "ball": 3, "hinge": 1, "weld": 0}[k] for k in self.kind])
+        return np.concatenate([[0], np.cumsum(nq)[:-1]]), np.concatenate([[0], np.cumsum(nv)[:-1]])
+
+    def body_of(self, joint: int) -> int:
+        hits = np.flatnonzero(self.bodies == joint)
+        return int(hits[0]) if len(hits) else -1
+
+
+def _base_joint(joints: list[str], parents: np.ndarray) -> int:
+    for j, name in enumerate(joints):
+        if _BASE.search(re.sub(r"[^a-z0-9]", "", leaf(name).lower())):
+            return j
+    roots = np.flatnonzero(parents < 0)
+    return int(roots[0])
+
+
+def _subtree(base: int, parents: np.ndarray) -> np.ndarray:
+    """``base`` and its descendants in depth-first pre-order (MuJoCo's body order for nested XML)."""
+    children = [[] for _ in parents]
+    for j, p in enumerate(parents):
+        if p >= 0:
+            children[p].append(j)
+    out, stack = [], [base]
+    while stack:
+        j = stack.pop()
+        out.append(j)
+        stack.extend(reversed(children[j]))
+    return np.array(out, dtype=int)
+
+
+def _safe_names(joints: list[str], idx: np.ndarray) -> list[str]:
+    out, seen = [], set()
+    for j in idx:
+        name = re.sub(r"[^A-Za-z0-9_]", "_", leaf(joints[j])) or f"joint{j}"
+        while name in seen:
+            name += "_"
+        seen.add(name)
+        out.append(name)
+    return out
+
+
+def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_to_world: np.ndarray,
+          up_axis: str, meters_per_unit: float, total_mass: float = 75.0,
+          reference: np.ndarray | None = None, where: str = "skeleton") -> BodyModel:
+    """The body model of a skeleton; ``reference`` (``(F, J, 4)`` local xyzw rotations) fits hinge axes
+    and widens joint ranges to what the motion uses."""
+    parents = np.asarray(parents, dtype=int)
+    if total_mass <= 0:
+        raise UsdGazeError(f"{where}: total mass must be positive, got {total_mass}")
+    base = _base_joint(joints, parents)
+    idx = _subtree(base, parents)
+    if len(idx) < 2:
+        raise UsdGazeError(f"{where}: the skeleton below '{joints[base]}' has no joints to simulate")
+    body_of = {int(j): b for b, j in enumerate(idx)}
+    bparent = np.array([body_of.get(int(parents[j]), -1) for j in idx])
+    bparent[0] = -1
+
+    to_model = stage_to_model(up_axis, meters_per_unit)
+    world = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0] @ world_matrices(rest_local[None], parents)[0]
+    pos = world[idx, :3, 3] @ to_model.T
+    orient = rot.from_matrix(to_model @ world[idx, :3, :3])
+    rmat = rot.to_matrix(orient)
+    n = len(idx)
+    offset = np.zeros((n, 3))
+    rel = np.tile(rot.IDENTITY, (n, 1))
+    for b in range(1, n):
+        p = bparent[b]
+        offset[b] = rmat[p].T @ (pos[b] - pos[p])
+        rel[b] = rot.relative(orient[p], orient[b])
+
+    height = float(np.ptp(pos[:, 2])) * 1.08 or 1.0
+    roles = seg.assign_roles([joints[j] for j in idx], bparent)
+    children = [[c for c in range(n) if bparent[c] == b] for b in range(n)]
+    seg_vec = np.zeros((n, 3))  # body frame, from the joint along its segment
+    for b in range(n):
+        if children[b]:
+            sizes = [len(_subtree(c, bparent)) for c in children[b]]
+            seg_vec[b] = offset[children[b][int(np.argmax(sizes))]]
+        if np.linalg.norm(seg_vec[b]) < 1e-6:  # a leaf: continue the bone into it, else point up
+            d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
+            d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))
+            seg_vec[b] = d / np.linalg.norm(d) * _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
+    lengths = np.linalg.norm(seg_vec, axis=1)
+    mass = np.maximum(seg.segment_masses(roles, lengths, total_mass), 1e-3 * total_mass / n)
+
+    kind = ["free"] + ["weld" if _welded(joints[idx[b]], roles, bparent, b, children) else "ball"
+                       for b in range(1, n)]
+    rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
+                            np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
+    try:
+        forward = character_frame([joints[j] for j in idx], rest4, np.array([0.0, 0.0, 1.0]), where=where).forward
+    except RigError:  # no left/right names: no anatomical axes, so no hinges either
+        forward = None
+    axis = np.zeros((n, 3))
+    range_deg = np.zeros((n, 2))
+    for b in range(1, n):
+        range_deg[b] = (0.0, seg.RANGE_DEG.get(roles[b], seg.RANGE_DEG["other"]))
+        if roles[b] in _HINGES and children[b] and kind[b] == "ball" and forward is not None:
+            bone = rmat[b] @ seg_vec[b]
+            a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
+            if np.linalg.norm(a) > 0.2:
+                kind[b] = "hinge"
+                axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
+                range_deg[b] = (-5.0, 150.0)
+    if reference is not None:
+        _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg)
+
+    com, inertia, iquat = _inertials(roles, seg_vec, mass)
+    radius = np.clip(np.sqrt(mass / (1000.0 * np.pi * np.maximum(lengths, 0.05))), 0.015, 0.14) * (
+        np.array([0.6 if r in ("trunk", "other") else 1.0 for r in roles]))
+    radius[[b for b in range(n) if roles[b] == "foot"]] = 0.025 * height / 1.75
+    feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]
+    geoms = _geoms(offset, children, seg_vec, roles, rmat, feet)
+    lowest = min(_lowest(pos, rmat, geoms, radius, b) for b in range(n))
+    strength = np.array([seg.STRENGTH.get(r, seg.STRENGTH["other"]) for r in roles]) * total_mass / 75.0
+    return BodyModel(
+        joints=list(joints), parents=parents, bodies=idx, body_parent=bparent, kind=kind, role=roles,
+        names=_safe_names(joints, idx), offset=offset, rel_quat=rel, base_pos=pos[0], base_quat=orient[0],
+        axis=axis, range_deg=range_deg, mass=mass, com=com, inertia=inertia, inertia_quat=iquat,
+        radius=radius, geoms=geoms, strength=strength, to_model=to_model, total_mass=float(total_mass),
+        height=height, lift=-lowest, feet=feet)
+
+
+def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -> bool:
+    """End sites, eyes (the eye model moves them, not the physics) and fingers (below the hand) are
+    welded to their parents: they carry mass but no degrees of freedom."""
+    if seg.is_end_joint(name) and not children[b]:
+        return True
+    if _EYE.search(leaf(name)):
+        return True
+    return roles[b] == "hand" and roles[bparent[b]] == "hand"
+
+
+def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray) -> None:
+    """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses."""
+    for b in range(1, len(kind)):
+        if kind[b] not in ("ball", "hinge"):
+            continue
+        q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
+        rv = rot.to_rotvec(q)
+        ang = np.degrees(np.linalg.norm(rv, axis=1))
+        if kind[b] == "ball":
+            rng[b, 1] = min(180.0, max(rng[b, 1], float(ang.max()) + 10.0))
+            continue
+        if ang.max() > 10.0:
+            _, _, vt = np.linalg.svd(rv, full_matrices=False)
+            a = vt[0] * np.sign(vt[0] @ axis[b] or 1.0)
+            axis[b] = a / np.linalg.norm(a)
+        theta = np.degrees(rv @ axis[b])
+        rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))
+
+
+def _inertials(roles, seg_vec, mass):
+    n = len(roles)
+    com = np.zeros((n, 3))
+    inertia = np.zeros((n, 3))
+    iquat = np.tile(rot.IDENTITY, (n, 1))
+    for b in range(n):
+        s = seg.DE_LEVA.get(roles[b], seg.DE_LEVA["trunk"])
+        length = float(np.linalg.norm(seg_vec[b]))
+        com[b] = s.com * seg_vec[b]
+        kt, kl = s.gyration_transverse * length, s.gyration_long * length
+        inertia[b] = mass[b] * np.array([kt * kt, kt * kt, max(kl * kl, 1e-6)])
+        iquat[b] = rot.shortest_arc(np.array([0, 0, 1.0]), seg_vec[b] / length)
+    return com, np.maximum(inertia, 1e-6), iquat
+
+
+def _geoms(offset, children, seg_vec, roles, rmat, feet):
+    geoms = []
+    for b in range(len(roles)):
+        g = [("capsule", np.concatenate([np.zeros(3), offset[c]])) for c in children[b]
+             if np.linalg.norm(offset[c]) > 0.01]
+        if not g:
+            g = [("capsule", np.concatenate([np.zeros(3), seg_vec[b]]))] if roles[b] != "head" else \
+                [("sphere", 0.5 * seg_vec[b])]
+        if b in feet and children[b]:  # a sole from below the heel to the toes
+            toe = offset[children[b][0]]
+            down = rmat[b].T @ np.array([0, 0, -1.0])
+            drop = max(float(toe @ down), 0.0)
+            forward = toe - (toe @ down) * down
+            heel = down * drop - 0.25 * forward
+            g.append(("capsule", np.concatenate([heel, heel + 0.9 * forward])))
+        geoms.append(g)
+    return geoms
+
+
+def _lowest(pos, rmat, geoms, radius, b) -> float:
+    z = [pos[b, 2]]
+    for kind, v in geoms[b]:
+        pts = v.reshape(-1, 3) if kind == "capsule" else v[None]
+        z.extend((pos[b] + pts @ rmat[b].T)[:, 2] - radius[b])
+    return float(min(z))

@@ -1,0 +1,151 @@
+"""Body segments by joint role, with de Leva's (1996) segment inertia parameters.
+
+Source of the numbers: P. de Leva, "Adjustments to Zatsiorsky-Seluyanov's segment inertia
+parameters", J. Biomechanics 29(9):1223-1230, 1996, Table 4 (male subjects). Per segment: mass as a
+fraction of total body mass, the centre of mass as a fraction of the segment length from its
+proximal end, and radii of gyration as fractions of segment length (about the two transverse axes,
+averaged here, and the longitudinal axis). The head segment runs from vertex to the seventh cervical
+vertebra, so it includes the neck; the trunk is the sum of de Leva's upper, middle and lower trunk.
+
+A joint's body is the segment from that joint to its child, so on a leg chain the hip joint's body
+is the thigh, the knee's the shank and the ankle's the foot (toes included). Roles come from the
+joint names (``foot``/``ankle``, ``hand``/``wrist``, ``head``, ``neck``); limbs are then walked up
+from the hand and foot. Joints no name identifies share what is left of the total mass in proportion
+to their segment length, which is the fallback for rigs with unknown names.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdgaze.core.rig import leaf
+
+
+@dataclass(frozen=True)
+class Segment:
+    mass: float  # fraction of total body mass
+    com: float  # centre of mass from the proximal joint, fraction of segment length
+    gyration_transverse: float  # radius of gyration / length, mean of sagittal and transverse
+    gyration_long: float  # radius of gyration / length, longitudinal
+
+
+# de Leva (1996) Table 4, males.
+DE_LEVA = {
+    "head": Segment(0.0694, 0.5002, (0.303 + 0.315) / 2, 0.261),  # head+neck, from cervicale (C7) up
+    "trunk": Segment(0.4346, 0.5138, (0.328 + 0.306) / 2, 0.169),
+    "upperArm": Segment(0.0271, 0.5772, (0.285 + 0.269) / 2, 0.158),
+    "forearm": Segment(0.0162, 0.4574, (0.276 + 0.265) / 2, 0.121),
+    "hand": Segment(0.0061, 0.7900, (0.628 + 0.513) / 2, 0.401),
+    "thigh": Segment(0.1416, 0.4095, 0.329, 0.149),
+    "shank": Segment(0.0433, 0.4459, (0.255 + 0.249) / 2, 0.103),
+    "foot": Segment(0.0137, 0.4415, (0.257 + 0.245) / 2, 0.124),
+}
+
+# Ball-joint range (max rotation from the model's neutral, degrees) and motor strength (N m per
+# unit control) per role; knees and elbows are hinges. Strengths are of the order of human peak
+# joint torques (hip and knee 150-250 N m, ankle ~150, shoulder ~80, elbow ~60, neck ~30).
+RANGE_DEG = {"head": 70.0, "trunk": 45.0, "upperArm": 170.0, "forearm": 150.0, "hand": 80.0,
+             "thigh": 120.0, "shank": 150.0, "foot": 60.0, "other": 60.0}
+STRENGTH = {"head": 40.0, "trunk": 300.0, "upperArm": 80.0, "forearm": 60.0, "hand": 15.0,
+            "thigh": 250.0, "shank": 200.0, "foot": 120.0, "other": 30.0}
+
+_FOOT = re.compile(r"(foot|ankle)", re.I)
+_HAND = re.compile(r"(hand|wrist)", re.I)
+_HEAD = re.compile(r"^head$|^(bip\d*)?head$|^defspine006$|^orgspine006$|^spine006$", re.I)
+_NECK = re.compile(r"neck", re.I)
+_END = re.compile(r"(end|top|nub|site|tip)$", re.I)
+
+
+def _key(name: str) -> str:
+    return re.sub(r"[^a-z0-9]", "", leaf(name).lower())
+
+
+def _topmost(j: int, parents: np.ndarray, names: list[str], pattern: re.Pattern) -> int:
+    """The highest ancestor-or-self of ``j`` whose name matches ``pattern`` on an unbroken run."""
+    while parents[j] >= 0 and pattern.search(_key(names[parents[j]])):
+        j = int(parents[j])
+    return j
+
+
+def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
+    """A de Leva segment role (or ``"other"``) for the body of each joint."""
+    n = len(joints)
+    keys = [_key(j) for j in joints]
+    roles = ["other"] * n
+    children = [[] for _ in range(n)]
+    for j, p in enumerate(parents):
+        if p >= 0:
+            children[p].append(j)
+
+    def subtree(j: int, role: str) -> None:
+        stack = [j]
+        while stack:
+            k = stack.pop()
+            roles[k] = role
+            stack.extend(children[k])
+
+    for limb, pattern, above in (("foot", _FOOT, ("shank", "thigh")), ("hand", _HAND, ("forearm", "upperArm"))):
+        tops = {_topmost(j, parents, joints, pattern) for j in range(n) if pattern.search(keys[j])}
+        # Only the topmost of nested matches starts a limb end (CMU: LeftWrist > lhand).
+        tops = {t for t in tops if not any(a in tops for a in _ancestors(t, parents))}
+        for t in tops:
+            subtree(t, limb)
+            p = int(parents[t])
+            for role in above:
+                if p < 0 or roles[p] != "other":
+                    break
+                roles[p] = role
+                p = int(parents[p])
+    for j in range(n):
+        if roles[j] == "other" and _HEAD.search(keys[j]):
+            subtree(j, "head")
+            p = int(parents[j])
+            while p >= 0 and _NECK.search(keys[p]) and roles[p] == "other":
+                roles[p] = "head"  # de Leva's head segment includes the neck
+                p = int(parents[p])
+    return roles
+
+
+def _ancestors(j: int, parents: np.ndarray) -> list[int]:
+    out = []
+    while parents[j] >= 0:
+        j = int(parents[j])
+        out.append(j)
+    return out
+
+
+def is_end_joint(name: str) -> bool:
+    """Exporter end sites (``HeadTop_End``, ``LeftToe_End``, ``..._nub``): no degrees of freedom."""
+    return bool(_END.search(_key(name)))
+
+
+def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float) -> np.ndarray:
+    """Mass per joint body: each de Leva segment's share split over its bodies by length; the trunk's
+    share, plus that of segments the rig lacks, split over the ``other`` bodies by length."""
+    lengths = np.maximum(np.asarray(lengths, dtype=float), 1e-3)
+    masses = np.zeros(len(roles))
+    present = set(roles)
+    left_over = 1.0
+    for role, seg in DE_LEVA.items():
+        if role == "trunk":
+            continue
+        members = [i for i, r in enumerate(roles) if r == role]
+        if not members:
+            continue
+        # Paired limbs appear twice; the table gives one side's share.
+        sides = 2 if role not in ("head",) else 1
+        share = seg.mass * sides
+        # Split per side by length; bodies of one role on both sides share the paired total.
+        w = lengths[members] / lengths[members].sum()
+        masses[members] = share * w
+        left_over -= share
+    others = [i for i, r in enumerate(roles) if r in ("other", "trunk")]
+    if others:
+        w = lengths[others] / lengths[others].sum()
+        masses[others] = left_over * w
+    elif "other" not in present:
+        masses *= 1.0 / max(masses.sum(), 1e-9)
+    return masses * total_mass
