@@ -47,6 +47,8 @@ class Shift:
     time_s: float
     yaw: float
     pitch: float
+    cut: bool = False
+    """Reach the request at once (used where the change is invisible, e.g. at zero gaze weight)."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,10 @@ class PassResult:
     """Rotation angle of each model segment's displacement per frame ``(F, 5)`` (deg)."""
     shift_timing: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    eye_positions: np.ndarray | None = None
+    """World position of each eye per frame ``(2, F, 3)`` (left first)."""
+    point_of_sight: np.ndarray | None = None
+    """World point the eyes fixate per frame ``(F, 3)``."""
 
 
 # -- the schedule ---------------------------------------------------------------------------------
@@ -112,6 +118,8 @@ class Schedule:
     """Per-frame wanted line-of-sight change ``(F, 2)``."""
     settled: np.ndarray
     timing: list[dict]
+    progress: np.ndarray | None = None
+    """Per-frame fraction ``(F,)`` of the active shift's gaze change done on the canonical chain."""
 
 
 @dataclass
@@ -126,13 +134,14 @@ class _Segment:
     inherit: bool
     """The previous shift is still moving when this one starts: blend from its live trajectory."""
 
-    def evaluate(self, at: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Segment offsets ``(F, 5, 4)``, wanted gaze change ``(F, 2)`` and normalized time at ``at``."""
+    def evaluate(self, at: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Segment offsets ``(F, 5, 4)``, wanted gaze change ``(F, 2)``, normalized time and gaze
+        progress (fraction of the change, overshoot included) at ``at``."""
         if self.previous is None:
             start = np.broadcast_to(rot.IDENTITY, (len(at), 5, 4))
             start_delta = np.zeros((len(at), 2))
         elif self.inherit:
-            start, start_delta, _ = self.previous.evaluate(at)
+            start, start_delta, _, _ = self.previous.evaluate(at)
         else:
             start = np.broadcast_to(self.previous.target, (len(at), 5, 4))
             start_delta = np.broadcast_to(self.previous.request, (len(at), 2))
@@ -152,7 +161,7 @@ class _Segment:
         c = motion.achieved_gaze(d, canon_a[:, 0] + s[:, 4] * span[:, 0])
         moving = norm2 > 1e-12
         sigma = np.where(moving, np.sum((c - canon_a) * span, axis=1) / np.where(moving, norm2, 1.0), s[:, 4])
-        return d, start_delta + sigma[:, None] * change, tau
+        return d, start_delta + sigma[:, None] * change, tau, sigma
 
 
 def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarray) -> Schedule:
@@ -161,8 +170,9 @@ def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarr
     disp = np.broadcast_to(rot.IDENTITY, (f, 5, 4)).copy()
     wanted = np.zeros((f, 2))
     settled = np.ones(f, dtype=bool)
+    progress = np.ones(f)
     if not shifts:
-        return Schedule(disp, wanted, settled, [])
+        return Schedule(disp, wanted, settled, [], progress)
     times = np.array([s.time_s for s in shifts])
     requests = np.array([[s.yaw, s.pitch] for s in shifts], dtype=float)
     targets = gaze_map.query(requests[:, 0], requests[:, 1]).offsets
@@ -182,11 +192,14 @@ def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarr
         change = request - start_delta
         # Timing only: the uncorrected blend is enough, and much cheaper.
         timing = gaze_map.query_full(change[0], change[1], correct=False).motions.timing
+        if shifts[k].cut:
+            timing = np.array(timing, dtype=float)
+            timing[motion.DURATION] = 0.0
         segment = _Segment(float(t0), request, target, motion.GazeMotions(target, timing), previous, bool(inherit))
         rows = np.flatnonzero((seconds >= t0) & (seconds < t1))
         if len(rows):
-            d, w, tau = segment.evaluate(seconds[rows])
-            disp[rows], wanted[rows] = d, w
+            d, w, tau, sigma = segment.evaluate(seconds[rows])
+            disp[rows], wanted[rows], progress[rows] = d, w, sigma
             settled[rows] = tau >= 1.0
         info.append({
             "time_s": float(t0), "yaw": float(request[0]), "pitch": float(request[1]),
@@ -194,7 +207,7 @@ def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarr
             "interrupted": bool(np.isfinite(t1) and t1 < t0 + timing[0]),
         })
         previous = segment
-    return Schedule(disp, wanted, settled, info)
+    return Schedule(disp, wanted, settled, info, progress)
 
 
 # -- world-space line of sight --------------------------------------------------------------------
@@ -450,27 +463,57 @@ def _to_world(m: np.ndarray, v: np.ndarray) -> np.ndarray:
     return rot.normalize(np.einsum("fij,fj->fi", np.broadcast_to(m, (len(v), 3, 3)), v))
 
 
-def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: ParametricGazeMap,
-               shifts: list[Shift], options: PassOptions = PassOptions()) -> PassResult:
-    """Run the gaze pass on one clip; see the module docstring."""
-    shifts = sorted(shifts, key=lambda s: s.time_s)
-    for a, b in zip(shifts, shifts[1:]):
-        if a.time_s == b.time_s:
-            raise UsdGazeError(f"{clip.where()}: two shifts at the same time {a.time_s:g} s")
-    seconds = clip.seconds
+@dataclass
+class Base:
+    """The base motion as a pass sees it: the rig with its eyes, FK of what the pass reads, the
+    base line of sight."""
+
+    rig: _Rig
+    pose: Pose
+    skel_to_world: np.ndarray
+    """Per-frame 3x3 linear part of skeleton -> world ``(F, 3, 3)``."""
+    up: np.ndarray
+    """World up."""
+    line_of_sight: np.ndarray
+    """World direction the base head looks along ``(F, 3)``."""
+    ae: np.ndarray
+    """Its (azimuth, elevation) in degrees ``(F, 2)``."""
+
+
+def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
+    """The rig with eyes (added if missing), base FK of the chain, leg roots and eyes, and the base
+    line of sight (where the head looks)."""
     rig = _with_eyes(clip, chain, frame, options)
-    base = forward(with_ancestors(list(chain.path) + list(chain.leg_roots) + list(rig.eyes), rig.parents),
+    pose = forward(with_ancestors(list(chain.path) + list(chain.leg_roots) + list(rig.eyes), rig.parents),
                    rig.parents, rig.local)
     skel_to_world = clip.skel_to_world[:, :3, :3]
     up_w = clip.world_up
-
-    # The base line of sight: where the head looks.
     head_axis = rot.rotate(rot.conjugate(rig.rest_q[chain.head]), frame.forward)
-    base_ae = azimuth_elevation(_to_world(skel_to_world, rot.rotate(base.rotation[chain.head], head_axis)), up_w)
+    sight = _to_world(skel_to_world, rot.rotate(pose.rotation[chain.head], head_axis))
+    return Base(rig, pose, skel_to_world, up_w, sight, azimuth_elevation(sight, up_w))
 
-    plan = schedule(gaze_map, shifts, seconds)
-    new_rot, new_world = _drive_chain(rig, chain, frame, plan.displacement, base)
-    leg_rot, new_trans = _counter_rotate_legs(rig, chain, base, new_world)
+
+@dataclass
+class Body:
+    """The chain driven by a displacement: new local rotations/translations and the moved eye parents."""
+
+    rotations: dict[int, np.ndarray]
+    translations: dict[int, np.ndarray]
+    moved: Pose
+
+    def eye_position(self, rig: _Rig, e: int) -> np.ndarray:
+        return self.moved.place(int(rig.parents[e]), rig.local(e)[0])
+
+    def eye_centre(self, rig: _Rig) -> np.ndarray:
+        """Skeleton-space midpoint of the eyes ``(F, 3)``."""
+        return 0.5 * sum(self.eye_position(rig, e) for e in rig.eyes)
+
+
+def move_body(base: Base, chain: Chain, frame: CharacterFrame, displacement: np.ndarray) -> Body:
+    """Drive the chain with per-frame segment offsets; legs keep their world pose; FK to the eyes."""
+    rig = base.rig
+    new_rot, new_world = _drive_chain(rig, chain, frame, displacement, base.pose)
+    leg_rot, new_trans = _counter_rotate_legs(rig, chain, base.pose, new_world)
     new_rot.update(leg_rot)
 
     def new_local(j: int):
@@ -479,24 +522,68 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
 
     eye_parents = sorted({int(rig.parents[e]) for e in rig.eyes})
     moved = forward(with_ancestors(eye_parents, rig.parents), rig.parents, new_local)
+    return Body(new_rot, new_trans, moved)
+
+
+def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: ParametricGazeMap,
+               shifts: list[Shift], options: PassOptions = PassOptions()) -> PassResult:
+    """Run the gaze pass on one clip; see the module docstring."""
+    shifts = sorted(shifts, key=lambda s: s.time_s)
+    for a, b in zip(shifts, shifts[1:]):
+        if a.time_s == b.time_s:
+            raise UsdGazeError(f"{clip.where()}: two shifts at the same time {a.time_s:g} s")
+    seconds = clip.seconds
+    base = prepare(clip, chain, frame, options)
+    rig, skel_to_world, up_w, base_ae = base.rig, base.skel_to_world, base.up, base.ae
+
+    plan = schedule(gaze_map, shifts, seconds)
+    body = move_body(base, chain, frame, plan.displacement)
 
     # The wanted line of sight and, at the fixation distance along it, the point of sight.
     wanted_ae = base_ae + plan.requested
     wanted_ae[:, 1] = np.clip(wanted_ae[:, 1], -89.0, 89.0)
     wanted_s = _to_world(np.linalg.inv(skel_to_world), direction_from(wanted_ae, up_w))
-    centre = 0.5 * sum(moved.place(int(rig.parents[e]), rig.local(e)[0]) for e in rig.eyes)
+    centre = body.eye_centre(rig)
     world_scale = np.cbrt(np.abs(np.linalg.det(skel_to_world)))
     distance = np.broadcast_to(options.fixation_m / clip.meters_per_unit / world_scale, (len(seconds),))
-    eyes = _aim_eyes(rig, frame, moved, centre + distance[:, None] * wanted_s, options.eye_range)
+    result = finish(clip, chain, frame, base, body, plan, centre + distance[:, None] * wanted_s, options,
+                    requested=plan.requested)
+    result.warnings = _reach_warnings(clip, shifts, plan, base_ae, result.achieved, result.eye_angles, options)
+    return result
+
+
+def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body: Body, plan: Schedule,
+           sight_point: np.ndarray, options: PassOptions, requested: np.ndarray | None = None,
+           saccading: np.ndarray | None = None) -> PassResult:
+    """Aim both eyes at the skeleton-space ``sight_point`` per frame, measure, assemble the arrays.
+
+    ``requested`` is the wanted line-of-sight change per frame (default: toward ``sight_point``).
+    """
+    rig, skel_to_world, up_w, base_ae = base.rig, base.skel_to_world, base.up, base.ae
+    eyes = _aim_eyes(rig, frame, body.moved, sight_point, options.eye_range)
+    new_rot = dict(body.rotations)
     new_rot.update(eyes.rotations)
+    new_trans = body.translations
+    centre = body.eye_centre(rig)
+    if requested is None:
+        wanted_ae = azimuth_elevation(_to_world(skel_to_world, sight_point - centre), up_w)
+        requested = np.column_stack([rot.unwrap_near(wanted_ae[:, 0] - base_ae[:, 0], plan.requested[:, 0]),
+                                     wanted_ae[:, 1] - base_ae[:, 1]])
 
     # What was achieved, measured like a viewer would: from the eyes' midpoint to their point of sight.
-    _, sight = line_of_sight(eyes.positions[0], eyes.directions[0], eyes.positions[1], eyes.directions[1])
-    achieved_ae = azimuth_elevation(_to_world(skel_to_world, sight), up_w)
+    origin, sight = line_of_sight(eyes.positions[0], eyes.directions[0], eyes.positions[1], eyes.directions[1])
+    sight_w = _to_world(skel_to_world, sight)
+    achieved_ae = azimuth_elevation(sight_w, up_w)
     achieved = np.column_stack([
-        rot.unwrap_near(achieved_ae[:, 0] - base_ae[:, 0], plan.requested[:, 0]),
+        rot.unwrap_near(achieved_ae[:, 0] - base_ae[:, 0], requested[:, 0]),
         achieved_ae[:, 1] - base_ae[:, 1],
     ])
+    m = clip.skel_to_world
+
+    def world(p: np.ndarray) -> np.ndarray:
+        return np.einsum("fij,fj->fi", np.broadcast_to(m[:, :3, :3], (len(p), 3, 3)), p) + m[:, :3, 3]
+
+    reach = np.linalg.norm(world(sight_point) - world(origin), axis=-1)
 
     anim_joints, rotations, translations, scales = _assemble(rig, new_rot, new_trans)
     result = PassResult(
@@ -506,14 +593,15 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         scales=scales,
         added_joints=rig.added,
         changed_joints=[rig.joints[j] for j in sorted(set(new_rot) | set(new_trans))],
-        requested=plan.requested,
+        requested=requested,
         achieved=achieved,
         eye_angles=eyes.angles,
-        settled=plan.settled,
-        seconds=seconds,
+        settled=plan.settled if saccading is None else plan.settled & ~saccading,
+        seconds=clip.seconds,
         segment_angles=np.degrees(rot.angle(plan.displacement)),
         shift_timing=plan.timing,
-        warnings=_reach_warnings(clip, shifts, plan, base_ae, achieved, eyes.angles, options),
+        eye_positions=np.stack([world(p) for p in eyes.positions]),
+        point_of_sight=world(origin) + reach[:, None] * sight_w,
     )
     if rig.added:
         result.added_rest_local = rig.rest_local[-2:]

@@ -1,0 +1,129 @@
+"""The eye controller of the look pass: a world point of sight per frame (pure numpy).
+
+Events (frame, goal) come from the look pass's planner. From each event the eyes make one gaze
+shift toward the goal (a main-sequence saccade, or the map's gaze progress with ``eye_timing
+model``), starting from the world point they fixated just before, so the start is held against head
+motion (VOR); then they stay on the goal: a direction goal (shift, release) is followed exactly,
+a target is pursued (:func:`usdgaze.gaze.saccade.pursue`) with catch-up saccades.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from usdgaze.gaze import saccade
+
+
+@dataclass
+class Scene:
+    """What the eyes see, per frame, in world space."""
+
+    seconds: np.ndarray
+    eye: np.ndarray
+    """Midpoint of the eyes ``(F, 3)``."""
+    base_point: np.ndarray
+    """Point of sight of the base motion (along the head, at the fixation distance) ``(F, 3)``."""
+
+
+@dataclass
+class Goal:
+    kind: str
+    """``target`` (a moving point), ``direction`` or ``base``."""
+    points: np.ndarray
+    """World point to look at per frame ``(F, 3)`` (for direction goals: at the fixation distance)."""
+    cut: bool = False
+
+
+@dataclass
+class Sight:
+    point: np.ndarray
+    """World point of sight ``(F, 3)``."""
+    saccading: np.ndarray
+    """Frames inside a saccade (or the model's gaze shift) ``(F,)``."""
+    saccades: list
+    """(onset s, amplitude deg, duration s) of every saccade."""
+
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    d = np.linalg.norm(v, axis=-1)
+    return v / np.where(d > 0, d, 1.0)[..., None], d
+
+
+def _shift(scene: Scene, out: Sight, i0: int, i1: int, start: np.ndarray, goal: np.ndarray,
+           progress: np.ndarray) -> int:
+    """Frames ``i0..`` move from the held world point ``start`` to ``goal`` with fractions ``progress``
+    (one per frame from i0 to i1); returns the first frame at which the shift is done."""
+    e = scene.eye[i0:i1]
+    done = np.flatnonzero(progress >= 1.0)
+    n = int(done[0]) if len(done) else i1 - i0
+    if n == 0:
+        return i0
+    s = progress[:n]
+    from_dir, d0 = _unit(start[None] - e[:n])
+    to_dir, d1 = _unit(goal[:n] - e[:n])
+    sc = np.clip(s, 0.0, 1.0)
+    # Vergence changes with the inverse distance, as the eyes' convergence angle does.
+    inv = (1.0 - sc) / np.maximum(d0, 1e-12) + sc / np.maximum(d1, 1e-12)
+    out.point[i0:i0 + n] = e[:n] + saccade.slerp(from_dir, to_dir, s) / inv[:, None]
+    out.saccading[i0:i0 + n] = True
+    return i0 + n
+
+
+def _saccade_progress(scene: Scene, i0: int, i1: int, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    e = scene.eye[i0]
+    amplitude = float(saccade.angle_deg(_unit(start - e)[0], _unit(goal[i0] - e)[0]))
+    return saccade.progress(scene.seconds[i0:i1] - scene.seconds[i0], amplitude), amplitude
+
+
+def _pursue(scene: Scene, out: Sight, i: int, i1: int, onset_s: float, goal: np.ndarray, opts) -> None:
+    """Pursuit of a target from frame ``i`` (on it) to ``i1``, with catch-up saccades."""
+    last_end = scene.seconds[i] if i < len(scene.seconds) else np.inf
+    while i < i1:
+        tracked = saccade.pursue(goal[:i1], scene.eye[:i1], scene.seconds[:i1], i, onset_s,
+                                 opts.pursuit_latency_s, opts.pursuit_max_deg_s)
+        out.point[i:i1] = tracked
+        error = saccade.angle_deg(_unit(tracked - scene.eye[i:i1])[0], _unit(goal[i:i1] - scene.eye[i:i1])[0])
+        late = scene.seconds[i:i1] >= last_end + opts.refractory_s
+        fire = np.flatnonzero((error > opts.catch_up_deg) & late)
+        if not len(fire) or i + fire[0] == 0:
+            return
+        j = i + int(fire[0])
+        start = out.point[j - 1].copy()
+        progress, amplitude = _saccade_progress(scene, j, i1, start, goal)
+        i = _shift(scene, out, j, i1, start, goal[j:i1], progress)
+        last_end = scene.seconds[j] + float(saccade.duration(amplitude))
+        out.saccades.append((float(scene.seconds[j]), amplitude, float(saccade.duration(amplitude))))
+
+
+def point_of_sight(scene: Scene, events: list[tuple[int, Goal]], opts,
+                   model_progress: Callable[[int, np.ndarray, np.ndarray], np.ndarray] | None = None) -> Sight:
+    """The eyes' world point of sight for events ``(frame, goal)`` sorted by frame.
+
+    ``model_progress(frame, start_point, goal_points)``, when given, replaces the saccade profile for
+    event shifts (``eye_timing model``); catch-up saccades stay saccades.
+    """
+    f = len(scene.seconds)
+    out = Sight(scene.base_point.copy(), np.zeros(f, dtype=bool), [])
+    for k, (i0, goal) in enumerate(events):
+        i1 = events[k + 1][0] if k + 1 < len(events) else f
+        if i0 >= i1:
+            continue
+        start = out.point[i0 - 1].copy() if i0 > 0 else scene.base_point[0].copy()
+        if goal.cut:
+            land = i0
+        elif model_progress is not None:
+            land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], model_progress(i0, start, goal.points)[:i1 - i0])
+        else:
+            progress, amplitude = _saccade_progress(scene, i0, i1, start, goal.points)
+            land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], progress)
+            out.saccades.append((float(scene.seconds[i0]), amplitude, float(saccade.duration(amplitude))))
+        if land >= i1:
+            continue
+        if goal.kind == "target":
+            _pursue(scene, out, land, i1, float(scene.seconds[i0]), goal.points, opts)
+        else:
+            out.point[land:i1] = goal.points[land:i1]
+    return out

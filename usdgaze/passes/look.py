@@ -1,0 +1,366 @@
+"""The look pass: gaze at targets, with saccades, pursuit and the gaze map's body cascade (pure numpy).
+
+Input: a clip, its chain and character frame, a gaze map, a list of :class:`Directive` (shift, look,
+release) and, for looks, target world positions per frame. Output: a :class:`PassResult` whose eyes
+aim, both of them, at a per-frame point of sight, and whose chain follows the map's cascade.
+
+Two controllers share the work, as in people:
+
+* The **body** (pelvis, spine, neck, head) makes gaze shifts through the map (Heck 5.2.3): a shift
+  toward a target is requested from the eyes' position in the base motion at that time. While a
+  target moves, a new shift starts when the eyes would need more than ``replan_fraction`` of their
+  range, aimed where the target will be when the shift ends (its current angular rate carried on).
+* The **eyes** move on their own: a main-sequence saccade to the target (:mod:`usdgaze.gaze.saccade`),
+  then pursuit of the target's own motion (latency, 100 deg/s cap), catch-up saccades when the error
+  passes ``catch_up_deg``. The point of sight is a world point, so the base motion's head bob and the
+  body's cascade are cancelled at once (vestibulo-ocular reflex); the eye range clamps what is left,
+  so a shift larger than the range arrives as fast as the head brings it.
+
+A target beyond reach (more than ``reach_yaw_deg`` of body turn plus the eye range from the base line
+of sight, i.e. behind the character) is let go: a gaze shift back to the base motion's gaze, and a new
+shift toward the target once it is within reach again (on either side). See docs/look-at.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.core.clip import SkelClip
+from usdgaze.core.rig import CharacterFrame, Chain
+from usdgaze.errors import UsdGazeError
+from usdgaze.gaze import motion, saccade
+from usdgaze.passes import eyes as eyes_mod
+from usdgaze.gaze.gazemap import ParametricGazeMap
+from usdgaze.passes import shift as sp
+from usdgaze.passes.shift import PassOptions, PassResult, Shift
+
+KINDS = ("shift", "look", "release")
+EYE_TIMINGS = ("saccade", "model")
+
+
+@dataclass(frozen=True)
+class Directive:
+    """From ``time_s`` on: change the gaze by (yaw, pitch) (shift), look at target ``target`` (look),
+    or return to the base motion's gaze (release); the gaze weight eases to ``weight`` over ``blend_s``.
+
+    A release with ``blend_s > 0`` fades the weight to 0 instead of making a gaze shift.
+    """
+
+    time_s: float
+    kind: str
+    yaw: float = 0.0
+    pitch: float = 0.0
+    target: int = -1
+    weight: float = 1.0
+    blend_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class LookOptions:
+    eye_timing: str = "saccade"
+    """``saccade``: main-sequence eyes; ``model``: the eyes follow the map's gaze progress (the paper)."""
+    pursuit_latency_s: float = 0.15
+    pursuit_max_deg_s: float = saccade.MAX_PURSUIT_DEG_S
+    catch_up_deg: float = 1.0
+    """Pursuit error that fires a catch-up saccade."""
+    refractory_s: float = 0.2
+    """Least time from the end of one saccade to the next (Eom et al.: 200 ms)."""
+    replan_fraction: float = 0.7
+    """A new body shift starts when the eyes would need this fraction of their range."""
+    replan_interval_s: float = 0.3
+    anticipation_s: float = 0.25
+    """A new body shift starts this much before the eyes would need it (the base motion is known)."""
+    """Least time between two body shifts toward one moving target."""
+    reach_yaw_deg: float = 150.0
+    """Largest body turn (line-of-sight change before the eyes) toward a target."""
+    reach_pitch_deg: float = 60.0
+
+
+@dataclass
+class _Epoch:
+    """A stretch of frames under one directive, and what the eyes do in it."""
+
+    start: int
+    directive: Directive
+    events: list  # (frame, "target" | "direction" | "base", cut)
+
+
+# -- geometry ----------------------------------------------------------------------------------------
+
+def _points_to_world(clip: SkelClip, p: np.ndarray) -> np.ndarray:
+    m = clip.skel_to_world
+    return np.einsum("fij,fj->fi", np.broadcast_to(m[:, :3, :3], (len(p), 3, 3)), p) + np.broadcast_to(
+        m[:, :3, 3], p.shape)
+
+
+def _points_to_skel(clip: SkelClip, p: np.ndarray) -> np.ndarray:
+    inv = np.linalg.inv(clip.skel_to_world)
+    return np.einsum("fij,fj->fi", np.broadcast_to(inv[:, :3, :3], (len(p), 3, 3)), p) + np.broadcast_to(
+        inv[:, :3, 3], p.shape)
+
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    d = np.linalg.norm(v, axis=-1)
+    return v / np.where(d > 0, d, 1.0)[..., None], d
+
+
+def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped."""
+    ae = sp.azimuth_elevation(points - eye, up) - base_ae
+    ae[:, 0] = (ae[:, 0] + 180.0) % 360.0 - 180.0
+    return ae
+
+
+# -- the body: gaze shifts through the map -----------------------------------------------------------
+
+def _head_change(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarray, hint: float) -> np.ndarray:
+    """Gaze change the body (without the eyes) makes on the canonical chain ``(F, 2)``."""
+    return motion.achieved_gaze(_body_only(sp.schedule(gaze_map, shifts, seconds).displacement), hint)
+
+
+def _body_only(offsets: np.ndarray) -> np.ndarray:
+    """Segment offsets with the eyes left at rest."""
+    out = np.array(offsets, dtype=float)
+    out[..., 4, :] = rot.IDENTITY
+    return out
+
+
+def _plan_look(gaze_map, shifts: list[Shift], epoch: _Epoch, end: int, rel: np.ndarray, seconds: np.ndarray,
+               limits: sp.EyeRange, opts: LookOptions) -> None:
+    """Body shifts and eye events toward one target over frames ``epoch.start .. end``."""
+    a = epoch.start
+    reach = np.array([opts.reach_yaw_deg, opts.reach_pitch_deg])
+    # The line of sight reaches as far as the head turns for a shift at the reach, plus the eyes.
+    head_reach = motion.achieved_gaze(_body_only(gaze_map.query(opts.reach_yaw_deg, 0.0).offsets), opts.reach_yaw_deg)
+    sight_limit = float(head_reach[..., 0].squeeze()) + limits.yaw - 2.0
+
+    def request(j: int, yaw: float, previous: np.ndarray | None) -> np.ndarray:
+        want = np.array([yaw, rel[j, 1]])
+        if previous is not None:
+            # Aim where the target will be, against the base gaze, once the shift is done: the path
+            # of the body and of the target are known to the animator (and to the character).
+            change = want - previous
+            lead = float(gaze_map.query_full(change[0], change[1], correct=False).motions.timing[0])
+            ahead = min(int(np.searchsorted(seconds, seconds[j] + lead)), end - 1, len(seconds) - 1)
+            if ahead > j:
+                want = np.array([rot.unwrap_near(rel[ahead, 0], yaw), rel[ahead, 1]])
+        return np.clip(want, -reach, reach)
+
+    if abs(rel[a, 0]) > sight_limit:  # out of reach from the start: keep looking ahead
+        lost, current = True, np.zeros(2)
+        shifts.append(Shift(float(seconds[a]), 0.0, 0.0))
+        epoch.events.append((a, "base", False))
+    else:
+        current = request(a, rel[a, 0], None)
+        shifts.append(Shift(float(seconds[a]), *current))
+        epoch.events.append((a, "target", False))
+        lost = False
+    last = seconds[a]
+    cursor = a + 1
+    frames = np.arange(len(seconds))
+    while cursor < end:
+        window = (frames >= cursor) & (frames < end)
+        if not lost:
+            near = rot.unwrap_near(rel[:, 0], current[0])
+            head = _head_change(gaze_map, shifts, seconds, float(current[0]))
+            need_yaw = near - head[:, 0]
+            need_pitch = rel[:, 1] - head[:, 1]
+            f = opts.replan_fraction
+            trig = (np.abs(need_yaw) > f * limits.yaw) | (need_pitch > f * limits.up) | (need_pitch < -f * limits.down)
+            trig = _soon(trig, seconds, opts.anticipation_s)
+            out = np.flatnonzero(window & (np.abs(near) > sight_limit))
+            go = np.flatnonzero(window & trig & (seconds >= last + opts.replan_interval_s))
+            j_out = out[0] if len(out) else end
+            j_go = go[0] if len(go) else end
+            if j_out >= end and j_go >= end:
+                return
+            if j_out <= j_go:  # behind the character: let go, look ahead
+                lost, current, last = True, np.zeros(2), seconds[j_out]
+                shifts.append(Shift(float(last), 0.0, 0.0))
+                epoch.events.append((int(j_out), "base", False))
+                cursor = j_out + 1
+                continue
+            new = request(j_go, near[j_go], current)
+            if np.abs(new - current).max() < 5.0:  # e.g. already at the edge of reach
+                cursor = int(np.searchsorted(seconds, seconds[j_go] + opts.replan_interval_s))
+                continue
+            current, last = new, seconds[j_go]
+            shifts.append(Shift(float(last), *current))
+            cursor = j_go + 1
+        else:
+            back = np.flatnonzero(window & (np.abs(rel[:, 0]) <= sight_limit - 10.0)
+                                  & (seconds >= last + opts.replan_interval_s))
+            if not len(back):
+                return
+            j = int(back[0])
+            current, last, lost = request(j, rel[j, 0], None), seconds[j], False
+            shifts.append(Shift(float(last), *current))
+            epoch.events.append((j, "target", False))
+            cursor = j + 1
+
+
+def _soon(flags: np.ndarray, seconds: np.ndarray, within_s: float) -> np.ndarray:
+    """True where ``flags`` is true now or within the next ``within_s`` seconds."""
+    count = np.concatenate([[0], np.cumsum(flags)])
+    ahead = np.searchsorted(seconds, seconds + within_s, side="right")
+    return count[ahead] - count[np.arange(len(flags))] > 0
+
+
+def _weights(directives: list[Directive], seconds: np.ndarray) -> np.ndarray:
+    """Gaze weight per frame: each key eases from the weight at its time to its own over its blend."""
+    w = np.ones(len(seconds))
+    for d in directives:
+        rows = seconds >= d.time_s
+        if not np.any(rows):
+            continue
+        w0 = w[np.argmax(rows)]
+        s = motion.ease((seconds[rows] - d.time_s) / d.blend_s) if d.blend_s > 0 else np.ones(int(rows.sum()))
+        w[rows] = w0 + (d.weight - w0) * s
+    return w
+
+
+def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[int, np.ndarray],
+          limits: sp.EyeRange, opts: LookOptions) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
+    """Body shifts, eye epochs and weight keys for the directives (sorted by time)."""
+    shifts: list[Shift] = []
+    epochs: list[_Epoch] = []
+    keys: list[Directive] = []
+    # A fading release keeps the previous behaviour while the weight falls, then cuts to the base.
+    timeline = []
+    for d in directives:
+        if d.kind == "release" and d.blend_s > 0:
+            keys.append(Directive(d.time_s, "release", weight=0.0, blend_s=d.blend_s))
+            keys.append(Directive(d.time_s + d.blend_s, "release", weight=1.0))
+            timeline.append((d.time_s + d.blend_s, d, True))
+        else:
+            keys.append(d)
+            timeline.append((d.time_s, d, False))
+    timeline.sort(key=lambda e: e[0])
+    starts = [int(np.searchsorted(seconds, t)) for t, _, _ in timeline]
+    for k, ((t, d, cut), a) in enumerate(zip(timeline, starts)):
+        end = starts[k + 1] if k + 1 < len(starts) else len(seconds)
+        epoch = _Epoch(a, d, [])
+        epochs.append(epoch)
+        if a >= len(seconds):
+            continue
+        if d.kind == "look":
+            _plan_look(gaze_map, shifts, epoch, end, rel[d.target], seconds, limits, opts)
+            continue
+        yaw, pitch = (d.yaw, d.pitch) if d.kind == "shift" else (0.0, 0.0)
+        shifts.append(Shift(float(t), yaw, pitch, cut=cut))
+        epoch.events.append((a, "direction" if d.kind == "shift" else "base", cut))
+    return shifts, epochs, keys
+
+
+# -- the pass ----------------------------------------------------------------------------------------
+
+def _check(clip: SkelClip, directives: list[Directive], targets: list[np.ndarray], opts: LookOptions) -> None:
+    if opts.eye_timing not in EYE_TIMINGS:
+        raise UsdGazeError(f"eye timing '{opts.eye_timing}': expected one of {', '.join(EYE_TIMINGS)}")
+    for a, b in zip(directives, directives[1:]):
+        if a.time_s == b.time_s:
+            raise UsdGazeError(f"{clip.where()}: two directives at the same time {a.time_s:g} s")
+    for d in directives:
+        if d.kind not in KINDS:
+            raise UsdGazeError(f"{clip.where()}: directive kind '{d.kind}': expected one of {', '.join(KINDS)}")
+        if d.kind == "look" and not 0 <= d.target < len(targets):
+            raise UsdGazeError(f"{clip.where()}: look at {d.time_s:g} s names target {d.target}, "
+                               f"but there are {len(targets)}")
+        if not (0.0 <= d.weight <= 1.0 and d.blend_s >= 0.0):
+            raise UsdGazeError(f"{clip.where()}: directive at {d.time_s:g} s: weight must lie in [0, 1] "
+                               f"and blend be >= 0 (got {d.weight:g}, {d.blend_s:g} s)")
+
+
+def _check_distance(clip: SkelClip, directives: list[Directive], targets, eye: np.ndarray, names) -> None:
+    """A target at the eyes has no direction: refuse it where it is looked at."""
+    seconds = clip.seconds
+    near = 0.01 / clip.meters_per_unit
+    for k, d in enumerate(directives):
+        if d.kind != "look":
+            continue
+        end = directives[k + 1].time_s if k + 1 < len(directives) else np.inf
+        rows = (seconds >= d.time_s) & (seconds < end)
+        dist = np.linalg.norm(targets[d.target][rows] - eye[rows], axis=-1)
+        if len(dist) and dist.min() < near:
+            i = np.flatnonzero(rows)[np.argmin(dist)]
+            name = names[d.target] if names else f"target {d.target}"
+            raise UsdGazeError(f"{clip.where()}: look target {name} lies at the eyes at time code "
+                               f"{clip.times[i]:g} ({dist.min() * clip.meters_per_unit * 100:.1f} cm away); "
+                               "nothing to look at")
+
+
+def _model_progress(gaze_map, seconds: np.ndarray, eye: np.ndarray, up: np.ndarray):
+    """Gaze progress of a lone map shift of the same change, for ``eye_timing model``."""
+    def progress(i0: int, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        a = sp.azimuth_elevation(start - eye[i0], up)
+        b = sp.azimuth_elevation(goal[i0] - eye[i0], up)
+        change = b - a
+        change[0] = (change[0] + 180.0) % 360.0 - 180.0
+        plan = sp.schedule(gaze_map, [Shift(float(seconds[i0]), *change)], seconds)
+        return np.where(plan.settled, 1.0, plan.progress)[i0:]
+    return progress
+
+
+def _goals(epochs: list[_Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndarray, up: np.ndarray,
+           fixation: float) -> list[tuple[int, eyes_mod.Goal]]:
+    events = []
+    for epoch in epochs:
+        d = epoch.directive
+        for frame, kind, cut in epoch.events:
+            if kind == "target":
+                points = targets[d.target]
+            elif kind == "direction":
+                ae = base_ae + [d.yaw, d.pitch]
+                ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
+                points = scene.eye + fixation * sp.direction_from(ae, up)
+            else:
+                points = scene.base_point
+            events.append((frame, eyes_mod.Goal(kind, points, cut)))
+    return events
+
+
+def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: ParametricGazeMap,
+               directives: list[Directive], targets: list[np.ndarray] | None = None,
+               options: PassOptions = PassOptions(), look: LookOptions = LookOptions(),
+               target_names: list[str] | None = None) -> PassResult:
+    """Run the look pass on one clip; ``targets`` are world positions ``(F, 3)`` per look target."""
+    targets = [np.asarray(t, dtype=float) for t in (targets or [])]
+    directives = sorted(directives, key=lambda d: d.time_s)
+    _check(clip, directives, targets, look)
+    seconds = clip.seconds
+    base = sp.prepare(clip, chain, frame, options)
+    rig, up = base.rig, base.up
+    eye_b = _points_to_world(clip, 0.5 * (base.pose.position[rig.eyes[0]] + base.pose.position[rig.eyes[1]]))
+    _check_distance(clip, directives, targets, eye_b, target_names)
+    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up) for d in directives if d.kind == "look"}
+
+    shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, options.eye_range, look)
+    plan = sp.schedule(gaze_map, shifts, seconds)
+    weight = _weights(keys, seconds)
+    full = weight >= 1.0
+    disp = np.where(full[:, None, None], plan.displacement, rot.power(plan.displacement, weight[:, None]))
+    body = sp.move_body(base, chain, frame, disp)
+    eye_m = _points_to_world(clip, body.eye_centre(rig))
+    fixation = options.fixation_m / clip.meters_per_unit
+    scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight)
+
+    legacy = look.eye_timing == "model" and not any(d.kind == "look" for d in directives)
+    if legacy:  # the paper's eyes: the wanted line of sight follows the map's gaze progress
+        ae = base.ae + plan.requested
+        ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
+        sight = eyes_mod.Sight(eye_m + fixation * sp.direction_from(ae, up), ~plan.settled, [])
+    else:
+        model = _model_progress(gaze_map, seconds, eye_m, up) if look.eye_timing == "model" else None
+        sight = eyes_mod.point_of_sight(scene, _goals(epochs, targets, scene, base.ae, up, fixation), look, model)
+
+    # Partial gaze: toward the base line of sight (and the fixation distance) as the weight falls.
+    direction, distance = _unit(sight.point - eye_m)
+    direction = np.where(full[:, None], direction, saccade.slerp(base.line_of_sight, direction, weight))
+    inv = np.where(full, 1.0 / np.maximum(distance, 1e-12),
+                   (1.0 - weight) / fixation + weight / np.maximum(distance, 1e-12))
+    wanted_point = eye_m + direction / inv[:, None]
+    return sp.finish(clip, chain, frame, base, body, plan, _points_to_skel(clip, wanted_point), options,
+                     saccading=sight.saccading)
