@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 import traceback
@@ -32,38 +31,82 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 KEYS = {"name", "input", "out", "preview", "sublayer_into", "shifts", "map", "skel_root", "fixation"}
+_TEXT = ("name", "input", "out", "preview", "sublayer_into", "map", "skel_root")
+_PATHS = ("input", "out", "preview", "sublayer_into")
 
 
 def load_manifest(path: Path) -> list[dict]:
-    """Jobs of a manifest with defaults applied and paths resolved against the manifest's folder."""
+    """Jobs of a manifest with defaults applied and paths resolved against the manifest's folder.
+
+    Every problem is one line naming the manifest, the job and the key; values go through the same
+    check as the CLI's (:func:`usdgaze.api.check_request`); no two jobs may write one file, and no
+    job may write a file another job reads.
+    """
     from usdgaze.errors import UsdGazeError
     from usdgaze.ingest.tomlio import load_toml
 
     data = load_toml(path)
     defaults = data.get("defaults", {})
+    if not isinstance(defaults, dict):
+        raise UsdGazeError(f"{path}: [defaults] must be a table of job keys")
     jobs = data.get("job", [])
     if not isinstance(jobs, list) or not jobs:
         raise UsdGazeError(f"{path}: no [[job]] entries")
-    out = []
-    for i, raw in enumerate(jobs):
-        job = {**defaults, **raw}
-        unknown = set(job) - KEYS
-        if unknown:
-            raise UsdGazeError(f"{path}: job {i}: unknown key '{sorted(unknown)[0]}' (keys: {', '.join(sorted(KEYS))})")
-        for key in ("input", "out", "shifts"):
-            if key not in job:
-                raise UsdGazeError(f"{path}: job {i}: missing '{key}'")
-        if isinstance(job["shifts"], str) or not all(isinstance(s, str) for s in job["shifts"]):
-            raise UsdGazeError(f"{path}: job {i}: 'shifts' must be a list of \"TIME:YAW:PITCH\" strings")
-        for key in ("input", "out", "preview", "sublayer_into"):
-            if job.get(key):
-                job[key] = str((path.parent / job[key]).resolve())
-        if job.get("map"):
-            file, sep, prim = job["map"].partition(":/")
-            job["map"] = str((path.parent / file).resolve()) + (f":/{prim}" if sep else "")
-        job.setdefault("name", Path(job["input"]).stem)
-        out.append(job)
+    out = [_job(path, i, raw, defaults) for i, raw in enumerate(jobs)]
+    _check_identities(path, out)
     return out
+
+
+def _job(path: Path, i: int, raw, defaults: dict) -> dict:
+    from usdgaze.api import ApplyRequest, check_request
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.passes.shift import PassOptions
+
+    if not isinstance(raw, dict):
+        raise UsdGazeError(f"{path}: job {i}: is a {type(raw).__name__}, expected a [[job]] table")
+    job = {**defaults, **raw}
+    where = f"{path}: job {i}" + (f" '{job['name']}'" if isinstance(job.get("name"), str) else "")
+    unknown = set(job) - KEYS
+    if unknown:
+        raise UsdGazeError(f"{where}: unknown key '{sorted(unknown)[0]}' (keys: {', '.join(sorted(KEYS))})")
+    for key in ("input", "out", "shifts"):
+        if key not in job:
+            raise UsdGazeError(f"{where}: missing '{key}'")
+    for key in _TEXT:
+        if key in job and not (isinstance(job[key], str) and job[key].strip()):
+            raise UsdGazeError(f"{where}: {key} = {job[key]!r}: expected a non-empty string")
+    label = lambda key, value: f"{where}: {key} = {value}"  # noqa: E731
+    fixation = job.get("fixation", 2.0)
+    if isinstance(fixation, bool) or not isinstance(fixation, (int, float)):
+        raise UsdGazeError(f"{label('fixation', repr(fixation))}: expected a distance in metres")
+    for key in _PATHS:
+        if job.get(key):
+            job[key] = str((path.parent / job[key]).resolve())
+    if job.get("map"):
+        file, sep, prim = job["map"].partition(":/")
+        job["map"] = str((path.parent / file).resolve()) + (f":/{prim}" if sep else "")
+    check_request(ApplyRequest(job["input"], job["shifts"], job["out"], sublayer_into=job.get("sublayer_into"),
+                               preview=job.get("preview"), options=PassOptions(fixation_m=float(fixation))), label)
+    job["fixation"] = float(fixation)
+    job.setdefault("name", Path(job["input"]).stem)
+    return job
+
+
+def _check_identities(path: Path, jobs: list[dict]) -> None:
+    """No job writes the manifest, another job's input or map, or a file another job writes."""
+    from usdgaze.files.identity import Identities
+
+    ids = Identities()
+    ids.read(path, "manifest")
+    for i, job in enumerate(jobs):
+        ids.read(job["input"], f"input of job {i} '{job['name']}',")
+        if job.get("map"):
+            ids.read(job["map"].partition(":/")[0], f"map of job {i} '{job['name']}',")
+    for i, job in enumerate(jobs):
+        for key in ("out", "preview", "sublayer_into"):
+            if job.get(key) and not (key == "sublayer_into" and any(
+                    j.get("sublayer_into") == job[key] for j in jobs[:i])):
+                ids.write(job[key], f"job {i} '{job['name']}' {key}")
 
 
 def run_job(job: dict) -> dict:
@@ -75,13 +118,9 @@ def run_job(job: dict) -> dict:
     start = time.perf_counter()
     record = {"name": job["name"], "input": job["input"], "out": job["out"]}
     try:
-        if job.get("out"):
-            Path(job["out"]).parent.mkdir(parents=True, exist_ok=True)
-        if job.get("preview"):
-            Path(job["preview"]).parent.mkdir(parents=True, exist_ok=True)
         report = apply(
             job["input"], job["shifts"], job["out"], skel_root=job.get("skel_root"), map_spec=job.get("map"),
-            sublayer_into=job.get("sublayer_into"), preview=job.get("preview"),
+            sublayer_into=job.get("sublayer_into"), preview=job.get("preview"), make_folders=True,
             options=PassOptions(fixation_m=float(job.get("fixation", 2.0))),
         )
         record.update(exit_code=0, status="done", characters=[c.skel_root for c in report.characters],
@@ -105,22 +144,17 @@ def main(argv: list[str] | None = None) -> int:
 
     import usdgaze  # noqa: F401  (registers the schema before any stage is opened)
     from usdgaze.errors import UsdGazeError
+    from usdgaze.files.transaction import Interrupted, Outputs
 
     try:
-        jobs = load_manifest(args.manifest)
-        if args.task_index is not None:
-            if not 0 <= args.task_index < len(jobs):
-                raise UsdGazeError(f"{args.manifest}: --task-index {args.task_index} out of range (0..{len(jobs) - 1})")
-            jobs = [jobs[args.task_index]]
+        with Outputs() as tx:
+            records = _run(args, tx)
     except UsdGazeError as exc:
         print(f"usdgaze-batch: error: {exc}", file=sys.stderr)
         return 2
-
-    if args.workers > 1 and len(jobs) > 1:
-        with ProcessPoolExecutor(max_workers=args.workers) as pool:
-            records = list(pool.map(run_job, jobs))
-    else:
-        records = [run_job(j) for j in jobs]
+    except (Interrupted, KeyboardInterrupt) as exc:
+        print(f"usdgaze-batch: error: interrupted ({exc or 'SIGINT'}); the job running was not written", file=sys.stderr)
+        return 128 + getattr(exc, "signum", 2)
 
     for r in records:
         line = f"{r['status']:<14} {r['name']}  {r['seconds']:.2f}s"
@@ -129,12 +163,34 @@ def main(argv: list[str] | None = None) -> int:
         print(line, file=sys.stderr if r["exit_code"] else sys.stdout)
         for w in r.get("warnings", []):
             print(f"warning        {r['name']}  {w}", file=sys.stderr)
-    if args.report:
-        tmp = args.report.with_name(f".{args.report.name}.tmp")
-        tmp.write_text(json.dumps(records, indent=2))
-        os.replace(tmp, args.report)
     codes = [r["exit_code"] for r in records]
     return 2 if 2 in codes else 1 if 1 in codes else 0
+
+
+def _run(args, tx) -> list[dict]:
+    """Check the manifest and the report path, run the jobs (each commits on its own), stage the report."""
+    from usdgaze.errors import UsdGazeError
+
+    if args.report:
+        tx.claim(args.report, "--report")
+    jobs = load_manifest(args.manifest)
+    tx.read(args.manifest, "manifest")
+    for job in jobs:
+        for key in ("input", "out", "preview", "sublayer_into"):
+            if job.get(key):
+                tx.read(job[key], f"{key} of job '{job['name']}'")
+    if args.task_index is not None:
+        if not 0 <= args.task_index < len(jobs):
+            raise UsdGazeError(f"{args.manifest}: --task-index {args.task_index} out of range (0..{len(jobs) - 1})")
+        jobs = [jobs[args.task_index]]
+    if args.workers > 1 and len(jobs) > 1:
+        with ProcessPoolExecutor(max_workers=args.workers) as pool:
+            records = list(pool.map(run_job, jobs))
+    else:
+        records = [run_job(j) for j in jobs]
+    if args.report:
+        tx.stage_text(args.report, json.dumps(records, indent=2))
+    return records
 
 
 if __name__ == "__main__":

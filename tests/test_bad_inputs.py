@@ -472,6 +472,6 @@ def test_killed_mid_write_leaves_no_partial_output(tmp_path, previous):
     else:
         assert not out.exists()
     assert measure.sha256(rig.path) == src_hash
-    # The partial bytes went to a temp file beside the output, never to the output path.
-    leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".gaze.usdc.")]
-    assert len(leftovers) == 1
+    # The partial bytes went to a recognizable temporary folder beside the output, never to the output path.
+    leftovers = [p for p in tmp_path.iterdir() if p.name.startswith(".usdgaze-tmp-")]
+    assert len(leftovers) == 1 and [p.name for p in leftovers[0].iterdir()] == ["gaze.usdc"]

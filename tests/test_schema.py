@@ -20,6 +20,7 @@ _plugin.register()  # until usdgaze/__init__.py does it
 from pxr import Gf, Sdf, Usd, Vt  # noqa: E402
 
 from usdgaze.gaze import motion  # noqa: E402
+from usdgaze.errors import UsdGazeError  # noqa: E402
 from usdgaze.core import rotations as rot  # noqa: E402
 from usdgaze.usd import schema  # noqa: E402
 from usdgaze.gaze.definition import (  # noqa: E402
@@ -281,7 +282,7 @@ def test_dump_is_atomic(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", failing_replace)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(UsdGazeError, match=r"map.usdc: cannot write \(disk full\)"):
         schema.dump_map(make_definition(), tmp_path / "map.usdc")
     assert list(tmp_path.iterdir()) == []
 
@@ -291,7 +292,7 @@ def test_dump_is_atomic(tmp_path, monkeypatch):
     schema.dump_map(make_definition(seed=1), target)
     before = target.read_bytes()
     monkeypatch.setattr(os, "replace", failing_replace)
-    with pytest.raises(OSError):
+    with pytest.raises(UsdGazeError, match="disk full"):
         schema.dump_map(make_definition(seed=2), target)
     assert target.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == ["map.usda"]

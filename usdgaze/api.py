@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,7 +16,9 @@ from usdgaze.gaze.defaults import default_definition
 from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.errors import UsdGazeError
 from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes.shift import PassOptions, PassResult, Shift, apply_gaze
+from usdgaze.passes.shift import PassOptions, PassResult, apply_gaze
+from usdgaze.values import ShiftRequest, check_pass_options, check_shifts, cli_label
+from usdgaze.files.transaction import Outputs
 from usdgaze.usd.layers import (
     AnimOverride,
     LayerInfo,
@@ -26,43 +27,32 @@ from usdgaze.usd.layers import (
     check_output_path,
     check_sublayer_target,
     insert_sublayer,
+    reload_if_open,
     write_preview,
 )
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 
-_SHIFT = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)(s?)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*:\s*([-+]?[0-9]*\.?[0-9]+)\s*$")
+@dataclass
+class ApplyRequest:
+    """Everything one ``apply`` is asked to do. New options are new fields (``apply`` passes keywords on)."""
 
+    input_path: str | os.PathLike
+    shifts: list[ShiftRequest | str]
+    out: str | os.PathLike
+    skel_root: str | None = None
+    map_spec: str | None = None
+    sublayer_into: str | os.PathLike | None = None
+    preview: str | os.PathLike | None = None
+    plot: str | os.PathLike | None = None
+    no_clobber: bool = False
+    make_folders: bool = False
+    """Create missing output folders (removed again if the command fails); the batch's default."""
+    options: PassOptions = field(default_factory=PassOptions)
+    progress: object = None
 
-@dataclass(frozen=True)
-class ShiftRequest:
-    """A shift as the user wrote it: at a time code, or at seconds from the stage start."""
-
-    time: float
-    seconds: bool
-    yaw: float
-    pitch: float
-
-    @classmethod
-    def parse(cls, text: str) -> "ShiftRequest":
-        """Parse ``TIME:YAW:PITCH`` (``TIME`` a time code, or seconds with an ``s`` suffix)."""
-        m = _SHIFT.match(text)
-        if not m:
-            raise UsdGazeError(f"--shift '{text}': expected TIME:YAW:PITCH, e.g. 48:60:-10 or 2.5s:60:-10")
-        shift = cls(float(m.group(1)), m.group(2) == "s", float(m.group(3)), float(m.group(4)))
-        if not all(np.isfinite([shift.time, shift.yaw, shift.pitch])):
-            raise UsdGazeError(f"--shift '{text}': values must be finite")
-        if abs(shift.pitch) > 90.0:
-            raise UsdGazeError(f"--shift '{text}': pitch must lie in [-90, 90] deg")
-        if abs(shift.yaw) > 360.0:
-            raise UsdGazeError(f"--shift '{text}': yaw must lie in [-360, 360] deg (more than a full turn is no gaze shift)")
-        return shift
-
-    def to_shift(self, clip: SkelClip) -> Shift:
-        seconds = self.time if self.seconds else (self.time - clip.start_time) / clip.time_codes_per_second
-        return Shift(seconds, self.yaw, self.pitch)
-
-    def __str__(self) -> str:
-        return f"{self.time:g}{'s' if self.seconds else ''}:{self.yaw:g}:{self.pitch:g}"
+    @property
+    def source(self) -> str:
+        return os.fspath(self.input_path)
 
 
 @dataclass
@@ -86,6 +76,7 @@ class ApplyReport:
     characters: list[CharacterReport] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     preview: str | None = None
+    plot: str | None = None
     sublayered_into: str | None = None
 
 
@@ -138,58 +129,94 @@ def bind(clip: SkelClip, definition: GazeMapDefinition | None) -> tuple[Chain, C
     return chain, _character_frame(clip, forward)
 
 
-def apply(
-    input_path: str | os.PathLike,
-    shifts: list[ShiftRequest | str],
-    out: str | os.PathLike,
-    skel_root: str | None = None,
-    map_spec: str | None = None,
-    sublayer_into: str | os.PathLike | None = None,
-    preview: str | os.PathLike | None = None,
-    options: PassOptions = PassOptions(),
-    progress=None,
-) -> ApplyReport:
+def apply(input_path: str | os.PathLike, shifts: list[ShiftRequest | str], out: str | os.PathLike,
+          **options) -> ApplyReport:
     """Add gaze shifts to the skeletal animation(s) of ``input_path``; write ``out`` as an override layer.
 
-    Nothing is written unless everything succeeds; the input is never modified (``sublayer_into``
-    changes only that layer's subLayers).
+    Keywords are the fields of :class:`ApplyRequest` (``skel_root``, ``map_spec``, ``sublayer_into``,
+    ``preview``, ``plot``, ``no_clobber``, ``options``, ``progress``). Nothing is written unless
+    everything succeeds; no output may be a file the command reads (``sublayer_into`` changes only
+    that layer's subLayers).
     """
-    from usdgaze.usd.skelio import open_stage, read_clip, skeletons_under
+    return run(ApplyRequest(input_path, shifts, out, **options))
 
-    source = str(input_path)
-    if not Path(source).is_file():
-        raise UsdGazeError(f"{source}: no such file")
-    out_path = check_output_path(out)
-    if preview is not None:
-        check_output_path(preview)
-    if sublayer_into is not None and preview is not None:
-        raise UsdGazeError("--sublayer-into and --preview are alternatives; pass one")
-    # --sublayer-into may name the input (it is then refused for holding the animation's own
-    # opinions); --out and --preview never may.
-    for flag, path in (("--out", out_path), ("--preview", preview)):
-        if path is not None and os.path.abspath(path) == os.path.abspath(source):
-            raise UsdGazeError(f"{path}: {flag} would overwrite the input")
-    requests = [s if isinstance(s, ShiftRequest) else ShiftRequest.parse(s) for s in shifts]
-    if not requests:
-        raise UsdGazeError("no --shift given; nothing to do")
+
+def run(req: ApplyRequest) -> ApplyReport:
+    """The steps of :func:`apply`: check the request, claim outputs, read, pass, stage, commit."""
+    requests = check_request(req)
+    with Outputs(no_clobber=req.no_clobber) as tx:
+        _claim_outputs(tx, req)
+        stage = _open_input(tx, req.source)
+        forced = schema.load_map(req.map_spec, tx) if req.map_spec else None
+        roots = select_roots(stage, req.source, req.skel_root)
+        report, overrides, info = _run_pass(stage, roots, forced, requests, req)
+        info.custom = _provenance(req.source, requests, report)
+        _stage_outputs(tx, req, stage, report, overrides, info)
+    if req.sublayer_into is not None:
+        reload_if_open(req.sublayer_into)
+    return report
+
+
+def check_request(req: ApplyRequest, label=cli_label) -> list[ShiftRequest]:
+    """Values and combinations that are wrong whatever the stage; the parsed shifts.
+
+    The one check of the CLI, the API and the batch manifest (``label`` names a value in each).
+    """
+    check_pass_options(req.options, label)
+    if req.sublayer_into is not None and req.preview is not None:
+        raise UsdGazeError("--sublayer-into and --preview are alternatives; pass one" if label is cli_label
+                           else f"{label('sublayer_into', req.sublayer_into)}: sublayer_into and preview are alternatives; pass one")
+    return check_shifts(req.shifts, label)
+
+
+def _claim_outputs(tx: Outputs, req: ApplyRequest) -> None:
+    if not Path(req.source).is_file():
+        raise UsdGazeError(f"{req.source}: no such file")
+    tx.read(req.source)  # first, so a clash names the input as such
+    if req.make_folders:
+        for path in (req.out, req.preview, req.plot):
+            if path is not None:
+                tx.make_folder(Path(path).parent)
+    tx.claim(check_output_path(req.out), "--out")
+    if req.preview is not None:
+        tx.claim(check_output_path(req.preview), "--preview")
+    if req.plot is not None:
+        from usdgaze.review.plotting import check_plot_path
+
+        check_plot_path(req.plot)  # before any work: a missing matplotlib must not cost a pass
+        tx.claim(req.plot, "--plot")
+    if req.sublayer_into is not None:
+        if Path(req.sublayer_into).suffix.lower() not in {".usda", ".usdc", ".usd"}:
+            raise UsdGazeError(f"{req.sublayer_into}: --sublayer-into must name a .usda, .usdc or .usd layer")
+        if not os.path.isfile(req.sublayer_into):
+            raise UsdGazeError(f"{req.sublayer_into}: no such file to insert the sublayer into")
+        tx.claim(req.sublayer_into, "--sublayer-into", edit=True)
+
+
+def _open_input(tx: Outputs, source: str):
+    from usdgaze.usd.stage import composed_files, open_stage
 
     stage = open_stage(source)
-    roots = select_roots(stage, source, skel_root)
-    forced = schema.load_map(map_spec) if map_spec else None
+    for path in composed_files(stage):
+        tx.read(path, "layer composed by the input")  # the input itself was read first
+    return stage
+
+
+def _run_pass(stage, roots, forced, requests, req):
+    """Read every skeleton under ``roots``, run the gaze pass, collect overrides and the report."""
+    from usdgaze.usd.skelio import read_clip, skeletons_under
+
+    source = req.source
     maps: dict[bytes, ParametricGazeMap] = {}
-    report = ApplyReport(output=str(out_path))
+    report = ApplyReport(output=str(req.out))
     overrides: list[AnimOverride] = []
     seen_anims: dict[str, str] = {}
-    info: LayerInfo | None = None
-
     for root in roots:
         own = schema.read_map(root, source) if schema.has_map(root) else None
         definition = forced or own or default_definition()
-        map_source = map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
+        map_source = req.map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
         key = _map_key(definition)
-        gaze_map = maps.get(key)
-        if gaze_map is None:
-            gaze_map = maps[key] = ParametricGazeMap(definition)
+        gaze_map = maps.get(key) or maps.setdefault(key, ParametricGazeMap(definition))
         skels = skeletons_under(root)
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
@@ -202,46 +229,70 @@ def apply(
                 )
             seen_anims[clip.animation] = clip.skeleton
             chain, frame = bind(clip, own)
-            result = apply_gaze(clip, chain, frame, gaze_map, [r.to_shift(clip) for r in requests], options)
-            for r in requests:
-                if r.to_shift(clip).time_s > clip.seconds[-1]:
-                    report.warnings.append(
-                        f"{clip.where()}: shift {r} starts at {r.to_shift(clip).time_s:g} s, after the animation's "
-                        f"last sample ({clip.seconds[-1]:g} s); it changes nothing"
-                    )
+            result = apply_gaze(clip, chain, frame, gaze_map, [r.to_shift(clip) for r in requests], req.options)
+            report.warnings.extend(_late_shift_warnings(clip, requests))
             report.warnings.extend(result.warnings)
-            override = AnimOverride(
-                animation=clip.animation,
-                times=clip.times,
-                joints=result.anim_joints,
-                rotations=result.rotations,
-                translations=result.translations if (chain.leg_roots or result.added_joints
-                                                     or len(result.anim_joints) > len(clip.anim_joints)) else None,
-                scales=result.scales if len(result.anim_joints) > len(clip.anim_joints) else None,
-                write_joints=len(result.anim_joints) > len(clip.anim_joints),
-            )
-            if result.added_joints:
-                override.skeleton = clip.skeleton
-                override.skeleton_joints = clip.joints + result.added_joints
-                override.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
-                override.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
-                if clip.joint_names is not None:
-                    override.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
-            overrides.append(override)
-            report.characters.append(CharacterReport(
-                skel_root=clip.skel_root, skeleton=clip.skeleton, animation=clip.animation,
-                map_source=map_source,
-                chain={r: [clip.joints[j] for j in idx] for r, idx in chain.roles.items()},
-                forward=[float(v) for v in frame.forward], frames=len(clip.times),
-                added_joints=result.added_joints, result=result,
-            ))
-            if info is None:
-                info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time,
-                                 clip.end_time, clip.up_axis, clip.meters_per_unit)
-            if progress:
-                progress(clip)
+            overrides.append(_override(clip, chain, result))
+            report.characters.append(_character_report(clip, chain, frame, map_source, result))
+            if req.progress:
+                req.progress(clip)
+    return report, overrides, _layer_info(stage)
 
-    info.custom = {
+
+def _layer_info(stage) -> LayerInfo:
+    """Timing and units metadata of the input, copied to every layer written."""
+    from pxr import UsdGeom
+
+    return LayerInfo(float(stage.GetTimeCodesPerSecond()), float(stage.GetFramesPerSecond()),
+                     float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode()),
+                     str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)))
+
+
+def _late_shift_warnings(clip: SkelClip, requests: list[ShiftRequest]) -> list[str]:
+    out = []
+    for r in requests:
+        if r.to_shift(clip).time_s > clip.seconds[-1]:
+            out.append(
+                f"{clip.where()}: shift {r} starts at {r.to_shift(clip).time_s:g} s, after the animation's "
+                f"last sample ({clip.seconds[-1]:g} s); it changes nothing"
+            )
+    return out
+
+
+def _override(clip: SkelClip, chain: Chain, result: PassResult) -> AnimOverride:
+    """The arrays the override layer holds for one animation (and its skeleton, if eyes were added)."""
+    grew = len(result.anim_joints) > len(clip.anim_joints)
+    override = AnimOverride(
+        animation=clip.animation,
+        times=clip.times,
+        joints=result.anim_joints,
+        rotations=result.rotations,
+        translations=result.translations if (chain.leg_roots or result.added_joints or grew) else None,
+        scales=result.scales if grew else None,
+        write_joints=grew,
+    )
+    if result.added_joints:
+        override.skeleton = clip.skeleton
+        override.skeleton_joints = clip.joints + result.added_joints
+        override.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
+        override.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
+        if clip.joint_names is not None:
+            override.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
+    return override
+
+
+def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_source: str,
+                      result: PassResult) -> CharacterReport:
+    return CharacterReport(
+        skel_root=clip.skel_root, skeleton=clip.skeleton, animation=clip.animation, map_source=map_source,
+        chain={r: [clip.joints[j] for j in idx] for r, idx in chain.roles.items()},
+        forward=[float(v) for v in frame.forward], frames=len(clip.times),
+        added_joints=result.added_joints, result=result,
+    )
+
+
+def _provenance(source: str, requests: list[ShiftRequest], report: ApplyReport) -> dict:
+    return {
         "usdgaze": {
             "version": __version__,
             "input": os.path.basename(source),
@@ -250,15 +301,25 @@ def apply(
             "characters": [c.skel_root for c in report.characters],
         }
     }
-    if sublayer_into is not None:  # refuse before anything is written
-        check_sublayer_target(sublayer_into, [c.animation for c in report.characters])
-    layer = build_override(overrides, info, fmt=out_path.suffix.lstrip("."))
-    atomic_export(layer, out_path)
-    if preview is not None:
+
+
+def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
+                   overrides: list[AnimOverride], info: LayerInfo) -> None:
+    """Stage the override, then the preview, plot or sublayer edit; the caller's ``with`` commits them."""
+    animations = [c.animation for c in report.characters]
+    if req.sublayer_into is not None:  # refuse before anything is staged
+        check_sublayer_target(req.sublayer_into, animations)
+    out = Path(req.out)
+    atomic_export(build_override(overrides, info, fmt=out.suffix.lstrip(".")), out, tx)
+    if req.preview is not None:
         default_prim = stage.GetRootLayer().defaultPrim or None
-        write_preview(preview, out_path, source, info, default_prim)
-        report.preview = str(preview)
-    if sublayer_into is not None:
-        insert_sublayer(sublayer_into, out_path, [c.animation for c in report.characters])
-        report.sublayered_into = str(sublayer_into)
-    return report
+        write_preview(req.preview, out, req.source, info, default_prim, tx)
+        report.preview = str(req.preview)
+    if req.plot is not None:
+        from usdgaze.review.plotting import plot_report
+
+        plot_report(report, req.plot, tx)
+        report.plot = str(req.plot)
+    if req.sublayer_into is not None:
+        insert_sublayer(req.sublayer_into, out, animations, tx)
+        report.sublayered_into = str(req.sublayer_into)

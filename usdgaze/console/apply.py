@@ -8,7 +8,6 @@ import os
 import click
 import numpy as np
 
-from usdgaze.errors import UsdGazeError
 
 
 @click.command()
@@ -26,26 +25,23 @@ from usdgaze.errors import UsdGazeError
 @click.option("--fixation", default=2.0, show_default=True, type=float, help="Distance of the point of sight, metres.")
 @click.option("--plot", default=None, type=click.Path(dir_okay=False), metavar="FILE.png",
               help="Also draw wanted vs achieved gaze, segment angles and eye angles (needs matplotlib).")
+@click.option("--no-clobber", is_flag=True, help="Refuse to replace an existing --out, --preview or --plot file.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
-def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, as_json) -> None:
-    """Add gaze SHIFTs to the skeletal animation in INPUT and write them to --out."""
+def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, no_clobber,
+          as_json) -> None:
+    """Add gaze SHIFTs to the skeletal animation in INPUT and write them to --out.
+
+    All outputs are written together at the end, or none is. An existing output file is replaced
+    (keeping its mode) unless --no-clobber is given; no output may be a file the command reads.
+    """
     from usdgaze.api import apply as run
     from usdgaze.passes.shift import PassOptions
 
-    if not np.isfinite(fixation) or fixation <= 0:
-        raise UsdGazeError(f"--fixation {fixation}: must be a positive distance in metres")
-    if plot:
-        from usdgaze.review.plotting import check_plot_path
-
-        check_plot_path(plot)  # before any work: a missing matplotlib must not leave a written layer behind
     report = run(input_path, list(shifts), out, skel_root=skel_root, map_spec=map_spec,
-                 sublayer_into=sublayer_into, preview=preview, options=PassOptions(fixation_m=fixation))
+                 sublayer_into=sublayer_into, preview=preview, plot=plot, no_clobber=no_clobber,
+                 options=PassOptions(fixation_m=fixation))
     for w in report.warnings:
         click.echo(f"usdgaze: warning: {w}", err=True)
-    if plot:
-        from usdgaze.review.plotting import plot_report
-
-        plot_report(report, plot)
     summary = _summary(report)
     if as_json:
         click.echo(json.dumps(summary, indent=2))

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from usdgaze.gaze.definition import SynthesisSettings
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.transaction import Outputs
 from usdgaze.ingest.build import build, require_definition, write_map
 from usdgaze.ingest.report import format_table, write_report, write_series
 from usdgaze.ingest.settings import BuildSettings
@@ -49,8 +52,10 @@ _DEFAULTS = BuildSettings()
 @click.option("--min-trials", default=_DEFAULTS.min_trials, show_default=True, type=int,
               help="Fewest good trials to build a map from.")
 @click.option("--quiet", is_flag=True, help="Do not print the report table.")
+@click.option("--no-clobber", is_flag=True, help="Refuse to replace an existing output file.")
 def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_merge, min_rest, speed_span,
-              velocity_k, peak_window_m, pose_window, start_speed, start_hold, start_refine, min_trials, quiet) -> None:
+              velocity_k, peak_window_m, pose_window, start_speed, start_hold, start_refine, min_trials, quiet,
+              no_clobber) -> None:
     """Build a gaze map from the example trials listed in SHEET (CSV or TOML) and write it to --out.
 
     Each trial is a C3D marker capture (with --markers) or a UsdSkel clip, with its known target
@@ -61,21 +66,47 @@ def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_mer
         velocity_k=velocity_k, peak_window_m=peak_window_m, pose_window_s=pose_window,
         start_speed_deg_s=start_speed, start_hold_s=start_hold, start_refine=start_refine, min_trials=min_trials,
     )
-    parsed = load_sheet(sheet)
-    result = build(parsed, markers, settings, SynthesisSettings())
-    if not quiet:
-        click.echo(format_table(result.reports))
-    if report_path:
-        write_report(report_path, result.reports)
-    if series_dir:
-        write_series(series_dir, result)
-    require_definition(result)
-    write_map(result, parsed, out)
+    with Outputs(no_clobber=no_clobber) as tx:
+        _claim(tx, out, report_path, series_dir)
+        parsed = load_sheet(sheet)
+        _reads(tx, parsed, sheet, markers)
+        result = build(parsed, markers, settings, SynthesisSettings())
+        if not quiet:
+            click.echo(format_table(result.reports))
+        if report_path:
+            write_report(report_path, result.reports, tx)
+        if series_dir:
+            write_series(series_dir, result, tx)
+        require_definition(result)
+        write_map(result, parsed, out, tx)
     failed = len(result.reports) - len(result.good)
     note = f" ({failed} trial{'s' if failed != 1 else ''} skipped)" if failed else ""
     click.echo(f"wrote {out}: {len(result.good)} examples{note}")
     if report_path:
         click.echo(f"wrote {report_path}")
+
+
+def _claim(tx: Outputs, out, report_path, series_dir) -> None:
+    """Every output path, checked before any work (series files are claimed as the trials are known)."""
+    from usdgaze.usd.schema import check_map_path
+
+    check_map_path(out)
+    tx.claim(out, "--out")
+    if report_path:
+        tx.claim(report_path, "--report")
+    if series_dir and Path(series_dir).exists() and not Path(series_dir).is_dir():
+        raise UsdGazeError(f"{series_dir}: --series names a file, expected a folder")
+
+
+def _reads(tx: Outputs, parsed, sheet, markers) -> None:
+    """The sheet, the marker set and every trial file are inputs no output may be."""
+    tx.read(sheet, "trial sheet")
+    for m in {markers, parsed.markers} - {None}:
+        if Path(m).exists():
+            tx.read(m, "marker set")
+    for trial in parsed.trials:
+        if trial.file.exists():
+            tx.read(trial.file, f"trial file of '{trial.name}'")
 
 
 __all__ = ["build_map", "UsdGazeError"]

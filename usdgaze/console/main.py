@@ -13,6 +13,7 @@ import click
 
 from usdgaze import __version__
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.transaction import Interrupted
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
@@ -78,6 +79,12 @@ def main(argv: list[str] | None = None) -> int:
     except UsdGazeError as exc:
         _fail(str(exc))
         return EXIT_BAD_INPUT
+    except Interrupted as exc:  # SIGTERM: the writer has removed every temporary
+        _fail(f"interrupted by {exc}; nothing was written")
+        return 128 + exc.signum
+    except KeyboardInterrupt:
+        _fail("interrupted by SIGINT; nothing was written")
+        return 130
     except click.exceptions.NoArgsIsHelpError as exc:  # plain ``usdgaze``: the help, as --help gives it
         click.echo(exc.ctx.get_help() if exc.ctx else exc.format_message())
         return 0

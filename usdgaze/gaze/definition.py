@@ -99,6 +99,9 @@ _TIMING_RANGES = {
     "overshoot": (0.0, True, 1.0, True, ""),
 }
 _SETTING_MINIMA = {"samples": 1, "blend_size": 1, "neighbors": 1, "refine": 0, "seed": 0}  # numpy seeds are >= 0
+# Beyond these a map takes minutes to hours to build (samples, refine) or means nothing more (blend
+# size, neighbours past any real example count); seeds are 32-bit for numpy's legacy generator.
+_SETTING_MAXIMA = {"samples": 200_000, "blend_size": 64, "neighbors": 256, "refine": 50, "seed": 2**32 - 1}
 
 
 def _range_text(low: float, low_in: bool, high: float, high_in: bool) -> str:
@@ -199,3 +202,5 @@ def validate(definition: GazeMapDefinition, source: str) -> None:
             raise GazeMapError(f"{source}.{attr}: {value!r}, expected an integer")
         elif name in _SETTING_MINIMA and value < _SETTING_MINIMA[name]:
             raise GazeMapError(f"{source}.{attr}: {value}, expected >= {_SETTING_MINIMA[name]}")
+        elif name in _SETTING_MAXIMA and value > _SETTING_MAXIMA[name]:
+            raise GazeMapError(f"{source}.{attr}: {value}, expected <= {_SETTING_MAXIMA[name]}")

@@ -290,10 +290,11 @@ def layer_data(result: BuildResult, sheet: Sheet) -> dict:
     }
 
 
-def write_map(result: BuildResult, sheet: Sheet, out: str | Path) -> GazeMapDefinition:
+def write_map(result: BuildResult, sheet: Sheet, out: str | Path, outputs=None) -> GazeMapDefinition:
     """Write the map (``usdgaze.usd.schema.dump_map``) with the sheet and thresholds as layer data."""
     from usdgaze.usd.schema import dump_map  # pxr only when writing
 
     definition = require_definition(result)
-    dump_map(definition, out, prim_path="/GazeMap", custom_layer_data=layer_data(result, sheet))
+    dump_map(definition, out, prim_path="/GazeMap", custom_layer_data=layer_data(result, sheet),
+             outputs=outputs, flag="--out")
     return definition

@@ -5,12 +5,14 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 
 from usdgaze.core import rotations as rot
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.transaction import Outputs, outputs_of
 from usdgaze.ingest.build import BuildResult, TrialReport
 from usdgaze.ingest.extract import CHAIN
 
@@ -71,16 +73,16 @@ def report_text(reports: list[TrialReport], fmt: str) -> str:
     return out.getvalue()
 
 
-def write_report(path: str | Path, reports: list[TrialReport]) -> None:
+def write_report(path: str | Path, reports: list[TrialReport], outputs: Outputs | None = None) -> None:
     """Write the report; the format follows the suffix (.csv or .json)."""
     path = Path(path)
     fmt = path.suffix.lower().lstrip(".")
     if fmt not in ("csv", "json"):
         raise ReportError(f"{path}: a report must be .csv or .json")
-    try:
-        path.write_text(report_text(reports, fmt))
-    except OSError as exc:
-        raise ReportError(f"{path}: cannot write the report ({exc.strerror})") from None
+    with outputs_of(outputs) as tx:
+        if not tx.claimed(path):
+            tx.claim(path, "--report")
+        tx.stage_text(path, report_text(reports, fmt))
 
 
 def series_rows(result: BuildResult, trial: str) -> tuple[list[str], np.ndarray]:
@@ -106,21 +108,38 @@ def series_rows(result: BuildResult, trial: str) -> tuple[list[str], np.ndarray]
     return header, np.column_stack(columns)
 
 
-def write_series(directory: str | Path, result: BuildResult) -> list[Path]:
-    """One CSV per good trial (``TRIAL.csv``) with its per-frame landmark displacements."""
+def series_name(trial: str) -> str:
+    """A trial's series file name: separators and control characters become '_', never hidden, never a path."""
+    name = re.sub(r"[\x00-\x1f/\\:]", "_", trial)
+    if not name or name.startswith("."):
+        name = "_" + name
+    return f"{name}.csv"
+
+
+def series_paths(directory: str | Path, trials: list[str]) -> list[Path]:
+    """Where each trial's series goes: inside ``directory`` whatever the trial's name."""
+    return [Path(directory) / series_name(t) for t in trials]
+
+
+def write_series(directory: str | Path, result: BuildResult, outputs: Outputs | None = None) -> list[Path]:
+    """One CSV per good trial (``TRIAL.csv``, see :func:`series_name`) with its per-frame landmark displacements.
+
+    A symlink planted at a series path is replaced, not written through.
+    """
     directory = Path(directory)
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ReportError(f"{directory}: cannot create the series folder ({exc.strerror})") from None
     written = []
-    for report in result.good:
-        header, rows = series_rows(result, report.trial)
-        path = directory / f"{report.trial}.csv"
-        with path.open("w", newline="") as f:
-            writer = csv.writer(f, lineterminator="\n")
+    with outputs_of(outputs) as tx:
+        tx.make_folder(directory)
+        for report in result.good:
+            (path,) = series_paths(directory, [report.trial])
+            if not tx.claimed(path):
+                tx.claim(path, "--series file", follow=False)
+            header, rows = series_rows(result, report.trial)
+            text = io.StringIO()
+            writer = csv.writer(text, lineterminator="\n")
             writer.writerow(header)
             for row in rows:
                 writer.writerow([int(row[0])] + [f"{v:.6g}" for v in row[1:]])
-        written.append(path)
+            tx.stage_text(path, text.getvalue())
+            written.append(path)
     return written

@@ -22,7 +22,8 @@ from pxr import Usd, UsdGeom, UsdSkel
 
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
-from usdgaze.errors import RigError, UsdGazeError, usd_failure
+from usdgaze.errors import RigError, UsdGazeError
+from usdgaze.usd.stage import open_stage
 from usdgaze.core.rig import bind_chain, character_frame, leaf
 from usdgaze.ingest.markers import SkeletonBinding, parse_axis
 from usdgaze.ingest.series import TrialSeries
@@ -37,13 +38,7 @@ class SkeletonClipError(UsdGazeError):
 
 
 def _open(path: Path, where: str) -> Usd.Stage:
-    try:
-        stage = Usd.Stage.Open(str(path))
-    except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
-        raise SkeletonClipError(f"{where}: cannot open as a USD stage ({usd_failure(exc)})") from None
-    if stage is None:
-        raise SkeletonClipError(f"{where}: cannot open as a USD stage")
-    return stage
+    return open_stage(path, where, error=SkeletonClipError)
 
 
 def _skeleton(stage: Usd.Stage, path: str | None, where: str) -> UsdSkel.Skeleton:

@@ -25,5 +25,11 @@ def load_toml(path: str | Path, error: type[UsdGazeError] = UsdGazeError) -> dic
             return _toml.load(f)
     except FileNotFoundError:
         raise error(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise error(f"{path}: is a folder, expected a TOML file") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot read ({exc.strerror or exc})") from None
     except _toml.TOMLDecodeError as exc:
         raise error(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not valid TOML (not UTF-8 text at byte {exc.start})") from None

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
-
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.transaction import Outputs, outputs_of
 from usdgaze.gaze.motion import SEGMENTS
 
 
@@ -28,10 +27,21 @@ def check_plot_path(path: str | os.PathLike):
     return plt
 
 
-def plot_report(report, path: str | os.PathLike) -> None:
+def plot_report(report, path: str | os.PathLike, outputs: Outputs | None = None) -> None:
     """One figure per character, stacked: wanted vs achieved gaze change, segment angles, eye angles."""
     plt = check_plot_path(path)
-    path = Path(path)
+    fig = _figure(plt, report)
+    try:
+        with outputs_of(outputs) as tx:
+            if not tx.claimed(path):
+                tx.claim(path, "--plot")
+            # The format follows the temporary's suffix, which is the target's.
+            tx.stage_with(path, lambda temp: fig.savefig(temp, dpi=110))
+    finally:
+        plt.close(fig)
+
+
+def _figure(plt, report):
     chars = report.characters
     fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 7.5 * len(chars)), sharex=False, squeeze=False)
     for n, c in enumerate(chars):
@@ -63,12 +73,4 @@ def plot_report(report, path: str | os.PathLike) -> None:
         ax.set_xlabel("seconds from the stage start")
         ax.legend(loc="best", fontsize=8, ncol=2)
     fig.tight_layout()
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent or ".")
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
-    finally:
-        plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    return fig

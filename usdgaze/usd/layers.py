@@ -1,13 +1,13 @@
-"""Layer writing: the override layer, the preview root, sublayer insertion; all atomic.
+"""Layer writing: the override layer, the preview root, sublayer insertion.
 
-Everything is authored at the Sdf level inside one ``Sdf.ChangeBlock`` and written to a temp file in
-the destination's folder, then renamed over the destination, so a crash never leaves a partial file.
+Everything is authored at the Sdf level inside one ``Sdf.ChangeBlock`` and written through the one
+writer, :class:`usdgaze.files.transaction.Outputs` (staged beside the destination, renamed into place
+with the command's other outputs, nothing left behind on failure).
 """
 
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -16,6 +16,7 @@ from pxr import Sdf, Vt
 
 from usdgaze.core import rotations as rot
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.files.transaction import Outputs, outputs_of
 
 _FORMATS = {".usda", ".usdc", ".usd"}
 
@@ -30,37 +31,22 @@ def check_output_path(path: str | os.PathLike) -> Path:
     return p
 
 
-def atomic_export(layer: Sdf.Layer, path: str | os.PathLike) -> None:
-    """Write ``layer`` to ``path`` through a temp file in the same folder and an atomic rename."""
+def atomic_export(layer: Sdf.Layer, path: str | os.PathLike, outputs: Outputs | None = None,
+                  flag: str = "--out") -> None:
+    """Write ``layer`` to ``path`` as part of ``outputs`` (or on its own, when none is given)."""
     path = check_output_path(path)
-
-    def export(tmp: str) -> None:
-        if not layer.Export(tmp):
-            raise UsdGazeError(f"{path}: USD could not write the layer")
-
-    atomic_write(path, export)
+    with outputs_of(outputs) as tx:
+        if not tx.claimed(path):
+            tx.claim(path, flag)
+        tx.stage_layer(path, layer)
 
 
-def atomic_write(path: str | os.PathLike, write) -> None:
-    """Call ``write(tmp)`` on a temp file beside ``path``, then rename it over ``path`` (any format).
-
-    The file gets the mode a plain ``open`` would give it under the current umask; on any failure
-    the temp file is removed and ``path`` is left as it was."""
-    path = Path(path)
-    if not path.parent.exists():
-        raise UsdGazeError(f"{path}: folder {path.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+def atomic_write(path: str | os.PathLike, write, outputs: Outputs | None = None, flag: str = "--out") -> None:
+    """Call ``write(tmp)`` to stage ``path`` (any format) through ``outputs`` (or on its own)."""
+    with outputs_of(outputs) as tx:
+        if not tx.claimed(path):
+            tx.claim(path, flag)
+        tx.stage_with(path, write)
 
 
 @dataclass
@@ -171,7 +157,7 @@ def relative_asset_path(target: str | os.PathLike, from_layer: str | os.PathLike
 
 
 def write_preview(preview: str | os.PathLike, override: str | os.PathLike, input_path: str | os.PathLike,
-                  info: LayerInfo, default_prim: str | None) -> None:
+                  info: LayerInfo, default_prim: str | None, outputs: Outputs | None = None) -> None:
     """A new root layer sublayering [override, input]: open it to see the result, mute the first to compare."""
     fmt = Path(preview).suffix.lstrip(".") or "usda"
     layer = Sdf.Layer.CreateAnonymous(f"usdgaze_preview.{fmt}")
@@ -182,21 +168,22 @@ def write_preview(preview: str | os.PathLike, override: str | os.PathLike, input
         layer.subLayerPaths.append(relative_asset_path(input_path, preview))
         if default_prim:
             layer.defaultPrim = default_prim
-    atomic_export(layer, preview)
+    atomic_export(layer, preview, outputs, flag="--preview")
 
 
 def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str]) -> Sdf.Layer:
-    """The layer ``root`` if the override can go in as its strongest sublayer, else a one-line error.
+    """A copy of the layer ``root`` if the override can go in as its strongest sublayer, else a one-line error.
 
     Refuses when ``root`` itself holds opinions on the animations, since a sublayer is weaker than
-    its root layer's own opinions. Called before anything is written.
+    its root layer's own opinions. Called before anything is written. The copy is anonymous, so a
+    failed command leaves the layer registry's ``root`` as it was.
     """
     if Path(root).suffix.lower() not in _FORMATS:
         raise UsdGazeError(f"{root}: --sublayer-into must name a .usda, .usdc or .usd layer")
     if not os.path.isfile(root):
         raise UsdGazeError(f"{root}: no such file to insert the sublayer into")
     try:
-        layer = Sdf.Layer.FindOrOpen(str(root))
+        layer = Sdf.Layer.OpenAsAnonymous(str(root))
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
         raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into ({usd_failure(exc)})") from None
     if layer is None:
@@ -212,19 +199,30 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str]) -> Sdf
     return layer
 
 
-def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str]) -> bool:
+def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str],
+                    outputs: Outputs | None = None) -> bool:
     """Make ``override`` the strongest sublayer of ``root``, changing nothing but its subLayers.
 
     Returns False if it already was there. Refuses (see :func:`check_sublayer_target`) when
-    ``root`` itself holds opinions on the animations.
+    ``root`` itself holds opinions on the animations. A symlinked ``root`` is edited at its target,
+    which keeps its mode; a read-only one is refused.
     """
+    real = os.path.realpath(root)
     layer = check_sublayer_target(root, anim_paths)
-    rel = relative_asset_path(override, root)
-    resolved = {os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(root)), p)) for p in layer.subLayerPaths}
+    rel = relative_asset_path(override, real)
+    resolved = {os.path.normpath(os.path.join(os.path.dirname(real), p)) for p in layer.subLayerPaths}
     if os.path.normpath(os.path.abspath(override)) in resolved:
         return False
-    layer.subLayerPaths.insert(0, rel)
-    atomic_export(layer, root)
-    # Keep the in-memory layer in step with the file we wrote.
-    layer.Reload(force=True)
+    with outputs_of(outputs) as tx:
+        if not tx.claimed(root):
+            tx.claim(root, "--sublayer-into", edit=True)
+        layer.subLayerPaths.insert(0, rel)
+        tx.stage_layer(root, layer)
     return True
+
+
+def reload_if_open(path: str | os.PathLike) -> None:
+    """Keep a layer this process has open in step with the file a command just replaced."""
+    layer = Sdf.Layer.Find(str(path))
+    if layer is not None:
+        layer.Reload(force=True)

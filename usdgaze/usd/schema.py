@@ -11,17 +11,16 @@ unequal arrays, non-unit quaternions); :func:`usdgaze.gaze.definition.validate` 
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import os
-import secrets
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-from pxr import Gf, Sdf, Tf, Usd, UsdSkel, Vt
+from pxr import Gf, Sdf, Usd, UsdSkel, Vt
 
 from usdgaze.usd import plugin as _plugin
+from usdgaze.usd.stage import composed_files, open_stage
 from usdgaze.gaze.definition import (
     API_NAME,
     BINDING_ATTRS,
@@ -37,7 +36,8 @@ from usdgaze.gaze.definition import (
     check_unit_quaternions,
     validate,
 )
-from usdgaze.errors import GazeMapError, usd_failure
+from usdgaze.errors import GazeMapError
+from usdgaze.files.transaction import Outputs, outputs_of
 from usdgaze.gaze.motion import GazeMotions
 
 # Normally done by ``import usdgaze`` already; it must precede any stage in the process.
@@ -134,22 +134,18 @@ def write_map(prim: Usd.Prim, definition: GazeMapDefinition) -> None:
     _write(prim, definition, _where(prim, None))
 
 
-def load_map(spec: str) -> GazeMapDefinition:
+def load_map(spec: str, outputs: Outputs | None = None) -> GazeMapDefinition:
     """Read a map from ``FILE`` or ``FILE:PRIMPATH``.
 
     Without a prim path: the default prim if it has the map, else the one prim (abstract
-    ``class`` prims included) that has it.
+    ``class`` prims included) that has it. ``outputs``: the command's writer, told every file read.
     """
     file, prim_path = _split_spec(spec)
     _require_schema(file)
-    if not os.path.isfile(file):
-        raise GazeMapError(f"{file}: no such file")
-    try:
-        stage = Usd.Stage.Open(file)
-    except Tf.ErrorException as exc:
-        raise GazeMapError(f"{file}: cannot open as a USD stage ({usd_failure(exc)})") from None
-    if stage is None:
-        raise GazeMapError(f"{file}: cannot open")
+    stage = open_stage(file, error=GazeMapError)
+    if outputs is not None:
+        for read in composed_files(stage):
+            outputs.read(read, "--map file")
     if prim_path is not None:
         if not Sdf.Path.IsValidPathString(prim_path) or not Sdf.Path(prim_path).IsAbsoluteRootOrPrimPath():
             raise GazeMapError(f"{file}: {prim_path!r} is not an absolute prim path")
@@ -161,21 +157,30 @@ def load_map(spec: str) -> GazeMapDefinition:
     return read_map(prim, source=file)
 
 
+def check_map_path(path: str | os.PathLike) -> Path:
+    """``path`` if a map can be written there by its suffix, else a one-line error."""
+    path = Path(path)
+    ext = path.suffix.lstrip(".")
+    if ext not in ("usda", "usdc", "usd") or Sdf.FileFormat.FindByExtension(ext) is None:
+        raise GazeMapError(f"{path}: cannot write a gaze map to a '{path.suffix}' file; use .usda, .usdc or .usd")
+    return path
+
+
 def dump_map(
     definition: GazeMapDefinition,
     path: str | os.PathLike,
     prim_path: str = "/GazeMap",
     custom_layer_data: Mapping[str, Any] | None = None,
+    outputs: "Outputs | None" = None,
+    flag: str = "map",
 ) -> None:
-    """Write ``definition`` to a new layer at ``path`` (.usda, .usdc or .usd), atomically.
+    """Write ``definition`` to a new layer at ``path`` (.usda, .usdc or .usd), through ``outputs``.
 
     The map is an abstract ``class SkelRoot`` at the root prim ``prim_path``, made the default
     prim: it never renders, and characters bring it in with a reference or an inherit.
     """
-    path = Path(path)
+    path = check_map_path(path)
     ext = path.suffix.lstrip(".")
-    if ext not in ("usda", "usdc", "usd") or Sdf.FileFormat.FindByExtension(ext) is None:
-        raise GazeMapError(f"{path}: cannot write a gaze map to a '{path.suffix}' file; use .usda, .usdc or .usd")
     if not Sdf.Path.IsValidPathString(prim_path) or not Sdf.Path(prim_path).IsRootPrimPath():
         raise GazeMapError(f"{path}: {prim_path!r} is not a root prim path such as /GazeMap")
 
@@ -192,20 +197,10 @@ def dump_map(
     _write(prim, definition, f"{path}:{prim_path}")
     layer.defaultPrim = Sdf.Path(prim_path).name
 
-    # Same folder (so os.replace is a rename) and same extension (Export picks the format by it).
-    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}-{secrets.token_hex(4)}{path.suffix}")
-    try:
-        try:
-            ok = layer.Export(str(tmp))
-        except Tf.ErrorException as exc:
-            raise GazeMapError(f"{path}: cannot write: {usd_failure(exc)}") from None
-        if not ok:
-            raise GazeMapError(f"{path}: cannot write")
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with outputs_of(outputs) as tx:
+        if not tx.claimed(path):
+            tx.claim(path, flag)
+        tx.stage_layer(path, layer)
 
 
 # -- helpers -----------------------------------------------------------------------------------------

@@ -8,18 +8,8 @@ from pxr import Sdf, Usd, UsdGeom, UsdSkel
 from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import world_matrices
-from usdgaze.errors import UsdGazeError, usd_failure
-
-
-def open_stage(path: str) -> Usd.Stage:
-    """Open a stage, turning USD's failure into a one-line error naming the file."""
-    try:
-        stage = Usd.Stage.Open(str(path))
-    except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
-        raise UsdGazeError(f"{path}: cannot open as a USD stage ({usd_failure(exc)})") from None
-    if stage is None:
-        raise UsdGazeError(f"{path}: cannot open as a USD stage")
-    return stage
+from usdgaze.errors import UsdGazeError
+from usdgaze.usd.stage import open_stage  # noqa: F401  (the one opener; kept importable from here)
 
 
 def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:

@@ -1,0 +1,1 @@
+"""Files a command reads and writes: identity checks (:mod:`.identity`) and the one writer (:mod:`.transaction`)."""

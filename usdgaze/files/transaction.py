@@ -1,0 +1,314 @@
+"""The one writer: every output of a command is staged, then all are renamed into place together.
+
+A command opens one :class:`Outputs`, claims each path it will write (checked at once: folder,
+name, ``--no-clobber``, and identity against every file read, see :mod:`.identity`), records the
+files it reads, stages each output (a USD layer, a plot, text) into a temporary folder
+``.usdgaze-tmp-<host>-<pid>-<token>`` beside the output, and commits at the end. The commit renames
+every staged file over its target, and if one rename fails, puts back what the earlier ones
+replaced. On any error, SIGTERM or SIGINT nothing of the command remains, USD's own temporaries
+included (they go into the same folder). After SIGKILL the targets are untouched and the leftover
+folder is removed by the next run that writes into that folder.
+
+New files get mode ``0666 & ~umask``; a replaced file keeps its mode. Symlinks are written through
+(the target changes, the link stays). OS failures are one-line :class:`UsdGazeError` naming the path
+and the OS's reason, exit 2: they are the user's to fix.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import secrets
+import shutil
+import signal
+import socket
+import threading
+import time
+from pathlib import Path
+from typing import Callable
+
+from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.files.identity import Identities, real_path
+
+TMP_PREFIX = ".usdgaze-tmp-"
+_STALE_FOREIGN_S = 24 * 3600.0  # another host's leftovers: we cannot ask whether its process lives
+_REASONS = (errno.ENOSPC, errno.EROFS, errno.EACCES, errno.EPERM, errno.EDQUOT, errno.EFBIG, errno.EIO,
+            errno.ENAMETOOLONG, errno.ENOENT, errno.ENOTDIR, errno.EISDIR)
+
+
+class Interrupted(BaseException):
+    """SIGTERM arrived while outputs were staged; raised so that cleanup runs (SIGINT: KeyboardInterrupt)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def os_reason(exc: BaseException) -> str:
+    """The OS's words for an OSError, or for the OS failure inside a USD error message."""
+    if isinstance(exc, OSError):
+        return exc.strerror or str(exc)
+    text = str(exc)
+    for code in _REASONS:
+        if os.strerror(code) in text:
+            return os.strerror(code)
+    return usd_failure(exc)
+
+
+def current_umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _host() -> str:
+    return "".join(c if c.isalnum() else "_" for c in socket.gethostname())[:32] or "host"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def sweep(folder: str | os.PathLike) -> list[str]:
+    """Remove leftovers of dead usdgaze runs from ``folder``; returns their names."""
+    removed = []
+    host = _host()
+    with contextlib.suppress(OSError), os.scandir(folder) as entries:
+        for entry in entries:
+            if not entry.name.startswith(TMP_PREFIX):
+                continue
+            owner, _, rest = entry.name[len(TMP_PREFIX):].rpartition("-")  # host-pid, token
+            owner_host, _, pid = owner.rpartition("-")
+            try:
+                if owner_host == host and pid.isdigit():
+                    stale = not _alive(int(pid))
+                else:
+                    stale = time.time() - entry.stat(follow_symlinks=False).st_mtime > _STALE_FOREIGN_S
+                if stale:
+                    if entry.is_dir(follow_symlinks=False):
+                        shutil.rmtree(entry.path)
+                    else:
+                        os.unlink(entry.path)
+                    removed.append(entry.name)
+            except OSError:
+                continue
+    return removed
+
+
+class _Staged:
+    def __init__(self, target: Path, flag: str, keep_mode: int | None) -> None:
+        self.target = target
+        self.flag = flag
+        self.keep_mode = keep_mode
+        self.temp: Path | None = None
+
+
+class Outputs:
+    """One command's outputs, all or none. Use as a context manager; ``commit`` on success."""
+
+    def __init__(self, no_clobber: bool = False) -> None:
+        self.no_clobber = no_clobber
+        self.ids = Identities()
+        self._claims: dict[Path, _Staged] = {}
+        self._tmpdirs: dict[Path, Path] = {}
+        self._mode = 0o666 & ~current_umask()
+        self._old_handlers: dict[int, object] = {}
+        self._made: list[Path] = []
+        self._done = False
+
+    # -- context: signals and cleanup --------------------------------------------------------------
+    def __enter__(self) -> "Outputs":
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGTERM, signal.SIGINT):
+                self._old_handlers[sig] = signal.signal(sig, self._on_signal)
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if exc_type is None and not self._done:
+                self.commit()
+        finally:
+            self.abort()
+            for sig, handler in self._old_handlers.items():
+                signal.signal(sig, handler)
+            self._old_handlers.clear()
+
+    @staticmethod
+    def _on_signal(signum, frame) -> None:
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise Interrupted(signum)
+
+    # -- reads and claims --------------------------------------------------------------------------
+    def read(self, path: str | os.PathLike, what: str = "input") -> None:
+        """Record a file the command reads (an output may never be it)."""
+        self.ids.read(path, what)
+
+    def claimed(self, path: str | os.PathLike) -> bool:
+        return real_path(path) in self._claims or _unfollowed(path) in self._claims
+
+    def claim(self, path: str | os.PathLike, flag: str, edit: bool = False, follow: bool = True) -> Path:
+        """Check that ``path`` can be written and reserve it; returns the path to report.
+
+        ``edit``: the file must exist and is replaced by an edited copy (``--sublayer-into``); it
+        keeps its mode and a read-only file is refused. ``follow=False``: a symlink at ``path`` is
+        replaced, not written through (for files a command names itself inside a given folder).
+        """
+        shown = Path(path)
+        target = real_path(path) if follow else _unfollowed(path)
+        folder = target.parent
+        if not folder.exists():
+            raise UsdGazeError(f"{shown}: folder {shown.parent} does not exist")
+        if not folder.is_dir():
+            raise UsdGazeError(f"{shown}: {shown.parent} is not a folder")
+        if len(target.name.encode()) > _name_max(folder):
+            raise UsdGazeError(f"{shown}: cannot write ({os.strerror(errno.ENAMETOOLONG)})")
+        if target.is_dir():
+            raise UsdGazeError(f"{shown}: {flag} names a folder, expected a file")
+        keep_mode = None
+        if target.exists() and not target.is_symlink():
+            st = target.stat()
+            keep_mode = st.st_mode & 0o7777
+            if edit and not (st.st_mode & 0o222 and os.access(target, os.W_OK)):
+                raise UsdGazeError(f"{shown}: {flag} names a read-only file; refusing to replace it (make it writable first)")
+            if self.no_clobber and not edit:
+                raise UsdGazeError(f"{shown}: {flag} exists and --no-clobber is set")
+        elif edit:
+            raise UsdGazeError(f"{shown}: no such file for {flag} to edit")
+        self.ids.write(path if follow else target, flag, follow=follow)
+        self._claims[target] = _Staged(target, flag, keep_mode)
+        return shown
+
+    # -- staging -----------------------------------------------------------------------------------
+    def stage_with(self, path: str | os.PathLike, write: Callable[[str], None]) -> None:
+        """Stage an output by calling ``write(temp_path)``; the temp has the target's name and suffix."""
+        item = self._claims.get(real_path(path)) or self._claims.get(_unfollowed(path))
+        if item is None:
+            raise RuntimeError(f"{path}: staged without being claimed")  # a bug in a command
+        tmpdir = self._tmpdir(item.target.parent, path)
+        temp = tmpdir / item.target.name
+        try:
+            write(str(temp))
+            with open(temp, "rb+") as f:
+                os.fsync(f.fileno())
+            os.chmod(temp, self._mode if item.keep_mode is None else item.keep_mode)
+        except UsdGazeError:
+            raise
+        except Exception as exc:  # OSError, or USD's Tf.ErrorException around one
+            raise UsdGazeError(f"{path}: cannot write ({os_reason(exc)})") from None
+        item.temp = temp
+
+    def stage_layer(self, path: str | os.PathLike, layer) -> None:
+        """Stage a USD layer (Sdf ``Export``; the format follows the suffix)."""
+        def export(temp: str) -> None:
+            if not layer.Export(temp):
+                raise OSError(errno.EIO, "USD could not write the layer")
+        self.stage_with(path, export)
+
+    def make_folder(self, path: str | os.PathLike) -> None:
+        """Create a missing output folder; it is removed again if the command fails."""
+        folder = Path(path)
+        if folder.is_dir():
+            return
+        missing = []
+        probe = folder
+        while not probe.exists() and probe != probe.parent:
+            missing.append(probe)
+            probe = probe.parent
+        try:
+            folder.mkdir(parents=True)
+        except OSError as exc:
+            raise UsdGazeError(f"{folder}: cannot create the folder ({os_reason(exc)})") from None
+        self._made.extend(missing)
+
+    def stage_text(self, path: str | os.PathLike, text: str) -> None:
+        def write(temp: str) -> None:
+            with open(temp, "w", newline="") as f:
+                f.write(text)
+        self.stage_with(path, write)
+
+    def _tmpdir(self, folder: Path, shown) -> Path:
+        tmpdir = self._tmpdirs.get(folder)
+        if tmpdir is None:
+            sweep(folder)
+            tmpdir = folder / f"{TMP_PREFIX}{_host()}-{os.getpid()}-{secrets.token_hex(4)}"
+            try:
+                tmpdir.mkdir(mode=0o700)
+            except OSError as exc:
+                raise UsdGazeError(f"{shown}: cannot write into {Path(shown).parent} ({os_reason(exc)})") from None
+            self._tmpdirs[folder] = tmpdir
+        return tmpdir
+
+    # -- commit / abort ----------------------------------------------------------------------------
+    def commit(self) -> None:
+        """Rename every staged output into place; on a failure, restore what was replaced."""
+        items = [i for i in self._claims.values() if i.temp is not None]
+        done: list[tuple[_Staged, Path | None]] = []
+        try:
+            for item in items:
+                backup = None
+                if item.target.exists():
+                    backup = item.temp.with_name(f".previous-{item.target.name}")
+                    try:
+                        os.link(item.target, backup)
+                    except OSError:
+                        backup = None  # no hard links here: the rename alone is still atomic
+                os.replace(item.temp, item.target)
+                done.append((item, backup))
+        except OSError as exc:
+            for item, backup in reversed(done):
+                with contextlib.suppress(OSError):
+                    if backup is not None:
+                        os.replace(backup, item.target)
+                    elif item.keep_mode is None:
+                        os.unlink(item.target)
+            raise UsdGazeError(f"{item.target}: cannot write ({os_reason(exc)})") from None
+        for folder in self._tmpdirs:
+            with contextlib.suppress(OSError):
+                fd = os.open(folder, os.O_RDONLY)
+                try:
+                    os.fsync(fd)
+                finally:
+                    os.close(fd)
+        self._done = True
+
+    def abort(self) -> None:
+        """Remove every temporary (also after a commit: the backups of replaced files)."""
+        for tmpdir in self._tmpdirs.values():
+            shutil.rmtree(tmpdir, ignore_errors=True)
+        self._tmpdirs.clear()
+        if not self._done:
+            for folder in self._made:  # deepest first
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
+        self._made.clear()
+
+
+def _unfollowed(path: str | os.PathLike) -> Path:
+    """The real folder and the name as given: a symlink there is the file itself."""
+    parent, name = os.path.split(os.path.abspath(os.fspath(path)))
+    return Path(os.path.realpath(parent)) / name
+
+
+@contextlib.contextmanager
+def outputs_of(outputs: "Outputs | None"):
+    """``outputs`` when a command passes its own, else a new one committed when the block ends."""
+    if outputs is not None:
+        yield outputs
+    else:
+        with Outputs() as own:
+            yield own
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        return 255
