@@ -8,15 +8,17 @@ from pathlib import Path
 from usdgaze.errors import UsdGazeError
 
 
-def load_clip(input_path: str | os.PathLike, skel_root: str | None = None):
-    """The one skeleton's clip of ``input_path`` (or the one under ``skel_root``)."""
+def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outputs=None):
+    """The one skeleton's clip of ``input_path`` (or the one under ``skel_root``); ``outputs`` is told every file read."""
     from usdgaze.api import select_roots
-    from usdgaze.usd.skelio import open_stage, read_clip, skeletons_under
+    from usdgaze.usd.skelio import read_clip, skeletons_under
+    from usdgaze.usd.stage import composed_files, open_stage
 
     source = str(input_path)
-    if not Path(source).is_file():
-        raise UsdGazeError(f"{source}: no such file")
     stage = open_stage(source)
+    if outputs is not None:
+        for path in composed_files(stage):
+            outputs.read(path)
     roots = select_roots(stage, source, skel_root)
     if len(roots) > 1:
         raise UsdGazeError(f"{source}: {len(roots)} SkelRoots; pick one with --skel-root")
@@ -40,19 +42,20 @@ def body_model(clip, total_mass: float = 75.0):
 def write_mjcf(input_path, out, total_mass: float = 75.0, timestep: float = 0.02,
                skel_root: str | None = None) -> dict:
     """Write the MJCF model of ``input_path``'s skeleton to ``out``; a summary for the console."""
+    from usdgaze.files.transaction import Outputs
     from usdgaze.physics import mjcf
-    from usdgaze.usd.layers import atomic_write
 
     out = Path(out)
     if out.suffix.lower() != ".xml":
         raise UsdGazeError(f"{out}: the model is MJCF; --out must end in .xml")
-    if os.path.abspath(out) == os.path.abspath(str(input_path)):
-        raise UsdGazeError(f"{out}: --out would overwrite the input")
     if not 0.001 <= timestep <= 0.05:
         raise UsdGazeError(f"--timestep {timestep}: expected 0.001 to 0.05 s")
-    clip = load_clip(input_path, skel_root)
-    model, _ = body_model(clip, total_mass)
-    text = mjcf.write(model, timestep=timestep)
-    atomic_write(out, lambda tmp: Path(tmp).write_text(text))
+    with Outputs() as tx:
+        if Path(input_path).is_file():
+            tx.read(input_path)
+        tx.claim(out, "--out")
+        clip = load_clip(input_path, skel_root, tx)
+        model, _ = body_model(clip, total_mass)
+        tx.stage_text(out, mjcf.write(model, timestep=timestep))
     return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
             "mass": model.total_mass, "skeleton": clip.skeleton}
