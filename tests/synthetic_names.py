@@ -71,7 +71,7 @@ SCHEMES = {
         "hand": "FrontFoot.{s}",
     }, "L", "R"),
 }
-SCHEMES["numbered"] = {k: "j{i}" for k in SCHEMES["indexed"]}
+SCHEMES["numbered"] = {k: "j{i}" for k in SCHEMES["cc"]}
 """No name says anything: ``j0`` ... ``jN`` (bind it with --bind and --forward)."""
 
 # A dog-sized quadruped (character frame: X left, Y up, Z forward, metres): the spine runs

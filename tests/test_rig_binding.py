@@ -150,7 +150,7 @@ def test_an_unnamed_rig_binds_with_hints(tmp_path):
     report = api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda",
                        options=PassOptions(binding=hints))
     c = report.characters[0]
-    assert [j.rsplit("/", 1)[-1] for j in c.chain["neck"]] == [leaf["neck"]]  # the joint below the head
+    assert [j.rsplit("/", 1)[-1] for j in c.chain["neck"]] == [leaf["neck_b"]]  # the last joint before the head
     assert np.allclose(c.forward, rig.forward)
     _, _, error = _measured(rig, report, tmp_path / "preview.usda")
     assert error <= 0.5, error
@@ -190,3 +190,42 @@ def test_hints_from_a_table_and_a_list_mean_the_same():
     a = parse_hints(["neck=j3+j4", "head=j5"], "0,0,1")
     b = parse_hints({"neck": ["j3", "j4"], "head": "j5"}, [0, 0, 1])
     assert a.as_dict() == b.as_dict() == {"neck": ("j3", "j4"), "head": ("j5",)} and a.forward == b.forward == (0, 0, 1)
+
+
+# -- the command line and batch manifests -------------------------------------------------------------
+
+CLI = [sys.executable, "-m", "usdgaze"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_bind_and_forward_on_the_command_line_and_in_a_manifest_give_the_api_layer(tmp_path):
+    rig = _numbered(tmp_path)
+    leaf = rig.leaf
+    flags = [f"pelvis={leaf['pelvis']}", f"head={leaf['head']}", f"neck={leaf['neck']}+{leaf['neck_b']}"]
+    forward = ",".join(f"{v:g}" for v in rig.forward)
+    api.apply(rig.path, SHIFTS, tmp_path / "api.usdc", options=PassOptions(binding=parse_hints(flags, forward)))
+
+    argv = ["apply", str(rig.path), *(a for s in SHIFTS for a in ("--shift", s)), "--out", str(tmp_path / "cli.usdc")]
+    p = subprocess.run([*CLI, *argv, *(a for f in flags for a in ("--bind", f)), "--forward", forward],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "cli.usdc").read_bytes() == (tmp_path / "api.usdc").read_bytes()
+
+    table = ", ".join(f'{r} = "{j[0]}"' for r, j in parse_hints(flags[:2]).bindings)
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text(
+        f'[[job]]\nname = "good"\ninput = "in.usda"\nout = "batch.usdc"\nshifts = {SHIFTS!r}\n'.replace("'", '"')
+        + f'bind = {{ {table}, neck = ["{leaf["neck"]}", "{leaf["neck_b"]}"] }}\nforward = {list(map(float, rig.forward))}\n'
+        + f'\n[[job]]\nname = "absent"\ninput = "in.usda"\nout = "absent.usdc"\nshifts = ["0.3s:40:0"]\n'
+        + 'bind = ["head=j99"]\nforward = "0,0,1"\n')
+    p = subprocess.run([sys.executable, str(ROOT / "pipeline" / "batch.py"), str(manifest)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr  # the second job names an absent joint
+    assert (tmp_path / "batch.usdc").read_bytes() == (tmp_path / "api.usdc").read_bytes()
+    assert not (tmp_path / "absent.usdc").exists()
+    assert "bind head=j99: 'j99' is not a joint of this skeleton" in p.stderr
+
+    manifest.write_text('[[job]]\ninput = "in.usda"\nout = "x.usdc"\nshifts = ["1:2:3"]\nbind = ["skull=j5"]\n')
+    p = subprocess.run([sys.executable, str(ROOT / "pipeline" / "batch.py"), str(manifest)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "job 0: bind skull=...: unknown role" in p.stderr

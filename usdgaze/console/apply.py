@@ -26,20 +26,28 @@ from usdgaze.errors import UsdGazeError
 @click.option("--fixation", default=2.0, show_default=True, type=float, help="Distance of the point of sight, metres.")
 @click.option("--plot", default=None, type=click.Path(dir_okay=False), metavar="FILE.png",
               help="Also draw wanted vs achieved gaze, segment angles and eye angles (needs matplotlib).")
+@click.option("--bind", "bind", multiple=True, metavar="ROLE=JOINT[+JOINT...]",
+              help="Bind a gaze role (pelvis, lowerSpine, upperSpine, neck, head, leftEye, rightEye) to joints, "
+                   "by path or name, where names do not say it. Repeatable; wins over the map's bindings.")
+@click.option("--forward", default=None, metavar="X,Y,Z",
+              help="The character's forward in skeleton space, where no left/right joint names tell it.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
-def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, as_json) -> None:
+def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, bind, forward,
+          as_json) -> None:
     """Add gaze SHIFTs to the skeletal animation in INPUT and write them to --out."""
     from usdgaze.api import apply as run
+    from usdgaze.core.hints import parse_hints
     from usdgaze.passes.shift import PassOptions
 
     if not np.isfinite(fixation) or fixation <= 0:
         raise UsdGazeError(f"--fixation {fixation}: must be a positive distance in metres")
+    hints = parse_hints(bind, forward)
     if plot:
         from usdgaze.review.plotting import check_plot_path
 
         check_plot_path(plot)  # before any work: a missing matplotlib must not leave a written layer behind
     report = run(input_path, list(shifts), out, skel_root=skel_root, map_spec=map_spec,
-                 sublayer_into=sublayer_into, preview=preview, options=PassOptions(fixation_m=fixation))
+                 sublayer_into=sublayer_into, preview=preview, options=PassOptions(fixation_m=fixation, binding=hints))
     for w in report.warnings:
         click.echo(f"usdgaze: warning: {w}", err=True)
     if plot:

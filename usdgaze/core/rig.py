@@ -181,7 +181,7 @@ def _split_spine(path: list[int], joints, found, reasons, fixed: set[str]) -> No
     generic = [j for j in between if part[j] == "spine" and path.index(j) < first_neck]
     if "neck" not in found and len(generic) >= 3:
         found["neck"] = [generic.pop()]
-        reasons["neck"] = f"'{names.leaf(joints[found['neck'][0]])}', the last joint below the head (no neck by name)"
+        reasons["neck"] = f"'{names.leaf(joints[found['neck'][0]])}', the last joint before the head (no neck by name)"
     if not generic:
         return
     lower, upper = found.get("lowerSpine", []), found.get("upperSpine", [])
@@ -195,7 +195,7 @@ def _split_spine(path: list[int], joints, found, reasons, fixed: set[str]) -> No
                         ("upperSpine", [j for j in generic if path.index(j) >= boundary])):
         if extra and role not in fixed:
             found[role] = sorted(found.get(role, []) + extra, key=path.index)
-            note = "by place on the chain " + ", ".join(f"'{names.leaf(joints[j])}'" for j in extra)
+            note = "by their place on the chain: " + ", ".join(f"'{names.leaf(joints[j])}'" for j in extra)
             reasons[role] = f"{reasons[role]}; {note}" if role in reasons else note
 
 
