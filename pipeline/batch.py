@@ -14,6 +14,7 @@ A manifest lists jobs (paths relative to the manifest)::
     preview = "out/walk_01_preview.usda"     # or sublayer_into = "shot.usda"
     shifts = ["2s:60:0", "5s:-120:10", "7.5s:0:0"]
     # map = "maps/studio.usda:/GazeMap"; skel_root = "/Char/Body"
+    # bind = ["pelvis=j1", "head=j5"]  (or a table: bind = { neck = ["j3", "j4"] }); forward = [0, 0, 1]
 
 Each job runs on its own and is reported on its own: a bad job (exit 2) or a crash (exit 1) does not
 stop the others. ``--task-index`` runs just one job, for farm array tasks (see pipeline/farm/). The
@@ -30,7 +31,7 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-KEYS = {"name", "input", "out", "preview", "sublayer_into", "shifts", "map", "skel_root", "fixation"}
+KEYS = {"name", "input", "out", "preview", "sublayer_into", "shifts", "map", "skel_root", "fixation", "bind", "forward"}
 _TEXT = ("name", "input", "out", "preview", "sublayer_into", "map", "skel_root")
 _PATHS = ("input", "out", "preview", "sublayer_into")
 
@@ -59,6 +60,7 @@ def load_manifest(path: Path) -> list[dict]:
 
 def _job(path: Path, i: int, raw, defaults: dict) -> dict:
     from usdgaze.api import ApplyRequest, check_request
+    from usdgaze.core.hints import parse_hints
     from usdgaze.errors import UsdGazeError
     from usdgaze.passes.shift import PassOptions
 
@@ -89,6 +91,9 @@ def _job(path: Path, i: int, raw, defaults: dict) -> dict:
                                preview=job.get("preview"), options=PassOptions(fixation_m=float(fixation))), label)
     job["fixation"] = float(fixation)
     job.setdefault("name", Path(job["input"]).stem)
+    # Checked here, so a bad hint fails the manifest as a whole, naming the job, before any job runs.
+    job["hints"] = parse_hints(job.get("bind"), job.get("forward"), bind_label=f"{where}: bind",
+                               forward_label=f"{where}: forward")
     return job
 
 
@@ -121,7 +126,7 @@ def run_job(job: dict) -> dict:
         report = apply(
             job["input"], job["shifts"], job["out"], skel_root=job.get("skel_root"), map_spec=job.get("map"),
             sublayer_into=job.get("sublayer_into"), preview=job.get("preview"), make_folders=True,
-            options=PassOptions(fixation_m=float(job.get("fixation", 2.0))),
+            options=PassOptions(fixation_m=float(job.get("fixation", 2.0)), binding=job["hints"]),
         )
         record.update(exit_code=0, status="done", characters=[c.skel_root for c in report.characters],
                       warnings=report.warnings)

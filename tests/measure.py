@@ -25,6 +25,13 @@ class Posed:
     up: np.ndarray
     rest_skel: np.ndarray  # (J, 4, 4) rest pose in skeleton space (row-vector)
     skel_to_world: np.ndarray  # (4, 4) at the first time
+    bind_skel: np.ndarray | None = None  # (J, 4, 4) bind pose in skeleton space (row-vector), if authored
+
+    @property
+    def neutral(self) -> np.ndarray:
+        """The pose the character was modelled in, where head and eyes look ahead: the bind pose
+        (UsdSkel's bindTransforms), or the rest pose where the skeleton has none."""
+        return self.bind_skel if self.bind_skel is not None else self.rest_skel
 
     def index(self, leaf: str) -> int:
         hits = [i for i, j in enumerate(self.joints) if j.rsplit("/", 1)[-1] == leaf]
@@ -41,8 +48,11 @@ class Posed:
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def posed(stage_path: str, skeleton: str, mute: list[str] | None = None) -> Posed:
-    """World transforms of every joint at every animation time sample, by UsdSkel."""
+def posed(stage_path: str, skeleton: str, mute: list[str] | None = None, neutral: str = "bind") -> Posed:
+    """World transforms of every joint at every animation time sample, by UsdSkel.
+
+    ``neutral="rest"`` takes head and eye axes from the rest pose even where a bind pose exists.
+    """
     stage = Usd.Stage.Open(stage_path)
     for layer in mute or []:
         stage.MuteLayer(layer)
@@ -61,22 +71,25 @@ def posed(stage_path: str, skeleton: str, mute: list[str] | None = None) -> Pose
     up = np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0])
     rest = np.array(query.ComputeJointSkelTransforms(Usd.TimeCode.Default(), atRest=True))
     s2w = np.array(xf.ComputeLocalToWorldTransform(Usd.TimeCode(times[0])))
-    return Posed([str(j) for j in query.GetJointOrder()], times, world, up, rest, s2w)
+    bind = np.array(query.GetJointWorldBindTransforms()) if neutral == "bind" else None
+    joints = [str(j) for j in query.GetJointOrder()]
+    bind = bind if bind is not None and bind.shape == (len(joints), 4, 4) else None
+    return Posed(joints, times, world, up, rest, s2w, bind)
 
 
 def character_forward_skel(p: Posed, left_leaf: str, right_leaf: str) -> np.ndarray:
-    """Forward in skeleton space from two rest-pose joints and the stage up: left x up."""
+    """Forward in skeleton space from two neutral-pose joints and the stage up: left x up."""
     up_s = np.linalg.solve(p.skel_to_world[:3, :3].T, p.up)
     up_s /= np.linalg.norm(up_s)
-    left = p.rest_skel[p.index(left_leaf), 3, :3] - p.rest_skel[p.index(right_leaf), 3, :3]
+    left = p.neutral[p.index(left_leaf), 3, :3] - p.neutral[p.index(right_leaf), 3, :3]
     left -= left.dot(up_s) * up_s
     f = np.cross(left, up_s)
     return f / np.linalg.norm(f)
 
 
 def local_forward(p: Posed, leaf: str, forward_skel: np.ndarray) -> np.ndarray:
-    """The joint-local axis that points along the character forward at rest."""
-    m = p.rest_skel[p.index(leaf), :3, :3]
+    """The joint-local axis that points along the character forward in the neutral (bind) pose."""
+    m = p.neutral[p.index(leaf), :3, :3]
     v = np.linalg.solve(m.T, forward_skel)  # v @ m = forward
     return v / np.linalg.norm(v)
 
@@ -128,7 +141,7 @@ def eye_in_head(p: Posed, head: str, eye: str, forward, left, up) -> tuple[np.nd
     """Eye-in-head yaw (+ toward the left) and pitch (+ up), degrees, per frame.
 
     ``forward``/``left``/``up`` are the character axes in skeleton space; each joint's local axes
-    are taken from the rest pose, where the eyes look straight ahead.
+    are taken from the neutral (bind) pose, where the eyes look straight ahead.
     """
     f, l, u = (p.axis(head, local_forward(p, head, v)) for v in (forward, left, up))
     d = p.axis(eye, local_forward(p, eye, forward))

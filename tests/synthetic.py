@@ -29,6 +29,8 @@ import numpy as np
 from pxr import Gf, Sdf, Vt
 from scipy.spatial.transform import Rotation as R
 
+from .synthetic_names import QUADRUPED, SCHEMES
+
 # -- the template ---------------------------------------------------------------------------------
 # key: (parent key, position in the character frame, metres: X left, Y up, Z forward)
 _BODY = {
@@ -92,6 +94,7 @@ CONVENTIONS = {
     "ue": (_UE, "", ""),
     "rigify": (_RIGIFY, "", ""),
     "generic": (None, "", ""),
+    **{name: (table, "", "") for name, table in SCHEMES.items()},
 }
 DEFAULT_FORWARD = {
     # skeleton-space forward per (convention, up axis): Mixamo faces +Z (Y up); Blender faces -Y (Z up)
@@ -172,10 +175,10 @@ class Rig:
 
 # -- geometry -------------------------------------------------------------------------------------
 
-def _template(convention: str, eyes, joints: int | None) -> tuple[list[str], dict[str, tuple]]:
+def _template(convention: str, eyes, joints: int | None, body: str = "biped") -> tuple[list[str], dict[str, tuple]]:
     """Template keys in skeleton order (parents first) and their (parent, position)."""
     names = CONVENTIONS[convention][0]
-    body = dict(_BODY)
+    body = dict(QUADRUPED if body == "quadruped" else _BODY)
     core = ["root", "pelvis", "spine_a", "spine_b", "spine_c", "neck", "neck_b", "head", "head_end", "eye_l", "eye_r"]
     for s in ("l", "r"):
         core += [f"hipside_{s}", f"thigh_{s}", f"knee_{s}", f"ankle_{s}", f"toe_{s}", f"toe_end_{s}"]
@@ -224,8 +227,8 @@ def _name(convention: str, key: str, index: int) -> str:
     if names is None:
         return f"bone_{index:03d}"
     if key.startswith("prop"):
-        return {"mixamo": "Prop", "ue": "prop_", "rigify": "DEF-prop."}[convention] + key[4:]
-    return names[key]
+        return {"mixamo": "Prop", "ue": "prop_", "rigify": "DEF-prop."}.get(convention, "prop_") + key[4:]
+    return names[key].format(i=index)
 
 
 def _bone_frames(keys, spec, pos, rng) -> R:
@@ -312,6 +315,9 @@ def make_rig(
     joint_names: bool = True,
     root_path: str = "/Character",
     seed: int = 7,
+    body: str = "biped",
+    rest_pose: str = "bind",
+    look_aside_deg: tuple[float, float] = (0.0, 0.0),
 ) -> Rig:
     """Write a SkelRoot > Skeleton (+ SkelAnimation, skinned Mesh) stage to ``path``; return its :class:`Rig`.
 
@@ -331,12 +337,13 @@ def make_rig(
     names, token_prefix, name_prefix = CONVENTIONS[convention]
     units = 1.0 / meters_per_unit
     up = np.array([0.0, 0.0, 1.0]) if up_axis == "Z" else np.array([0.0, 1.0, 0.0])
-    fwd = np.asarray(forward if forward is not None else DEFAULT_FORWARD[(convention, up_axis)], dtype=float)
+    default_fwd = DEFAULT_FORWARD.get((convention, up_axis), (0.0, 0.0, 1.0) if up_axis == "Y" else (0.0, -1.0, 0.0))
+    fwd = np.asarray(forward if forward is not None else default_fwd, dtype=float)
     fwd = fwd / np.linalg.norm(fwd)
     left = np.cross(up, fwd)
     canon = np.column_stack([left, up, fwd])  # character frame -> skeleton space
 
-    keys, spec = _template(convention, eyes, joints)
+    keys, spec = _template(convention, eyes, joints, body)
     n = len(keys)
     leaf = {k: token_prefix + usd_token(_name(convention, k, i)) for i, k in enumerate(keys)}
     dcc = {k: name_prefix + _name(convention, k, i) for i, k in enumerate(keys)}
@@ -365,6 +372,11 @@ def make_rig(
     rest_local_rot = R.from_matrix(local[:, :3, :3])
     for j, k in enumerate(keys):
         angles = _motion_angles(k, t, stride_hz)
+        if body == "quadruped" and k.startswith("arm"):
+            angles = {"left": angles["left"]}  # front legs swing; no arms hanging down
+        if any(look_aside_deg) and k in ("neck", "head"):
+            angles = {**angles, "up": angles.get("up", 0.0) + np.radians(look_aside_deg[0]) / 2,
+                      "left": angles.get("left", 0.0) + np.radians(look_aside_deg[1]) / 2}
         rv = np.zeros((f, 3))
         for axis, a in angles.items():
             axis_s = {"left": left, "up": up, "fwd": fwd}[axis]
@@ -394,6 +406,11 @@ def make_rig(
         rot_q[:, pj] = pelvis_world.as_quat()
         trans[:, pj] = pelvis_pos
     scales = np.ones((f, n, 3), dtype=np.float16)
+
+    rest_local = local.copy()
+    if rest_pose == "first_frame":
+        rest_local[:, :3, :3] = R.from_quat(rot_q[0]).as_matrix()
+        rest_local[:, :3, 3] = trans[0]
 
     # Which joints the animation lists, and in which order.
     drop = set()
@@ -444,7 +461,7 @@ def make_rig(
         _attr(skel, "joints", tv.TokenArray, uniform=True).default = Vt.TokenArray(paths)
         if joint_names and names is not None:
             _attr(skel, "jointNames", tv.TokenArray, uniform=True).default = Vt.TokenArray([dcc[k] for k in keys])
-        _attr(skel, "restTransforms", tv.Matrix4dArray, uniform=True).default = _matrices(local)
+        _attr(skel, "restTransforms", tv.Matrix4dArray, uniform=True).default = _matrices(rest_local)
         _attr(skel, "bindTransforms", tv.Matrix4dArray, uniform=True).default = _matrices(world)
         rel = Sdf.RelationshipSpec(skel, "skel:animationSource", False)
         rel.targetPathList.explicitItems = [Sdf.Path(animation)]

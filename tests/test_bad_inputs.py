@@ -239,6 +239,22 @@ def b_only_one_eye(d):
     return _apply(d, _rig(d, eyes="left").path)
 
 
+def b_bind_absent_joint(d):
+    return _apply(d, _rig(d).path, "--bind", "head=Skull")
+
+
+def b_bind_malformed(d):
+    return _apply(d, _rig(d).path, "--bind", "head")
+
+
+def b_bind_unknown_role(d):
+    return _apply(d, _rig(d).path, "--bind", "skull=mixamorig_Head")
+
+
+def b_forward_malformed(d):
+    return _apply(d, _rig(d).path, "--forward", "0,1")
+
+
 def b_input_map_malformed(d):
     def api_only(layer, rig):
         op = Sdf.TokenListOp()

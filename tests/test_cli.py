@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import json
+import re
 import os
 import shutil
 import subprocess
@@ -137,7 +138,10 @@ def test_inspect_names_the_chain_and_the_time_range(src):
     assert f"animation {ANIM}  994 samples, time codes 1..994" in out
     for role, joints in (("pelvis", "Hips"), ("lowerSpine", "lowerback"), ("upperSpine", "Chest, Chest2"),
                          ("neck", "lowerneck, Neck"), ("head", "Head"), ("leftEye", "- (eye joints will be added)")):
-        assert f"    {role:<11} {joints}\n" in out, role
+        assert re.search(rf"^    {role:<11} {re.escape(joints)}(  \[[^\n]+\])?$", out, re.M), role
+    assert "    head        Head  [name 'Head']\n" in out  # what was bound, and why
+    assert "    neutral pose: bindTransforms\n" in out
+    assert "[left/right pair LeftHip/RightHip]" in out
     j = usdgaze_cmd("inspect", src, "--json")
     info = json.loads(j.stdout)
     (skel,) = info["skel_roots"][0]["skeletons"]

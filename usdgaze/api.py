@@ -30,6 +30,7 @@ from usdgaze.usd.layers import (
     reload_if_open,
     write_preview,
 )
+from usdgaze.core.hints import BindHints
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 
 @dataclass
@@ -115,18 +116,25 @@ def _map_key(definition: GazeMapDefinition) -> bytes:
                       repr(definition.settings).encode()])
 
 
-def _character_frame(clip: SkelClip, forward) -> CharacterFrame:
+def _character_frame(clip: SkelClip, forward, label: str) -> CharacterFrame:
     sw = clip.skel_to_world[0, :3, :3]
     up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
-    return character_frame(clip.joints, clip.rest_world(), up_s, forward, where=f"{clip.source}:{clip.skeleton}")
+    return character_frame(clip.joints, clip.neutral(), up_s, forward, where=f"{clip.source}:{clip.skeleton}",
+                           forward_label=label)
 
 
-def bind(clip: SkelClip, definition: GazeMapDefinition | None) -> tuple[Chain, CharacterFrame]:
-    """Chain and character frame of a clip, with the map's explicit bindings taking precedence."""
-    bindings = definition.bindings if definition else {}
-    forward = definition.forward if definition else None
-    chain = bind_chain(clip.joints, clip.parents, bindings, where=f"{clip.source}:{clip.skeleton}")
-    return chain, _character_frame(clip, forward)
+def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints | None = None
+         ) -> tuple[Chain, CharacterFrame]:
+    """Chain and character frame of a clip: the user's hints first, then the map's bindings, then names."""
+    hints = hints or BindHints()
+    bindings = dict(definition.bindings) if definition else {}
+    labels = {role: f"gaze:binding:{role}" for role in bindings}
+    for role, joints in hints.bindings:
+        bindings[role], labels[role] = joints, f"{hints.bind_label} {role}={'+'.join(joints)}"
+    forward, label = (hints.forward, hints.forward_label) if hints.forward is not None else (
+        definition.forward if definition else None, "gaze:binding:forward")
+    chain = bind_chain(clip.joints, clip.parents, bindings, where=f"{clip.source}:{clip.skeleton}", labels=labels)
+    return chain, _character_frame(clip, forward, label)
 
 
 def apply(input_path: str | os.PathLike, shifts: list[ShiftRequest | str], out: str | os.PathLike,
@@ -228,7 +236,9 @@ def _run_pass(stage, roots, forced, requests, req):
                     "give each skeleton its own SkelAnimation or pick one with --skel-root"
                 )
             seen_anims[clip.animation] = clip.skeleton
-            chain, frame = bind(clip, own)
+            chain, frame = bind(clip, own, req.options.binding)
+            if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
+                report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")
             result = apply_gaze(clip, chain, frame, gaze_map, [r.to_shift(clip) for r in requests], req.options)
             report.warnings.extend(_late_shift_warnings(clip, requests))
             report.warnings.extend(result.warnings)

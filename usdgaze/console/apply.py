@@ -25,21 +25,27 @@ import numpy as np
 @click.option("--fixation", default=2.0, show_default=True, type=float, help="Distance of the point of sight, metres.")
 @click.option("--plot", default=None, type=click.Path(dir_okay=False), metavar="FILE.png",
               help="Also draw wanted vs achieved gaze, segment angles and eye angles (needs matplotlib).")
+@click.option("--bind", "bind", multiple=True, metavar="ROLE=JOINT[+JOINT...]",
+              help="Bind a gaze role (pelvis, lowerSpine, upperSpine, neck, head, leftEye, rightEye) to joints, "
+                   "by path or name, where names do not say it. Repeatable; wins over the map's bindings.")
+@click.option("--forward", default=None, metavar="X,Y,Z",
+              help="The character's forward in skeleton space, where no left/right joint names tell it.")
 @click.option("--no-clobber", is_flag=True, help="Refuse to replace an existing --out, --preview or --plot file.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
-def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, no_clobber,
-          as_json) -> None:
+def apply(input_path, shifts, out, skel_root, map_spec, sublayer_into, preview, fixation, plot, bind, forward,
+          no_clobber, as_json) -> None:
     """Add gaze SHIFTs to the skeletal animation in INPUT and write them to --out.
 
     All outputs are written together at the end, or none is. An existing output file is replaced
     (keeping its mode) unless --no-clobber is given; no output may be a file the command reads.
     """
     from usdgaze.api import apply as run
+    from usdgaze.core.hints import parse_hints
     from usdgaze.passes.shift import PassOptions
 
     report = run(input_path, list(shifts), out, skel_root=skel_root, map_spec=map_spec,
                  sublayer_into=sublayer_into, preview=preview, plot=plot, no_clobber=no_clobber,
-                 options=PassOptions(fixation_m=fixation))
+                 options=PassOptions(fixation_m=fixation, binding=parse_hints(bind, forward)))
     for w in report.warnings:
         click.echo(f"usdgaze: warning: {w}", err=True)
     summary = _summary(report)

@@ -1,4 +1,4 @@
-"""``usdgaze inspect``: skeletons, the gaze chain bound on each, maps and time range."""
+"""``usdgaze inspect``: skeletons, the gaze chain bound on each and why, maps and time range."""
 
 from __future__ import annotations
 
@@ -6,14 +6,19 @@ import json
 
 import click
 
+
 @click.command()
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.option("--bind", "bind", multiple=True, metavar="ROLE=JOINT[+JOINT...]",
+              help="Try a binding as `usdgaze apply --bind` would use it. Repeatable.")
+@click.option("--forward", default=None, metavar="X,Y,Z", help="Try a character forward (skeleton space).")
 @click.option("--json", "as_json", is_flag=True, help="Print as JSON.")
-def inspect(input_path, as_json) -> None:
-    """Print the skeletons of INPUT, the gaze chain found on each, maps present and the time range."""
+def inspect(input_path, bind, forward, as_json) -> None:
+    """Print the skeletons of INPUT, the gaze chain found on each and why, maps present and the time range."""
+    from usdgaze.core.hints import parse_hints
     from usdgaze.review.inspection import inspect_stage
 
-    info = inspect_stage(input_path)
+    info = inspect_stage(input_path, parse_hints(bind, forward))
     if as_json:
         click.echo(json.dumps(info, indent=2))
         return
@@ -27,6 +32,12 @@ def inspect(input_path, as_json) -> None:
                 click.echo(f"    cannot bind: {s['error']}")
                 continue
             click.echo(f"    animation {s['animation']}  {s['frames']} samples, time codes {s['first']:g}..{s['last']:g}")
+            click.echo(f"    neutral pose: {s['neutral']}")
             for role, joints in s["chain"].items():
-                click.echo(f"    {role:<11} {', '.join(joints) or '- (eye joints will be added)' if role.endswith('Eye') else ', '.join(joints)}")
-            click.echo(f"    forward (skeleton space) {tuple(round(v, 3) for v in s['forward'])}")
+                if joints:
+                    bound = ", ".join(joints)
+                else:
+                    bound = "- (eye joints will be added)" if role.endswith("Eye") else "-"
+                why = f"  [{s['why'][role]}]" if s["why"].get(role) else ""
+                click.echo(f"    {role:<11} {bound}{why}")
+            click.echo(f"    forward (skeleton space) {tuple(round(v, 3) for v in s['forward'])}  [{s['forward_from']}]")

@@ -41,6 +41,11 @@ class SkelClip:
     start_time: float
     end_time: float
     joint_names: list[str] | None = None
+    neutral_world: np.ndarray | None = None
+    """Skeleton-space transforms ``(J, 4, 4)`` of the neutral pose, where the character, its head and
+    its eyes look straight ahead: the bind pose, or the rest pose where bindTransforms is unusable."""
+    neutral_source: str = "restTransforms"
+    """Which pose :meth:`neutral` is, and why (``bindTransforms``, ``restTransforms (...)``)."""
 
     def where(self, attribute: str = "") -> str:
         """``file:/prim/path.attribute`` of the animation, for messages."""
@@ -60,6 +65,10 @@ class SkelClip:
         from usdgaze.core.kinematics import world_matrices
 
         return world_matrices(self.rest_local[None], self.parents)[0]
+
+    def neutral(self) -> np.ndarray:
+        """Skeleton-space transforms of the neutral pose ``(J, 4, 4)`` (see ``neutral_world``)."""
+        return self.neutral_world if self.neutral_world is not None else self.rest_world()
 
     def local_trs(self, joint: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Translation, rotation, scale of one skeleton joint per frame (float64), animated or rest."""

@@ -1,4 +1,12 @@
-"""Rig binding: find the gaze chain on a skeleton by joint names and work out the character frame.
+"""Rig binding: find the gaze chain on a skeleton and work out the character frame.
+
+Joints are recognised by the words in their names (:mod:`usdgaze.core.names`), then by the
+skeleton's shape where names say nothing: the head is the joint named so (or the eyes' parent, or
+Rigify's ``spine.006``), the pelvis the deepest hips/pelvis-named joint above it (or the first joint
+above it where a mirrored pair of limbs branches off), and the joints between them are split into
+lower spine, upper spine and neck by their words and their order. Explicit bindings (``--bind``,
+``gaze:binding:<role>``) win over all of that. Every role carries the reason it was bound, for
+``usdgaze inspect``.
 
 Pure numpy; joint names come in as Skeleton joint paths (``Hips/Spine/...``).
 """
@@ -6,52 +14,25 @@ Pure numpy; joint names come in as Skeleton joint paths (``Hips/Spine/...``).
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from usdgaze.core import names
 from usdgaze.core import rotations as rot
-from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError
+from usdgaze.gaze.definition import ROLES
 
-
-# UsdSkel joint tokens are path elements, which cannot hold ':', '-' or '.', so exporters write
-# Mixamo's "mixamorig:Head" as "mixamorig_Head" and Rigify's "DEF-spine.001" / "DEF-eye.L" as
-# "DEF_spine_001" / "DEF_eye_L". Both spellings must bind alike.
 _MIXAMO_PREFIX = re.compile(r"^mixamorig\d*_")
-_SANITIZED_SUFFIX = re.compile(r"_(\d{3}|[LRlr])$")
+_SPINE_ROLES = ("lowerSpine", "upperSpine", "neck")
+_HINT = ("bind it with --bind ROLE=JOINT[+JOINT...] (roles: " + ", ".join(ROLES) + ") or gaze:binding:<role> on "
+         "the SkelRoot's GazeMapAPI (usdgaze inspect lists the joints)")
 
 
 def leaf(joint: str) -> str:
     """The joint's own name without its path or a namespace prefix (``mixamorig:Head``,
     ``mixamorig_Head`` -> ``Head``)."""
     return _MIXAMO_PREFIX.sub("", joint.rsplit("/", 1)[-1].rsplit(":", 1)[-1])
-
-
-def _key(name: str) -> str:
-    return re.sub(r"[^a-z0-9.]", "", _SANITIZED_SUFFIX.sub(r".\1", leaf(name)).lower())
-
-
-# Exact (normalized) leaf names per role for the conventions we know. Order inside a role does not
-# matter: a role's joints are always taken root-to-tip along the chain.
-_NAMES = {
-    # "spine" alone is the lower spine (Mixamo); Rigify's pelvis bone is DEF-spine / ORG-spine.
-    "pelvis": {"hips", "pelvis", "hip", "defspine", "orgspine", "bippelvis", "bip01pelvis"},
-    "lowerSpine": {"lowerback", "spine", "spine01", "defspine.001", "orgspine.001", "spine.001", "bip01spine", "bipspine"},
-    "upperSpine": {
-        "chest", "chest2", "upperchest", "spine1", "spine2", "spine3", "spine02", "spine03", "spine04",
-        "spine05", "defspine.002", "defspine.003", "orgspine.002", "orgspine.003", "spine.002", "spine.003",
-        "bip01spine1", "bip01spine2", "bip01spine3",
-    },
-    "neck": {"neck", "lowerneck", "upperneck", "neck1", "neck01", "neck02", "defspine.004", "defspine.005",
-             "orgspine.004", "orgspine.005", "spine.004", "spine.005", "bip01neck", "bip01neck1"},
-    "head": {"head", "defspine.006", "orgspine.006", "spine.006", "bip01head"},
-}
-_LEFT_EYE = re.compile(r"^(left[_.]?eye|l[_.]?eye|eye[_.]?l|eye[_.]?left|facial[_.]?l[_.]?eye|defeye\.l|orgeye\.l|eye\.l)$")
-_RIGHT_EYE = re.compile(r"^(right[_.]?eye|r[_.]?eye|eye[_.]?r|eye[_.]?right|facial[_.]?r[_.]?eye|defeye\.r|orgeye\.r|eye\.r)$")
-# Case matters: "LHipJoint" is left, "lowerback" is not.
-_LEFT = re.compile(r"(^(Left|left|LEFT)|^L(?=[A-Z_.])|^l_|[_.][lL]$|\.[lL]\.)")
-_RIGHT = re.compile(r"(^(Right|right|RIGHT)|^R(?=[A-Z_.])|^r_|[_.][rR]$|\.[rR]\.)")
 
 
 @dataclass(frozen=True)
@@ -63,6 +44,8 @@ class Chain:
     """Every joint from the first pelvis joint down to the head, inclusive."""
     leg_roots: tuple[int, ...]
     """Children of the last pelvis joint that are not on the chain (they counter-rotate)."""
+    reasons: dict[str, str] = field(default_factory=dict)
+    """Role -> why these joints were bound (a name, a hint, the skeleton's shape)."""
 
     @property
     def pelvis(self) -> int:
@@ -86,130 +69,233 @@ def _path_to_root(j: int, parents: np.ndarray) -> list[int]:
     return out[::-1]
 
 
-def _describe(joints: list[str], found: dict[str, list[int]]) -> str:
-    parts = [f"{role}={','.join(leaf(joints[i]) for i in idx) or '-'}" for role, idx in found.items()]
-    return "found " + " ".join(parts)
+def _listed(joints: list[str], idx, most: int = 10) -> str:
+    idx = list(idx)
+    shown = [names.leaf(joints[i]) for i in idx[:most]]
+    return ", ".join(shown) + (f", ... ({len(idx)} in all)" if len(idx) > most else "") if idx else "-"
 
 
-def _hint() -> str:
-    return "bind it explicitly with gaze:binding:<role> on the SkelRoot's GazeMapAPI (usdgaze inspect lists the joints)"
+def resolve_joint(name: str, joints: list[str], what: str) -> int:
+    """Index of the joint a user named: its path, else its own name (as written or as exporters spell it)."""
+    if name in joints:
+        return joints.index(name)
+    token = re.sub(r"[^A-Za-z0-9_]", "_", name.rsplit("/", 1)[-1])
+    for same in (lambda a: a == token, lambda a: a.lower() == token.lower()):
+        hits = [i for i, j in enumerate(joints) if same(names.leaf(j))]
+        if len(hits) > 1:
+            raise RigError(f"{what}: '{name}' matches {len(hits)} joints ({_listed(joints, hits, 4)}); give the joint path")
+        if hits:
+            return hits[0]
+    raise RigError(f"{what}: '{name}' is not a joint of this skeleton")
+
+
+def _explicit(joints: list[str], bindings, labels, where: str) -> tuple[dict[str, list[int]], dict[str, str]]:
+    found, reasons = {}, {}
+    for role, wanted in bindings.items():
+        label = labels.get(role, f"gaze:binding:{role}")
+        if role not in ROLES:
+            raise RigError(f"{where}: {label}: unknown gaze role '{role}' (roles: {', '.join(ROLES)})")
+        found[role] = sorted({resolve_joint(n, joints, f"{where}: {label}") for n in wanted})
+        reasons[role] = label
+    return found, reasons
+
+
+def _below(j: int, parents: np.ndarray) -> list[int]:
+    """Joints under j (not j itself), shallow first."""
+    return sorted((i for i in range(len(parents)) if j in _path_to_root(i, parents)[:-1]),
+                  key=lambda i: len(_path_to_root(i, parents)))
+
+
+def _eyes_under(head: int, joints, parents) -> dict[str, list[int]]:
+    under = _below(head, parents)
+    return {"leftEye": [i for i in under if names.is_eye(joints[i]) > 0][:1],
+            "rightEye": [i for i in under if names.is_eye(joints[i]) < 0][:1]}
+
+
+def _mirrored_children(j: int, joints: list[str], parents: np.ndarray) -> tuple[int, int] | None:
+    kids = [i for i in range(len(joints)) if parents[i] == j]
+    for a in kids:
+        for b in kids:
+            if names.side(joints[a]) > 0 > names.side(joints[b]) and names.mirror_key(joints[a]) == names.mirror_key(joints[b]):
+                return a, b
+    return None
+
+
+def _find_head(joints, parents, found, reasons) -> None:
+    named = [i for i, j in enumerate(joints) if names.is_head(j)]
+    if named:
+        # The one with eyes under it, else the shallowest (a 'HeadTwist' under 'Head' is no head).
+        with_eyes = [i for i in named if any(_eyes_under(i, joints, parents).values())]
+        depth = {i: len(_path_to_root(i, parents)) for i in named}
+        found["head"] = [min(with_eyes or named, key=depth.get)]
+        reasons["head"] = f"name '{names.leaf(joints[found['head'][0]])}'"
+        return
+    rigify = {names.rigify_number(j): i for i, j in enumerate(joints) if names.rigify_number(j) is not None}
+    if 6 in rigify:
+        numbered: dict[str, list[int]] = {}
+        for number, i in sorted(rigify.items()):
+            if number in names.RIGIFY_ROLES:
+                numbered.setdefault(names.RIGIFY_ROLES[number], []).append(i)
+        for role, idx in numbered.items():
+            if role not in found:
+                found[role], reasons[role] = idx, "Rigify spine numbering"
+        return
+    left = [i for i, j in enumerate(joints) if names.is_eye(j) > 0]
+    right = [i for i, j in enumerate(joints) if names.is_eye(j) < 0]
+    if left and right and parents[left[0]] == parents[right[0]] >= 0:
+        found["head"] = [int(parents[left[0]])]
+        reasons["head"] = "parent of the eye joints"
+
+
+def _find_pelvis(joints, parents, head: int, found, reasons) -> None:
+    above = _path_to_root(head, parents)[:-1]
+    named = [j for j in above if names.is_pelvis(joints[j])]
+    if named:
+        found["pelvis"] = [named[-1]]  # the deepest: legs hang off 'Pelvis' under 'Hips'
+        reasons["pelvis"] = f"name '{names.leaf(joints[named[-1]])}'"
+        return
+    for j in above:  # the first joint above the head where a mirrored pair branches off: the legs
+        pair = _mirrored_children(j, joints, parents)
+        if pair:
+            found["pelvis"] = [j]
+            reasons["pelvis"] = f"legs {names.leaf(joints[pair[0]])}/{names.leaf(joints[pair[1]])} branch here"
+            return
+
+
+def _split_spine(path: list[int], joints, found, reasons, fixed: set[str]) -> None:
+    """Lower spine, upper spine and neck among the joints between pelvis and head.
+
+    Named joints take their role; joints with only a spine word (or none) take theirs from their
+    place: below the first upper-spine joint (or above the last lower-spine one) and, with neither
+    named, the first third lower and the rest upper. Roles bound explicitly get nothing added.
+    """
+    claimed = {j for r in found for j in found[r]}
+    between = [j for j in path if j not in claimed]
+    part = {j: names.spine_part(joints[j]) for j in between}
+    for role in _SPINE_ROLES:
+        hits = [j for j in between if part[j] == role]
+        if role not in found and hits:
+            found[role] = hits
+            reasons[role] = "name " + ", ".join(f"'{names.leaf(joints[j])}'" for j in hits)
+    first_neck = min((path.index(j) for j in found.get("neck", [])), default=len(path))
+    generic = [j for j in between if part[j] == "spine" and path.index(j) < first_neck]
+    if "neck" not in found and len(generic) >= 3:
+        found["neck"] = [generic.pop()]
+        reasons["neck"] = f"'{names.leaf(joints[found['neck'][0]])}', the last joint before the head (no neck by name)"
+    if not generic:
+        return
+    lower, upper = found.get("lowerSpine", []), found.get("upperSpine", [])
+    if upper:
+        boundary = min(path.index(j) for j in upper)
+    elif lower:
+        boundary = max(path.index(j) for j in lower) + 1
+    else:
+        boundary = path.index(generic[max(1, len(generic) // 3) - 1]) + 1
+    for role, extra in (("lowerSpine", [j for j in generic if path.index(j) < boundary]),
+                        ("upperSpine", [j for j in generic if path.index(j) >= boundary])):
+        if extra and role not in fixed:
+            found[role] = sorted(found.get(role, []) + extra, key=path.index)
+            note = "by their place on the chain: " + ", ".join(f"'{names.leaf(joints[j])}'" for j in extra)
+            reasons[role] = f"{reasons[role]}; {note}" if role in reasons else note
 
 
 def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple[str, ...]] | None = None,
-               where: str = "skeleton") -> Chain:
-    """Bind roles to joints: explicit bindings first, then names; raise :class:`RigError` with what was found."""
-    bindings = {k: tuple(v) for k, v in (bindings or {}).items() if v}
-    index = {j: i for i, j in enumerate(joints)}
-    found: dict[str, list[int]] = {}
-    for role, names in bindings.items():
-        if role not in ROLES:
-            raise RigError(f"{where}: unknown gaze role '{role}' (roles: {', '.join(ROLES)})")
-        missing = [n for n in names if n not in index]
-        if missing:
-            raise RigError(f"{where}: gaze:binding:{role} names '{missing[0]}', which is not a joint of this skeleton")
-        found[role] = sorted(index[n] for n in names)
+               where: str = "skeleton", labels: dict[str, str] | None = None) -> Chain:
+    """Bind roles to joints: explicit bindings first, then names, then the skeleton's shape.
 
-    keys = [_key(j) for j in joints]
-    for role in ("pelvis", "head"):
-        if role not in found:
-            found[role] = [i for i, k in enumerate(keys) if k in _NAMES[role]][:1]
-    if not found["pelvis"] or not found["head"]:
-        auto = {r: [i for i, k in enumerate(keys) if k in _NAMES[r]] for r in _NAMES}
-        raise RigError(f"{where}: no gaze chain (pelvis and head) found by name; {_describe(joints, auto)}; {_hint()}")
+    ``bindings`` name joints by path or by their own name; ``labels`` say where each role's binding
+    came from (``--bind``), for messages. Raises :class:`RigError` listing the joints considered.
+    """
+    bindings = {k: tuple(v) for k, v in (bindings or {}).items() if v}
+    found, reasons = _explicit(joints, bindings, labels or {}, where)
+    if "head" not in found:
+        _find_head(joints, parents, found, reasons)
+    if "head" in found and "pelvis" not in found:
+        _find_pelvis(joints, parents, found["head"][-1], found, reasons)
+    if "head" not in found or "pelvis" not in found:
+        heads = [i for i, j in enumerate(joints) if "head" in names.tokens(j)]
+        pelvises = [i for i, j in enumerate(joints) if set(names.tokens(j)) & {"hips", "hip", "pelvis"}]
+        if "head" not in found:
+            what = "no head (a joint named head, the eye joints' parent, or Rigify's spine.006)"
+        else:
+            what = (f"no pelvis above head '{names.leaf(joints[found['head'][-1]])}' (a joint named hips or pelvis, "
+                    "or one where a mirrored pair of legs branches off)")
+        raise RigError(
+            f"{where}: no gaze chain (pelvis and head) found by name: {what}; considered as head: "
+            f"{_listed(joints, heads)}; as pelvis: {_listed(joints, pelvises)}; joints: "
+            f"{_listed(joints, range(len(joints)), 12)}; {_HINT}")
 
     pelvis_first, head = found["pelvis"][0], found["head"][-1]
     path = _path_to_root(head, parents)
     if pelvis_first not in path:
-        raise RigError(f"{where}: head '{leaf(joints[head])}' is not below pelvis '{leaf(joints[pelvis_first])}'; {_hint()}")
+        raise RigError(f"{where}: head '{names.leaf(joints[head])}' is not below pelvis "
+                       f"'{names.leaf(joints[pelvis_first])}'; {_HINT}")
     path = path[path.index(pelvis_first):]
-    between = [j for j in path if j not in found["pelvis"] and j not in found["head"]]
+    _split_spine(path, joints, found, reasons, fixed=set(bindings))
+    for role in _SPINE_ROLES:
+        if not found.get(role):
+            between = [j for j in path if j not in found["pelvis"] and j not in found["head"]]
+            raise RigError(f"{where}: no {role} joint between pelvis '{names.leaf(joints[pelvis_first])}' and head "
+                           f"'{names.leaf(joints[head])}'; considered {_listed(joints, between)}; {_described(joints, found)}; {_HINT}")
 
-    for role in ("lowerSpine", "upperSpine", "neck"):
+    eyes = _eyes_under(head, joints, parents)
+    for role in ("leftEye", "rightEye"):
         if role not in found:
-            found[role] = [j for j in between if keys[j] in _NAMES[role]]
-    claimed = {j for r in ("lowerSpine", "upperSpine", "neck") for j in found[r]}
-    rest = [j for j in between if j not in claimed]
-    # Unknown names: joints above the first neck joint are spine, split a third low / the rest high.
-    first_neck = min(found["neck"], default=None)
-    spine_rest = [j for j in rest if first_neck is None or path.index(j) < path.index(first_neck)]
-    if spine_rest and not (found["lowerSpine"] and found["upperSpine"]):
-        if not found["lowerSpine"] and not found["upperSpine"]:
-            cut = max(1, len(spine_rest) // 3)
-            found["lowerSpine"], found["upperSpine"] = spine_rest[:cut], spine_rest[cut:]
-        elif not found["lowerSpine"]:
-            found["lowerSpine"] = spine_rest
-        else:
-            found["upperSpine"] = spine_rest
-    for role in ("lowerSpine", "upperSpine", "neck"):
-        if not found[role]:
-            raise RigError(f"{where}: no {role} joint between pelvis and head; {_describe(joints, found)}; {_hint()}")
-
-    if "leftEye" not in found or "rightEye" not in found:
-        below_head = [i for i in range(len(joints)) if head in _path_to_root(i, parents)[:-1]]
-        left = [i for i in below_head if _LEFT_EYE.match(_key(joints[i]).replace("..", "."))]
-        right = [i for i in below_head if _RIGHT_EYE.match(_key(joints[i]).replace("..", "."))]
-        found.setdefault("leftEye", left[:1])
-        found.setdefault("rightEye", right[:1])
+            found[role] = eyes[role]
+            if eyes[role]:
+                reasons[role] = f"name '{names.leaf(joints[eyes[role][0]])}'"
     if bool(found["leftEye"]) != bool(found["rightEye"]):
-        raise RigError(f"{where}: found only one eye joint; {_describe(joints, found)}; {_hint()}")
+        considered = [i for i in _below(head, parents) if set(names.tokens(joints[i])) & {"eye", "eyes", "eyeball"}]
+        raise RigError(f"{where}: found only one eye joint; considered {_listed(joints, considered)}; "
+                       f"{_described(joints, found)}; {_HINT}")
 
     pelvis = found["pelvis"][-1]
     on_chain = set(path)
     legs = tuple(i for i in range(len(joints)) if parents[i] == pelvis and i not in on_chain)
     roles = {r: tuple(sorted(found.get(r, []), key=lambda j: len(_path_to_root(j, parents)))) for r in ROLES}
-    return Chain(roles=roles, path=tuple(path), leg_roots=legs)
+    return Chain(roles=roles, path=tuple(path), leg_roots=legs, reasons=reasons)
 
 
-_MIRROR = (("Left", "Right"), ("left", "right"), ("LEFT", "RIGHT"))
-
-
-def mirror(joint: str) -> str | None:
-    """The right-side name of a left-side joint path (``Hips/LeftUpLeg`` -> ``Hips/RightUpLeg``)."""
-    head, _, name = joint.rpartition("/")
-    for a, b in _MIRROR:
-        if name.startswith(a):
-            return f"{head}/{b}{name[len(a):]}".lstrip("/")
-    for pattern, repl in ((r"^L(?=[A-Z_.])", "R"), (r"^l_", "r_"), (r"([_.])l$", r"\1r"), (r"([_.])L$", r"\1R"),
-                          (r"\.L\.", ".R."), (r"\.l\.", ".r.")):
-        if re.search(pattern, name):
-            return f"{head}/{re.sub(pattern, repl, name, count=1)}".lstrip("/")
-    return None
+def _described(joints: list[str], found: dict[str, list[int]]) -> str:
+    return "found " + " ".join(f"{r}={'+'.join(names.leaf(joints[i]) for i in found.get(r, [])) or '-'}" for r in ROLES)
 
 
 def mirrored_pairs(joints: list[str]) -> list[tuple[int, int]]:
-    """(left, right) joint index pairs whose names mirror each other (parents mirrored too)."""
-    by_leaf = {}
-    for i, j in enumerate(joints):
-        by_leaf.setdefault(leaf(j), []).append(i)
+    """(left, right) joint index pairs whose names differ only in their side word.
+
+    Digits count unless a rig numbers joints through the whole skeleton (then a key is unique only
+    without them).
+    """
     pairs = []
-    for i, j in enumerate(joints):
-        if side(j) <= 0:
-            continue
-        other = mirror(leaf(j))
-        for k in by_leaf.get(other.lstrip("/") if other else "", []):
-            if side(joints[k]) < 0:
-                pairs.append((i, k))
-                break
-    return pairs
+    for numbers in (True, False):
+        lefts: dict[str, list[int]] = {}
+        rights: dict[str, list[int]] = {}
+        for i, j in enumerate(joints):
+            s = names.side(j)
+            if s:
+                (lefts if s > 0 else rights).setdefault(names.mirror_key(j, numbers), []).append(i)
+        taken = {i for p in pairs for i in p}
+        for key, ls in lefts.items():
+            rs = rights.get(key, [])
+            if len(ls) == 1 and len(rs) == 1 and ls[0] not in taken and rs[0] not in taken:
+                pairs.append((ls[0], rs[0]))
+    return sorted(pairs)
 
 
 def side(joint: str) -> int:
     """+1 for a left-side joint name, -1 for right, 0 otherwise."""
-    name = leaf(joint)
-    if _LEFT.search(name):
-        return 1
-    if _RIGHT.search(name):
-        return -1
-    return 0
+    return names.side(joint)
 
 
 @dataclass(frozen=True)
 class CharacterFrame:
-    """The character's canonical axes in skeleton space at rest."""
+    """The character's canonical axes in skeleton space in the neutral (bind) pose."""
 
     left: np.ndarray
     up: np.ndarray
     forward: np.ndarray
+    source: str = ""
+    """Where forward came from: a left/right joint pair, or an explicit forward."""
 
     @property
     def rotation(self) -> np.ndarray:
@@ -217,39 +303,41 @@ class CharacterFrame:
         return rot.frame_rotation(self.left, self.up, self.forward)
 
 
-def character_frame(joints: list[str], rest_world: np.ndarray, up: np.ndarray,
-                    forward: np.ndarray | None = None, where: str = "skeleton") -> CharacterFrame:
-    """Character axes from the rest pose: up from the stage, left from left/right-named joints.
+def character_frame(joints: list[str], neutral_world: np.ndarray, up: np.ndarray,
+                    forward: np.ndarray | None = None, where: str = "skeleton",
+                    forward_label: str = "gaze:binding:forward") -> CharacterFrame:
+    """Character axes from the neutral pose: up from the stage, left from mirrored left/right joints.
 
-    ``rest_world`` are skeleton-space rest transforms ``(J, 4, 4)``; ``up`` is the stage up axis in
-    skeleton space. An explicit ``forward`` (skeleton space) wins over the names.
+    ``neutral_world`` are skeleton-space transforms ``(J, 4, 4)`` (the bind pose); ``up`` is the stage
+    up axis in skeleton space. Nothing assumes a vertical spine: a quadruped's hips give left as a
+    biped's do. An explicit ``forward`` (skeleton space) wins over the names.
     """
     up = rot.normalize(np.asarray(up, dtype=float))
     if forward is not None and np.linalg.norm(forward) > 0:
         fwd = np.asarray(forward, dtype=float)
-        fwd = rot.normalize(fwd - np.dot(fwd, up) * up)
-        if np.linalg.norm(fwd) == 0:
-            raise RigError(f"{where}: gaze:binding:forward is parallel to the stage up axis")
-        return CharacterFrame(left=np.cross(up, fwd), up=up, forward=fwd)
+        fwd = fwd - np.dot(fwd, up) * up
+        if np.linalg.norm(fwd) < 1e-9 * np.linalg.norm(forward):
+            raise RigError(f"{where}: {forward_label} is parallel to the stage up axis")
+        fwd = rot.normalize(fwd)
+        return CharacterFrame(left=np.cross(up, fwd), up=up, forward=fwd, source=forward_label)
     pairs = mirrored_pairs(joints)
     if not pairs:
-        raise RigError(
-            f"{where}: cannot tell the character's forward: no left/right joint pairs by name; set gaze:binding:forward"
-        )
-    pos = rest_world[:, :3, 3]
+        raise RigError(f"{where}: cannot tell the character's forward: no left/right joint pairs by name; "
+                       f"give it with --forward X,Y,Z (skeleton space) or {forward_label}")
+    pos = neutral_world[:, :3, 3]
     depth = {i: j.count("/") for i, j in enumerate(joints)}
-    extent = max(float(np.ptp(pos @ up)), 1e-9)
-    left = np.zeros(3)
-    # The pairs nearest the root (hips before shoulders before hands): limbs far down the
-    # hierarchy are often posed asymmetrically at rest. Pairs at one spot (CMU's hip joints) say nothing.
+    extent = max(float(np.ptp(pos - np.outer(pos @ up, up), axis=0).max()), float(np.ptp(pos @ up)), 1e-9)
+    # The pairs nearest the root (hips before shoulders before hands): limbs far down the hierarchy
+    # are often posed asymmetrically. Pairs at one spot (CMU's hip joints) say nothing.
     for level in sorted({depth[l] for l, _ in pairs}):
-        spread = [pos[l] - pos[r] for l, r in pairs if depth[l] == level]
+        at = [(l, r) for l, r in pairs if depth[l] == level]
+        spread = [pos[l] - pos[r] for l, r in at]
         spread = [v - np.dot(v, up) * up for v in spread]
-        spread = [v for v in spread if np.linalg.norm(v) > 0.01 * extent]
-        if spread:
-            left = np.mean(spread, axis=0)
-            break
-    if np.linalg.norm(left) < 1e-9:
-        raise RigError(f"{where}: left and right joints coincide at rest; set gaze:binding:forward")
-    left = rot.normalize(left)
-    return CharacterFrame(left=left, up=up, forward=np.cross(left, up))
+        keep = [k for k, v in enumerate(spread) if np.linalg.norm(v) > 0.01 * extent]
+        if keep:
+            left = rot.normalize(np.mean([spread[k] for k in keep], axis=0))
+            l, r = at[keep[0]]
+            source = f"left/right pair {names.leaf(joints[l])}/{names.leaf(joints[r])}"
+            return CharacterFrame(left=left, up=up, forward=np.cross(left, up), source=source)
+    raise RigError(f"{where}: left and right joints coincide in the neutral pose; give the forward with "
+                   f"--forward X,Y,Z (skeleton space) or {forward_label}")

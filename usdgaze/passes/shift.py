@@ -12,7 +12,7 @@ How a request is met:
 * Shift k blends every segment from the state the previous shift left it in to the map's answer for
   the request (identity for (0, 0)), with the map's timing for the *change* (cascade, overshoot,
   settle). P+ offsets are parent-relative rotations in the character frame; on the rig each one is
-  applied in its joint's parent frame as that frame sits at rest, spread evenly over the joints
+  applied in its joint's parent frame as that frame sits in the neutral (bind) pose, spread evenly over the joints
   sharing a role (neck and head share the neck segment). The pelvis turns in its heading frame.
 * The leg roots under the pelvis counter-rotate so the legs keep their base world pose.
 * The eyes converge on a point of sight at ``fixation_m`` along the wanted line of sight. The wanted
@@ -34,6 +34,7 @@ from usdgaze.core.clip import SkelClip
 from usdgaze.errors import UsdGazeError
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.core.kinematics import Pose, forward, with_ancestors
+from usdgaze.core.hints import BindHints
 from usdgaze.core.rig import CharacterFrame, Chain
 
 NECK_SEGMENT = 3
@@ -74,6 +75,8 @@ class PassOptions:
     """... and this far in front of it, for a ~1.5 m head-joint height."""
     tolerance_deg: float = 0.5
     """Hold-phase error above which a request is reported as out of reach."""
+    binding: BindHints = BindHints()
+    """Role bindings and forward given by the user (``--bind``, ``--forward``); they win over the map's."""
 
 
 @dataclass
@@ -268,7 +271,7 @@ class _Rig:
     parents: np.ndarray
     rest_local: np.ndarray
     rest_q: np.ndarray
-    """Rest-pose skeleton-space rotations per joint."""
+    """Neutral-pose (bind pose) skeleton-space rotations per joint: where each joint looks ahead."""
     eyes: tuple[int, int]
     added: list[str]
     added_t: dict[int, np.ndarray]
@@ -286,7 +289,7 @@ class _Rig:
 
 def _with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> _Rig:
     """The rig with its eye joints: existing ones, or a left and a right added under the head."""
-    rest_world = clip.rest_world()
+    rest_world = clip.neutral()
     rest_q = rot.from_matrix(rest_world[:, :3, :3])
     if chain.eyes is not None:
         return _Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {})
@@ -389,7 +392,7 @@ def _aim_eyes(rig: _Rig, frame: CharacterFrame, moved: Pose, sight_point: np.nda
         u_h = ((np.cos(pc) * np.sin(y))[:, None] * left_h + (np.cos(pc) * np.cos(y))[:, None] * fwd_h
                + np.sin(pc)[:, None] * up_h)
         out.angles[:, i] = np.column_stack([yaw, pitch])
-        rest_eye = rot.from_matrix(rig.rest_local[e, :3, :3])
+        rest_eye = rot.multiply(to_head, rig.rest_q[e])  # the eye in its parent, looking ahead
         out.rotations[e] = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h, u_h), rest_eye))
         out.positions.append(pos)
         out.directions.append(rot.rotate(moved.rotation[p], u_h))

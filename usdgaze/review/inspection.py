@@ -7,8 +7,11 @@ from pathlib import Path
 from usdgaze.errors import UsdGazeError
 
 
-def inspect_stage(path: str) -> dict:
-    """Skeletons, the chain found on each, maps present and the time range, as plain data."""
+def inspect_stage(path: str, hints=None) -> dict:
+    """Skeletons, the chain found on each (and why), maps present and the time range, as plain data.
+
+    ``hints``: :class:`usdgaze.core.hints.BindHints` to try, as ``apply --bind/--forward`` would use them.
+    """
     from pxr import UsdGeom
 
     from usdgaze import api
@@ -37,14 +40,16 @@ def inspect_stage(path: str) -> dict:
             s = {"path": str(skel.GetPath()), "joints": len(skel.GetAttribute("joints").Get() or [])}
             try:
                 clip = read_clip(stage, skel, root, str(path))
-                chain, frame = api.bind(clip, definition)
+                chain, frame = api.bind(clip, definition, hints)
             except UsdGazeError as exc:
                 s["error"] = str(exc)
             else:
                 s.update(animation=clip.animation, frames=len(clip.times), first=float(clip.times[0]),
                          last=float(clip.times[-1]),
                          chain={r: [clip.joints[j].rsplit("/", 1)[-1] for j in idx] for r, idx in chain.roles.items()},
-                         forward=[float(v) for v in frame.forward])
+                         why={r: chain.reasons.get(r, "") for r in chain.roles},
+                         forward=[float(v) for v in frame.forward], forward_from=frame.source,
+                         neutral=clip.neutral_source)
             entry["skeletons"].append(s)
         info["skel_roots"].append(entry)
     if not info["skel_roots"]:

@@ -100,6 +100,26 @@ def _wrong_count(value: np.ndarray, time, where: str, count: int) -> None:
     raise UsdGazeError(f"{where}: {n} entries at {at}, expected {count} (one per joint)")
 
 
+def bind_problem(bind_world: np.ndarray | None, joints: list[str]) -> str | None:
+    """Why bindTransforms cannot serve as the neutral pose, or None when it can."""
+    if bind_world is None:
+        return "bindTransforms is not authored"
+    if len(bind_world) != len(joints):
+        return f"bindTransforms has {len(bind_world)} entries, expected {len(joints)}"
+    if not np.all(np.isfinite(bind_world)):
+        return "bindTransforms holds NaN or infinite values"
+    m = bind_world[:, :3, :3]
+    det = np.abs(np.linalg.det(m))
+    scale = np.linalg.norm(m, axis=(1, 2)) ** 3 / 5.196  # |det| of a uniform scaling, for that norm
+    bad = np.flatnonzero(det <= 1e-9 * np.maximum(scale, 1e-300))
+    if len(bad):
+        return f"bindTransforms is singular at joint '{joints[bad[0]].rsplit('/', 1)[-1]}'"
+    pos = bind_world[:, :3, 3]
+    if len(joints) > 1 and np.ptp(pos, axis=0).max() <= 1e-9 * max(1.0, float(np.abs(pos).max())):
+        return "bindTransforms puts every joint at one point"
+    return None
+
+
 def _samples(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray:
     """Values of an array attribute at ``times`` as ``(F, count, width)``; a default is broadcast.
 
@@ -171,17 +191,25 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     where_anim = f"{source}:{anim_prim.GetPath()}"
 
     rest_local = _matrices(skeleton.GetRestTransformsAttr())
-    bind_world = _matrices(skeleton.GetBindTransformsAttr())
-    for name, m in (("restTransforms", rest_local), ("bindTransforms", bind_world)):
-        if m is not None and len(m) != len(joints):
-            raise UsdGazeError(f"{where_skel}.{name}: {len(m)} entries, expected {len(joints)} (one per joint)")
-    if rest_local is None and bind_world is None:
+    if rest_local is not None and len(rest_local) != len(joints):
+        raise UsdGazeError(f"{where_skel}.restTransforms: {len(rest_local)} entries, expected {len(joints)} (one per joint)")
+    bind_authored = _matrices(skeleton.GetBindTransformsAttr())
+    problem = bind_problem(bind_authored, joints)
+    if rest_local is None and bind_authored is None:
         raise UsdGazeError(f"{where_skel}: neither restTransforms nor bindTransforms is authored; the rest pose is unknown")
     if rest_local is None:
-        parent_world = np.where(parents[:, None, None] >= 0, bind_world[np.maximum(parents, 0)], np.eye(4))
-        rest_local = np.linalg.solve(parent_world, bind_world)
-    if bind_world is None:
-        bind_world = world_matrices(rest_local[None], parents)[0]
+        if problem:
+            raise UsdGazeError(f"{where_skel}.bindTransforms: {problem}, and restTransforms is not authored; "
+                               "the rest pose is unknown")
+        parent_world = np.where(parents[:, None, None] >= 0, bind_authored[np.maximum(parents, 0)], np.eye(4))
+        rest_local = np.linalg.solve(parent_world, bind_authored)
+    rest_world = world_matrices(rest_local[None], parents)[0]
+    # The neutral pose is the bind pose, which the mesh (eyes included) was modelled in; DCCs write
+    # restTransforms as whatever frame they exported from.
+    neutral_world = rest_world if problem else bind_authored
+    neutral_source = f"restTransforms ({problem})" if problem else "bindTransforms"
+    # Written back (extended) when eyes are added: the input's own values where they fit the joints.
+    bind_world = bind_authored if bind_authored is not None and len(bind_authored) == len(joints) else rest_world
 
     anim_joints = [str(j) for j in (anim.GetJointsAttr().Get() or [])]
     if not anim_joints:
@@ -214,6 +242,8 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         parents=parents,
         rest_local=rest_local,
         bind_world=bind_world,
+        neutral_world=neutral_world,
+        neutral_source=neutral_source,
         anim_joints=anim_joints,
         anim_to_skel=anim_to_skel,
         times=times,

@@ -1,0 +1,231 @@
+"""Binding on real-world rigs with no hints, the neutral pose from the bind pose, and hints for the rest.
+
+Rigs (tests/synthetic.py, names from tests/synthetic_names.py) carry the naming schemes studios
+have: Mixamo (``mixamorig:Spine1``), a game rig numbering every joint (``b_Spine01_02``,
+``b_Neck_04``, ``b_Head_05``), Rigify (``DEF-spine.003``), 3ds Max Biped (``Bip01 Head``), Character
+Creator (``CC_Base_NeckTwist01``), VRoid (``J_Bip_C_Head``), DAZ Genesis (``abdomenLower``, ``lEye``),
+Unreal (``spine_01``), and a quadruped whose spine runs horizontally, Z up and Y up. Every number is
+measured with UsdSkel's forward kinematics on the composed result, head and eye axes taken from
+UsdSkel's bind pose (tests/measure.py), never from usdgaze's math.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Sdf, Vt
+
+import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
+from usdgaze import api
+from usdgaze.core.hints import parse_hints
+from usdgaze.errors import UsdGazeError
+from usdgaze.passes.shift import PassOptions
+
+from . import measure
+from . import synthetic as syn
+from .test_pass_rigs import hold_windows, sight_change
+
+SHIFTS = ["0.3s:40:0", "2.1s:-40:-10"]
+SECONDS, RATE = 3.9, 30
+
+SCHEMES = {
+    "mixamo": dict(convention="mixamo"),
+    "indexed-b_": dict(convention="indexed", up_axis="Z"),
+    "rigify": dict(convention="rigify", up_axis="Z"),
+    "biped-Bip01-cm": dict(convention="biped", eyes=False, up_axis="Z", meters_per_unit=0.01),
+    "cc-base": dict(convention="cc"),
+    "vroid": dict(convention="vroid"),
+    "daz": dict(convention="daz", meters_per_unit=0.01),
+    "unreal": dict(convention="ue", up_axis="Z", meters_per_unit=0.01),
+    "quadruped-Z": dict(convention="quadruped", body="quadruped", up_axis="Z", turn_deg_per_s=6),
+    "quadruped-Y": dict(convention="quadruped", body="quadruped", up_axis="Y"),
+}
+
+
+def _measured(rig: syn.Rig, report, preview: Path):
+    base = measure.posed(str(rig.path), rig.skeleton)
+    new = measure.posed(str(preview), rig.skeleton)
+    change, _ = sight_change(base, new, rig)
+    errors = []
+    for s, hold in hold_windows(dict(rig=rig, base=base, report=report)):
+        assert hold.sum() >= 10, s
+        errors.append(np.abs(change[hold] - [s["yaw"], s["pitch"]]).max())
+    return base, new, max(errors)
+
+
+@pytest.fixture(scope="module", params=sorted(SCHEMES))
+def run(request, tmp_path_factory):
+    d = tmp_path_factory.mktemp(request.param)
+    rig = syn.make_rig(d / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False,
+                       **SCHEMES[request.param])
+    report = api.apply(rig.path, SHIFTS, d / "gaze.usdc", preview=d / "preview.usda")
+    return dict(rig=rig, report=report, dir=d)
+
+
+def test_binds_with_no_hints_to_the_right_joints(run):
+    rig, c = run["rig"], run["report"].characters[0]
+    leaves = {role: [j.rsplit("/", 1)[-1] for j in joints] for role, joints in c.chain.items()}
+    assert leaves["head"] == [rig.leaf["head"]] and leaves["pelvis"] == [rig.leaf["pelvis"]]
+    spine = [rig.leaf[k] for k in ("spine_a", "spine_b", "spine_c") if k in rig.leaf]
+    neck = [rig.leaf[k] for k in ("neck", "neck_b") if k in rig.leaf]
+    assert leaves["lowerSpine"] + leaves["upperSpine"] == spine and leaves["lowerSpine"] and leaves["upperSpine"]
+    assert leaves["neck"] == neck
+    if rig.has_eyes:
+        assert (leaves["leftEye"], leaves["rightEye"]) == ([rig.leaf["eye_l"]], [rig.leaf["eye_r"]])
+        assert c.added_joints == []
+    assert np.allclose(c.forward, rig.forward, atol=1e-6)
+    assert run["report"].warnings == []
+
+
+def test_a_40_degree_shift_holds_within_half_a_degree(run):
+    _, _, error = _measured(run["rig"], run["report"], run["dir"] / "preview.usda")
+    assert error <= 0.5, error
+
+
+# -- the neutral pose -------------------------------------------------------------------------------
+
+def test_neutral_is_the_bind_pose_when_rest_is_the_first_frame(tmp_path):
+    """Blender writes restTransforms as the export frame; the actor looks 12 deg aside and 8 deg down there."""
+    rig = syn.make_rig(tmp_path / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False,
+                       rest_pose="first_frame", look_aside_deg=(12.0, 8.0))
+    report = api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
+    _, _, error = _measured(rig, report, tmp_path / "preview.usda")
+    assert error <= 0.5, error
+    # The test can tell: the same result measured against the rest pose is off by degrees.
+    base = measure.posed(str(rig.path), rig.skeleton, neutral="rest")
+    new = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton, neutral="rest")
+    change, _ = sight_change(base, new, rig)
+    off = [np.abs(change[hold] - [s["yaw"], s["pitch"]]).max() for s, hold in
+           hold_windows(dict(rig=rig, base=base, report=report))]
+    assert max(off) > 2.0, off
+
+
+def _break_bind(kind: str):
+    def edit(layer: Sdf.Layer, rig: syn.Rig) -> None:
+        spec = layer.GetAttributeAtPath(rig.skeleton + ".bindTransforms")
+        mats = list(spec.default)
+        if kind == "short":
+            mats = mats[:-3]
+        else:
+            mats[3] = Sdf.ValueTypeNames.Matrix4d.defaultValue * (0.0 if kind == "singular" else float("nan"))
+        spec.default = Vt.Matrix4dArray(mats)
+    return edit
+
+
+@pytest.mark.parametrize("kind", ["short", "singular", "nan"])
+def test_unusable_bind_transforms_fall_back_to_the_rest_pose(tmp_path, kind):
+    rig = syn.make_rig(tmp_path / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    _break_bind(kind)(layer, rig)
+    layer.Save()
+    report = api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
+    assert len(report.warnings) == 1 and "bindTransforms" in report.warnings[0] and "restTransforms" in report.warnings[0]
+    base = measure.posed(str(rig.path), rig.skeleton, neutral="rest")
+    new = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton, neutral="rest")
+    change, _ = sight_change(base, new, rig)
+    for s, hold in hold_windows(dict(rig=rig, base=base, report=report)):
+        assert np.abs(change[hold] - [s["yaw"], s["pitch"]]).max() <= 0.5
+
+
+# -- hints ------------------------------------------------------------------------------------------
+
+def _numbered(d: Path) -> syn.Rig:
+    return syn.make_rig(d / "in.usda", convention="numbered", frames=int(SECONDS * RATE), time_codes_per_second=RATE,
+                        mesh=False)
+
+
+def test_an_unnamed_rig_binds_with_hints(tmp_path):
+    rig = _numbered(tmp_path)
+    with pytest.raises(UsdGazeError) as err:  # no hints: the error lists what it considered
+        api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc")
+    assert "no gaze chain" in str(err.value) and "joints: j0, j1, j2" in str(err.value) and "--bind" in str(err.value)
+    assert not (tmp_path / "gaze.usdc").exists()
+    leaf = rig.leaf
+    hints = parse_hints([f"pelvis={leaf['pelvis']}", f"head={leaf['head']}", f"leftEye={leaf['eye_l']}",
+                         f"rightEye={leaf['eye_r']}"], ",".join(f"{v:g}" for v in rig.forward))
+    report = api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda",
+                       options=PassOptions(binding=hints))
+    c = report.characters[0]
+    assert [j.rsplit("/", 1)[-1] for j in c.chain["neck"]] == [leaf["neck_b"]]  # the last joint before the head
+    assert np.allclose(c.forward, rig.forward)
+    _, _, error = _measured(rig, report, tmp_path / "preview.usda")
+    assert error <= 0.5, error
+
+
+@pytest.mark.parametrize("bind, forward, message", [
+    (["head=j99"], None, "--bind head=j99: 'j99' is not a joint of this skeleton"),
+    (["pelvis=j1", "head=j5"], None, "cannot tell the character's forward"),
+    (["pelvis=j1", "head=j5"], "0,1,0", "--forward is parallel to the stage up axis"),
+])
+def test_bad_hints_are_one_line_errors(tmp_path, bind, forward, message):
+    rig = _numbered(tmp_path)
+    with pytest.raises(UsdGazeError) as err:
+        api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", options=PassOptions(binding=parse_hints(bind, forward)))
+    assert message in str(err.value) and "\n" not in str(err.value)
+    assert not (tmp_path / "gaze.usdc").exists()
+
+
+@pytest.mark.parametrize("bind, forward, message", [
+    (["head"], None, "--bind 'head': expected ROLE=JOINT[+JOINT...]"),
+    (["head="], None, "--bind 'head=': expected ROLE=JOINT[+JOINT...]"),
+    (["neck=a+"], None, "--bind 'neck=a+'"),
+    (["skull=j5"], None, "unknown role 'skull'"),
+    (["head=j5", "head=j6"], None, "role given twice"),
+    (None, "0,0", "expected three finite numbers"),
+    (None, "0,0,nan", "expected three finite numbers"),
+    (None, "0,0,0", "the zero vector is no direction"),
+    ({"neck": []}, None, "--bind.neck: expected a joint name or a list of joint names"),
+])
+def test_hint_syntax_errors(bind, forward, message):
+    with pytest.raises(UsdGazeError) as err:
+        parse_hints(bind, forward)
+    assert message in str(err.value)
+
+
+def test_hints_from_a_table_and_a_list_mean_the_same():
+    a = parse_hints(["neck=j3+j4", "head=j5"], "0,0,1")
+    b = parse_hints({"neck": ["j3", "j4"], "head": "j5"}, [0, 0, 1])
+    assert a.as_dict() == b.as_dict() == {"neck": ("j3", "j4"), "head": ("j5",)} and a.forward == b.forward == (0, 0, 1)
+
+
+# -- the command line and batch manifests -------------------------------------------------------------
+
+CLI = [sys.executable, "-m", "usdgaze"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_bind_and_forward_on_the_command_line_and_in_a_manifest_give_the_api_layer(tmp_path):
+    rig = _numbered(tmp_path)
+    leaf = rig.leaf
+    flags = [f"pelvis={leaf['pelvis']}", f"head={leaf['head']}", f"neck={leaf['neck']}+{leaf['neck_b']}"]
+    forward = ",".join(f"{v:g}" for v in rig.forward)
+    api.apply(rig.path, SHIFTS, tmp_path / "api.usdc", options=PassOptions(binding=parse_hints(flags, forward)))
+
+    argv = ["apply", str(rig.path), *(a for s in SHIFTS for a in ("--shift", s)), "--out", str(tmp_path / "cli.usdc")]
+    p = subprocess.run([*CLI, *argv, *(a for f in flags for a in ("--bind", f)), "--forward", forward],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "cli.usdc").read_bytes() == (tmp_path / "api.usdc").read_bytes()
+
+    table = ", ".join(f'{r} = "{j[0]}"' for r, j in parse_hints(flags[:2]).bindings)
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text(
+        f'[[job]]\nname = "good"\ninput = "in.usda"\nout = "batch.usdc"\nshifts = {SHIFTS!r}\n'.replace("'", '"')
+        + f'bind = {{ {table}, neck = ["{leaf["neck"]}", "{leaf["neck_b"]}"] }}\nforward = {list(map(float, rig.forward))}\n'
+        + f'\n[[job]]\nname = "absent"\ninput = "in.usda"\nout = "absent.usdc"\nshifts = ["0.3s:40:0"]\n'
+        + 'bind = ["head=j99"]\nforward = "0,0,1"\n')
+    p = subprocess.run([sys.executable, str(ROOT / "pipeline" / "batch.py"), str(manifest)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr  # the second job names an absent joint
+    assert (tmp_path / "batch.usdc").read_bytes() == (tmp_path / "api.usdc").read_bytes()
+    assert not (tmp_path / "absent.usdc").exists()
+    assert "bind head=j99: 'j99' is not a joint of this skeleton" in p.stderr
+
+    manifest.write_text('[[job]]\ninput = "in.usda"\nout = "x.usdc"\nshifts = ["1:2:3"]\nbind = ["skull=j5"]\n')
+    p = subprocess.run([sys.executable, str(ROOT / "pipeline" / "batch.py"), str(manifest)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "job 0: bind skull=...: unknown role" in p.stderr

@@ -1,0 +1,141 @@
+"""Joint names as words: split a rig's joint name into lower-case tokens and read what they say.
+
+Real rigs wrap the anatomical word in prefixes, namespaces, numbering and separators
+(``mixamorig:Spine1``, ``b_Spine01_02``, ``DEF-spine.003``, ``Bip01 Head``, ``CC_Base_NeckTwist01``,
+``J_Bip_C_Head``, ``lEye``), and UsdSkel joint tokens carry exporters' spellings of them (``:``, ``-``,
+``.`` and spaces become ``_``). Splitting on separators, case changes and digits gives the same tokens
+for every spelling, so a role is recognised by a word among the tokens rather than by a whole name.
+
+Pure Python; no numpy, no pxr.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+
+_SEPARATORS = re.compile(r"[\s_\-.:|]+")
+# "LHipJoint" -> L Hip Joint, "NeckTwist01" -> Neck Twist 01, "FACIAL" -> FACIAL, "lEye" -> l Eye
+_CAMEL = re.compile(r"[A-Z]+(?=[A-Z][a-z])|[A-Z]?[a-z]+|[A-Z]+|\d+")
+
+# Words a lower-case compound ("lowerback", "headtop", "lhand") is made of. Only used to split a
+# token that is entirely made of them, so an unknown word is never cut up.
+_VOCABULARY = frozenset("""
+left right lower upper low up mid middle neck back chest spine head hips hip pelvis eye eyes eyeball ball
+top end twist joint face facial jaw root waist torso abdomen collar shoulder arm leg hand foot toe fore
+thigh calf knee shin base nub tip finger fingers thumb bone bend clavicle elbow wrist ankle ctrl ik fk
+""".split())
+
+LEFT_WORDS = frozenset({"left", "l"})
+RIGHT_WORDS = frozenset({"right", "r"})
+
+
+def leaf(joint: str) -> str:
+    """The last element of a joint path (``Hips/Spine/Head`` -> ``Head``)."""
+    return joint.rsplit("/", 1)[-1]
+
+
+@functools.lru_cache(maxsize=4096)
+def _segment(word: str) -> tuple[str, ...]:
+    """A lower-case token as vocabulary words, a leading side letter allowed (``lhand``); else itself."""
+    if word in _VOCABULARY or len(word) < 4:
+        return (word,)
+
+    @functools.lru_cache(maxsize=None)
+    def split(start: int) -> tuple[str, ...] | None:
+        if start == len(word):
+            return ()
+        for end in range(len(word), start, -1):
+            if word[start:end] in _VOCABULARY:
+                rest = split(end)
+                if rest is not None:
+                    return (word[start:end],) + rest
+        return None
+
+    words = split(0)
+    if words is None and word[0] in "lr":
+        rest = split(1)
+        words = (word[0],) + rest if rest else None
+    return words if words else (word,)
+
+
+@functools.lru_cache(maxsize=4096)
+def tokens(joint: str) -> tuple[str, ...]:
+    """Lower-case words of a joint's own name: ``mixamorig_Spine1`` -> ``('mixamorig', 'spine', '1')``."""
+    out: list[str] = []
+    for part in _SEPARATORS.split(leaf(joint)):
+        for piece in _CAMEL.findall(part):
+            out.extend(_segment(piece.lower()))
+    return tuple(out)
+
+
+def side(joint: str) -> int:
+    """+1 for a left-side joint name, -1 for right, 0 for neither (or both)."""
+    words = set(tokens(joint))
+    left, right = bool(words & LEFT_WORDS), bool(words & RIGHT_WORDS)
+    return int(left) - int(right)
+
+
+def mirror_key(joint: str, numbers: bool = True) -> str:
+    """The name with its side word blanked: a left joint and its right twin share it.
+
+    ``numbers=False`` also drops digits, for rigs that number joints through the whole skeleton
+    (``b_LeftLeg_12`` / ``b_RightLeg_27``).
+    """
+    words = ["*" if w in LEFT_WORDS or w in RIGHT_WORDS else w for w in tokens(joint)]
+    return ".".join(w for w in words if numbers or not w.isdigit())
+
+
+# -- what a name says about its role --------------------------------------------------------------
+
+_NOT_A_BODY_JOINT = frozenset({
+    "end", "nub", "tip", "top", "ik", "fk", "ctrl", "ctl", "control", "target", "tgt", "aim", "look", "helper",
+    "mch", "jaw", "null", "locator", "loc", "pole", "socket", "hair", "hat", "cap",
+})
+_NOT_AN_EYEBALL = _NOT_A_BODY_JOINT | {"lid", "lids", "lash", "lashes", "brow", "blink", "upper", "lower", "inner",
+                                       "outer", "highlight", "spec", "tear", "iris", "pupil"}
+
+
+def is_head(joint: str) -> bool:
+    words = set(tokens(joint))
+    return "head" in words and not words & _NOT_A_BODY_JOINT and side(joint) == 0
+
+
+def is_pelvis(joint: str) -> bool:
+    words = set(tokens(joint))
+    return bool(words & {"hips", "hip", "pelvis"}) and not words & _NOT_A_BODY_JOINT and side(joint) == 0
+
+
+def is_eye(joint: str) -> int:
+    """+1 a left eyeball joint, -1 a right one, 0 not an eyeball (lids, targets, ...)."""
+    words = set(tokens(joint))
+    if not words & {"eye", "eyes", "eyeball"} or words & _NOT_AN_EYEBALL:
+        return 0
+    return side(joint)
+
+
+def spine_part(joint: str) -> str | None:
+    """What a joint between pelvis and head says it is: ``neck``, ``lowerSpine``, ``upperSpine``,
+    ``spine`` (a spine word, or no word at all: its place on the chain decides) or None (not a chain
+    joint by its name: a side joint, an end or a control)."""
+    words = set(tokens(joint))
+    if words & _NOT_A_BODY_JOINT or side(joint) != 0:
+        return None
+    if "neck" in words:
+        return "neck"
+    if words & {"chest", "thorax", "ribcage", "ribs"} or ("upper" in words and words & {"spine", "back", "torso"}):
+        return "upperSpine"
+    if words & {"abdomen", "waist", "belly", "stomach", "back"} or ("lower" in words and "spine" in words):
+        return "lowerSpine"
+    return "spine"
+
+
+_RIGIFY = re.compile(r"^(?:(?:def|org)\.)?spine(?:\.(\d+))?$")
+RIGIFY_ROLES = {0: "pelvis", 1: "lowerSpine", 2: "upperSpine", 3: "upperSpine", 4: "neck", 5: "neck", 6: "head"}
+"""Rigify's human metarig numbers one ``spine`` chain from the hips (0, unnumbered) to the head (6)."""
+
+
+def rigify_number(joint: str) -> int | None:
+    """The number of a Rigify ``spine.NNN`` bone (``DEF-spine.003`` -> 3, ``DEF-spine`` -> 0), else None."""
+    m = _RIGIFY.match(".".join(tokens(joint)))
+    return int(m.group(1) or 0) if m else None
