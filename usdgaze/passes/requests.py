@@ -1,0 +1,156 @@
+"""Gaze directives as a user writes them (flags or a GazeScheduleAPI schedule), before any clip is read.
+
+Syntax (``TIME`` a time code, or seconds from the stage start with an ``s`` suffix; options in any
+order after the time, each ``:key=value``):
+
+* ``--shift TIME:YAW:PITCH[:weight=W][:blend=B]``
+* ``--look-at TARGET@TIME[:weight=W][:blend=B]``, ``TARGET`` a prim path or a world point ``X,Y,Z``
+* ``--release TIME[:blend=B]``: a gaze shift back to the base motion's gaze; with a blend, a fade of
+  the gaze weight to 0 over ``B`` instead.
+
+``B`` is in time codes, or seconds with an ``s`` suffix. :func:`str` of a request is its canonical
+flag text, so flags and a schedule that say the same thing record the same text.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdgaze.errors import UsdGazeError
+
+_NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+_TIME = re.compile(rf"^\s*({_NUM})(s?)\s*$")
+_POINT = re.compile(rf"^\s*({_NUM})\s*,\s*({_NUM})\s*,\s*({_NUM})\s*$")
+FLAGS = {"shift": "--shift", "look": "--look-at", "release": "--release"}
+
+
+def _num(text: str) -> str:
+    """Shortest text of a float (``120``, ``0.5``, ``1e-05``)."""
+    v = float(text) if isinstance(text, str) else float(text)
+    return repr(int(v)) if v == int(v) and abs(v) < 1e15 else repr(v)
+
+
+@dataclass(frozen=True)
+class DirectiveRequest:
+    """One directive: ``kind`` shift, look or release at ``time`` (time code, or seconds)."""
+
+    kind: str
+    time: float
+    seconds: bool = False
+    yaw: float = 0.0
+    pitch: float = 0.0
+    target: str | None = None
+    """Prim path looked at (look)."""
+    point: tuple[float, float, float] | None = None
+    """World point looked at (look, no prim)."""
+    weight: float = 1.0
+    blend: float = 0.0
+    blend_seconds: bool = False
+
+    def time_s(self, start_time: float, time_codes_per_second: float) -> float:
+        return self.time if self.seconds else (self.time - start_time) / time_codes_per_second
+
+    def blend_s(self, time_codes_per_second: float) -> float:
+        return self.blend if self.blend_seconds else self.blend / time_codes_per_second
+
+    def __str__(self) -> str:
+        at = f"{_num(self.time)}{'s' if self.seconds else ''}"
+        if self.kind == "shift":
+            text = f"{at}:{_num(self.yaw)}:{_num(self.pitch)}"
+        elif self.kind == "look":
+            what = self.target if self.target is not None else ",".join(_num(v) for v in self.point)
+            text = f"{what}@{at}"
+        else:
+            text = at
+        if self.weight != 1.0:
+            text += f":weight={_num(self.weight)}"
+        if self.blend != 0.0:
+            text += f":blend={_num(self.blend)}{'s' if self.blend_seconds else ''}"
+        return text
+
+    @property
+    def flag(self) -> str:
+        return f"{FLAGS[self.kind]} {self}"
+
+
+def _time(text: str, flag: str, whole: str) -> tuple[float, bool]:
+    m = _TIME.match(text)
+    if not m:
+        raise UsdGazeError(f"{flag} '{whole}': '{text}' is not a time (a time code, or seconds with an 's' suffix)")
+    value = float(m.group(1))
+    if not np.isfinite(value):
+        raise UsdGazeError(f"{flag} '{whole}': the time must be finite")
+    return value, m.group(2) == "s"
+
+
+def _options(parts: list[str], flag: str, whole: str, allowed: tuple[str, ...]) -> dict:
+    out: dict = {}
+    for part in parts:
+        key, sep, value = part.partition("=")
+        key = key.strip()
+        if not sep or key not in allowed or key in out:
+            raise UsdGazeError(f"{flag} '{whole}': unknown or repeated option '{part}' (allowed: "
+                               f"{', '.join(k + '=' for k in allowed)})")
+        if key == "weight":
+            try:
+                w = float(value)
+            except ValueError:
+                w = float("nan")
+            if not 0.0 <= w <= 1.0:
+                raise UsdGazeError(f"{flag} '{whole}': weight must be a number in [0, 1]")
+            out["weight"] = w
+        else:
+            b, in_seconds = _time(value, flag, whole)
+            if b < 0:
+                raise UsdGazeError(f"{flag} '{whole}': blend must be >= 0")
+            out["blend"], out["blend_seconds"] = b, in_seconds
+    return out
+
+
+def parse_shift(text: str) -> DirectiveRequest:
+    """``TIME:YAW:PITCH[:weight=W][:blend=B]``."""
+    parts = text.split(":")
+    expected = f"--shift '{text}': expected TIME:YAW:PITCH, e.g. 48:60:-10 or 2.5s:60:-10"
+    m = _TIME.match(parts[0])
+    if len(parts) < 3 or not m or not all(re.fullmatch(rf"\s*{_NUM}\s*", p) for p in parts[1:3]):
+        raise UsdGazeError(expected)
+    time, seconds = float(m.group(1)), m.group(2) == "s"
+    yaw, pitch = float(parts[1]), float(parts[2])
+    if not np.isfinite([time, yaw, pitch]).all():
+        raise UsdGazeError(f"--shift '{text}': values must be finite")
+    if abs(pitch) > 90.0:
+        raise UsdGazeError(f"--shift '{text}': pitch must lie in [-90, 90] deg")
+    if abs(yaw) > 360.0:
+        raise UsdGazeError(f"--shift '{text}': yaw must lie in [-360, 360] deg (more than a full turn is no gaze shift)")
+    return DirectiveRequest("shift", time, seconds, yaw, pitch,
+                            **_options(parts[3:], "--shift", text, ("weight", "blend")))
+
+
+def parse_look(text: str) -> DirectiveRequest:
+    """``TARGET@TIME[:weight=W][:blend=B]`` with TARGET a prim path or ``X,Y,Z``."""
+    what, sep, rest = text.rpartition("@")
+    if not sep or not what.strip():
+        raise UsdGazeError(f"--look-at '{text}': expected TARGET@TIME, e.g. /World/Door@120 or 1,1.6,3@2.5s")
+    parts = rest.split(":")
+    time, seconds = _time(parts[0], "--look-at", text)
+    options = _options(parts[1:], "--look-at", text, ("weight", "blend"))
+    m = _POINT.match(what)
+    if m:
+        point = tuple(float(v) for v in m.groups())
+        if not np.isfinite(point).all():
+            raise UsdGazeError(f"--look-at '{text}': the point must be finite")
+        return DirectiveRequest("look", time, seconds, point=point, **options)
+    target = what.strip()
+    if not target.startswith("/"):
+        raise UsdGazeError(f"--look-at '{text}': '{target}' is neither an absolute prim path nor a point X,Y,Z")
+    return DirectiveRequest("look", time, seconds, target=target, **options)
+
+
+def parse_release(text: str) -> DirectiveRequest:
+    """``TIME[:blend=B]``."""
+    parts = text.split(":")
+    time, seconds = _time(parts[0], "--release", text)
+    return DirectiveRequest("release", time, seconds, **_options(parts[1:], "--release", text, ("blend",)))

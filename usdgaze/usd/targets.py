@@ -1,0 +1,92 @@
+"""Look-at targets from a stage: a prim's world position per time code, or a fixed world point.
+
+A Boundable prim (geometry, a Skeleton, ...) is looked at in the centre of its world bounding box;
+any other Xformable at its pivot (``xformOp:translate:pivot`` when authored, else its origin).
+A target whose transform and extent cannot change over time is computed once; an animated one at
+each of the clip's time codes (USD's own interpolation between authored samples).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from pxr import Sdf, Usd, UsdGeom
+
+from usdgaze.errors import UsdGazeError
+
+_NUMBER = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+_POINT = re.compile(rf"^\s*({_NUMBER})\s*,\s*({_NUMBER})\s*,\s*({_NUMBER})\s*$")
+_PURPOSES = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
+
+
+def parse_point(text: str) -> tuple[float, float, float] | None:
+    """``X,Y,Z`` as three floats, or None when ``text`` is no point."""
+    m = _POINT.match(text)
+    if not m:
+        return None
+    point = tuple(float(v) for v in m.groups())
+    return point if all(np.isfinite(point)) else None
+
+
+def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
+    """The prim at ``path``, which must exist and be Xformable or Boundable."""
+    if not Sdf.Path.IsValidPathString(path) or not Sdf.Path(path).IsAbsolutePath() or not Sdf.Path(path).IsPrimPath():
+        raise UsdGazeError(f"{source}: look-at target '{path}' is neither an absolute prim path nor a point X,Y,Z")
+    prim = stage.GetPrimAtPath(path)
+    if not prim or not prim.IsValid():
+        raise UsdGazeError(f"{source}:{path}: no such prim (look-at target)")
+    if not (prim.IsA(UsdGeom.Xformable) or prim.IsA(UsdGeom.Boundable)):
+        raise UsdGazeError(f"{source}:{path}: is a {prim.GetTypeName() or 'typeless prim'}; "
+                           "a look-at target must be Xformable or Boundable")
+    return prim
+
+
+def _varying(prim: Usd.Prim, boundable: bool) -> bool:
+    """Whether the prim's world position can change over time (its transform, or for geometry what
+    its bounds come from)."""
+    p = prim
+    while p and not p.IsPseudoRoot():
+        x = UsdGeom.Xformable(p)
+        if x and x.TransformMightBeTimeVarying():
+            return True
+        p = p.GetParent()
+    if boundable:
+        for q in Usd.PrimRange(prim):
+            for attr in q.GetAttributes():
+                if attr.GetNumTimeSamples() > 1 or attr.ValueMightBeTimeVarying():
+                    return True
+    else:
+        pivot = prim.GetAttribute("xformOp:translate:pivot")
+        if pivot and pivot.ValueMightBeTimeVarying():
+            return True
+    return False
+
+
+def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str) -> np.ndarray:
+    """World position ``(F, 3)`` of the target prim at ``path`` at each time code."""
+    prim = check_target(stage, path, source)
+    boundable = prim.IsA(UsdGeom.Boundable)
+    sample_times = np.asarray(times, dtype=float) if _varying(prim, boundable) else np.asarray(times[:1], dtype=float)
+    out = np.empty((len(sample_times), 3))
+    if boundable:
+        cache = UsdGeom.BBoxCache(Usd.TimeCode(float(sample_times[0])), _PURPOSES, useExtentsHint=True)
+        for i, t in enumerate(sample_times):
+            cache.SetTime(Usd.TimeCode(float(t)))
+            box = cache.ComputeWorldBound(prim)
+            if box.GetRange().IsEmpty():
+                raise UsdGazeError(f"{source}:{path}: has no extent at time code {t:g}; "
+                                   "author an extent (or look at a point X,Y,Z)")
+            out[i] = np.array(box.ComputeCentroid(), dtype=float)
+    else:
+        pivot_attr = prim.GetAttribute("xformOp:translate:pivot")
+        cache = UsdGeom.XformCache(Usd.TimeCode(float(sample_times[0])))
+        for i, t in enumerate(sample_times):
+            cache.SetTime(Usd.TimeCode(float(t)))
+            m = np.array(cache.GetLocalToWorldTransform(prim), dtype=float)  # row vectors
+            pivot = np.array(pivot_attr.Get(Usd.TimeCode(float(t))) if pivot_attr and pivot_attr.HasValue()
+                             else (0.0, 0.0, 0.0), dtype=float)
+            out[i] = np.append(pivot, 1.0) @ m[:, :3]
+    if not np.all(np.isfinite(out)):
+        raise UsdGazeError(f"{source}:{path}: world position is not finite")
+    return np.broadcast_to(out, (len(times), 3)).copy() if len(sample_times) == 1 else out
