@@ -33,6 +33,10 @@ class PreviewOptions:
 def check_output(path: str | os.PathLike, kind: str) -> Path:
     """An animation (.gif/.mp4) or a contact sheet (.png) path, or a one-line error."""
     p = Path(path)
+    try:
+        import PIL  # noqa: F401
+    except ImportError:
+        raise UsdGazeError(f"{p}: preview needs Pillow: pip install 'usdgaze[preview]'") from None
     allowed = _ANIMATIONS if kind == "animation" else {".png"}
     if p.suffix.lower() not in allowed:
         want = ".gif or .mp4 (or .png for a contact sheet)" if kind == "animation" else ".png"

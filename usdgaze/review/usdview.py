@@ -86,6 +86,15 @@ def _remove(layer, path: str) -> bool:
     return True
 
 
+def _helper_layer(stage):
+    """The session layer, timed like the stage (a layer's samples are rescaled by its own
+    timeCodesPerSecond, and a session layer has none of its own)."""
+    session = stage.GetSessionLayer()
+    if not session.HasTimeCodesPerSecond():
+        session.timeCodesPerSecond = stage.GetTimeCodesPerSecond()
+    return session
+
+
 def _def(layer, path: str, type_name: str):
     from pxr import Sdf
 
@@ -110,7 +119,7 @@ def show_lines_of_sight(api, length_m: float = 2.0) -> str:
 
     from usdgaze.review import analysis
 
-    stage, session = api.stage, api.stage.GetSessionLayer()
+    stage, session = api.stage, _helper_layer(api.stage)
     if _remove(session, LINES):
         api.UpdateViewport()
         return _say(api, "usdgaze: lines of sight hidden")
@@ -143,7 +152,7 @@ def select_chain_joints(api) -> str:
     layer, following the animation, and select those markers."""
     from pxr import Sdf, Tf, Vt
 
-    stage, session = api.stage, api.stage.GetSessionLayer()
+    stage, session = api.stage, _helper_layer(api.stage)
     chars = _characters(stage)
     if not chars:
         return _say(api, "usdgaze: no skeleton with a bound animation and a gaze chain on this stage")
@@ -207,7 +216,9 @@ def summary(api) -> str:
 
 def _shown(value) -> str:
     if hasattr(value, "items"):
-        return ", ".join(f"{k} {v:g}" for k, v in dict(value).items())
+        value = dict(value)
+        keys = [k for k in ("yaw", "up", "down") if k in value] + sorted(k for k in value if k not in ("yaw", "up", "down"))
+        return ", ".join(f"{k} {value[k]:g}" for k in keys)
     if isinstance(value, (str, float, int)):
         return f"{value:g}" if isinstance(value, float) else str(value)
     return ", ".join(str(v) for v in value)

@@ -32,7 +32,10 @@ def run(stage_path: str | os.PathLike, layer: str | os.PathLike | None = None, o
     registry = UsdValidation.ValidationRegistry()
     chosen = ([registry.GetOrLoadValidatorByName(n) for n in validators.names()] if only_usdgaze
               else registry.GetOrLoadAllValidators())
-    errors = UsdValidation.ValidationContext([v for v in chosen if v is not None]).Validate(stage)
+    # Every prim, abstract classes included: a map file holds its map on a class prim.
+    from pxr import Usd
+
+    errors = UsdValidation.ValidationContext([v for v in chosen if v is not None]).Validate(stage, Usd.PrimAllPrimsPredicate)
     problems = []
     for e in errors:
         if e.HasNoError():
