@@ -166,3 +166,27 @@ def test_achieved_gaze_read_back_matches_usdskel_fk(run):
     speed = analysis.sight_speed(c)
     step = measure.angle_between(sight[1:], sight[:-1]) / np.diff(c.seconds)
     assert np.allclose(speed[1:-1], 0.5 * (step[1:] + step[:-1]), atol=1e-3)
+
+
+def test_attention_panel_shows_which_object_the_point_of_sight_is_on(tmp_path):
+    """Array-level panels for look-at and attention runs (their readers come with those passes)."""
+    plt = plotting.pyplot()
+    t = np.linspace(0.0, 4.0, 401)
+    a = np.column_stack([np.ones_like(t), np.zeros_like(t), np.zeros_like(t)])
+    b = np.column_stack([-np.ones_like(t), np.zeros_like(t), np.zeros_like(t)])
+    on_a = (t < 1.5)[:, None]
+    sight = np.where(on_a, a, b) + 0.01
+    unc = {"ball": np.where(t < 1.5, 0.1, 0.1 + (t - 1.5)), "cup": np.where(t < 1.5, 0.1 + t, 0.2)}
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6, 4))
+    plotting.panel_attention(top, bottom, t, sight, {"ball": a, "cup": b}, unc, "test")
+    fig.canvas.draw()
+    png = tmp_path / "att.png"
+    fig.savefig(png)
+    height = fig.canvas.get_width_height()[1]
+    for name, colour, row in (("ball", plotting.JOINT_COLOURS[0], 0), ("cup", plotting.JOINT_COLOURS[1], 1)):
+        mask = _mask(png, colour, 20)
+        y = int(round(height - top.transData.transform((0, row))[1]))
+        for when, expected in ((0.5, name == "ball"), (3.0, name == "cup")):
+            x = int(round(top.transData.transform((when, row))[0]))
+            assert mask[y - 1:y + 2, x].any() == expected, (name, when)
+    plt.close(fig)

@@ -111,6 +111,12 @@ print("usdgaze imported first:", "usdgaze" in sys.modules and sys.modules.get("_
     proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.splitlines()[0] == "['Range']"
+    # And in a process that imports usdgaze (no PXR_PLUGINPATH_NAME): the import registers them.
+    env.pop("PXR_PLUGINPATH_NAME")
+    proc = subprocess.run([sys.executable, "-c", "import usdgaze\n" + code], env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[0] == "['Range']"
 
 
 def test_validate_is_silent_on_a_clean_result_and_lints_a_bad_one(tmp_path, capsys):

@@ -160,10 +160,24 @@ def sight_speed(c, posed=None) -> np.ndarray:
     return angular_speed(c.seconds, d)
 
 
+def change_speed(c) -> np.ndarray:
+    """Speed (deg/s) of the gaze change against the base motion: the pass's own motion, without
+    the base motion's turning and bobbing."""
+    change = achieved_change(c)
+    if len(c.seconds) < 2:
+        return np.zeros(len(c.seconds))
+    rate = np.linalg.norm(np.diff(change, axis=0), axis=1) / np.maximum(np.diff(c.seconds), 1e-12)
+    speed = np.empty(len(c.seconds))
+    speed[0], speed[-1] = rate[0], rate[-1]
+    speed[1:-1] = 0.5 * (rate[1:] + rate[:-1])
+    return speed
+
+
 def peak_speeds(c, shifts, speed: np.ndarray | None = None) -> np.ndarray:
-    """Per shift: (amplitude of the line-of-sight change, peak speed during the shift) ``(S, 2)``."""
-    speed = sight_speed(c) if speed is None else speed
-    _, d = sight(c, c.gaze)
+    """Per shift: (amplitude, peak speed) of the gaze change against the base ``(S, 2)``, deg and
+    deg/s; the amplitude is how far the change moved by the next shift (or the clip's end)."""
+    speed = change_speed(c) if speed is None else speed
+    change = achieved_change(c)
     shifts = sorted(shifts)
     out = []
     for k, (t0, _, _) in enumerate(shifts):
@@ -171,6 +185,5 @@ def peak_speeds(c, shifts, speed: np.ndarray | None = None) -> np.ndarray:
         rows = np.flatnonzero((c.seconds >= t0) & (c.seconds < t1))
         if len(rows) < 2:
             continue
-        amplitude = np.degrees(np.arccos(np.clip(d[rows] @ d[rows[0]], -1.0, 1.0))).max()
-        out.append((amplitude, speed[rows].max()))
+        out.append((np.linalg.norm(change[rows[-1]] - change[rows[0]]), speed[rows].max()))
     return np.array(out).reshape(-1, 2)

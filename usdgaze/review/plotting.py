@@ -99,8 +99,11 @@ def panel_eyes(ax, seconds, eye_angles, limits: dict[str, float], recorded: bool
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, borderaxespad=0.0)
 
 
-def panel_speed(ax, seconds, speed, shift_times, title: str) -> None:
-    ax.plot(seconds, speed, color="#444444", lw=1.2)
+def panel_speed(ax, seconds, speed, change_speed, shift_times, title: str) -> None:
+    """Line-of-sight speed in space, and of the gaze change against the base motion."""
+    ax.plot(seconds, speed, color="#999999", lw=1.0, label="line of sight in space")
+    ax.plot(seconds, change_speed, color="#d62728", lw=1.4, label="gaze change against the base")
+    ax.legend(loc="upper right", fontsize=7)
     for t in shift_times:
         ax.axvline(t, color="0.85", lw=0.8, zorder=0)
     ax.set_title(title)
@@ -109,7 +112,7 @@ def panel_speed(ax, seconds, speed, shift_times, title: str) -> None:
 
 
 def panel_main_sequence(ax, peaks: np.ndarray, title: str) -> None:
-    """Peak line-of-sight speed per shift against the saccade main sequence."""
+    """Per shift, the peak speed of the gaze change against the saccade main sequence."""
     top = max(90.0, float(peaks[:, 0].max()) * 1.1) if len(peaks) else 90.0
     a = np.linspace(0.0, top, 200)
     ax.plot(a, analysis.main_sequence(a), color="0.4", lw=1.2,
@@ -185,10 +188,10 @@ def figures(review) -> dict[str, object]:
         panel_eyes(ax, c.seconds, analysis.eye_in_head(c), review.eye_range, review.eye_range_recorded,
                    f"{name}: eye in head")
         out[f"{name}_eyes"] = fig
-        speed = analysis.sight_speed(c)
+        change = analysis.change_speed(c)
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": (2, 1)})
-        panel_speed(a1, c.seconds, speed, times, f"{name}: line-of-sight speed in space")
-        panel_main_sequence(a2, analysis.peak_speeds(c, review.shifts, speed), "against the saccade main sequence")
+        panel_speed(a1, c.seconds, analysis.sight_speed(c), change, times, f"{name}: line-of-sight speed")
+        panel_main_sequence(a2, analysis.peak_speeds(c, review.shifts, change), "peak per shift vs the main sequence")
         out[f"{name}_speed"] = fig
     for fig in out.values():
         fig.tight_layout()
