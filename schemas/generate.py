@@ -29,6 +29,52 @@ PLACEHOLDERS = {
 }
 
 
+# Python plugins that ride along in the same plugInfo.json, so one PXR_PLUGINPATH_NAME entry brings
+# the schema, usdgaze's UsdValidation validators and its usdview Gaze menu (each module is imported
+# only when USD asks for it; usdgaze must be importable there). Keep the validator docs in step with
+# usdgaze/review/validators.py (tests check).
+VALIDATOR_PLUGIN = "usdgaze.review.validators"
+VALIDATORS = {
+    "GazeMapArrays": "Every gaze:examples:* array of a GazeMapAPI is authored, uniform, of its schema type, "
+                     "and holds one entry per example.",
+    "GazeMapRanges": "GazeMapAPI values lie in their documented ranges: yaw [-180, 180], pitch [-90, 90], "
+                     "timing, synthesis settings; no two examples share a (yaw, pitch).",
+    "GazeMapUnitQuaternions": "Every GazeMapAPI offset is a finite unit quaternion.",
+    "GazeMapRoleJoints": "Every joint a GazeMapAPI binds to a role is a joint of each Skeleton under its SkelRoot, "
+                         "and GazeMapAPI sits on a SkelRoot.",
+    "AnimationArrays": "A SkelAnimation's rotations, translations and scales hold one finite entry per joint at "
+                       "every time sample, and its rotations are unit quaternions.",
+}
+VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"]}
+USDVIEW_PLUGIN = "usdgaze.review.usdview_plugin"
+
+
+def extra_plugins() -> list[dict]:
+    """The plugInfo entries of the validator and usdview Python plugins."""
+    validators = {name: {"doc": doc, "schemaTypes": VALIDATOR_SCHEMA_TYPES.get(name, ["UsdGazeGazeMapAPI"])}
+                  for name, doc in VALIDATORS.items()}
+    validators["keywords"] = ["UsdGazeValidators"]
+    return [
+        {"Info": {"Validators": validators}, "LibraryPath": "", "Name": VALIDATOR_PLUGIN,
+         # Plug keys plugins by their root: each needs its own (a name only; nothing is read there).
+         "ResourcePath": ".", "Root": "validators", "Type": "python"},
+        {"Info": {"Types": {f"{USDVIEW_PLUGIN}.GazePluginContainer": {
+            "bases": ["pxr.Usdviewq.plugin.PluginContainer"], "displayName": "usdgaze Gaze menu"}}},
+         "LibraryPath": "", "Name": USDVIEW_PLUGIN, "ResourcePath": ".", "Root": "usdview", "Type": "python"},
+    ]
+
+
+def _with_extra_plugins(text: str) -> str:
+    """usdGenSchema's plugInfo.json (comment lines, then JSON) with :func:`extra_plugins` appended."""
+    import json
+
+    lines = text.splitlines()
+    head = [line for line in lines if line.startswith("#")]
+    data = json.loads("\n".join(line for line in lines if not line.startswith("#")))
+    data["Plugins"].extend(extra_plugins())
+    return "\n".join(head + [json.dumps(data, indent=4, sort_keys=True)])
+
+
 def generate(out_dir: Path, schema: Path = HERE / "schema.usda") -> list[Path]:
     """Run usdGenSchema on ``schema`` and write the codeless plugin files into ``out_dir``."""
     out_dir = Path(out_dir)
@@ -50,6 +96,7 @@ def generate(out_dir: Path, schema: Path = HERE / "schema.usda") -> list[Path]:
         if placeholder not in texts["plugInfo.json"]:
             raise RuntimeError(f"usdGenSchema's plugInfo.json has no {placeholder}: template changed?")
         texts["plugInfo.json"] = texts["plugInfo.json"].replace(placeholder, value)
+    texts["plugInfo.json"] = _with_extra_plugins(texts["plugInfo.json"])
     written = []
     for name, text in texts.items():
         path = out_dir / name

@@ -74,6 +74,7 @@ class CharacterReport:
 @dataclass
 class ApplyReport:
     output: str
+    input: str | None = None
     characters: list[CharacterReport] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     preview: str | None = None
@@ -158,7 +159,7 @@ def run(req: ApplyRequest) -> ApplyReport:
         forced = schema.load_map(req.map_spec, tx) if req.map_spec else None
         roots = select_roots(stage, req.source, req.skel_root)
         report, overrides, info = _run_pass(stage, roots, forced, requests, req)
-        info.custom = _provenance(req.source, requests, report)
+        info.custom = _provenance(req.source, requests, report, req.options)
         _stage_outputs(tx, req, stage, report, overrides, info)
     if req.sublayer_into is not None:
         reload_if_open(req.sublayer_into)
@@ -216,7 +217,7 @@ def _run_pass(stage, roots, forced, requests, req):
 
     source = req.source
     maps: dict[bytes, ParametricGazeMap] = {}
-    report = ApplyReport(output=str(req.out))
+    report = ApplyReport(output=str(req.out), input=req.source)
     overrides: list[AnimOverride] = []
     seen_anims: dict[str, str] = {}
     for root in roots:
@@ -301,7 +302,7 @@ def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_s
     )
 
 
-def _provenance(source: str, requests: list[ShiftRequest], report: ApplyReport) -> dict:
+def _provenance(source: str, requests: list[ShiftRequest], report: ApplyReport, options: PassOptions) -> dict:
     return {
         "usdgaze": {
             "version": __version__,
@@ -309,6 +310,10 @@ def _provenance(source: str, requests: list[ShiftRequest], report: ApplyReport) 
             "shifts": [str(r) for r in requests],
             "maps": sorted({c.map_source for c in report.characters}),
             "characters": [c.skel_root for c in report.characters],
+            # What the review tools draw the eye angles against, and the point of sight's distance.
+            "eyeRange": {"yaw": float(options.eye_range.yaw), "up": float(options.eye_range.up),
+                         "down": float(options.eye_range.down)},
+            "fixation": float(options.fixation_m),
         }
     }
 
@@ -320,7 +325,8 @@ def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
     if req.sublayer_into is not None:  # refuse before anything is staged
         check_sublayer_target(req.sublayer_into, animations)
     out = Path(req.out)
-    atomic_export(build_override(overrides, info, fmt=out.suffix.lstrip(".")), out, tx)
+    layer = build_override(overrides, info, fmt=out.suffix.lstrip("."))
+    atomic_export(layer, out, tx)
     if req.preview is not None:
         default_prim = stage.GetRootLayer().defaultPrim or None
         write_preview(req.preview, out, req.source, info, default_prim, tx)
@@ -328,7 +334,7 @@ def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
     if req.plot is not None:
         from usdgaze.review.plotting import plot_report
 
-        plot_report(report, req.plot, tx)
+        plot_report(report, req.plot, tx, layer=layer)  # drawn from the composed result, not yet on disk
         report.plot = str(req.plot)
     if req.sublayer_into is not None:
         insert_sublayer(req.sublayer_into, out, animations, tx)

@@ -1,4 +1,5 @@
-"""The ``usdgaze`` command line. Exit codes: 0 done, 2 bad input (one line on stderr), 1 internal error."""
+"""The ``usdgaze`` command line. Exit codes: 0 done, 2 bad input (one line on stderr), 1 internal error,
+3 ``validate`` found problems."""
 
 from __future__ import annotations
 
@@ -31,6 +32,9 @@ _COMMANDS = {
     "plugin-path": ("usdgaze.console.plugin_path", "plugin_path"),
     "build-map": ("usdgaze.console.build_map", "build_map"),
     "physics-model": ("usdgaze.console.physics_model", "physics_model"),
+    "plot": ("usdgaze.console.plot", "plot"),
+    "preview": ("usdgaze.console.preview", "preview"),
+    "validate": ("usdgaze.console.validate", "validate"),
 }
 
 
@@ -75,7 +79,7 @@ def cli() -> None:
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the CLI and map failures to exit codes (2 bad input, 1 internal)."""
     try:
-        cli.main(args=argv, prog_name="usdgaze", standalone_mode=False)
+        code = cli.main(args=argv, prog_name="usdgaze", standalone_mode=False)
     except UsdGazeError as exc:
         _fail(str(exc))
         return EXIT_BAD_INPUT
@@ -101,7 +105,8 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         _fail(f"internal error: {type(exc).__name__}: {exc} (set USDGAZE_DEBUG=1 for the traceback)")
         return EXIT_INTERNAL
-    return 0
+    # A command's own exit code (``validate`` exits 3 on problems), which click returns here.
+    return code if isinstance(code, int) else 0
 
 
 if __name__ == "__main__":

@@ -1,76 +1,256 @@
-"""Review plots of a gaze pass (matplotlib, an optional extra: ``pip install 'usdgaze[plot]'``)."""
+"""Review plots of a gaze pass (matplotlib, an optional extra: ``pip install 'usdgaze[plot]'``).
+
+Every panel function draws arrays into a matplotlib ``Axes``; :func:`figures` lays them out from a
+:class:`~usdgaze.review.composed.Review` (what ``usdgaze plot`` writes, one PNG per figure) and
+:func:`plot_report` stacks the main ones into the single file of ``apply --plot``.
+"""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
+import numpy as np
+
 from usdgaze.errors import UsdGazeError
-from usdgaze.files.transaction import Outputs, outputs_of
-from usdgaze.gaze.motion import SEGMENTS
+from usdgaze.review import analysis
+
+JOINT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22")
+ROLE_COLOURS = ("#8c564b", "#9467bd", "#2ca02c", "#1f77b4", "#d62728", "#e377c2")
+"""Cascade curves: pelvis, lower spine, upper spine, neck, head, eye (tests find the curves by these)."""
+YAW_COLOUR, PITCH_COLOUR = "#1f77b4", "#ff7f0e"
+_FORMATS = {".png", ".pdf", ".svg"}
 
 
-def check_plot_path(path: str | os.PathLike):
-    """matplotlib's pyplot if ``path`` can be drawn to, else a one-line error (call before any work)."""
-    path = Path(path)
-    if path.suffix.lower() not in {".png", ".pdf", ".svg"}:
-        raise UsdGazeError(f"{path}: plot must end in .png, .pdf or .svg")
-    if not path.parent.is_dir():
-        raise UsdGazeError(f"{path}: folder {path.parent} does not exist")
+def pyplot():
+    """matplotlib's pyplot on the headless Agg backend, or a one-line error."""
     try:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise UsdGazeError(f"{path}: plotting needs matplotlib: pip install 'usdgaze[plot]'") from None
+        raise UsdGazeError("plotting needs matplotlib: pip install 'usdgaze[plot]'") from None
     return plt
 
 
-def plot_report(report, path: str | os.PathLike, outputs: Outputs | None = None) -> None:
-    """One figure per character, stacked: wanted vs achieved gaze change, segment angles, eye angles."""
-    plt = check_plot_path(path)
-    fig = _figure(plt, report)
+def check_plot_path(path: str | os.PathLike):
+    """matplotlib's pyplot if ``path`` can be drawn to, else a one-line error (call before any work)."""
+    path = Path(path)
+    if path.suffix.lower() not in _FORMATS:
+        raise UsdGazeError(f"{path}: plot must end in .png, .pdf or .svg")
+    if not path.parent.is_dir():
+        raise UsdGazeError(f"{path}: folder {path.parent} does not exist")
     try:
-        with outputs_of(outputs) as tx:
-            if not tx.claimed(path):
-                tx.claim(path, "--plot")
-            # The format follows the temporary's suffix, which is the target's.
-            tx.stage_with(path, lambda temp: fig.savefig(temp, dpi=110))
+        return pyplot()
+    except UsdGazeError:
+        raise UsdGazeError(f"{path}: plotting needs matplotlib: pip install 'usdgaze[plot]'") from None
+
+
+# -- panels (arrays in, drawing out) ----------------------------------------------------------------
+
+def panel_cascade(ax, elapsed: np.ndarray, angles: np.ndarray, labels: list[str], title: str) -> None:
+    """Each joint's angle turned since a shift began (Heck Fig. 5.2: cascade, overshoot, settle)."""
+    roles: dict[str, int] = {}
+    for i, label in enumerate(labels):
+        role = label.split(" (")[0]
+        k = roles.setdefault(role, len(roles))
+        nth = sum(1 for other in labels[:i] if other.split(" (")[0] == role)
+        # Joints sharing a role turn alike: same colour, a dash pattern each so none hides another.
+        ax.plot(elapsed, angles[:, i], color=ROLE_COLOURS[k % len(ROLE_COLOURS)], lw=1.8 - 0.4 * nth,
+                ls=("-", "--", ":", "-.")[nth % 4], label=label)
+    ax.set_xlim(0.0, float(elapsed[-1]) if len(elapsed) else 1.0)
+    ax.set_ylim(0.0, max(1.0, float(np.nanmax(angles)) * 1.1) if angles.size else 1.0)
+    ax.set_title(title)
+    ax.set_xlabel("seconds since the shift began")
+    ax.set_ylabel("joint rotation since then (deg)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, borderaxespad=0.0)
+
+
+def panel_gaze(ax, seconds, requested, achieved, shift_times, title: str) -> None:
+    """Requested (steps) against achieved (by FK) change of the line of sight."""
+    for i, (name, colour) in enumerate((("yaw", YAW_COLOUR), ("pitch", PITCH_COLOUR))):
+        ax.plot(seconds, requested[:, i], "--", color=colour, lw=1, label=f"{name} requested")
+        ax.plot(seconds, achieved[:, i], color=colour, lw=1.6, label=f"{name} achieved (FK)")
+    for t in shift_times:
+        ax.axvline(t, color="0.85", lw=0.8, zorder=0)
+    ax.set_title(title)
+    ax.set_ylabel("change of the line of sight (deg)")
+    ax.set_xlabel("seconds from the stage start")
+    ax.legend(loc="best", fontsize=7)
+
+
+def panel_eyes(ax, seconds, eye_angles, limits: dict[str, float], recorded: bool, title: str) -> None:
+    """Eye-in-head yaw and pitch of both eyes, against the limits the pass used."""
+    styles = (("left", "-"), ("right", ":"))
+    for e, (side, ls) in enumerate(styles):
+        ax.plot(seconds, eye_angles[:, e, 0], ls, color=YAW_COLOUR, lw=1.2, label=f"{side} eye yaw")
+        ax.plot(seconds, eye_angles[:, e, 1], ls, color=PITCH_COLOUR, lw=1.2, label=f"{side} eye pitch")
+    low = min(-limits["yaw"], -limits["down"], float(np.nanmin(eye_angles)))
+    high = max(limits["yaw"], limits["up"], float(np.nanmax(eye_angles)))
+    ax.set_ylim(low - 5.0, high + 5.0)
+    where = "as the pass recorded" if recorded else "defaults: the layer does not record them"
+    for value, name, colour in ((limits["yaw"], "yaw limit", YAW_COLOUR), (-limits["yaw"], None, YAW_COLOUR),
+                                (limits["up"], "up limit", PITCH_COLOUR), (-limits["down"], "down limit", PITCH_COLOUR)):
+        ax.axhline(value, color=colour, lw=1.0, ls=(0, (6, 4)), label=name)
+    ax.set_title(f"{title} (dashed: eye range, {where})")
+    ax.set_ylabel("eye in head (deg)")
+    ax.set_xlabel("seconds from the stage start")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, borderaxespad=0.0)
+
+
+def panel_speed(ax, seconds, speed, change_speed, shift_times, title: str) -> None:
+    """Line-of-sight speed in space, and of the gaze change against the base motion."""
+    ax.plot(seconds, speed, color="#999999", lw=1.0, label="line of sight in space")
+    ax.plot(seconds, change_speed, color="#d62728", lw=1.4, label="gaze change against the base")
+    ax.legend(loc="upper right", fontsize=7)
+    for t in shift_times:
+        ax.axvline(t, color="0.85", lw=0.8, zorder=0)
+    ax.set_title(title)
+    ax.set_ylabel("line-of-sight speed (deg/s)")
+    ax.set_xlabel("seconds from the stage start")
+
+
+def panel_main_sequence(ax, peaks: np.ndarray, title: str) -> None:
+    """Per shift, the peak speed of the gaze change against the saccade main sequence."""
+    top = max(90.0, float(peaks[:, 0].max()) * 1.1) if len(peaks) else 90.0
+    a = np.linspace(0.0, top, 200)
+    ax.plot(a, analysis.main_sequence(a), color="0.4", lw=1.2,
+            label=f"main sequence {analysis.MAIN_SEQUENCE_VMAX:g}(1-exp(-A/{analysis.MAIN_SEQUENCE_C:g}))")
+    if len(peaks):
+        ax.plot(peaks[:, 0], peaks[:, 1], "o", color="#d62728", label="shifts (peak speed)")
+    ax.set_xlim(0.0, top)
+    ax.set_title(title)
+    ax.set_xlabel("amplitude (deg)")
+    ax.set_ylabel("peak speed (deg/s)")
+    ax.legend(loc="lower right", fontsize=7)
+
+
+def panel_target_error(ax, seconds, errors: dict[str, np.ndarray], title: str) -> None:
+    """Angle between the line of sight and the direction to each look-at target (deg)."""
+    for i, (name, err) in enumerate(errors.items()):
+        ax.plot(seconds, err, color=JOINT_COLOURS[i % len(JOINT_COLOURS)], lw=1.4, label=name)
+    ax.set_ylim(bottom=0.0)
+    ax.set_title(title)
+    ax.set_ylabel("target error (deg)")
+    ax.set_xlabel("seconds from the stage start")
+    ax.legend(loc="best", fontsize=7)
+
+
+def panel_attention(ax_top, ax_bottom, seconds, point_of_sight: np.ndarray, objects: dict[str, np.ndarray],
+                    uncertainty: dict[str, np.ndarray], title: str) -> None:
+    """Eom Fig. 4: which object the point of sight is on, and each object's uncertainty, over time.
+
+    ``point_of_sight`` ``(F, 3)``; ``objects`` name -> positions ``(F, 3)``; ``uncertainty`` name ->
+    ``(F,)`` (e.g. the trace of the estimate's position covariance).
+    """
+    names = list(objects)
+    dist = np.stack([np.linalg.norm(point_of_sight - objects[n], axis=-1) for n in names], axis=1)
+    nearest = np.argmin(dist, axis=1)
+    for i, name in enumerate(names):
+        colour = JOINT_COLOURS[i % len(JOINT_COLOURS)]
+        on = np.where(nearest == i, i, np.nan)
+        ax_top.plot(seconds, on, color=colour, lw=6, solid_capstyle="butt")
+        ax_bottom.plot(seconds, uncertainty[name], color=colour, lw=1.4, label=name)
+    ax_top.set_yticks(range(len(names)), names)
+    ax_top.set_ylim(-0.5, len(names) - 0.5)
+    ax_top.set_title(f"{title}: object nearest the point of sight")
+    ax_bottom.set_ylabel("uncertainty")
+    ax_bottom.set_xlabel("seconds from the stage start")
+    ax_bottom.legend(loc="best", fontsize=7)
+
+
+# -- figures ---------------------------------------------------------------------------------------
+
+def _name(c) -> str:
+    return c.skel_root.rsplit("/", 1)[-1] or "character"
+
+
+def figures(review) -> dict[str, object]:
+    """Every review figure, by file stem (``<character>_<kind>``), as matplotlib Figures."""
+    plt = pyplot()
+    out = {}
+    times = [t for t, _, _ in review.shifts]
+    for c in review.characters:
+        name = _name(c)
+        cascades = analysis.shift_cascade(c, review.shifts)
+        if cascades:
+            fig, axes = plt.subplots(len(cascades), 1, figsize=(10, 3.2 * len(cascades)), squeeze=False)
+            for ax, s in zip(axes[:, 0], cascades):
+                panel_cascade(ax, s.elapsed, s.angles, s.labels,
+                              f"{name}: shift {s.index + 1} at {s.time_s:g} s to yaw {s.yaw:g}, pitch {s.pitch:g}")
+            out[f"{name}_cascade"] = fig
+        fig, ax = plt.subplots(figsize=(9, 3.6))
+        panel_gaze(ax, c.seconds, analysis.requested_steps(c.seconds, review.shifts), analysis.achieved_change(c),
+                   times, f"{name}: requested vs achieved change of the line of sight")
+        out[f"{name}_gaze"] = fig
+        fig, ax = plt.subplots(figsize=(10, 3.6))
+        panel_eyes(ax, c.seconds, analysis.eye_in_head(c), review.eye_range, review.eye_range_recorded,
+                   f"{name}: eye in head")
+        out[f"{name}_eyes"] = fig
+        change = analysis.change_speed(c)
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": (2, 1)})
+        panel_speed(a1, c.seconds, analysis.sight_speed(c), change, times, f"{name}: line-of-sight speed")
+        panel_main_sequence(a2, analysis.peak_speeds(c, review.shifts, change), "peak per shift vs the main sequence")
+        out[f"{name}_speed"] = fig
+    for fig in out.values():
+        fig.tight_layout()
+    return out
+
+
+def save_figure(fig, path: str | os.PathLike, outputs, dpi: int = 100) -> None:
+    """Stage ``fig`` through the command's writer and close it."""
+    plt = pyplot()
+    try:
+        outputs.stage_with(path, lambda temp: fig.savefig(temp, dpi=dpi, format=Path(path).suffix.lstrip(".").lower()))
     finally:
         plt.close(fig)
 
 
-def _figure(plt, report):
-    chars = report.characters
-    fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 7.5 * len(chars)), sharex=False, squeeze=False)
+def write_plots(review, out_dir: str | os.PathLike, outputs, fmt: str = "png") -> list[Path]:
+    """Write every figure of ``review`` into ``out_dir`` (claimed, staged; the caller commits)."""
+    written = []
+    for stem, fig in figures(review).items():
+        path = Path(out_dir) / f"{stem}.{fmt}"
+        outputs.claim(path, "--out", follow=False)
+        save_figure(fig, path, outputs)
+        written.append(path)
+    return written
+
+
+def summary_figure(review):
+    """One stacked figure per character: requested vs achieved, the first shift's cascade, eye angles."""
+    plt = pyplot()
+    chars = review.characters
+    fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 9.5 * len(chars)), squeeze=False)
+    times = [t for t, _, _ in review.shifts]
     for n, c in enumerate(chars):
-        r = c.result
-        t = r.seconds
-        ax = axes[3 * n, 0]
-        for i, (name, colour) in enumerate((("yaw", "tab:blue"), ("pitch", "tab:orange"))):
-            ax.plot(t, r.requested[:, i], "--", color=colour, lw=1, label=f"{name} wanted")
-            ax.plot(t, r.achieved[:, i], color=colour, lw=1.5, label=f"{name} achieved (FK)")
-        for s in r.shift_timing:
-            ax.axvline(s["time_s"], color="0.8", lw=0.8)
-        ax.set_title(f"{c.skel_root}: change of the line of sight against the base motion")
-        ax.set_ylabel("deg")
-        ax.legend(loc="best", fontsize=8)
-        ax = axes[3 * n + 1, 0]
-        for i, seg in enumerate(SEGMENTS):
-            ax.plot(t, r.segment_angles[:, i], lw=1.2, label=seg)
-        ax.set_title("model displacement per segment (cascade, overshoot, settle)")
-        ax.set_ylabel("deg")
-        ax.legend(loc="best", fontsize=8)
-        ax = axes[3 * n + 2, 0]
-        for e, side in enumerate(("left", "right")):
-            ax.plot(t, r.eye_angles[:, e, 0], lw=1, label=f"{side} eye yaw")
-            ax.plot(t, r.eye_angles[:, e, 1], lw=1, label=f"{side} eye pitch")
-        for limit in (44.2, -44.2, 27.7, -47.1):
-            ax.axhline(limit, color="0.7", lw=0.6, ls=":")
-        ax.set_title("eye in head (dotted: eye range)")
-        ax.set_ylabel("deg")
-        ax.set_xlabel("seconds from the stage start")
-        ax.legend(loc="best", fontsize=8, ncol=2)
+        name = _name(c)
+        panel_gaze(axes[3 * n, 0], c.seconds, analysis.requested_steps(c.seconds, review.shifts),
+                   analysis.achieved_change(c), times, f"{name}: requested vs achieved change of the line of sight")
+        cascades = analysis.shift_cascade(c, review.shifts)
+        if cascades:
+            s = cascades[0]
+            panel_cascade(axes[3 * n + 1, 0], s.elapsed, s.angles, s.labels,
+                          f"shift 1 at {s.time_s:g} s: per-joint rotation (cascade, overshoot, settle)")
+        panel_eyes(axes[3 * n + 2, 0], c.seconds, analysis.eye_in_head(c), review.eye_range,
+                   review.eye_range_recorded, "eye in head")
     fig.tight_layout()
     return fig
+
+
+def plot_report(report, path: str | os.PathLike, outputs=None, layer=None) -> None:
+    """``apply --plot``: the summary figure of what ``report`` wrote, read back from the composed result.
+
+    ``layer`` is the override as an ``Sdf.Layer`` when it is staged but not yet on disk (apply draws
+    before its transaction commits); else ``report.output`` is read.
+    """
+    from usdgaze.files.transaction import outputs_of
+    from usdgaze.review.composed import read_review
+
+    check_plot_path(path)
+    review = read_review(report.input, layer if layer is not None else report.output)
+    with outputs_of(outputs) as tx:
+        if not tx.claimed(path):
+            tx.claim(path, "--plot")
+        save_figure(summary_figure(review), path, tx, dpi=110)

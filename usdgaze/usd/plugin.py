@@ -49,6 +49,8 @@ def register() -> None:
     if registry.GetPluginWithName(PLUGIN_NAME) is None:
         registry.RegisterPlugins(str(plugin_dir()))
     _registered = True
+    # The same plugInfo.json declares usdgaze's UsdValidation validators (a Python plugin): OpenUSD
+    # imports usdgaze.review.validators, which registers their tasks, the first time one is asked for.
     if not Usd.SchemaRegistry.GetTypeFromSchemaTypeName(SCHEMA_NAME):
         warnings.warn(
             f"OpenUSD's schema registry was built before usdgaze registered {SCHEMA_NAME}, so gaze maps "

@@ -1,0 +1,150 @@
+"""usdgaze's UsdValidation validators: each catches its malformation, all pass on the sample stages,
+they load through the plugin path in a process that never imports usdgaze, and ``usdgaze validate``
+reports like a linter."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdValidation, Vt
+
+from usdgaze import api
+from usdgaze.console.main import main
+from usdgaze.review import validators
+from usdgaze.usd.plugin import plugin_dir
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLES = [ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc", ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc",
+           ROOT / "sample_stages" / "shared_map" / "crowd.usda", ROOT / "sample_stages" / "shared_map" / "gaze_map.usda"]
+CROWD = SAMPLES[2]
+MAP_PRIM = "/CrowdA/Body"
+
+
+def _ours(stage) -> list:
+    registry = UsdValidation.ValidationRegistry()
+    ctx = UsdValidation.ValidationContext([registry.GetOrLoadValidatorByName(n) for n in validators.names()])
+    return [(e.GetValidator().GetMetadata().name.split(":")[1], e.GetName(),
+             str(e.GetSites()[0].GetProperty().GetPath() if e.GetSites()[0].IsProperty() else e.GetSites()[0].GetPrim().GetPath()),
+             e.GetMessage()) for e in ctx.Validate(stage, Usd.PrimAllPrimsPredicate)]
+
+
+@pytest.mark.parametrize("path", SAMPLES, ids=lambda p: p.name)
+def test_every_validator_passes_on_the_sample_stages(path):
+    assert _ours(Usd.Stage.Open(str(path))) == []
+
+
+def _crowd():
+    stage = Usd.Stage.Open(str(CROWD))
+    stage.SetEditTarget(stage.GetSessionLayer())  # malformations go into the session layer only
+    return stage, stage.GetPrimAtPath(MAP_PRIM)
+
+
+def _set(prim, name, value):
+    prim.GetAttribute(name).Set(value)
+
+
+def _quat_array(prim, name, scale_first):
+    q = np.array(prim.GetAttribute(name).Get(), dtype=np.float32)
+    q[0] *= scale_first
+    return Vt.QuatfArray.FromNumpy(q)
+
+
+MALFORMED = {
+    "GazeMapArrays": (lambda p: _set(p, "gaze:examples:pitch", Vt.FloatArray([0.0, 1.0])), "Length", "gaze:examples:pitch"),
+    "GazeMapRanges": (lambda p: _set(p, "gaze:examples:overshoot", Vt.FloatArray(
+        [1.5] + list(p.GetAttribute("gaze:examples:overshoot").Get())[1:])), "Range", "gaze:examples:overshoot"),
+    "GazeMapUnitQuaternions": (lambda p: _set(p, "gaze:examples:neckOffset", _quat_array(p, "gaze:examples:neckOffset", 1.2)),
+                               "NotUnit", "gaze:examples:neckOffset"),
+    "GazeMapRoleJoints": (lambda p: _set(p, "gaze:binding:head", Vt.TokenArray(["Hips/Nope"])), "UnknownJoint",
+                          "gaze:binding:head"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(MALFORMED))
+def test_each_map_validator_catches_its_malformation(name):
+    stage, prim = _crowd()
+    assert _ours(stage) == []
+    if name == "GazeMapRoleJoints":  # the crowd's map binds nothing explicitly; bind one joint that exists
+        _set(prim, "gaze:binding:neck", Vt.TokenArray(["Hips/lowerback/Chest/Chest2/lowerneck"]))
+        assert _ours(stage) == []
+    malform, error, attr = MALFORMED[name]
+    malform(prim)
+    found = _ours(stage)
+    assert [(v, e, s) for v, e, s, _ in found] == [(name, error, f"{MAP_PRIM}.{attr}")], found
+
+
+def test_animation_validator_catches_a_short_rotations_array(tmp_path):
+    stage = Usd.Stage.Open(str(SAMPLES[0]))
+    stage.GetSessionLayer().timeCodesPerSecond = stage.GetTimeCodesPerSecond()  # samples keep their times
+    stage.SetEditTarget(stage.GetSessionLayer())
+    anim = next(p for p in stage.Traverse() if p.GetTypeName() == "SkelAnimation")
+    rotations = anim.GetAttribute("rotations")
+    t = rotations.GetTimeSamples()[5]
+    rotations.Set(Vt.QuatfArray(list(rotations.Get(t))[:-1]), t)
+    found = _ours(stage)
+    assert [(v, e) for v, e, _, _ in found] == [("AnimationArrays", "Length")]
+    assert f"at time {t:g}" in found[0][3]
+
+
+def test_validators_load_through_the_plugin_path_without_importing_usdgaze(tmp_path):
+    bad = tmp_path / "bad_map.usda"
+    layer = Sdf.Layer.FindOrOpen(str(SAMPLES[3]))
+    layer.Export(str(bad))
+    code = f"""
+import sys
+from pxr import Usd, UsdValidation
+r = UsdValidation.ValidationRegistry()
+v = r.GetOrLoadValidatorByName("usdgaze.review.validators:GazeMapRanges")
+stage = Usd.Stage.Open({str(bad)!r})
+prim = stage.GetDefaultPrim()
+prim.GetAttribute("gaze:examples:pitch").Set([120.0] + list(prim.GetAttribute("gaze:examples:pitch").Get())[1:])
+print([e.GetName() for e in UsdValidation.ValidationContext([v]).Validate(stage, Usd.PrimAllPrimsPredicate)])
+print("usdgaze imported first:", "usdgaze" in sys.modules and sys.modules.get("__main__") is None)
+"""
+    env = dict(os.environ, PXR_PLUGINPATH_NAME=str(plugin_dir()))
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[0] == "['Range']"
+    # And in a process that imports usdgaze (no PXR_PLUGINPATH_NAME): the import registers them.
+    env.pop("PXR_PLUGINPATH_NAME")
+    proc = subprocess.run([sys.executable, "-c", "import usdgaze\n" + code], env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[0] == "['Range']"
+
+
+def test_validate_is_silent_on_a_clean_result_and_lints_a_bad_one(tmp_path, capsys):
+    preview = tmp_path / "preview.usda"
+    api.apply(SAMPLES[0], ["2s:60:0"], tmp_path / "g.usdc", preview=preview)
+    capsys.readouterr()
+    assert main(["validate", str(preview)]) == 0
+    assert main(["validate", str(SAMPLES[0]), "--layer", str(tmp_path / "g.usdc")]) == 0
+    assert capsys.readouterr() == ("", "")
+
+    # A malformed copy of the map file: two problems, one line each, exit 3 (bad input stays 2).
+    bad = tmp_path / "bad.usda"
+    stage = Usd.Stage.Open(str(SAMPLES[3]))
+    prim = stage.GetDefaultPrim()
+    prim.GetAttribute("gaze:examples:yaw").Set(Vt.FloatArray([500.0] + list(prim.GetAttribute("gaze:examples:yaw").Get())[1:]))
+    prim.GetAttribute("gaze:binding:forward").Set(Gf.Vec3f(0, 0, 1))
+    prim.GetAttribute("gaze:examples:duration").Set(Vt.FloatArray([1.0]))
+    stage.GetRootLayer().Export(str(bad))
+    assert main(["validate", str(bad), "--only-usdgaze"]) == 3
+    lines = capsys.readouterr().out.splitlines()
+    assert lines == [
+        f"{bad}:/GazeMap.gaze:examples:duration: error: gaze:examples:duration: 1 entries, expected 55 (one per example) "
+        "(usdgaze.review.validators:GazeMapArrays.Length)",
+        f"{bad}:/GazeMap.gaze:examples:yaw: error: gaze:examples:yaw: example 0 is 500 deg, expected in [-180, 180] deg "
+        "(usdgaze.review.validators:GazeMapRanges.Range)",
+    ]
+    assert main(["validate", str(bad), "--json"]) == 3
+    records = json.loads(capsys.readouterr().out)
+    assert {(r["validator"], r["error"]) for r in records} >= {
+        ("usdgaze.review.validators:GazeMapArrays", "Length"), ("usdgaze.review.validators:GazeMapRanges", "Range")}
+    assert main(["validate", str(tmp_path / "missing.usda")]) == 2

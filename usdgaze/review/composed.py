@@ -1,0 +1,219 @@
+"""The composed result of a gaze pass, as arrays: the input with the override layer as its strongest
+sublayer, opened in memory (neither file is touched), posed by forward kinematics for every frame.
+
+This is the one reader behind ``usdgaze plot``, ``usdgaze preview`` and ``apply --plot``: it turns a
+stage and a layer into numpy arrays; everything downstream (:mod:`usdgaze.review.analysis`, the
+plots, the renderer) works on arrays only.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.core.kinematics import world_matrices
+from usdgaze.core.rig import Chain, CharacterFrame
+from usdgaze.errors import UsdGazeError, usd_failure
+
+EYE_RANGE_KEY = "eyeRange"
+"""``customLayerData["usdgaze"]["eyeRange"]``: the eye-in-head limits the pass used (degrees)."""
+
+
+@dataclass
+class Posed:
+    """One skeleton's joints over frames: local rotations and world (stage-space) matrices."""
+
+    local_q: np.ndarray
+    """Local rotations ``(F, J, 4)`` (x, y, z, w)."""
+    world: np.ndarray
+    """Column-vector world matrices ``(F, J, 4, 4)`` (skeleton space carried to the stage)."""
+
+    def positions(self) -> np.ndarray:
+        return self.world[..., :3, 3]
+
+
+@dataclass
+class CharacterReview:
+    """Base and gaze poses of one skeleton on the composed stage, with what the pass recorded."""
+
+    skel_root: str
+    skeleton: str
+    joints: list[str]
+    parents: np.ndarray
+    seconds: np.ndarray
+    base: Posed
+    gaze: Posed
+    chain: Chain
+    frame: CharacterFrame
+    rest_world: np.ndarray
+    """Skeleton-space rest transforms ``(J, 4, 4)`` of the composed joints."""
+    skel_to_world: np.ndarray
+    """``(F, 4, 4)`` or ``(1, 4, 4)``."""
+    up: np.ndarray
+    meters_per_unit: float
+
+    @property
+    def eyes(self) -> tuple[int, int] | None:
+        return self.chain.eyes
+
+
+@dataclass
+class Review:
+    """What ``usdgaze plot`` and ``usdgaze preview`` draw: every character, plus the layer's record."""
+
+    input: str
+    layer: str
+    characters: list[CharacterReview] = field(default_factory=list)
+    shifts: list[tuple[float, float, float]] = field(default_factory=list)
+    """(seconds from the stage start, yaw, pitch) as recorded in the layer."""
+    eye_range: dict[str, float] = field(default_factory=dict)
+    eye_range_recorded: bool = False
+    """False for layers written before the limits were recorded (the defaults are shown then)."""
+    fixation_m: float | None = None
+
+
+def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike):
+    """A stage on an anonymous root layer that sublayers ``[layer, input]``: the result, in memory only.
+
+    The root copies the input's timing and units, so time codes mean what they mean in the input.
+    """
+    from pxr import Sdf, Usd, UsdGeom
+
+    source = str(input_path)
+    in_memory = isinstance(layer_path, Sdf.Layer)  # apply --plot: staged, not yet written
+    layer_file = layer_path.identifier if in_memory else str(layer_path)
+    for path, what in ((source, "input"), (layer_file, "--layer"))[: 1 if in_memory else 2]:
+        if not Path(path).is_file():
+            raise UsdGazeError(f"{path}: no such file ({what})")
+    if not in_memory and os.path.abspath(source) == os.path.abspath(layer_file):
+        raise UsdGazeError(f"{layer_file}: --layer names the input itself; pass the override layer usdgaze wrote")
+    layers = []
+    for path in (source, layer_file):
+        if path is layer_file and in_memory:
+            layers.append(layer_path)
+            continue
+        try:
+            layer = Sdf.Layer.FindOrOpen(os.path.abspath(path))
+        except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
+            raise UsdGazeError(f"{path}: cannot open as a USD layer ({usd_failure(exc)})") from None
+        if layer is None:
+            raise UsdGazeError(f"{path}: cannot open as a USD layer")
+        layers.append(layer)
+    base_layer, gaze_layer = layers
+    root = Sdf.Layer.CreateAnonymous("usdgaze_review.usda")
+    with Sdf.ChangeBlock():
+        for name in ("timeCodesPerSecond", "framesPerSecond", "startTimeCode", "endTimeCode"):
+            if base_layer.pseudoRoot.HasInfo(name):
+                root.pseudoRoot.SetInfo(name, base_layer.pseudoRoot.GetInfo(name))
+        for name in ("upAxis", "metersPerUnit", "defaultPrim"):
+            if base_layer.pseudoRoot.HasInfo(name):
+                root.pseudoRoot.SetInfo(name, base_layer.pseudoRoot.GetInfo(name))
+        root.subLayerPaths.append(gaze_layer.identifier)
+        root.subLayerPaths.append(base_layer.identifier)
+    stage = Usd.Stage.Open(root)
+    if not UsdGeom.GetStageUpAxis(stage):
+        raise UsdGazeError(f"{source}: the stage has no up axis")
+    return stage, gaze_layer
+
+
+def layer_record(gaze_layer) -> dict:
+    """``customLayerData["usdgaze"]`` of an override layer, as plain Python (empty if absent)."""
+    data = dict(gaze_layer.customLayerData or {})
+    record = data.get("usdgaze")
+    return dict(record) if isinstance(record, dict) else {}
+
+
+def _pose(clip, joints: list[str], rest_local: np.ndarray, parents: np.ndarray) -> Posed:
+    """FK of every frame at once; joints the clip does not animate (or lacks) keep their rest."""
+    f, n = len(clip.times), len(joints)
+    local = np.broadcast_to(rest_local, (f, n, 4, 4)).copy()
+    index = {j: i for i, j in enumerate(joints)}
+    cols = np.array([index[clip.joints[s]] for s in clip.anim_to_skel], dtype=int)
+    local[:, cols] = rot.compose_trs(clip.translations.astype(float), clip.rotations.astype(float),
+                                     clip.scales.astype(float))
+    skel = world_matrices(local, parents)
+    world = np.einsum("fij,fkjl->fkil", np.broadcast_to(clip.skel_to_world, (f, 4, 4)), skel)
+    q = np.broadcast_to(rot.from_matrix(rest_local[:, :3, :3]), (f, n, 4)).copy()
+    q[:, cols] = rot.normalize(clip.rotations.astype(float))
+    return Posed(q, world)
+
+
+def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
+                skel_root: str | None = None) -> Review:
+    """Every skeleton the layer animates, base (layer muted) and gaze (composed), posed for every frame."""
+    from pxr import UsdGeom
+
+    from usdgaze import api
+    from usdgaze.usd import schema
+    from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
+
+    stage, gaze_layer = composed_stage(input_path, layer_path)
+    source, layer_file = str(input_path), gaze_layer.identifier if gaze_layer.anonymous else str(layer_path)
+    record = layer_record(gaze_layer)
+    review = Review(input=source, layer=layer_file)
+    review.eye_range, review.eye_range_recorded = _eye_range(record)
+    review.fixation_m = float(record["fixation"]) if "fixation" in record else None
+    # Every SkelRoot whose animation the layer overrides (or the one named).
+    roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
+    touched = {str(p.path) for p in _prim_specs(gaze_layer)}
+    for root in roots:
+        own = schema.read_map(root, source) if schema.has_map(root) else None
+        for skel in skeletons_under(root):
+            gaze_clip = read_clip(stage, skel, root, source)
+            if gaze_clip.animation not in touched:
+                continue
+            stage.MuteLayer(gaze_layer.identifier)
+            try:
+                base_clip = read_clip(stage, stage.GetPrimAtPath(skel.GetPath()), stage.GetPrimAtPath(root.GetPath()), source)
+            finally:
+                stage.UnmuteLayer(gaze_layer.identifier)
+            chain, frame = api.bind(gaze_clip, own)
+            parents = gaze_clip.parents
+            review.characters.append(CharacterReview(
+                skel_root=gaze_clip.skel_root, skeleton=gaze_clip.skeleton, joints=list(gaze_clip.joints),
+                parents=parents, seconds=gaze_clip.seconds,
+                base=_pose(base_clip, gaze_clip.joints, gaze_clip.rest_local, parents),
+                gaze=_pose(gaze_clip, gaze_clip.joints, gaze_clip.rest_local, parents),
+                chain=chain, frame=frame, rest_world=gaze_clip.rest_world(),
+                skel_to_world=gaze_clip.skel_to_world,
+                up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),
+                meters_per_unit=gaze_clip.meters_per_unit,
+            ))
+            if not review.shifts and record.get("shifts"):
+                review.shifts = _shifts(record["shifts"], gaze_clip, layer_file)
+    if not review.characters:
+        raise UsdGazeError(f"{layer_file}: overrides no SkelAnimation of {source}; is it a usdgaze layer for this input?")
+    return review
+
+
+def _prim_specs(layer):
+    out = []
+    layer.Traverse(layer.pseudoRoot.path, lambda p: out.append(layer.GetPrimAtPath(p)) if p.IsPrimPath() else None)
+    return [p for p in out if p is not None]
+
+
+def _shifts(texts, clip, where: str) -> list[tuple[float, float, float]]:
+    from usdgaze.api import ShiftRequest
+
+    out = []
+    for text in texts:
+        try:
+            r = ShiftRequest.parse(str(text))
+        except UsdGazeError as exc:
+            raise UsdGazeError(f"{where}: customLayerData usdgaze.shifts: {exc}") from None
+        out.append((r.to_shift(clip).time_s, r.yaw, r.pitch))
+    return sorted(out)
+
+
+def _eye_range(record: dict) -> tuple[dict[str, float], bool]:
+    from usdgaze.passes.shift import EyeRange
+
+    default = EyeRange()
+    recorded = record.get(EYE_RANGE_KEY)
+    if isinstance(recorded, dict) and {"yaw", "up", "down"} <= set(recorded):
+        return {k: float(recorded[k]) for k in ("yaw", "up", "down")}, True
+    return {"yaw": default.yaw, "up": default.up, "down": default.down}, False

@@ -1,0 +1,266 @@
+"""``usdgaze preview``: the base and the gaze animation drawn headless, as a GIF or MP4 and a PNG
+contact sheet. Poses come from :mod:`usdgaze.review.composed` (FK of all frames at once); each
+output frame is a handful of Pillow draw calls on a paletted image, so a 10 s shot takes seconds."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from usdgaze.errors import UsdGazeError
+from usdgaze.review import analysis, render
+
+CAMERAS = ("front", "side", "top")
+LAYOUTS = ("side-by-side", "overlay")
+_ANIMATIONS = {".gif", ".mp4"}
+
+
+@dataclass
+class PreviewOptions:
+    camera: str = "front"
+    """front, side, top, or the path of a UsdGeom.Camera prim on the stage."""
+    layout: str = "side-by-side"
+    fps: float = 24.0
+    size: int = 360
+    """Panel height (and width) in pixels."""
+    sheet_count: int = 12
+    sheet_columns: int = 4
+
+
+def check_output(path: str | os.PathLike, kind: str) -> Path:
+    """An animation (.gif/.mp4) or a contact sheet (.png) path, or a one-line error."""
+    p = Path(path)
+    try:
+        import PIL  # noqa: F401
+    except ImportError:
+        raise UsdGazeError(f"{p}: preview needs Pillow: pip install 'usdgaze[preview]'") from None
+    allowed = _ANIMATIONS if kind == "animation" else {".png"}
+    if p.suffix.lower() not in allowed:
+        want = ".gif or .mp4 (or .png for a contact sheet)" if kind == "animation" else ".png"
+        raise UsdGazeError(f"{p}: preview output must end in {want}")
+    if p.suffix.lower() == ".mp4":
+        try:
+            import imageio_ffmpeg  # noqa: F401
+        except ImportError:
+            raise UsdGazeError(f"{p}: MP4 needs imageio-ffmpeg: pip install 'usdgaze[video]' (or write a .gif)") from None
+    return p
+
+
+# -- scene ----------------------------------------------------------------------------------------
+
+def _figures(review, which: str, rows: np.ndarray) -> list[render.Figure]:
+    out = []
+    for c in review.characters:
+        posed = c.base if which == "base" else c.gaze
+        units_per_m = _units_per_m(c)
+        origin, direction = analysis.sight(c, posed)
+        reach = (review.fixation_m or 2.0) * units_per_m
+        pos = posed.world[rows, :, :3, 3]
+        bones = [(j, int(p)) for j, p in enumerate(c.parents) if p >= 0 and j not in (c.eyes or ())]
+        out.append(render.Figure(
+            positions=pos, bones=bones, head=c.chain.head,
+            head_forward=analysis.head_direction(c, posed)[rows],
+            sight_origin=origin[rows], sight_end=origin[rows] + reach * direction[rows],
+            body=render.BASE_BODY if which == "base" else render.GAZE_BODY,
+            sight=render.BASE_SIGHT if which == "base" else render.GAZE_SIGHT,
+            caption="base" if which == "base" else "gaze",
+        ))
+    return out
+
+
+def _units_per_m(c) -> float:
+    """Stage units per metre as the figure stands: the head joint's rest height is ~1.5 m on an adult."""
+    s2w = c.skel_to_world[0]
+    rest = np.einsum("ij,kjl->kil", s2w, c.rest_world)[:, :3, 3] @ c.up
+    return max(float(rest[c.chain.head] - rest.min()), 1e-9) / 1.5
+
+
+def _camera(review, opts: PreviewOptions, stage, figs, seconds: np.ndarray, width: int, height: int):
+    if opts.camera in CAMERAS:
+        return render.named_camera(opts.camera, figs, review.characters[0].up, width, height)
+    return prim_camera(stage, opts.camera, seconds, width, height)
+
+
+def prim_camera(stage, path: str, seconds: np.ndarray, width: int, height: int) -> render.Camera:
+    """A UsdGeom.Camera of the stage, sampled at the output times (fitted to the panel's width)."""
+    from pxr import Sdf, Usd, UsdGeom
+
+    if not Sdf.Path.IsValidPathString(path) or not Sdf.Path(path).IsAbsolutePath():
+        raise UsdGazeError(f"--camera '{path}': expected front, side, top or the absolute path of a Camera prim")
+    prim = stage.GetPrimAtPath(path)
+    if not prim or not prim.IsA(UsdGeom.Camera):
+        raise UsdGazeError(f"--camera {path}: no Camera prim there")
+    cam = UsdGeom.Camera(prim)
+    tcps, start = stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode()
+    views, projs = [], []
+    ratio = 1.0
+    for t in seconds:  # one Gf.Camera per output frame, not per sample
+        gf = cam.GetCamera(Usd.TimeCode(start + t * tcps))
+        ratio = 1.0 / gf.aspectRatio if gf.aspectRatio > 0 else 1.0
+        frustum = gf.frustum
+        views.append(np.array(frustum.ComputeViewMatrix()).T)
+        projs.append(np.array(frustum.ComputeProjectionMatrix()).T)
+    return render.Camera(width, height, np.stack(views), projection=np.stack(projs), aperture_ratio=ratio)
+
+
+# -- drawing --------------------------------------------------------------------------------------
+
+class Palette:
+    """The fixed palette every frame is drawn in: named colours plus shading ramps of the bodies."""
+
+    def __init__(self) -> None:
+        self.colours: list[tuple[int, int, int]] = []
+        self.index: dict[tuple[int, int, int], int] = {}
+        for c in (render.BACKGROUND, render.GRID, render.TEXT, render.BASE_SIGHT, render.GAZE_SIGHT,
+                  render.NOSE, render.TARGET):
+            self.add(c)
+        for body in (render.BASE_BODY, render.GAZE_BODY):
+            for k in range(render.SHADES + 1):
+                self.add(render.shade(body, k / render.SHADES))
+
+    def add(self, c) -> int:
+        if c not in self.index:
+            self.index[c] = len(self.colours)
+            self.colours.append(c)
+        return self.index[c]
+
+    def flat(self) -> list[int]:
+        return [v for c in self.colours for v in c] + [0] * (3 * (256 - len(self.colours)))
+
+
+class _PaletteDraw:
+    """ImageDraw on a paletted image that takes RGB fills (snapped onto the palette's shading levels)."""
+
+    def __init__(self, image, palette: Palette) -> None:
+        from PIL import ImageDraw
+
+        self._d = ImageDraw.Draw(image)
+        self._p = palette
+
+    def _i(self, colour):
+        if colour is None:
+            return None
+        return self._p.index.get(colour) if colour in self._p.index else self._p.add(colour)
+
+    def line(self, xy, fill=None, width=1, joint=None):
+        self._d.line(xy, fill=self._i(fill), width=width, joint=joint)
+
+    def ellipse(self, xy, fill=None, outline=None, width=1):
+        self._d.ellipse(xy, fill=self._i(fill), outline=self._i(outline), width=width)
+
+    def rectangle(self, xy, fill=None, outline=None, width=1):
+        self._d.rectangle(xy, fill=self._i(fill), outline=self._i(outline), width=width)
+
+    def text(self, xy, text, fill=None):
+        self._d.text(xy, text, fill=self._i(fill))
+
+
+class Scene:
+    """Everything projected once; :meth:`frame` draws one output frame."""
+
+    def __init__(self, review, opts: PreviewOptions, stage, seconds: np.ndarray, rows: np.ndarray,
+                 size: int) -> None:
+        self.seconds, self.size, self.opts = seconds, size, opts
+        base, gaze = _figures(review, "base", rows), _figures(review, "gaze", rows)
+        self.panels = [base, gaze] if opts.layout == "side-by-side" else [base + gaze]
+        cam = _camera(review, opts, stage, base + gaze, seconds, size, size)
+        c = review.characters[0]
+        upm = _units_per_m(c)
+        self.radius = max(1.5, 0.045 * upm * (cam.scale or size / (2.5 * upm)))
+        self.head_radius = 2.6 * self.radius
+        nose = 0.25 * upm
+        self.projected = [[render.project(f, cam, nose) for f in panel] for panel in self.panels]
+        grid = render.floor_lines(base + gaze, c.up, spacing=0.5 * upm)
+        f = len(seconds)
+        self.grid = cam.project(np.broadcast_to(grid.reshape(1, -1, 3), (f, grid.shape[0] * 2, 3))).reshape(f, -1, 2, 3)
+        self.palette = Palette()
+        self.shifts = review.shifts
+        self.width = size * len(self.panels)
+        self.height = size + render.LABEL_H
+
+    def frame(self, i: int):
+        """Output frame ``i``: one paletted image, each panel drawn on its own (clipped to it)."""
+        from PIL import Image
+
+        image = Image.new("P", (self.width, self.height), 0)
+        image.putpalette(self.palette.flat())
+        for k, (panel, projected) in enumerate(zip(self.panels, self.projected)):
+            sub = Image.new("P", (self.size, self.height), 0)
+            draw = _PaletteDraw(sub, self.palette)
+            dy = render.LABEL_H
+            for a, b in self.grid[i]:
+                draw.line([(a[0], a[1] + dy), (b[0], b[1] + dy)], fill=render.GRID)
+            for fig, pr in zip(panel, projected):
+                render.draw_figure(draw, fig, pr, i, 0, dy, self.radius, self.head_radius)
+            caption = " + ".join(sorted({f.caption for f in panel}))
+            draw.text((6, 5), f"{caption}   {self.seconds[i]:6.2f} s", fill=render.TEXT)
+            if k:
+                draw.line([(0, 0), (0, self.height)], fill=render.GRID)
+            image.paste(sub, (k * self.size, 0))
+        return image
+
+
+def sample_rows(seconds: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Output times at ``fps`` over the clip and, for each, the nearest sample's row."""
+    if not np.isfinite(fps) or fps <= 0:
+        raise UsdGazeError(f"--fps {fps}: must be a positive number of frames per second")
+    times = np.arange(seconds[0], seconds[-1] + 1e-9, 1.0 / fps)
+    rows = np.clip(np.searchsorted(seconds, times), 0, len(seconds) - 1)
+    earlier = np.clip(rows - 1, 0, len(seconds) - 1)
+    rows = np.where(np.abs(seconds[earlier] - times) <= np.abs(seconds[rows] - times), earlier, rows)
+    return times, rows
+
+
+def build_scene(review, opts: PreviewOptions, stage, times: np.ndarray | None = None) -> Scene:
+    """The scene at ``opts.fps`` (or at the given times, in seconds from the stage start)."""
+    if opts.layout not in LAYOUTS:
+        raise UsdGazeError(f"--layout {opts.layout}: expected one of {', '.join(LAYOUTS)}")
+    seconds = review.characters[0].seconds
+    if times is None:
+        times, rows = sample_rows(seconds, opts.fps)
+    else:
+        times = np.asarray(times, dtype=float)
+        rows = np.clip(np.searchsorted(seconds, times - 1e-9), 0, len(seconds) - 1)
+    return Scene(review, opts, stage, times, rows, opts.size)
+
+
+def contact_sheet(review, opts: PreviewOptions, stage):
+    """``sheet_count`` frames evenly over the clip, in a grid, as one RGB image."""
+    from PIL import Image
+
+    seconds = review.characters[0].seconds
+    times = np.linspace(seconds[0], seconds[-1], max(1, opts.sheet_count))
+    scene = build_scene(review, opts, stage, times)
+    cols = max(1, min(opts.sheet_columns, len(times)))
+    rows = int(np.ceil(len(times) / cols))
+    sheet = Image.new("RGB", (cols * scene.width, rows * scene.height), render.BACKGROUND)
+    for i in range(len(times)):
+        sheet.paste(scene.frame(i).convert("RGB"), ((i % cols) * scene.width, (i // cols) * scene.height))
+    return sheet, scene
+
+
+def write_animation(scene: Scene, path: Path, outputs) -> int:
+    """Stage the GIF or MP4 of every frame of ``scene``; returns the frame count."""
+    frames = [scene.frame(i) for i in range(len(scene.seconds))]
+    fps = scene.opts.fps
+    if path.suffix.lower() == ".gif":
+        def write(temp: str) -> None:
+            frames[0].save(temp, format="GIF", save_all=True, append_images=frames[1:],
+                           duration=int(round(1000.0 / fps)), loop=0, optimize=False)
+    else:
+        def write(temp: str) -> None:
+            import imageio.v2 as imageio
+
+            with imageio.get_writer(temp, format="FFMPEG", mode="I", fps=fps, codec="libx264",
+                                    quality=7, macro_block_size=1, ffmpeg_log_level="error") as w:
+                for frame in frames:
+                    w.append_data(np.asarray(frame.convert("RGB")))
+    outputs.stage_with(path, write)
+    return len(frames)
+
+
+def write_png(image, path: Path, outputs) -> None:
+    outputs.stage_with(path, lambda temp: image.save(temp, format="PNG", optimize=False))

@@ -1,0 +1,55 @@
+"""Running OpenUSD validation (its validators and usdgaze's) on a stage, as plain records."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from usdgaze.errors import UsdGazeError
+
+_SEVERITY = {"Error": "error", "Warn": "warning", "Info": "info"}
+
+
+def _open(stage_path: str, layer: str | None):
+    from usdgaze.review.composed import composed_stage
+    from usdgaze.usd.skelio import open_stage
+
+    if not Path(stage_path).is_file():
+        raise UsdGazeError(f"{stage_path}: no such file")
+    if layer is not None:
+        return composed_stage(stage_path, layer)[0]
+    return open_stage(stage_path)
+
+
+def run(stage_path: str | os.PathLike, layer: str | os.PathLike | None = None, only_usdgaze: bool = False) -> list[dict]:
+    """Every problem the validators find, as ``{file, site, severity, validator, error, message}``
+    sorted by site, then validator."""
+    from pxr import UsdValidation
+
+    from usdgaze.review import validators
+
+    stage = _open(str(stage_path), None if layer is None else str(layer))
+    registry = UsdValidation.ValidationRegistry()
+    chosen = ([registry.GetOrLoadValidatorByName(n) for n in validators.names()] if only_usdgaze
+              else registry.GetOrLoadAllValidators())
+    # Every prim, abstract classes included: a map file holds its map on a class prim.
+    from pxr import Usd
+
+    errors = UsdValidation.ValidationContext([v for v in chosen if v is not None]).Validate(stage, Usd.PrimAllPrimsPredicate)
+    problems = []
+    for e in errors:
+        if e.HasNoError():
+            continue
+        sites = [s for s in e.GetSites() if s.IsValid()] or [None]
+        validator = e.GetValidator()
+        name = validator.GetMetadata().name if validator else ""
+        for site in sites:
+            path = ""
+            if site is not None:
+                path = str(site.GetProperty().GetPath()) if site.IsProperty() else str(site.GetPrim().GetPath()) if site.IsPrim() else ""
+            problems.append({
+                "file": str(stage_path), "site": path or "/", "severity": _SEVERITY.get(str(e.GetType()).rsplit(".", 1)[-1], "error"),
+                "validator": name, "error": str(e.GetName()), "message": " ".join(str(e.GetMessage()).split()),
+            })
+    problems.sort(key=lambda p: (p["site"], p["validator"], p["error"], p["message"]))
+    return problems

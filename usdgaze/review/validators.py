@@ -1,0 +1,236 @@
+"""``pxr.UsdValidation`` validators for usdgaze's schemas and the animation it writes.
+
+Declared in the schema plugin's plugInfo.json (plugin ``usdgaze.review.validators``, a Python
+plugin), so any tool that has the plugin on ``PXR_PLUGINPATH_NAME`` and usdgaze on its Python path
+loads them on demand (``usdchecker --validate``-style tools, ``UsdValidation.ValidationContext``);
+``import usdgaze`` registers them at once. Each validator reports every problem it finds, one
+``ValidationError`` per problem, sited on the attribute (or prim) at fault.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Sdf, Usd, UsdSkel, UsdValidation
+
+from usdgaze.gaze.definition import (
+    API_NAME,
+    BINDING_ATTRS,
+    EXAMPLE_ATTRS,
+    OFFSET_ATTRS,
+    PITCH_ATTR,
+    SETTING_ATTRS,
+    TIMING_ATTRS,
+    UNIT_TOLERANCE,
+    YAW_ATTR,
+    _SETTING_MINIMA,
+    _TIMING_RANGES,
+    _check_range,
+    _range_text,
+)
+from usdgaze.gaze.motion import TIMING_FIELDS
+
+PLUGIN = "usdgaze.review.validators"
+"""The Python plugin's name in plugInfo.json (= this module); validator names are ``PLUGIN:Name``."""
+KEYWORD = "UsdGazeValidators"
+SCHEMA_TYPE = "UsdGazeGazeMapAPI"
+
+
+
+def declared() -> dict[str, dict]:
+    """The validators plugInfo.json declares for this plugin: name -> {doc, schemaTypes}
+    (written by ``schemas/generate.py``, the one place their docs live)."""
+    import json
+
+    from usdgaze.usd.plugin import plugin_dir
+
+    text = (plugin_dir() / "plugInfo.json").read_text(encoding="utf-8")
+    data = json.loads("\n".join(line for line in text.splitlines() if not line.startswith("#")))
+    for plugin in data["Plugins"]:
+        if plugin["Name"] == PLUGIN:
+            return {k: v for k, v in plugin["Info"]["Validators"].items() if k != "keywords"}
+    raise RuntimeError(f"plugInfo.json declares no {PLUGIN} plugin; run python schemas/generate.py")
+
+
+def _error(prim: Usd.Prim, path, name: str, message: str):
+    site = UsdValidation.ValidationErrorSite(prim.GetStage(), path)
+    return UsdValidation.ValidationError(name, UsdValidation.ValidationErrorType.Error, [site], message)
+
+
+def _values(prim: Usd.Prim, name: str):
+    attr = prim.GetAttribute(name)
+    if not attr or not attr.HasAuthoredValue():
+        return attr, None
+    return attr, attr.Get()
+
+
+def gaze_map_arrays(prim: Usd.Prim, time_range=None) -> list:
+    from usdgaze.usd.schema import _TYPES
+
+    errors, lengths = [], {}
+    for name in EXAMPLE_ATTRS:
+        attr, value = _values(prim, name)
+        path = prim.GetPath().AppendProperty(name)
+        if value is None:
+            errors.append(_error(prim, path, "Missing", f"{name}: missing, expected one entry per example"))
+            continue
+        if attr.GetNumTimeSamples():
+            errors.append(_error(prim, path, "Animated", f"{name}: has time samples; gaze map attributes are uniform"))
+        if not isinstance(value, _TYPES[name][1]):
+            errors.append(_error(prim, path, "WrongType", f"{name}: authored as {type(value).__name__}, expected {_TYPES[name][0]}"))
+            continue
+        lengths[name] = len(value)
+    if lengths:
+        counts = np.array(list(lengths.values()))
+        values, freq = np.unique(counts, return_counts=True)
+        expected = int(values[np.argmax(freq)])
+        for name, n in lengths.items():
+            if n != expected:
+                errors.append(_error(prim, prim.GetPath().AppendProperty(name), "Length",
+                                     f"{name}: {n} entries, expected {expected} (one per example)"))
+        if expected == 0:
+            errors.append(_error(prim, prim.GetPath().AppendProperty(YAW_ATTR), "Empty", f"{YAW_ATTR}: no examples"))
+    return errors
+
+
+def _array(prim: Usd.Prim, name: str) -> np.ndarray | None:
+    _, value = _values(prim, name)
+    try:
+        return None if value is None else np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+
+
+def _out_of_range(prim, name: str, values: np.ndarray, ok: np.ndarray, expected: str, unit: str = "") -> list:
+    bad = np.flatnonzero(~ok)
+    if not len(bad):
+        return []
+    shown = ", ".join(f"example {i} is {values[i]:g}{unit}" for i in bad[:3]) + (f" (+{len(bad) - 3} more)" if len(bad) > 3 else "")
+    return [_error(prim, prim.GetPath().AppendProperty(name), "Range", f"{name}: {shown}, expected {expected}")]
+
+
+def gaze_map_ranges(prim: Usd.Prim, time_range=None) -> list:
+    errors = []
+    for name, limit in ((YAW_ATTR, 180.0), (PITCH_ATTR, 90.0)):
+        v = _array(prim, name)
+        if v is not None and v.ndim == 1:
+            errors += _out_of_range(prim, name, v, _check_range(v, -limit, True, limit, True),
+                                    f"in [-{limit:g}, {limit:g}] deg", " deg")
+    for field, name in zip(TIMING_FIELDS, TIMING_ATTRS):
+        v = _array(prim, name)
+        if v is not None and v.ndim == 1:
+            low, low_in, high, high_in, unit = _TIMING_RANGES[field]
+            errors += _out_of_range(prim, name, v, _check_range(v, low, low_in, high, high_in),
+                                    _range_text(low, low_in, high, high_in), unit)
+    yaw, pitch = _array(prim, YAW_ATTR), _array(prim, PITCH_ATTR)
+    if yaw is not None and pitch is not None and yaw.shape == pitch.shape and yaw.ndim == 1:
+        pairs = np.stack([yaw, pitch], axis=1)
+        _, first, counts = np.unique(pairs, axis=0, return_index=True, return_counts=True)
+        for i in first[counts > 1]:
+            errors.append(_error(prim, prim.GetPath().AppendProperty(YAW_ATTR), "Duplicate",
+                                 f"{YAW_ATTR}: (yaw, pitch) = ({yaw[i]:g}, {pitch[i]:g}) appears more than once"))
+    for field, name in SETTING_ATTRS.items():
+        _, value = _values(prim, name)
+        if value is None:
+            continue
+        low_ok = value >= 0.0 and value <= 1.0 if field == "neck_share" else value >= _SETTING_MINIMA.get(field, value)
+        if not low_ok:
+            expected = "in [0, 1]" if field == "neck_share" else f">= {_SETTING_MINIMA[field]}"
+            errors.append(_error(prim, prim.GetPath().AppendProperty(name), "Range", f"{name}: {value}, expected {expected}"))
+    return errors
+
+
+def gaze_map_unit_quaternions(prim: Usd.Prim, time_range=None) -> list:
+    errors = []
+    for name in OFFSET_ATTRS:
+        q = _array(prim, name)
+        if q is None or q.ndim != 2 or q.shape[1] != 4:
+            continue
+        length = np.linalg.norm(q, axis=1)
+        bad = np.flatnonzero(~(np.isfinite(q).all(axis=1) & (np.abs(length - 1.0) <= UNIT_TOLERANCE)))
+        if len(bad):
+            shown = ", ".join(f"example {i} of length {length[i]:.6g}" for i in bad[:3])
+            errors.append(_error(prim, prim.GetPath().AppendProperty(name), "NotUnit",
+                                 f"{name}: {shown}{' ...' if len(bad) > 3 else ''}, expected unit quaternions "
+                                 f"(within {UNIT_TOLERANCE:g})"))
+    return errors
+
+
+def gaze_map_role_joints(prim: Usd.Prim, time_range=None) -> list:
+    if not prim.IsA(UsdSkel.Root):
+        return [_error(prim, prim.GetPath(), "NotSkelRoot",
+                       f"{API_NAME} is applied to a {prim.GetTypeName() or 'typeless prim'}; it applies only to SkelRoot")]
+    skeletons = [p for p in Usd.PrimRange(prim, Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Skeleton)]
+    errors = []
+    for role, name in BINDING_ATTRS.items():
+        _, value = _values(prim, name)
+        for skel in skeletons:
+            joints = set(str(j) for j in (UsdSkel.Skeleton(skel).GetJointsAttr().Get() or []))
+            missing = [str(j) for j in (value or []) if str(j) not in joints]
+            if missing:
+                errors.append(_error(prim, prim.GetPath().AppendProperty(name), "UnknownJoint",
+                                     f"{name}: '{missing[0]}'{f' (+{len(missing) - 1} more)' if len(missing) > 1 else ''} "
+                                     f"is not a joint of {skel.GetPath()}"))
+    return errors
+
+
+def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
+    anim = UsdSkel.Animation(prim)
+    joints = anim.GetJointsAttr().Get()
+    if joints is None:
+        return []
+    n, errors = len(joints), []
+    for attr, width in ((anim.GetRotationsAttr(), 4), (anim.GetTranslationsAttr(), 3), (anim.GetScalesAttr(), 3)):
+        if not attr or not attr.HasAuthoredValue():
+            continue
+        times = attr.GetTimeSamples() or [Usd.TimeCode.Default()]
+        for t in times:
+            value = attr.Get(t)
+            a = np.asarray(value if value is not None else [], dtype=float).reshape(-1, width)
+            at = "default" if not isinstance(t, float) else f"time {t:g}"
+            if len(a) != n:
+                errors.append(_error(prim, attr.GetPath(), "Length",
+                                     f"{attr.GetName()}: {len(a)} entries at {at}, expected {n} (one per joint)"))
+                break
+            if not np.isfinite(a).all():
+                errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values at {at}"))
+                break
+            if width == 4 and np.any(np.abs(np.linalg.norm(a, axis=1) - 1.0) > 1e-2):
+                errors.append(_error(prim, attr.GetPath(), "NotUnit", f"{attr.GetName()}: not unit quaternions at {at}"))
+                break
+    return errors
+
+
+TASKS = {
+    "GazeMapArrays": gaze_map_arrays,
+    "GazeMapRanges": gaze_map_ranges,
+    "GazeMapUnitQuaternions": gaze_map_unit_quaternions,
+    "GazeMapRoleJoints": gaze_map_role_joints,
+    "AnimationArrays": animation_arrays,
+}
+
+
+def names() -> list[str]:
+    """Full names of usdgaze's validators."""
+    return [f"{PLUGIN}:{n}" for n in TASKS]
+
+
+def register() -> None:
+    """Register every validator once: through the plugin's metadata when plugInfo declared them
+    (the normal case), else with metadata built here (a registry built before usdgaze's plugin was)."""
+    registry = UsdValidation.ValidationRegistry()
+    info = None
+    for short, task in TASKS.items():
+        name = f"{PLUGIN}:{short}"
+        if registry.HasValidator(name):
+            continue
+        if registry.GetValidatorMetadata(name) is not None:
+            registry.RegisterPluginPrimValidator(name, task)
+        else:
+            info = info or declared()
+            md = UsdValidation.ValidatorMetadata(
+                name=name, doc=info[short]["doc"], keywords=[KEYWORD],
+                schemaTypes=info[short]["schemaTypes"], isTimeDependent=False, isSuite=False)
+            registry.RegisterPrimValidator(md, task, [])
+
+
+register()
