@@ -37,8 +37,8 @@ def _solve(m: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def eye_local_axes(c) -> list[np.ndarray]:
-    """Each eye's joint-local axis that points along the character forward at rest."""
-    return [_solve(c.rest_world[e, :3, :3], c.frame.forward) for e in c.eyes]
+    """Each eye's joint-local axis that points along the character forward in the neutral (bind) pose."""
+    return [_solve(c.neutral_world[e, :3, :3], c.frame.forward) for e in c.eyes]
 
 
 def sight(c, posed) -> tuple[np.ndarray, np.ndarray]:
@@ -49,9 +49,9 @@ def sight(c, posed) -> tuple[np.ndarray, np.ndarray]:
 
 
 def head_direction(c, posed) -> np.ndarray:
-    """Where the head looks ``(F, 3)``: its rest-pose forward axis, carried by its pose."""
+    """Where the head looks ``(F, 3)``: its neutral-pose forward axis, carried by its pose."""
     h = c.chain.head
-    return _apply(posed.world[:, h, :3, :3], _solve(c.rest_world[h, :3, :3], c.frame.forward))
+    return _apply(posed.world[:, h, :3, :3], _solve(c.neutral_world[h, :3, :3], c.frame.forward))
 
 
 def _unwrap_deg(a: np.ndarray) -> np.ndarray:
@@ -129,11 +129,11 @@ def shift_cascade(c, shifts) -> list[ShiftCurves]:
 
 
 def eye_in_head(c) -> np.ndarray:
-    """Eye-in-head (yaw + left, pitch + up) per frame and eye ``(F, 2, 2)`` deg, head axes from the rest pose."""
+    """Eye-in-head (yaw + left, pitch + up) per frame and eye ``(F, 2, 2)`` deg, head axes from the neutral (bind) pose."""
     h = c.chain.head
     head_m = c.gaze.world[:, h, :3, :3]
-    rest_h = c.rest_world[h, :3, :3]
-    fwd, left, up = (_solve(rest_h, v) for v in (c.frame.forward, c.frame.left, c.frame.up))
+    neutral_h = c.neutral_world[h, :3, :3]
+    fwd, left, up = (_solve(neutral_h, v) for v in (c.frame.forward, c.frame.left, c.frame.up))
     out = np.zeros((len(c.seconds), 2, 2))
     for i, (e, axis) in enumerate(zip(c.eyes, eye_local_axes(c))):
         d = _solve(head_m, _apply(c.gaze.world[:, e, :3, :3], axis))

@@ -49,8 +49,8 @@ class CharacterReview:
     gaze: Posed
     chain: Chain
     frame: CharacterFrame
-    rest_world: np.ndarray
-    """Skeleton-space rest transforms ``(J, 4, 4)`` of the composed joints."""
+    neutral_world: np.ndarray
+    """Skeleton-space transforms ``(J, 4, 4)`` of the neutral (bind) pose of the composed joints."""
     skel_to_world: np.ndarray
     """``(F, 4, 4)`` or ``(1, 4, 4)``."""
     up: np.ndarray
@@ -178,7 +178,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 parents=parents, seconds=gaze_clip.seconds,
                 base=_pose(base_clip, gaze_clip.joints, gaze_clip.rest_local, parents),
                 gaze=_pose(gaze_clip, gaze_clip.joints, gaze_clip.rest_local, parents),
-                chain=chain, frame=frame, rest_world=gaze_clip.rest_world(),
+                chain=chain, frame=frame, neutral_world=gaze_clip.neutral(),
                 skel_to_world=gaze_clip.skel_to_world,
                 up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),
                 meters_per_unit=gaze_clip.meters_per_unit,

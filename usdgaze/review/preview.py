@@ -74,7 +74,7 @@ def _figures(review, which: str, rows: np.ndarray) -> list[render.Figure]:
 def _units_per_m(c) -> float:
     """Stage units per metre as the figure stands: the head joint's rest height is ~1.5 m on an adult."""
     s2w = c.skel_to_world[0]
-    rest = np.einsum("ij,kjl->kil", s2w, c.rest_world)[:, :3, 3] @ c.up
+    rest = np.einsum("ij,kjl->kil", s2w, c.neutral_world)[:, :3, 3] @ c.up
     return max(float(rest[c.chain.head] - rest.min()), 1e-9) / 1.5
 
 

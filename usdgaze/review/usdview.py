@@ -69,7 +69,7 @@ def _characters(stage):
             out.append((clip, CharacterReview(
                 skel_root=clip.skel_root, skeleton=clip.skeleton, joints=clip.joints, parents=clip.parents,
                 seconds=clip.seconds, base=posed, gaze=posed, chain=chain, frame=frame,
-                rest_world=clip.rest_world(), skel_to_world=clip.skel_to_world, up=up,
+                neutral_world=clip.neutral(), skel_to_world=clip.skel_to_world, up=up,
                 meters_per_unit=clip.meters_per_unit)))
     return out
 
