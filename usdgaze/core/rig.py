@@ -80,8 +80,9 @@ def resolve_joint(name: str, joints: list[str], what: str) -> int:
     if name in joints:
         return joints.index(name)
     token = re.sub(r"[^A-Za-z0-9_]", "_", name.rsplit("/", 1)[-1])
-    for same in (lambda a: a == token, lambda a: a.lower() == token.lower()):
-        hits = [i for i, j in enumerate(joints) if same(names.leaf(j))]
+    for same in (lambda j: names.leaf(j) == token, lambda j: leaf(j) == leaf(token),
+                 lambda j: names.leaf(j).lower() == token.lower(), lambda j: leaf(j).lower() == leaf(token).lower()):
+        hits = [i for i, j in enumerate(joints) if same(j)]
         if len(hits) > 1:
             raise RigError(f"{what}: '{name}' matches {len(hits)} joints ({_listed(joints, hits, 4)}); give the joint path")
         if hits:
