@@ -37,6 +37,7 @@ SCHEMES = {
     "indexed-b_": dict(convention="indexed", up_axis="Z"),
     "rigify": dict(convention="rigify", up_axis="Z"),
     "biped-Bip01-cm": dict(convention="biped", eyes=False, up_axis="Z", meters_per_unit=0.01),
+    "biped-legs-off-the-spine": dict(convention="biped", eyes=False, legs_on="spine_a"),
     "cc-base": dict(convention="cc"),
     "vroid": dict(convention="vroid"),
     "daz": dict(convention="daz", meters_per_unit=0.01),
@@ -63,14 +64,16 @@ def run(request, tmp_path_factory):
     rig = syn.make_rig(d / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False,
                        **SCHEMES[request.param])
     report = api.apply(rig.path, SHIFTS, d / "gaze.usdc", preview=d / "preview.usda")
-    return dict(rig=rig, report=report, dir=d)
+    return dict(name=request.param, rig=rig, report=report, dir=d)
 
 
 def test_binds_with_no_hints_to_the_right_joints(run):
     rig, c = run["rig"], run["report"].characters[0]
     leaves = {role: [j.rsplit("/", 1)[-1] for j in joints] for role, joints in c.chain.items()}
-    assert leaves["head"] == [rig.leaf["head"]] and leaves["pelvis"] == [rig.leaf["pelvis"]]
-    spine = [rig.leaf[k] for k in ("spine_a", "spine_b", "spine_c") if k in rig.leaf]
+    # Legs hanging off the first spine joint make it turn with the pelvis (3ds Max Biped).
+    pelvis = ["pelvis", "spine_a"] if SCHEMES[run["name"]].get("legs_on") == "spine_a" else ["pelvis"]
+    assert leaves["head"] == [rig.leaf["head"]] and leaves["pelvis"] == [rig.leaf[k] for k in pelvis]
+    spine = [rig.leaf[k] for k in ("spine_a", "spine_b", "spine_c") if k in rig.leaf and k not in pelvis]
     neck = [rig.leaf[k] for k in ("neck", "neck_b") if k in rig.leaf]
     assert leaves["lowerSpine"] + leaves["upperSpine"] == spine and leaves["lowerSpine"] and leaves["upperSpine"]
     assert leaves["neck"] == neck
@@ -81,9 +84,13 @@ def test_binds_with_no_hints_to_the_right_joints(run):
     assert run["report"].warnings == []
 
 
-def test_a_40_degree_shift_holds_within_half_a_degree(run):
-    _, _, error = _measured(run["rig"], run["report"], run["dir"] / "preview.usda")
+def test_a_40_degree_shift_holds_within_half_a_degree_and_the_feet_stay(run):
+    rig = run["rig"]
+    base, new, error = _measured(rig, run["report"], run["dir"] / "preview.usda")
     assert error <= 0.5, error
+    for k in ("knee_l", "ankle_r", "toe_l"):  # the hind feet, on the quadruped
+        moved_m = np.linalg.norm(new.position(rig.leaf[k]) - base.position(rig.leaf[k]), axis=1) * rig.meters_per_unit
+        assert moved_m.max() < 1e-3, (k, moved_m.max())
 
 
 # -- the neutral pose -------------------------------------------------------------------------------
