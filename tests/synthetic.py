@@ -175,10 +175,13 @@ class Rig:
 
 # -- geometry -------------------------------------------------------------------------------------
 
-def _template(convention: str, eyes, joints: int | None, body: str = "biped") -> tuple[list[str], dict[str, tuple]]:
+def _template(convention: str, eyes, joints: int | None, body: str = "biped",
+              legs_on: str = "pelvis") -> tuple[list[str], dict[str, tuple]]:
     """Template keys in skeleton order (parents first) and their (parent, position)."""
     names = CONVENTIONS[convention][0]
     body = dict(QUADRUPED if body == "quadruped" else _BODY)
+    for k in ("hipside_l", "hipside_r", "thigh_l", "thigh_r"):
+        body[k] = (legs_on, body[k][1])
     core = ["root", "pelvis", "spine_a", "spine_b", "spine_c", "neck", "neck_b", "head", "head_end", "eye_l", "eye_r"]
     for s in ("l", "r"):
         core += [f"hipside_{s}", f"thigh_{s}", f"knee_{s}", f"ankle_{s}", f"toe_{s}", f"toe_end_{s}"]
@@ -318,6 +321,7 @@ def make_rig(
     body: str = "biped",
     rest_pose: str = "bind",
     look_aside_deg: tuple[float, float] = (0.0, 0.0),
+    legs_on: str = "pelvis",
 ) -> Rig:
     """Write a SkelRoot > Skeleton (+ SkelAnimation, skinned Mesh) stage to ``path``; return its :class:`Rig`.
 
@@ -343,7 +347,7 @@ def make_rig(
     left = np.cross(up, fwd)
     canon = np.column_stack([left, up, fwd])  # character frame -> skeleton space
 
-    keys, spec = _template(convention, eyes, joints, body)
+    keys, spec = _template(convention, eyes, joints, body, legs_on)
     n = len(keys)
     leaf = {k: token_prefix + usd_token(_name(convention, k, i)) for i, k in enumerate(keys)}
     dcc = {k: name_prefix + _name(convention, k, i) for i, k in enumerate(keys)}

@@ -37,6 +37,7 @@ SCHEMES = {
     "indexed-b_": dict(convention="indexed", up_axis="Z"),
     "rigify": dict(convention="rigify", up_axis="Z"),
     "biped-Bip01-cm": dict(convention="biped", eyes=False, up_axis="Z", meters_per_unit=0.01),
+    "biped-legs-off-the-spine": dict(convention="biped", eyes=False, legs_on="spine_a"),
     "cc-base": dict(convention="cc"),
     "vroid": dict(convention="vroid"),
     "daz": dict(convention="daz", meters_per_unit=0.01),
@@ -63,14 +64,16 @@ def run(request, tmp_path_factory):
     rig = syn.make_rig(d / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False,
                        **SCHEMES[request.param])
     report = api.apply(rig.path, SHIFTS, d / "gaze.usdc", preview=d / "preview.usda")
-    return dict(rig=rig, report=report, dir=d)
+    return dict(name=request.param, rig=rig, report=report, dir=d)
 
 
 def test_binds_with_no_hints_to_the_right_joints(run):
     rig, c = run["rig"], run["report"].characters[0]
     leaves = {role: [j.rsplit("/", 1)[-1] for j in joints] for role, joints in c.chain.items()}
-    assert leaves["head"] == [rig.leaf["head"]] and leaves["pelvis"] == [rig.leaf["pelvis"]]
-    spine = [rig.leaf[k] for k in ("spine_a", "spine_b", "spine_c") if k in rig.leaf]
+    # Legs hanging off the first spine joint make it turn with the pelvis (3ds Max Biped).
+    pelvis = ["pelvis", "spine_a"] if SCHEMES[run["name"]].get("legs_on") == "spine_a" else ["pelvis"]
+    assert leaves["head"] == [rig.leaf["head"]] and leaves["pelvis"] == [rig.leaf[k] for k in pelvis]
+    spine = [rig.leaf[k] for k in ("spine_a", "spine_b", "spine_c") if k in rig.leaf and k not in pelvis]
     neck = [rig.leaf[k] for k in ("neck", "neck_b") if k in rig.leaf]
     assert leaves["lowerSpine"] + leaves["upperSpine"] == spine and leaves["lowerSpine"] and leaves["upperSpine"]
     assert leaves["neck"] == neck
@@ -81,9 +84,13 @@ def test_binds_with_no_hints_to_the_right_joints(run):
     assert run["report"].warnings == []
 
 
-def test_a_40_degree_shift_holds_within_half_a_degree(run):
-    _, _, error = _measured(run["rig"], run["report"], run["dir"] / "preview.usda")
+def test_a_40_degree_shift_holds_within_half_a_degree_and_the_feet_stay(run):
+    rig = run["rig"]
+    base, new, error = _measured(rig, run["report"], run["dir"] / "preview.usda")
     assert error <= 0.5, error
+    for k in ("knee_l", "ankle_r", "toe_l"):  # the hind feet, on the quadruped
+        moved_m = np.linalg.norm(new.position(rig.leaf[k]) - base.position(rig.leaf[k]), axis=1) * rig.meters_per_unit
+        assert moved_m.max() < 1e-3, (k, moved_m.max())
 
 
 # -- the neutral pose -------------------------------------------------------------------------------
@@ -229,3 +236,66 @@ def test_bind_and_forward_on_the_command_line_and_in_a_manifest_give_the_api_lay
     p = subprocess.run([sys.executable, str(ROOT / "pipeline" / "batch.py"), str(manifest)],
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "job 0: bind skull=...: unknown role" in p.stderr
+
+
+# -- names, without a stage ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name, words", [
+    ("b_Spine01_02", ("b", "spine", "01", "02")),
+    ("mixamorig_Spine1", ("mixamorig", "spine", "1")),
+    ("DEF_spine_003", ("def", "spine", "003")),
+    ("Bip01_Head", ("bip", "01", "head")),
+    ("CC_Base_NeckTwist01", ("cc", "base", "neck", "twist", "01")),
+    ("J_Bip_C_Head", ("j", "bip", "c", "head")),
+    ("LHipJoint", ("l", "hip", "joint")),
+    ("lowerback", ("lower", "back")),
+    ("Hips/Spine/lEye", ("l", "eye")),
+])
+def test_joint_names_split_into_words(name, words):
+    from usdgaze.core.names import tokens
+
+    assert tokens(name) == words
+
+
+def _chain(paths: list[str], **bindings):
+    from usdgaze.core.rig import bind_chain
+
+    parents = np.array([paths.index(p.rsplit("/", 1)[0]) if "/" in p else -1 for p in paths])
+    chain = bind_chain(paths, parents, {r: (j,) for r, j in bindings.items()})
+    return {r: [paths[i].rsplit("/", 1)[-1] for i in idx] for r, idx in chain.roles.items()}, chain
+
+
+def test_pelvis_is_the_named_joint_above_the_head_where_the_legs_hang():
+    # Character Creator: legs under CC_Base_Pelvis, a sibling of the spine under CC_Base_Hip.
+    cc = ["Root", "Root/Hip", "Root/Hip/Pelvis", "Root/Hip/Pelvis/L_Thigh", "Root/Hip/Pelvis/R_Thigh",
+          "Root/Hip/Waist", "Root/Hip/Waist/Spine01", "Root/Hip/Waist/Spine01/Spine02",
+          "Root/Hip/Waist/Spine01/Spine02/NeckTwist01", "Root/Hip/Waist/Spine01/Spine02/NeckTwist01/Head"]
+    roles, chain = _chain(cc)
+    assert roles["pelvis"] == ["Hip"] and roles["lowerSpine"] == ["Waist"] and roles["upperSpine"] == ["Spine01", "Spine02"]
+    assert [cc[i].rsplit("/", 1)[-1] for i in chain.leg_roots] == ["Pelvis"]  # it counter-rotates, legs and all
+    # Hips > Pelvis > Spine: the legs hang off the deeper one.
+    nested = ["Hips", "Hips/Pelvis", "Hips/Pelvis/thigh_l", "Hips/Pelvis/thigh_r", "Hips/Pelvis/Spine",
+              "Hips/Pelvis/Spine/Spine1", "Hips/Pelvis/Spine/Spine1/Neck", "Hips/Pelvis/Spine/Spine1/Neck/Head"]
+    roles, chain = _chain(nested)
+    assert roles["pelvis"] == ["Pelvis"] and len(chain.leg_roots) == 2
+
+
+def test_shape_finds_what_names_do_not_say():
+    # No head or pelvis by name: the head is the eyes' parent, the pelvis where mirrored legs branch off.
+    paths = ["a", "a/b", "a/b/leg_L", "a/b/leg_R", "a/b/c", "a/b/c/d", "a/b/c/d/e", "a/b/c/d/e/f",
+             "a/b/c/d/e/f/eye_L", "a/b/c/d/e/f/eye_R", "a/b/c/d/e/f/eyelid_L"]
+    roles, chain = _chain(paths)
+    assert roles["head"] == ["f"] and roles["pelvis"] == ["b"]
+    assert roles["lowerSpine"] == ["c"] and roles["upperSpine"] == ["d"] and roles["neck"] == ["e"]
+    assert roles["leftEye"] == ["eye_L"] and roles["rightEye"] == ["eye_R"]
+    assert "parent of the eye joints" in chain.reasons["head"] and "legs" in chain.reasons["pelvis"]
+
+
+def test_bind_names_a_joint_by_its_path_or_any_spelling_of_its_name():
+    paths = ["mixamorig_Hips", "mixamorig_Hips/x1", "mixamorig_Hips/x1/x2", "mixamorig_Hips/x1/x2/x3",
+             "mixamorig_Hips/x1/x2/x3/x4"]
+    for head in ("x4", "mixamorig_Hips/x1/x2/x3/x4", "X4"):
+        roles, chain = _chain(paths, head=head)
+        assert roles["head"] == ["x4"] and chain.reasons["head"] == "gaze:binding:head"
+    roles, _ = _chain(paths, head="x4", pelvis="mixamorig:Hips")  # the DCC's spelling
+    assert roles["pelvis"] == ["mixamorig_Hips"]

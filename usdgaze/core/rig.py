@@ -80,8 +80,9 @@ def resolve_joint(name: str, joints: list[str], what: str) -> int:
     if name in joints:
         return joints.index(name)
     token = re.sub(r"[^A-Za-z0-9_]", "_", name.rsplit("/", 1)[-1])
-    for same in (lambda a: a == token, lambda a: a.lower() == token.lower()):
-        hits = [i for i, j in enumerate(joints) if same(names.leaf(j))]
+    for same in (lambda j: names.leaf(j) == token, lambda j: leaf(j) == leaf(token),
+                 lambda j: names.leaf(j).lower() == token.lower(), lambda j: leaf(j).lower() == leaf(token).lower()):
+        hits = [i for i, j in enumerate(joints) if same(j)]
         if len(hits) > 1:
             raise RigError(f"{what}: '{name}' matches {len(hits)} joints ({_listed(joints, hits, 4)}); give the joint path")
         if hits:
@@ -114,11 +115,30 @@ def _eyes_under(head: int, joints, parents) -> dict[str, list[int]]:
 
 def _mirrored_children(j: int, joints: list[str], parents: np.ndarray) -> tuple[int, int] | None:
     kids = [i for i in range(len(joints)) if parents[i] == j]
-    for a in kids:
-        for b in kids:
-            if names.side(joints[a]) > 0 > names.side(joints[b]) and names.mirror_key(joints[a]) == names.mirror_key(joints[b]):
-                return a, b
+    for numbers in (True, False):
+        for a in kids:
+            for b in kids:
+                if (names.side(joints[a]) > 0 > names.side(joints[b])
+                        and names.mirror_key(joints[a], numbers) == names.mirror_key(joints[b], numbers)):
+                    return a, b
     return None
+
+
+def _legs_off_the_spine(path: list[int], joints, parents, found, reasons) -> None:
+    """3ds Max Biped hangs the thighs off the first spine joint, not the pelvis: that joint then turns
+    with the pelvis, and the legs under it counter-rotate."""
+    pelvis = found["pelvis"][-1]
+    at = path.index(pelvis)
+    claimed = {j for r in found for j in found[r]}
+    if _mirrored_children(pelvis, joints, parents) or at + 1 >= len(path) or path[at + 1] in claimed:
+        return
+    nxt = path[at + 1]
+    rest = [j for j in path[at + 2:] if j not in claimed]
+    pair = _mirrored_children(nxt, joints, parents)
+    if pair and len(rest) >= 3:
+        found["pelvis"] = found["pelvis"] + [nxt]
+        reasons["pelvis"] += (f"; '{names.leaf(joints[nxt])}' too: legs {names.leaf(joints[pair[0]])}/"
+                              f"{names.leaf(joints[pair[1]])} hang off it")
 
 
 def _find_head(joints, parents, found, reasons) -> None:
@@ -231,6 +251,8 @@ def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple
         raise RigError(f"{where}: head '{names.leaf(joints[head])}' is not below pelvis "
                        f"'{names.leaf(joints[pelvis_first])}'; {_HINT}")
     path = path[path.index(pelvis_first):]
+    if "pelvis" not in bindings:
+        _legs_off_the_spine(path, joints, parents, found, reasons)
     _split_spine(path, joints, found, reasons, fixed=set(bindings))
     for role in _SPINE_ROLES:
         if not found.get(role):
