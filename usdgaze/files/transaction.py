@@ -183,6 +183,7 @@ class Outputs:
         elif edit:
             raise UsdGazeError(f"{shown}: no such file for {flag} to edit")
         self.ids.write(path if follow else target, flag, follow=follow)
+        self._tmpdir(folder, shown)  # a folder we cannot write into is found now, before any work
         self._claims[target] = _Staged(target, flag, keep_mode)
         return shown
 
