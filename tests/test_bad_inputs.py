@@ -1,12 +1,18 @@
 """Bad inputs: exit code 2, exactly one line on stderr naming what is wrong, nothing half-written.
 
-The catalogue lives in docs/bad-inputs.md (one table row per case: id, input, message); this file
-builds each case and runs the ``usdgaze`` console command on it in a subprocess (all of them at
-once, in parallel). A row's message is a pattern: ``{dir}`` stands for the case's folder, ``…`` for
-any text. Every row must have a ``b_<id>`` builder here and every builder a row.
+The catalogue lives in docs/bad-inputs.md (one table row per case: id, input, message); the
+builders are here and in tests/bad_cases_*.py (``b_<id>``), every row has one and every builder a row.
+A row's message is a pattern: ``{dir}`` stands for the case's folder, ``…`` for any text.
+
+How the commands run, honestly: spawning ~220 Python processes that each import pxr costs minutes
+on two cores, so most cases call the console entry point (``usdgaze.console.main.main``, or
+``pipeline/batch.py``'s ``main``) inside this process, with stdout, stderr and file descriptor 2
+(USD's C++ diagnostics) captured. The ``SUBPROCESS`` subset, at least one case of each class, runs
+as a real ``python -m usdgaze`` / ``pipeline/batch.py`` process in parallel with those. After each
+case the whole case folder (bytes, modes, symlinks) must be as it was before the command ran.
 
 Also here: an ``apply`` killed in the middle of writing leaves no file at ``--out`` (and an older
-output there untouched).
+output there untouched); tests/test_files.py has the real SIGTERM/SIGKILL tests.
 """
 
 from __future__ import annotations
