@@ -51,7 +51,9 @@ def load_manifest(path: Path) -> list[dict]:
     if not isinstance(defaults, dict):
         raise UsdGazeError(f"{path}: [defaults] must be a table of job keys")
     jobs = data.get("job", [])
-    if not isinstance(jobs, list) or not jobs:
+    if not isinstance(jobs, list):
+        raise UsdGazeError(f"{path}: job = {jobs!r}: expected [[job]] tables")
+    if not jobs:
         raise UsdGazeError(f"{path}: no [[job]] entries")
     out = [_job(path, i, raw, defaults) for i, raw in enumerate(jobs)]
     _check_identities(path, out)
@@ -65,7 +67,7 @@ def _job(path: Path, i: int, raw, defaults: dict) -> dict:
     from usdgaze.passes.shift import PassOptions
 
     if not isinstance(raw, dict):
-        raise UsdGazeError(f"{path}: job {i}: is a {type(raw).__name__}, expected a [[job]] table")
+        raise UsdGazeError(f"{path}: job {i}: {raw!r} is not a table; expected [[job]] tables")
     job = {**defaults, **raw}
     where = f"{path}: job {i}" + (f" '{job['name']}'" if isinstance(job.get("name"), str) else "")
     unknown = set(job) - KEYS
@@ -104,9 +106,9 @@ def _check_identities(path: Path, jobs: list[dict]) -> None:
     ids = Identities()
     ids.read(path, "manifest")
     for i, job in enumerate(jobs):
-        ids.read(job["input"], f"input of job {i} '{job['name']}',")
+        ids.read(job["input"], f"input of job {i} '{job['name']}'")
         if job.get("map"):
-            ids.read(job["map"].partition(":/")[0], f"map of job {i} '{job['name']}',")
+            ids.read(job["map"].partition(":/")[0], f"map of job {i} '{job['name']}'")
     for i, job in enumerate(jobs):
         for key in ("out", "preview", "sublayer_into"):
             if job.get(key) and not (key == "sublayer_into" and any(
@@ -180,10 +182,13 @@ def _run(args, tx) -> list[dict]:
         tx.claim(args.report, "--report")
     jobs = load_manifest(args.manifest)
     tx.read(args.manifest, "manifest")
-    for job in jobs:
-        for key in ("input", "out", "preview", "sublayer_into"):
-            if job.get(key):
-                tx.read(job[key], f"{key} of job '{job['name']}'")
+    written: set[str] = set()
+    for i, job in enumerate(jobs):  # the report is no job's file either
+        tx.read(job["input"], f"input of job {i} '{job['name']}'")
+        for key in ("out", "preview", "sublayer_into"):
+            if job.get(key) and job[key] not in written:
+                written.add(job[key])
+                tx.ids.write(job[key], f"job {i} '{job['name']}' {key}")
     if args.task_index is not None:
         if not 0 <= args.task_index < len(jobs):
             raise UsdGazeError(f"{args.manifest}: --task-index {args.task_index} out of range (0..{len(jobs) - 1})")

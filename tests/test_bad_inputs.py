@@ -1,16 +1,24 @@
 """Bad inputs: exit code 2, exactly one line on stderr naming what is wrong, nothing half-written.
 
-The catalogue lives in docs/bad-inputs.md (one table row per case: id, input, message); this file
-builds each case and runs the ``usdgaze`` console command on it in a subprocess (all of them at
-once, in parallel). A row's message is a pattern: ``{dir}`` stands for the case's folder, ``…`` for
-any text. Every row must have a ``b_<id>`` builder here and every builder a row.
+The catalogue lives in docs/bad-inputs.md (one table row per case: id, input, message); the
+builders are here and in tests/bad_cases_*.py (``b_<id>``), every row has one and every builder a row.
+A row's message is a pattern: ``{dir}`` stands for the case's folder, ``…`` for any text.
+
+How the commands run, honestly: spawning ~220 Python processes that each import pxr costs minutes
+on two cores, so most cases call the console entry point (``usdgaze.console.main.main``, or
+``pipeline/batch.py``'s ``main``) inside this process, with stdout, stderr and file descriptor 2
+(USD's C++ diagnostics) captured. The ``SUBPROCESS`` subset, at least one case of each class, runs
+as a real ``python -m usdgaze`` / ``pipeline/batch.py`` process in parallel with those. After each
+case the whole case folder (bytes, modes, symlinks) must be as it was before the command ran.
 
 Also here: an ``apply`` killed in the middle of writing leaves no file at ``--out`` (and an older
-output there untouched).
+output there untouched); tests/test_files.py has the real SIGTERM/SIGKILL tests.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 import re
 import subprocess
@@ -25,8 +33,9 @@ import pytest
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from pxr import Sdf, Vt
 
-from . import measure
-from . import synthetic as syn
+from . import bad_cases_files, bad_cases_stage, bad_cases_values, measure
+from .bad_common import (apply_argv, dump_map, edited, quats, remove, rig, run_inprocess, run_subprocess, set_sample,
+                         snapshot, unmount_all)
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "bad-inputs.md"
@@ -35,43 +44,12 @@ CLI = [sys.executable, "-m", "usdgaze"]
 SHIFT = ["--shift", "0.5s:30:0"]
 
 
-def _rig(d: Path, name: str = "in.usda", **kw) -> syn.Rig:
-    kw.setdefault("frames", 90)
-    kw.setdefault("mesh", False)
-    return syn.make_rig(d / name, **kw)
-
-
-def _apply(d: Path, src: Path, *extra: str, shifts=SHIFT, out: str = "gaze.usdc") -> list[str]:
-    return ["apply", str(src), *shifts, "--out", str(d / out), *extra]
-
-
-def _edited(d: Path, fn, **kw) -> Path:
-    rig = _rig(d, **kw)
-    layer = Sdf.Layer.FindOrOpen(str(rig.path))
-    fn(layer, rig)
-    layer.Save()
-    return rig.path
-
-
-def _remove(layer: Sdf.Layer, path: str) -> None:
-    p = Sdf.Path(path)
-    if p.IsPropertyPath():
-        owner = layer.GetPrimAtPath(p.GetPrimPath())
-        owner.RemoveProperty(owner.properties[p.name])
-    else:
-        del layer.GetPrimAtPath(p.GetParentPath()).nameChildren[p.name]
-
-
-def _set_sample(layer: Sdf.Layer, rig: syn.Rig, attr: str, value, at: int = 5) -> None:
-    layer.SetTimeSample(Sdf.Path(f"{rig.animation}.{attr}"), float(rig.times[at]), value)
-
-
-def _quats(n: int, nan: bool = False):
-    q = np.zeros((n, 4), dtype=np.float32)
-    q[:, 3] = 1.0
-    if nan:
-        q[n // 2] = np.nan
-    return Vt.QuatfArray.FromNumpy(q)
+_rig = rig
+_apply = apply_argv
+_edited = edited
+_remove = remove
+_set_sample = set_sample
+_quats = quats
 
 
 # -- builders: id -> (case dir) -> argv -----------------------------------------------------------
@@ -317,7 +295,7 @@ def b_map_file_missing(d):
 
 
 def b_map_prim_missing(d):
-    subprocess.run([*CLI, "dump-map", str(d / "map.usda")], check=True, capture_output=True)
+    dump_map(d / "map.usda")
     return _apply(d, _rig(d).path, "--map", f"{d / 'map.usda'}:/Elsewhere")
 
 
@@ -327,7 +305,7 @@ def b_map_prim_without_map(d):
 
 
 def b_map_malformed(d):
-    subprocess.run([*CLI, "dump-map", str(d / "map.usda")], check=True, capture_output=True)
+    dump_map(d / "map.usda")
     layer = Sdf.Layer.FindOrOpen(str(d / "map.usda"))
     spec = layer.GetAttributeAtPath("/GazeMap.gaze:examples:duration")
     values = list(spec.default)
@@ -384,7 +362,15 @@ def b_dump_map_bad_extension(d):
     return ["dump-map", str(d / "map.json")]
 
 
-BUILDERS = {name[2:].replace("_", "-"): fn for name, fn in dict(globals()).items() if name.startswith("b_")}
+BUILDERS = {name[2:].replace("_", "-"): fn for module in (globals(), vars(bad_cases_files), vars(bad_cases_stage),
+                                                           vars(bad_cases_values))
+            for name, fn in dict(module).items() if name.startswith("b_")}
+# Run through a real ``python -m usdgaze`` (or ``pipeline/batch.py``) process: one or more of each class.
+SUBPROCESS = {
+    "text-garbage", "out-hard-link-of-input", "out-is-a-referenced-layer", "preview-read-only-folder", "out-disk-full",
+    "sublayer-into-read-only-file", "rotations-authored-as-float3", "character-inside-an-instance",
+    "fixation-negative", "batch-fixation-negative", "build-map-report-is-the-sheet", "unknown-option",
+}
 
 
 # -- the catalogue --------------------------------------------------------------------------------
@@ -399,54 +385,90 @@ def catalogue() -> dict[str, tuple[str, str]]:
     return rows
 
 
-def pattern(message: str, d: Path) -> re.Pattern:
+def pattern(message: str, d: Path, prefix: str = "usdgaze") -> re.Pattern:
     """A doc message -> regex over the whole stderr line (``{dir}``: the case folder, ``…``: any text)."""
     parts = re.split(r"(\{dir\}|…)", message)
     body = "".join(re.escape(str(d)) if p == "{dir}" else ".*?" if p == "…" else re.escape(p) for p in parts)
-    return re.compile("usdgaze: error: " + body + "$")
+    return re.compile(re.escape(f"{prefix}: error: ") + body + "$")
 
 
-def _snapshot(d: Path) -> dict[str, str]:
-    return {str(p.relative_to(d)): (measure.sha256(p) if p.is_file() else "dir") for p in sorted(d.rglob("*"))}
+@contextlib.contextmanager
+def _injected(d: Path):
+    """Where this machine cannot mount a small or read-only tmpfs, fail writes into a marked folder
+    with the OS error a real one gives (ENOSPC while writing, EROFS when creating the temporary)."""
+    from usdgaze.files import transaction
+
+    marked = {m.parent: m.name for m in d.rglob(".inject-*")}
+    if not marked:
+        yield
+        return
+    real_stage, real_mkdir = transaction.Outputs.stage_with, Path.mkdir
+
+    def stage_with(self, path, write):
+        if marked.get(Path(os.path.realpath(path)).parent) == ".inject-enospc":
+            def failing(temp, write=write):
+                write(temp)
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            return real_stage(self, path, failing)
+        return real_stage(self, path, write)
+
+    def mkdir(self, *args, **kwargs):
+        if marked.get(self.parent) == ".inject-erofs":
+            raise OSError(errno.EROFS, os.strerror(errno.EROFS))
+        return real_mkdir(self, *args, **kwargs)
+
+    transaction.Outputs.stage_with, Path.mkdir = stage_with, mkdir
+    try:
+        yield
+    finally:
+        transaction.Outputs.stage_with, Path.mkdir = real_stage, real_mkdir
 
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
-    """Build every case, then run the commands in parallel (each is a fresh process)."""
+    """Build every case; run a few in subprocesses (in parallel) and the rest in this process."""
     cases = {}
-    for case_id, build in BUILDERS.items():
-        d = tmp_path_factory.mktemp(case_id)
-        argv = build(d)
-        cases[case_id] = (d, argv, _snapshot(d))
-
-    def run(item):
-        case_id, (d, argv, before) = item
-        p = subprocess.run([*CLI, *argv], capture_output=True, text=True, cwd=d, timeout=120)
-        return case_id, (d, argv, before, p)
-
-    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
-        return dict(pool.map(run, cases.items()))
+    try:
+        for case_id, build in BUILDERS.items():
+            d = tmp_path_factory.mktemp(case_id)
+            argv = build(d)
+            cases[case_id] = (d, argv, snapshot(d))
+        out = {}
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            futures = {cid: pool.submit(run_subprocess, cases[cid][1], cases[cid][0]) for cid in SUBPROCESS}
+            for case_id, (d, argv, before) in cases.items():
+                if case_id not in SUBPROCESS:
+                    with _injected(d):
+                        out[case_id] = (d, argv, before, run_inprocess(argv, d), snapshot(d))
+            for case_id, f in futures.items():
+                d, argv, before = cases[case_id]
+                out[case_id] = (d, argv, before, f.result(), snapshot(d))
+        yield out
+    finally:
+        unmount_all()
 
 
 def test_catalogue_and_builders_match():
     rows = catalogue()
     assert rows, f"no table rows in {DOC}"
     assert sorted(rows) == sorted(BUILDERS), (sorted(set(rows) ^ set(BUILDERS)))
+    assert len(rows) >= 150
 
 
 @pytest.mark.parametrize("case_id", sorted(catalogue()))
 def test_bad_input(results, case_id):
-    d, argv, before, p = results[case_id]
+    d, argv, before, (code, stdout, stderr), after = results[case_id]
     _, message = catalogue()[case_id]
-    lines = p.stderr.splitlines()
-    assert p.returncode == 2, (p.returncode, p.stderr)
-    assert "Traceback" not in p.stderr
-    assert len(lines) == 1, p.stderr
-    assert pattern(message, d).match(lines[0]), (lines[0], message)
-    assert p.stdout == ""
-    # Nothing written, nothing changed: no --out, no temp files, every file as it was.
-    assert not (d / "gaze.usdc").exists()
-    assert _snapshot(d) == before
+    lines = stderr.splitlines()
+    assert code == 2, (code, stderr)
+    assert "Traceback" not in stderr
+    assert len(lines) == 1, stderr
+    prefix = "usdgaze-batch" if argv[0] == "batch" else "usdgaze"
+    assert pattern(message, d, prefix).match(lines[0]), (lines[0], message)
+    if argv[0] != "batch":
+        assert stdout == ""
+    # Nothing written, nothing changed: no output, no temporary, every file's bytes and mode as they were.
+    assert after == before
 
 
 # -- atomic write -------------------------------------------------------------------------------

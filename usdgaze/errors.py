@@ -25,6 +25,6 @@ def usd_failure(exc: BaseException) -> str:
     for line in str(exc).splitlines():
         line = line.strip()
         if line:
-            m = re.match(r"^Error in '.*?' at line \d+ in file .*? : '(.*)'$", line)
+            m = re.match(r"^Error in '.*?' at line \d+ in file .*? : '(.*?)'?$", line)
             return m.group(1) if m else line
     return type(exc).__name__

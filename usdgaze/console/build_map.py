@@ -10,7 +10,7 @@ from usdgaze.gaze.definition import SynthesisSettings
 from usdgaze.errors import UsdGazeError
 from usdgaze.files.transaction import Outputs
 from usdgaze.ingest.build import build, require_definition, write_map
-from usdgaze.ingest.report import format_table, write_report, write_series
+from usdgaze.ingest.report import check_report_path, format_table, write_report, write_series
 from usdgaze.ingest.settings import BuildSettings
 from usdgaze.ingest.sheet import load_sheet
 
@@ -93,6 +93,7 @@ def _claim(tx: Outputs, out, report_path, series_dir) -> None:
     check_map_path(out)
     tx.claim(out, "--out")
     if report_path:
+        check_report_path(report_path)
         tx.claim(report_path, "--report")
     if series_dir and Path(series_dir).exists() and not Path(series_dir).is_dir():
         raise UsdGazeError(f"{series_dir}: --series names a file, expected a folder")

@@ -55,7 +55,7 @@ class Identities:
         fid = FileId.of(path)
         if fid in self._writes:
             out, flag = self._writes[fid]
-            raise UsdGazeError(f"{out}: {flag} is {_same(out, path)}{what} {path}; refusing to overwrite an input")
+            raise UsdGazeError(f"{out}: {flag} is {_same(out, path)}{what} ({path}); refusing to overwrite an input")
         self._reads.setdefault(fid, (str(path), what))
 
     def write(self, path: str | os.PathLike, flag: str, follow: bool = True) -> None:
@@ -63,7 +63,7 @@ class Identities:
         fid = FileId.of(path, follow)
         if fid in self._reads:
             src, what = self._reads[fid]
-            raise UsdGazeError(f"{path}: {flag} is {_same(path, src)}{what} {src}; refusing to overwrite an input")
+            raise UsdGazeError(f"{path}: {flag} is {_same(path, src)}{what} ({src}); refusing to overwrite an input")
         if fid in self._writes:
             other, other_flag = self._writes[fid]
             raise UsdGazeError(f"{path}: {flag} and {other_flag} name the same file; give each output its own path")

@@ -38,7 +38,7 @@ _REASONS = (errno.ENOSPC, errno.EROFS, errno.EACCES, errno.EPERM, errno.EDQUOT, 
 
 
 class Interrupted(BaseException):
-    """SIGTERM arrived while outputs were staged; raised so that cleanup runs (SIGINT: KeyboardInterrupt)."""
+    """SIGTERM or SIGINT arrived while a command held outputs; raised so that cleanup runs."""
 
     def __init__(self, signum: int) -> None:
         super().__init__(signal.Signals(signum).name)
@@ -142,9 +142,7 @@ class Outputs:
 
     @staticmethod
     def _on_signal(signum, frame) -> None:
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        raise Interrupted(signum)
+        raise Interrupted(signum)  # not KeyboardInterrupt: click would turn that into "Aborted!"
 
     # -- reads and claims --------------------------------------------------------------------------
     def read(self, path: str | os.PathLike, what: str = "input") -> None:
@@ -183,6 +181,7 @@ class Outputs:
         elif edit:
             raise UsdGazeError(f"{shown}: no such file for {flag} to edit")
         self.ids.write(path if follow else target, flag, follow=follow)
+        self._tmpdir(folder, shown)  # a folder we cannot write into is found now, before any work
         self._claims[target] = _Staged(target, flag, keep_mode)
         return shown
 
@@ -263,13 +262,14 @@ class Outputs:
                 os.replace(item.temp, item.target)
                 done.append((item, backup))
         except OSError as exc:
-            for item, backup in reversed(done):
+            failed = item.target
+            for put, backup in reversed(done):
                 with contextlib.suppress(OSError):
                     if backup is not None:
-                        os.replace(backup, item.target)
-                    elif item.keep_mode is None:
-                        os.unlink(item.target)
-            raise UsdGazeError(f"{item.target}: cannot write ({os_reason(exc)})") from None
+                        os.replace(backup, put.target)
+                    elif put.keep_mode is None:
+                        os.unlink(put.target)
+            raise UsdGazeError(f"{failed}: cannot write ({os_reason(exc)})") from None
         for folder in self._tmpdirs:
             with contextlib.suppress(OSError):
                 fd = os.open(folder, os.O_RDONLY)

@@ -73,12 +73,18 @@ def report_text(reports: list[TrialReport], fmt: str) -> str:
     return out.getvalue()
 
 
+def check_report_path(path: str | Path) -> str:
+    """The report format from the suffix (``csv`` or ``json``), else a one-line error."""
+    fmt = Path(path).suffix.lower().lstrip(".")
+    if fmt not in ("csv", "json"):
+        raise ReportError(f"{path}: a report must be .csv or .json")
+    return fmt
+
+
 def write_report(path: str | Path, reports: list[TrialReport], outputs: Outputs | None = None) -> None:
     """Write the report; the format follows the suffix (.csv or .json)."""
     path = Path(path)
-    fmt = path.suffix.lower().lstrip(".")
-    if fmt not in ("csv", "json"):
-        raise ReportError(f"{path}: a report must be .csv or .json")
+    fmt = check_report_path(path)
     with outputs_of(outputs) as tx:
         if not tx.claimed(path):
             tx.claim(path, "--report")

@@ -125,8 +125,13 @@ def load_sheet(path: str | Path) -> Sheet:
         if "skeleton" in data:
             binding = skeleton_binding(data["skeleton"], str(path))
     else:
-        with path.open(newline="", encoding="utf-8-sig") as f:
-            lines = [line for line in f if line.strip() and not line.lstrip().startswith("#")]
+        try:
+            with path.open(newline="", encoding="utf-8-sig") as f:
+                lines = [line for line in f if line.strip() and not line.lstrip().startswith("#")]
+        except UnicodeDecodeError as exc:
+            raise SheetError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+        except OSError as exc:
+            raise SheetError(f"{path}: cannot read ({exc.strerror})") from None
         reader = csv.DictReader(lines)
         if not reader.fieldnames:
             raise SheetError(f"{path}: empty sheet (expected a header with file, yaw, pitch)")

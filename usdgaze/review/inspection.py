@@ -16,11 +16,13 @@ def inspect_stage(path: str, hints=None) -> dict:
 
     from usdgaze import api
     from usdgaze.usd import schema
+    from usdgaze.usd.checks import check_stage
     from usdgaze.usd.skelio import open_stage, read_clip, skel_roots, skeletons_under
 
     if not Path(path).is_file():
         raise UsdGazeError(f"{path}: no such file")
     stage = open_stage(path)
+    check_stage(stage, str(path))
     info = {
         "file": str(path),
         "up_axis": str(UsdGeom.GetStageUpAxis(stage)),

@@ -9,6 +9,7 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.errors import UsdGazeError
+from usdgaze.usd import checks
 from usdgaze.usd.stage import open_stage  # noqa: F401  (the one opener; kept importable from here)
 
 
@@ -180,6 +181,9 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     """Read a Skeleton, its rest/bind pose and its bound animation's samples into a :class:`SkelClip`."""
     skeleton = UsdSkel.Skeleton(skel)
     where_skel = f"{source}:{skel.GetPath()}"
+    checks.check_stage(stage, source)
+    checks.check_not_instanced(skel, where_skel)
+    checks.check_types(skel, checks.SKELETON_TYPES, where_skel)
     joints = [str(j) for j in (skeleton.GetJointsAttr().Get() or [])]
     if not joints:
         raise UsdGazeError(f"{where_skel}.joints: the skeleton has no joints")
@@ -189,11 +193,17 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         raise UsdGazeError(f"{where_skel}: no skel:animationSource bound to a SkelAnimation; nothing to add gaze to")
     anim = UsdSkel.Animation(anim_prim)
     where_anim = f"{source}:{anim_prim.GetPath()}"
+    checks.check_not_instanced(anim_prim, where_anim)
+    checks.check_types(anim_prim, checks.ANIMATION_TYPES, where_anim)
 
     rest_local = _matrices(skeleton.GetRestTransformsAttr())
-    if rest_local is not None and len(rest_local) != len(joints):
-        raise UsdGazeError(f"{where_skel}.restTransforms: {len(rest_local)} entries, expected {len(joints)} (one per joint)")
     bind_authored = _matrices(skeleton.GetBindTransformsAttr())
+    # Broken numbers are refused (the file needs fixing); a bind pose that is merely unusable as the
+    # neutral (not authored, every joint at one point) falls back to the rest pose.
+    for name, m in (("restTransforms", rest_local), ("bindTransforms", bind_authored)):
+        if m is not None and len(m) != len(joints):
+            raise UsdGazeError(f"{where_skel}.{name}: {len(m)} entries, expected {len(joints)} (one per joint)")
+        checks.check_matrices(m, joints, f"{where_skel}.{name}")
     problem = bind_problem(bind_authored, joints)
     if rest_local is None and bind_authored is None:
         raise UsdGazeError(f"{where_skel}: neither restTransforms nor bindTransforms is authored; the rest pose is unknown")
@@ -230,6 +240,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
     _check_values(rotations, translations, where_anim)
+    checks.check_scales(scales, f"{where_anim}.scales")
 
     names_attr = skeleton.GetJointNamesAttr()
     joint_names = [str(j) for j in names_attr.Get()] if names_attr and names_attr.HasAuthoredValue() else None
