@@ -117,7 +117,7 @@ def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
     except ImportError:
         raise UsdGazeError("--dask needs dask.distributed: pip install 'usdgaze[dask]'") from None
     try:
-        client = Client(address, set_as_default=False)  # connect timeout: distributed.comm.timeouts.connect
+        client = Client(address)  # connect timeout: distributed.comm.timeouts.connect
     except (OSError, TimeoutError) as exc:
         raise UsdGazeError(f"--dask {address}: cannot connect to the scheduler ({exc})") from None
     with client:
