@@ -54,7 +54,7 @@ def _deadline(manifest: Path, count: int, name: str) -> dict[str, str]:
         "ShellExecute=False",
         "",
     ])
-    submit = f"#!/bin/sh\n# Submit the usdgaze job to Deadline.\nexec deadlinecommand \"$(dirname \"$0\")/job_info.job\" \"$(dirname \"$0\")/plugin_info.job\"\n"
+    submit = f"#!/bin/sh\n# Submit the usdgaze job to Deadline: sh submit.sh\nexec deadlinecommand \"$(dirname \"$0\")/job_info.job\" \"$(dirname \"$0\")/plugin_info.job\"\n"
     return {"job_info.job": job_info, "plugin_info.job": plugin_info, "submit.sh": submit}
 
 
@@ -121,6 +121,6 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     written = []
     for name, text in files.items():
         path = folder / name
-        write_text(path, text, executable=name.endswith((".sh", ".sbatch")))
+        write_text(path, text)
         written.append(path)
     return written

@@ -145,23 +145,11 @@ def exit_code(records: list[dict]) -> int:
     return 2 if 2 in codes else 1 if 1 in codes else 0
 
 
-def write_text(path: str | os.PathLike, text: str, executable: bool = False) -> None:
-    """Write a text file atomically (temp file in the same folder, then rename), with the umask's mode."""
-    import tempfile
+def write_text(path: str | os.PathLike, text: str) -> None:
+    """Write a text file through the one atomic writer (temp file beside it, then rename)."""
+    from usdgaze.usd.layers import atomic_write
 
-    path = Path(path)
-    umask = os.umask(0)
-    os.umask(umask)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.chmod(tmp, (0o777 if executable else 0o666) & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 
 
 def summary(records: list[dict], manifest: str, mode: str, seconds: float, started: str,
