@@ -98,23 +98,48 @@ def startup(work: Path, runs: int) -> dict:
 # -- scaling and memory ------------------------------------------------------------------------------
 
 _MEMORY = r"""
-import gc, json, resource, sys, tracemalloc
+import gc, json, resource, sys, threading, time, tracemalloc
 import usdgaze.api as api
 from pxr import Sdf, Usd, UsdGeom, UsdSkel, UsdUtils  # everything the pass imports, before the baseline
-src, out, shifts, trace = sys.argv[1], sys.argv[2], sys.argv[3].split(","), sys.argv[4] == "1"
+src, out, shifts, trace, floor_of = sys.argv[1], sys.argv[2], sys.argv[3].split(","), sys.argv[4] == "1", sys.argv[5]
+if floor_of:  # the I/O floor instead: the Sdf-level copy of what the gaze pass wrote to floor_of
+    sys.path.insert(0, sys.argv[6])
+    from bench_pass import sdf_copy, written_attributes
+    attrs = written_attributes(floor_of)
+
+def anon():  # resident anonymous memory (heap: arrays, USD's layer data), not file-backed pages
+    for line in open("/proc/self/status"):
+        if line.startswith("RssAnon:"):
+            return int(line.split()[1]) * 1024
+
 gc.collect()
 rss0 = int(open("/proc/self/statm").read().split()[1]) * resource.getpagesize()
+anon0, peak_anon, running = anon(), [0], [True]
+
+def sample():
+    while running[0]:
+        peak_anon[0] = max(peak_anon[0], anon())
+        time.sleep(0.002)
+
 if trace:
     tracemalloc.start()
-api.apply(src, shifts, out)
+else:
+    watcher = threading.Thread(target=sample, daemon=True)
+    watcher.start()
+if floor_of:
+    sdf_copy(src, out, attrs)
+else:
+    api.apply(src, shifts, out)
+running[0] = False
 peak_trace = tracemalloc.get_traced_memory()[1] if trace else 0
 peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-print(json.dumps({"rss0": rss0, "peak_rss": peak_rss, "peak_trace": peak_trace}))
+print(json.dumps({"rss0": rss0, "peak_rss": peak_rss, "peak_trace": peak_trace, "anon": peak_anon[0] - anon0}))
 """
 
 
-def _memory(src: Path, out: Path, shifts: list[str], trace: bool) -> dict:
-    proc = subprocess.run([PY, "-c", _MEMORY, str(src), str(out), ",".join(shifts), "1" if trace else "0"],
+def _memory(src: Path, out: Path, shifts: list[str], trace: bool, floor_of: Path | None = None) -> dict:
+    proc = subprocess.run([PY, "-c", _MEMORY, str(src), str(out), ",".join(shifts), "1" if trace else "0",
+                           str(floor_of or ""), str(ROOT / "benchmarks")],
                           capture_output=True, text=True, check=True)
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -141,19 +166,27 @@ def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
         arrays = frames * n * (16 + 12 + 6)
         mem = _memory(rig.path, work / "mem.usdc", shifts, trace=False)
         traced = _memory(rig.path, work / "mem.usdc", shifts, trace=True)
+        floor = _memory(rig.path, work / "floor.usdc", shifts, trace=False, floor_of=out)
         results[frames] = dict(seconds=best, per_jf=best / (frames * n), arrays=arrays, made=made, joints=n,
-                               rss=mem["peak_rss"] - mem["rss0"], traced=traced["peak_trace"])
+                               rss=mem["peak_rss"] - mem["rss0"], anon=mem["anon"], traced=traced["peak_trace"],
+                               floor_rss=floor["peak_rss"] - floor["rss0"], floor_anon=floor["anon"])
         os.unlink(rig.path)
     first = results[lengths[0]]["per_jf"]
     print(f"\n[scaling] gaze pass in-process (4 shifts, read + model + write), best of {runs}")
     print("  frames     joints   pass (s)   ns/joint-frame   vs shortest")
     for frames, r in results.items():
         print(f"  {frames:8d} {r['joints']:8d} {r['seconds']:10.3f} {r['per_jf'] * 1e9:14.1f} {r['per_jf'] / first:12.2f}x")
-    print("\n[memory] fresh process per length; peak above the RSS after imports (goal <= 2x the arrays)")
-    print("  frames   arrays (MB)   peak RSS above (MB)  ratio   tracemalloc peak (MB)  ratio")
+    print("\n[memory] fresh process per length, peaks above the state after imports (goal <= 2x the arrays)")
+    print("  RSS counts the input file's pages USD maps in; anonymous RSS is heap only (arrays, USD layer data);")
+    print("  tracemalloc counts numpy and Python allocations")
+    print("  (the Sdf-level copy of the same attributes, the I/O floor, alongside)")
+    print("  frames   arrays MB |   RSS MB  ratio | anon RSS MB  ratio | tracemalloc MB  ratio |"
+          " floor RSS MB ratio | floor anon MB ratio")
     for frames, r in results.items():
-        print(f"  {frames:8d} {r['arrays'] / 1e6:11.1f} {r['rss'] / 1e6:17.1f} {r['rss'] / r['arrays']:9.2f}x"
-              f" {r['traced'] / 1e6:17.1f} {r['traced'] / r['arrays']:9.2f}x")
+        a = r["arrays"]
+        print(f"  {frames:8d} {a / 1e6:9.1f} | {r['rss'] / 1e6:8.1f} {r['rss'] / a:5.2f}x | {r['anon'] / 1e6:11.1f}"
+              f" {r['anon'] / a:5.2f}x | {r['traced'] / 1e6:14.1f} {r['traced'] / a:5.2f}x |"
+              f" {r['floor_rss'] / 1e6:12.1f} {r['floor_rss'] / a:5.2f}x | {r['floor_anon'] / 1e6:13.1f} {r['floor_anon'] / a:5.2f}x")
     return results
 
 

@@ -249,6 +249,7 @@ def _run_pass(stage, roots, forced, requests, req):
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
         for skel in skels:
             clip = read_clip(stage, skel, root, source)
+            clip.owns_arrays = True  # read for this call alone: the pass may build its result in place
             if clip.animation in seen_anims:
                 raise UsdGazeError(
                     f"{source}:{clip.animation}: drives both {seen_anims[clip.animation]} and {clip.skeleton}; "
