@@ -1,82 +1,227 @@
-"""The farm batch entry on the shipped manifest shape: real sample stages, real layers."""
+"""``usdgaze batch``: manifests, resumable shots, failures kept to their shot, local pool, farm files.
+
+Real sample stages, real layers; a shot's override is compared with what ``usdgaze.api.apply``
+writes for the same options, so the manifest -> apply mapping is checked against the pass itself.
+"""
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from pxr import Sdf
+
+from usdgaze.console.main import main
 
 from . import measure
 
 ROOT = Path(__file__).resolve().parents[1]
+CMU = ROOT / "sample_stages" / "cmu"
 
 
-def _manifest(tmp_path: Path, body: str) -> Path:
-    shutil.copytree(ROOT / "sample_stages" / "cmu", tmp_path / "cmu")
-    path = tmp_path / "jobs" / "manifest.toml"
-    path.parent.mkdir()
-    path.write_text(body)
-    return path
+def _tree(tmp_path: Path, body: str) -> Path:
+    shutil.copy(CMU / "cmu_131_01.usdc", tmp_path / "walk1.usdc")
+    shutil.copy(CMU / "cmu_131_02.usdc", tmp_path / "walk2.usdc")
+    # A root layer composing walk1 and a small sublayer: editing either must redo the shot.
+    (tmp_path / "notes.usda").write_text('#usda 1.0\ndef "Notes" {\n    custom string note = "take 1"\n}\n')
+    (tmp_path / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./notes.usda@, @./walk1.usdc@]\n)\n')
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text(body)
+    return manifest
 
 
-def _batch(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(ROOT / "pipeline" / "batch.py"), *args],
-                          capture_output=True, text=True, timeout=300)
+def _summary(manifest: Path, task: int | None = None) -> dict:
+    tag = f".task-{task}" if task is not None else ""
+    return json.loads(manifest.with_name(f"{manifest.stem}{tag}.summary.json").read_text())
 
 
-def test_batch_runs_every_job_and_reports_each(tmp_path):
-    manifest = _manifest(tmp_path, """
+def _status(summary: dict) -> dict[str, str]:
+    return {r["name"]: r["status"] for r in summary["shots"]}
+
+
+def _samples(path: Path) -> dict:
+    """Every time sample and default of a layer, by attribute path (its customLayerData left out)."""
+    layer = Sdf.Layer.OpenAsAnonymous(str(path))
+    found = {}
+
+    def visit(p):
+        if p.IsPropertyPath():
+            spec = layer.GetAttributeAtPath(p)
+            if spec is not None:
+                found[str(p)] = ([(t, bytes(memoryview(layer.QueryTimeSample(p, t)).cast("B")))
+                                  if hasattr(layer.QueryTimeSample(p, t), "__len__") else (t, layer.QueryTimeSample(p, t))
+                                  for t in layer.ListTimeSamplesForPath(p)], spec.default)
+
+    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
+    return found
+
+
+THREE = """
 [defaults]
 shifts = ["2s:60:0", "5s:0:0"]
 
 [[job]]
-name = "good"
-input = "../cmu/cmu_131_01.usdc"
-out = "out/good.usdc"
-preview = "out/good_preview.usda"
+name = "shot"
+input = "shot.usda"
+out = "out/shot.usdc"
+preview = "out/shot_preview.usda"
+fixation = 0.7
+
+[[job]]
+name = "walk2"
+input = "walk2.usdc"
+out = "out/walk2.usdc"
+shifts = ["1.5s:-45:10"]
 
 [[job]]
 name = "bad"
-input = "../cmu/missing.usdc"
+input = "missing.usdc"
 out = "out/bad.usdc"
-""")
-    before = measure.sha256(tmp_path / "cmu" / "cmu_131_01.usdc")
-    proc = _batch(str(manifest), "--workers", "2", "--report", str(tmp_path / "report.json"))
-    assert proc.returncode == 2, proc.stderr  # one bad job: bad-input exit code, the good one still ran
-    records = {r["name"]: r for r in json.loads((tmp_path / "report.json").read_text())}
-    assert records["good"]["exit_code"] == 0 and records["bad"]["exit_code"] == 2
-    assert "missing.usdc" in records["bad"]["message"] and "\n" not in records["bad"]["message"]
-    layer = Sdf.Layer.FindOrOpen(str(tmp_path / "jobs" / "out" / "good.usdc"))
-    assert list(layer.customLayerData["usdgaze"]["shifts"]) == ["2s:60:0", "5s:0:0"]
-    assert not (tmp_path / "jobs" / "out" / "bad.usdc").exists()
-    assert measure.sha256(tmp_path / "cmu" / "cmu_131_01.usdc") == before
+"""
 
 
-def test_task_index_runs_one_job_for_farm_arrays(tmp_path):
-    manifest = _manifest(tmp_path, """
-[[job]]
-input = "../cmu/cmu_131_01.usdc"
-out = "a.usdc"
-shifts = ["2s:30:0"]
+def test_batch_runs_every_shot_keeps_failures_to_their_shot_and_resumes(tmp_path, capsys):
+    manifest = _tree(tmp_path, THREE)
+    hashes = {p.name: measure.sha256(p) for p in tmp_path.iterdir() if p.is_file()}
 
-[[job]]
-input = "../cmu/cmu_131_02.usdc"
-out = "b.usdc"
-shifts = ["2s:-30:0"]
-""")
-    proc = _batch(str(manifest), "--task-index", "1")
+    assert main(["batch", str(manifest)]) == 2  # one bad shot: bad-input exit code, the others ran
+    first = _summary(manifest)
+    assert _status(first) == {"shot": "done", "walk2": "done", "bad": "bad input"}
+    bad = next(r for r in first["shots"] if r["name"] == "bad")
+    assert "missing.usdc" in bad["message"] and "\n" not in bad["message"]
+    assert not (tmp_path / "out" / "bad.usdc").exists()
+    err = capsys.readouterr().err
+    assert "[1/3]" in err and "[3/3]" in err and " s" in err  # plain per-shot lines with timing (no TTY)
+    for name, digest in hashes.items():
+        if name != "jobs.toml":
+            assert measure.sha256(tmp_path / name) == digest, name
+
+    # The shot's override is what apply writes for the same options (fixation reaches the pass).
+    from usdgaze.api import apply
+    from usdgaze.passes.shift import PassOptions
+
+    apply(tmp_path / "shot.usda", ["2s:60:0", "5s:0:0"], tmp_path / "direct.usdc", options=PassOptions(fixation_m=0.7))
+    apply(tmp_path / "shot.usda", ["2s:60:0", "5s:0:0"], tmp_path / "default.usdc")
+    batch_out = _samples(tmp_path / "out" / "shot.usdc")
+    assert batch_out == _samples(tmp_path / "direct.usdc")
+    assert batch_out != _samples(tmp_path / "default.usdc")
+    data = Sdf.Layer.OpenAsAnonymous(str(tmp_path / "out" / "shot.usdc")).customLayerData["usdgaze"]
+    assert data["batchKey"] == next(r["key"] for r in first["shots"] if r["name"] == "shot")
+
+    # Unchanged: skipped, the output file untouched.
+    stat = (tmp_path / "out" / "shot.usdc").stat()
+    assert main(["batch", str(manifest)]) == 2
+    assert _status(_summary(manifest))["shot"] == "skipped"
+    assert (tmp_path / "out" / "shot.usdc").stat().st_mtime_ns == stat.st_mtime_ns
+
+    # A sublayer's content changed: redone; --force redoes an up-to-date shot; a lost preview is rewritten.
+    (tmp_path / "notes.usda").write_text('#usda 1.0\ndef "Notes" {\n    custom string note = "take 2"\n}\n')
+    (tmp_path / "out" / "walk2.usdc").unlink()
+    main(["batch", str(manifest)])
+    assert _status(_summary(manifest)) == {"shot": "done", "walk2": "done", "bad": "bad input"}
+    main(["batch", str(manifest), "--force"])
+    assert _status(_summary(manifest))["walk2"] == "done"
+    (tmp_path / "out" / "shot_preview.usda").unlink()
+    main(["batch", str(manifest)])
+    assert _status(_summary(manifest)) == {"shot": "done", "walk2": "skipped", "bad": "bad input"}
+
+    # A parameter changed: redone, and only that shot.
+    manifest.write_text(THREE.replace('shifts = ["1.5s:-45:10"]', 'shifts = ["1.5s:-40:10"]'))
+    main(["batch", str(manifest)])
+    assert _status(_summary(manifest)) == {"shot": "skipped", "walk2": "done", "bad": "bad input"}
+
+
+@pytest.mark.parametrize("body, words", [
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\ncolour = "red"\n', ["job 0", "'colour'", "unknown key"]),
+    ('[[job]]\nname = "a"\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2"]\n', ["job 0 'a'", "'shifts'", "1:2"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nfixation = -1\n', ["'fixation'", "positive"]),
+    ('[[job]]\ninput = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["'out'", "missing"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.txt"\nshifts = ["1:2:3"]\n', ["'out'", ".usda"]),
+    ('[defaults]\nshifts = ["1:2:3"]\n[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\n'
+     '[[job]]\ninput = "walk2.usdc"\nout = "y.usdc"\n', ["job 1", "as job 0"]),
+    ('[[jobs]]\ninput = "walk1.usdc"\n', ["unknown table 'jobs'"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["'out'", "overwrite the input"]),
+])
+def test_bad_manifest_is_one_line_naming_file_job_and_key(tmp_path, capsys, body, words):
+    manifest = _tree(tmp_path, body)
+    assert main(["batch", str(manifest)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and str(manifest) in err, err
+    for w in words:
+        assert w in err, (w, err)
+    assert not (tmp_path / "y.usdc").exists() and not list(tmp_path.glob("*.summary.json"))
+
+
+def _run(args: list[str], **env) -> subprocess.CompletedProcess:
+    return subprocess.run(args, capture_output=True, text=True, timeout=300, env={**os.environ, **env})
+
+
+def test_local_pool_runs_shots_in_two_worker_processes(tmp_path):
+    manifest = _tree(tmp_path, THREE.replace('input = "missing.usdc"', 'input = "walk1.usdc"'))
+    proc = _run([sys.executable, "-m", "usdgaze", "batch", str(manifest), "--workers", "2"])
     assert proc.returncode == 0, proc.stderr
-    assert (tmp_path / "jobs" / "b.usdc").exists() and not (tmp_path / "jobs" / "a.usdc").exists()
-    proc = _batch(str(manifest), "--task-index", "5")
-    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    summary = _summary(manifest)
+    assert summary["mode"] == "2 workers" and summary["counts"]["done"] == 3
+    workers = {r["worker"] for r in summary["shots"]}
+    assert 1 <= len(workers) <= 2 and all(not w.endswith(f":{os.getpid()}") for w in workers)
 
 
-def test_bad_manifest_is_one_line(tmp_path):
-    manifest = _manifest(tmp_path, '[[job]]\ninput = "x.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\ncolour = "red"\n')
-    proc = _batch(str(manifest))
-    assert proc.returncode == 2
-    assert proc.stderr.strip().count("\n") == 0 and "colour" in proc.stderr
+def _deadline(folder: Path) -> tuple[dict, dict]:
+    read = lambda p: dict(line.split("=", 1) for line in p.read_text().splitlines() if line)  # noqa: E731
+    return read(folder / "job_info.job"), read(folder / "plugin_info.job")
+
+
+def test_emitted_farm_jobs_run_one_shot_per_task(tmp_path):
+    import shlex
+    import xml.etree.ElementTree as ET
+
+    manifest = _tree(tmp_path, THREE.replace('input = "missing.usdc"', 'input = "walk1.usdc"'))
+    for farm in ("deadline", "opencue", "slurm"):
+        assert main(["batch", str(manifest), "--emit", farm, str(tmp_path / farm)]) == 0
+    assert not (tmp_path / "out").exists()  # emitting runs nothing
+
+    job, plugin = _deadline(tmp_path / "deadline")
+    assert job["Plugin"] == "CommandLine" and job["Frames"] == "0-2" and job["ChunkSize"] == "1"
+    assert plugin["Arguments"].endswith("--task-index <STARTFRAME>") and str(manifest) in plugin["Arguments"]
+    args = plugin["Arguments"].replace("<QUOTE>", '"').replace("<STARTFRAME>", "1")
+    proc = _run([plugin["Executable"], *shlex.split(args)])  # what the Deadline worker runs for task 1
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "out" / "walk2.usdc").exists() and not (tmp_path / "out" / "shot.usdc").exists()
+    assert _summary(manifest, 1)["shots"][0]["name"] == "walk2"
+
+    spec = ET.parse(next((tmp_path / "opencue").glob("*.xml"))).getroot()
+    layer = spec.find("job/layers/layer")
+    assert spec.tag == "spec" and layer.find("range").text == "0-2" and layer.find("chunk").text == "1"
+    cmd = layer.find("cmd").text
+    assert cmd.endswith("--task-index #IFRAME#")
+    proc = _run(shlex.split(cmd.replace("#IFRAME#", "0")))
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "out" / "shot.usdc").exists() and not (tmp_path / "out" / "bad.usdc").exists()
+
+    script = tmp_path / "slurm" / "usdgaze.sbatch"
+    assert "#SBATCH --array=0-2" in script.read_text().splitlines()
+    proc = _run(["bash", str(script)], SLURM_ARRAY_TASK_ID="2")
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "out" / "bad.usdc").exists()
+    proc = _run(["bash", str(script)], SLURM_ARRAY_TASK_ID="2")  # a retried task finds its shot done
+    assert proc.returncode == 0 and _summary(manifest, 2)["shots"][0]["status"] == "skipped"
+    assert main(["batch", str(manifest), "--task-index", "3"]) == 2
+
+
+def test_progress_is_a_bar_on_a_terminal():
+    import io
+
+    from usdgaze.batch.progress import Progress
+
+    out = io.StringIO()
+    progress = Progress(2, stream=out, bar=True)
+    for i, status in enumerate(("done", "bad input")):
+        progress({"name": f"s{i}", "status": status, "seconds": 0.5, "message": "x.usdc: no such file" if i else None})
+    progress.close()
+    text = out.getvalue()
+    assert "2/2" in text and "shot" in text and "[2/2] bad input      s1  0.50 s  x.usdc: no such file" in text

@@ -50,6 +50,8 @@ class ApplyRequest:
     """Create missing output folders (removed again if the command fails); the batch's default."""
     options: PassOptions = field(default_factory=PassOptions)
     progress: object = None
+    record: dict = field(default_factory=dict)
+    """Extra entries for the override's ``customLayerData["usdgaze"]`` (the batch's resume key)."""
 
     @property
     def source(self) -> str:
@@ -117,6 +119,23 @@ def _map_key(definition: GazeMapDefinition) -> bytes:
                       repr(definition.settings).encode()])
 
 
+_MAPS: dict[bytes, ParametricGazeMap] = {}
+_MAPS_KEPT = 8
+
+
+def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
+    """The built map of a definition, built once per process: shots (and characters) sharing a map
+    by content reuse it."""
+    key = _map_key(definition)
+    gaze_map = _MAPS.pop(key, None)
+    if gaze_map is None:
+        gaze_map = ParametricGazeMap(definition)
+    _MAPS[key] = gaze_map  # most recently used last
+    while len(_MAPS) > _MAPS_KEPT:
+        _MAPS.pop(next(iter(_MAPS)))
+    return gaze_map
+
+
 def _character_frame(clip: SkelClip, forward, label: str) -> CharacterFrame:
     sw = clip.skel_to_world[0, :3, :3]
     up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
@@ -160,6 +179,7 @@ def run(req: ApplyRequest) -> ApplyReport:
         roots = select_roots(stage, req.source, req.skel_root)
         report, overrides, info = _run_pass(stage, roots, forced, requests, req)
         info.custom = _provenance(req.source, requests, report, req.options)
+        info.custom["usdgaze"].update(req.record)
         _stage_outputs(tx, req, stage, report, overrides, info)
     if req.sublayer_into is not None:
         reload_if_open(req.sublayer_into)
@@ -216,7 +236,6 @@ def _run_pass(stage, roots, forced, requests, req):
     from usdgaze.usd.skelio import read_clip, skeletons_under
 
     source = req.source
-    maps: dict[bytes, ParametricGazeMap] = {}
     report = ApplyReport(output=str(req.out), input=req.source)
     overrides: list[AnimOverride] = []
     seen_anims: dict[str, str] = {}
@@ -224,13 +243,13 @@ def _run_pass(stage, roots, forced, requests, req):
         own = schema.read_map(root, source) if schema.has_map(root) else None
         definition = forced or own or default_definition()
         map_source = req.map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
-        key = _map_key(definition)
-        gaze_map = maps.get(key) or maps.setdefault(key, ParametricGazeMap(definition))
+        gaze_map = built_map(definition)
         skels = skeletons_under(root)
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
         for skel in skels:
             clip = read_clip(stage, skel, root, source)
+            clip.owns_arrays = True  # read for this call alone: the pass may build its result in place
             if clip.animation in seen_anims:
                 raise UsdGazeError(
                     f"{source}:{clip.animation}: drives both {seen_anims[clip.animation]} and {clip.skeleton}; "

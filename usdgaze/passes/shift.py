@@ -450,7 +450,7 @@ def _assemble(rig: _Rig, rotations_new: dict[int, np.ndarray], translations_new:
         for j in appended:
             anim_index[j] = len(anim_joints)
             anim_joints.append(rig.joints[j])
-    else:  # concatenate already made new arrays; otherwise never write into the clip's
+    elif not clip.owns_arrays:  # concatenate already made new arrays; else write into the clip's only if it owns them
         rotations = rotations.copy()
         translations = translations.copy() if translations_new else translations
     for j, q in rotations_new.items():

@@ -1,0 +1,89 @@
+"""The reader takes time samples from the one layer that holds them, and gives what USD's own value
+resolution gives for every composition it meets (offsets, stronger layers, defaults)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Usd, UsdSkel
+
+from usdgaze.usd import skelio
+
+CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
+ANIM = "/root/Body/BodySkel/scaled_131_01"
+
+
+def _usd_reference(path: Path, times: np.ndarray) -> dict[str, np.ndarray]:
+    """Rotations and translations by per-frame ``Usd.Attribute.Get`` (USD's value resolution)."""
+    stage = Usd.Stage.Open(str(path))
+    anim = UsdSkel.Animation(stage.GetPrimAtPath(ANIM))
+    return {name: np.stack([np.asarray(attr.Get(float(t)), dtype=np.float32) for t in times])
+            for name, attr in (("rotations", anim.GetRotationsAttr()), ("translations", anim.GetTranslationsAttr()))}
+
+
+def _read(path: Path):
+    stage = skelio.open_stage(str(path))
+    root = stage.GetPrimAtPath("/root/Body")
+    return skelio.read_clip(stage, stage.GetPrimAtPath("/root/Body/BodySkel"), root, str(path))
+
+
+def _union_times(path: Path) -> np.ndarray:
+    stage = Usd.Stage.Open(str(path))
+    anim = UsdSkel.Animation(stage.GetPrimAtPath(ANIM))
+    attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
+    return np.array(sorted({t for a in attrs for t in a.GetTimeSamples()}))
+
+
+STRONGER = """#usda 1.0
+over "root" { over "Body" { over "BodySkel" { over "scaled_131_01" {
+    quatf[] rotations.timeSamples = { %s }
+} } } }
+"""
+
+
+@pytest.mark.parametrize("case", ["plain", "offset", "stronger samples", "stronger default"])
+def test_reader_matches_usd_value_resolution(tmp_path, case):
+    shutil.copy(CMU, tmp_path / "walk.usdc")
+    n = len(_read(tmp_path / "walk.usdc").anim_joints)
+    quats = "(1, 0, 0, 0), " * n
+    layers = {"plain": ["@./walk.usdc@"],
+              "offset": ["@./walk.usdc@ (offset = 24; scale = 0.5)"],
+              "stronger samples": ["@./over.usda@", "@./walk.usdc@"],
+              "stronger default": ["@./over.usda@", "@./walk.usdc@"]}[case]
+    if case == "stronger samples":  # three samples at times the base has and has not: USD holds/slerps
+        (tmp_path / "over.usda").write_text(STRONGER % f"10: [{quats}], 100.5: [{quats}], 400: [{quats}]")
+    if case == "stronger default":
+        (tmp_path / "over.usda").write_text(STRONGER.replace("rotations.timeSamples = { %s }", f"rotations = [{quats}]"))
+    # Same time codes per second as the walk, so the offset is the only time mapping.
+    tcps = Usd.Stage.Open(str(CMU)).GetTimeCodesPerSecond()
+    (tmp_path / "shot.usda").write_text(
+        f"#usda 1.0\n(\n    timeCodesPerSecond = {tcps!r}\n    subLayers = [{', '.join(layers)}]\n)\n")
+
+    clip = _read(tmp_path / "shot.usda")
+    expected_times = _union_times(tmp_path / "shot.usda")
+    np.testing.assert_array_equal(clip.times, expected_times)
+    reference = _usd_reference(tmp_path / "shot.usda", expected_times)
+    np.testing.assert_array_equal(clip.rotations, reference["rotations"])
+    np.testing.assert_array_equal(clip.translations, reference["translations"])
+    if case == "offset":
+        base = _read(tmp_path / "walk.usdc")
+        np.testing.assert_allclose(clip.times, 24 + 0.5 * base.times)
+        np.testing.assert_array_equal(clip.rotations, base.rotations)
+
+
+def test_reader_reads_each_sample_once_from_its_layer(tmp_path, monkeypatch):
+    """No per-frame Usd.Attribute.Get when one layer holds the samples."""
+    calls = []
+    original = Usd.Attribute.Get
+
+    def counting(self, *args):
+        if args:
+            calls.append(str(self.GetPath()))
+        return original(self, *args)
+
+    monkeypatch.setattr(Usd.Attribute, "Get", counting)
+    clip = _read(CMU)
+    assert len(clip.times) == 994 and not [c for c in calls if c.startswith(ANIM)]

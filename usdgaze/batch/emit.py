@@ -1,0 +1,126 @@
+"""Farm job files for a manifest: each scheduler runs one task per shot, and each task calls
+``usdgaze batch MANIFEST --task-index I``.
+
+* Deadline: a job-info and a plugin-info file for a CommandLine job (frames 0..N-1, chunk 1), submitted
+  with ``deadlinecommand job_info.job plugin_info.job``;
+* OpenCue: a job spec (cjsl XML, one layer with range 0-(N-1), chunk 1), submitted with
+  ``opencue.api.launchSpec(open(SPEC).read())`` or cuesubmit;
+* SLURM: an array-job script, submitted with ``sbatch usdgaze.sbatch``.
+"""
+
+from __future__ import annotations
+
+import getpass
+import os
+import re
+import shlex
+import shutil
+import sys
+from pathlib import Path
+from xml.sax.saxutils import escape
+
+from usdgaze.errors import UsdGazeError
+
+FORMATS = ("deadline", "opencue", "slurm")
+
+
+def usdgaze_command() -> list[str]:
+    """The argv that runs this usdgaze: its console script when installed, else ``python -m usdgaze``."""
+    script = Path(sys.executable).with_name("usdgaze")
+    found = str(script) if script.is_file() else shutil.which("usdgaze")
+    return [os.path.abspath(found)] if found else [os.path.abspath(sys.executable), "-m", "usdgaze"]
+
+
+def _token(text: str) -> str:
+    """A scheduler-safe name (letters, digits, _ . -)."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "usdgaze"
+
+
+def _deadline(manifest: Path, count: int, name: str) -> dict[str, str]:
+    exe, *pre = usdgaze_command()
+    args = " ".join([*pre, "batch", f"<QUOTE>{manifest}<QUOTE>", "--task-index", "<STARTFRAME>"])
+    job_info = "\n".join([
+        "Plugin=CommandLine",
+        f"Name={name}",
+        f"Comment=usdgaze batch {manifest.name}: one task per shot ({count} shots)",
+        f"Frames=0-{count - 1}",
+        "ChunkSize=1",
+        "",
+    ])
+    plugin_info = "\n".join([
+        f"Executable={exe}",
+        f"Arguments={args}",
+        f"StartupDirectory={manifest.parent}",
+        "ShellExecute=False",
+        "",
+    ])
+    submit = f"#!/bin/sh\n# Submit the usdgaze job to Deadline: sh submit.sh\nexec deadlinecommand \"$(dirname \"$0\")/job_info.job\" \"$(dirname \"$0\")/plugin_info.job\"\n"
+    return {"job_info.job": job_info, "plugin_info.job": plugin_info, "submit.sh": submit}
+
+
+def _opencue(manifest: Path, count: int, name: str) -> dict[str, str]:
+    cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), "--task-index"]) + " #IFRAME#"
+    user = _token(os.environ.get("USER") or getpass.getuser())
+    spec = f"""<?xml version="1.0"?>
+<!DOCTYPE spec PUBLIC "SPI Cue Specification Language" "http://localhost:8080/spcue/dtd/cjsl-1.14.dtd">
+<spec>
+  <show>{escape(_token(os.environ.get("SHOW", "usdgaze")))}</show>
+  <shot>{escape(_token(manifest.stem))}</shot>
+  <user>{escape(user)}</user>
+  <job name="{escape(name)}">
+    <paused>False</paused>
+    <maxretries>1</maxretries>
+    <layers>
+      <layer name="gaze" type="Render">
+        <cmd>{escape(cmd)}</cmd>
+        <range>0-{count - 1}</range>
+        <chunk>1</chunk>
+        <cores>1</cores>
+        <services>
+          <service>shell</service>
+        </services>
+      </layer>
+    </layers>
+  </job>
+</spec>
+"""
+    return {f"{name}.xml": spec}
+
+
+def _slurm(manifest: Path, count: int, name: str) -> dict[str, str]:
+    cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), "--task-index"])
+    script = f"""#!/usr/bin/env bash
+# usdgaze batch {manifest.name}: one array task per shot ({count} shots). Submit: sbatch usdgaze.sbatch
+#SBATCH --job-name={name}
+#SBATCH --array=0-{count - 1}
+#SBATCH --cpus-per-task=1
+#SBATCH --mem=2G
+#SBATCH --time=00:30:00
+#SBATCH --output=usdgaze_%A_%a.log
+# Exit codes: 0 done or skipped, 2 bad input (do not retry), 1 internal error (worth a retry).
+exec {cmd} "$SLURM_ARRAY_TASK_ID"
+"""
+    return {"usdgaze.sbatch": script}
+
+
+_EMITTERS = {"deadline": _deadline, "opencue": _opencue, "slurm": _slurm}
+
+
+def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike) -> list[Path]:
+    """Write the job files for ``count`` shots of ``manifest`` into ``folder``; returns their paths."""
+    from usdgaze.batch.engine import write_text
+
+    if kind not in _EMITTERS:
+        raise UsdGazeError(f"--emit {kind}: unknown farm (choose from {', '.join(FORMATS)})")
+    manifest = Path(manifest).resolve()
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
+    folder.mkdir(parents=True, exist_ok=True)
+    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"))
+    written = []
+    for name, text in files.items():
+        path = folder / name
+        write_text(path, text)
+        written.append(path)
+    return written

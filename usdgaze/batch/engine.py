@@ -1,0 +1,163 @@
+"""Running shots: one shot never raises, a pool or a dask cluster runs many, results stream back.
+
+Every shot is independent: a bad shot (exit 2) or a crash (exit 1) is reported with its one line and
+the others complete. Worker processes use one BLAS thread and one USD work thread each, so N workers
+on N cores do not oversubscribe them.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import sys
+import time
+import traceback
+import uuid
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Callable, Iterator
+
+from usdgaze.batch.manifest import Shot, apply_kwargs
+
+DONE, SKIPPED, BAD, INTERNAL = "done", "skipped", "bad input", "internal error"
+EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
+
+_limited = False
+
+
+def limit_threads() -> None:
+    """One BLAS thread and one USD work thread for this process (once)."""
+    global _limited
+    if _limited:
+        return
+    from threadpoolctl import threadpool_limits
+    from pxr import Work
+
+    threadpool_limits(limits=1)  # stays in force: the returned context is never exited
+    Work.SetConcurrencyLimit(1)
+    _limited = True
+
+
+def _outputs_complete(shot: Shot) -> bool:
+    """The shot's files are all there (and its override is in its sublayer target)."""
+    if not all(os.path.isfile(p) for p in shot.outputs()):
+        return False
+    root = shot.values.get("sublayer_into")
+    if root:
+        from pxr import Sdf
+
+        layer = Sdf.Layer.OpenAsAnonymous(root, metadataOnly=True)
+        if layer is None:
+            return False
+        folder = os.path.dirname(root)
+        listed = {os.path.normpath(os.path.join(folder, p)) for p in layer.subLayerPaths}
+        return os.path.normpath(shot.out) in listed
+    return True
+
+
+def run_shot(shot: Shot, force: bool = False, limit: bool = False) -> dict:
+    """Run one shot (or skip it when its resume key matches its output's); never raises."""
+    from usdgaze.batch.keys import KEY_FIELD, recorded_key, shot_key
+    from usdgaze.errors import UsdGazeError
+
+    if limit:
+        limit_threads()
+    start = time.perf_counter()
+    record = {"index": shot.index, "name": shot.name, "input": shot.values["input"], "out": shot.out,
+              "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    try:
+        key, opened = shot_key(shot)
+        record["key"] = key
+        if not force and recorded_key(shot.out) == key and _outputs_complete(shot):
+            record.update(status=SKIPPED)
+        else:
+            from usdgaze.api import apply
+
+            report = apply(**apply_kwargs(shot), record={KEY_FIELD: key}, make_folders=True)
+            del opened
+            record.update(status=DONE, characters=[c.skel_root for c in report.characters],
+                          frames=sum(c.frames for c in report.characters), warnings=report.warnings)
+    except UsdGazeError as exc:
+        record.update(status=BAD, message=str(exc))
+    except Exception as exc:  # a bug: report it and let the other shots run
+        record.update(status=INTERNAL, message=f"{type(exc).__name__}: {' '.join(str(exc).split())}",
+                      traceback=traceback.format_exc())
+    record["exit_code"] = EXIT_CODES[record["status"]]
+    record["seconds"] = round(time.perf_counter() - start, 4)
+    return record
+
+
+def _pool_context():
+    import multiprocessing
+
+    # fork hands the workers the parent's imports for free; the parent has opened no stage yet
+    # (no USD work threads). Elsewhere (macOS, Windows) fork is unsafe or missing.
+    return multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+
+
+def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
+    """Records as shots finish: in this process for one worker, else in a process pool."""
+    if workers <= 1 or len(shots) <= 1:
+        for shot in shots:
+            yield run_shot(shot, force)
+        return
+    with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=_pool_context(),
+                             initializer=limit_threads) as pool:
+        futures = [pool.submit(run_shot, shot, force) for shot in shots]
+        for future in as_completed(futures):
+            yield future.result()
+
+
+def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
+    """Records as shots finish, each shot one task on the dask.distributed cluster at ``address``."""
+    from usdgaze.errors import UsdGazeError
+
+    try:
+        from distributed import Client, as_completed as dask_completed
+    except ImportError:
+        raise UsdGazeError("--dask needs dask.distributed: pip install 'usdgaze[dask]'") from None
+    try:
+        client = Client(address)  # connect timeout: distributed.comm.timeouts.connect
+    except (OSError, TimeoutError) as exc:
+        raise UsdGazeError(f"--dask {address}: cannot connect to the scheduler ({exc})") from None
+    with client:
+        futures = [client.submit(run_shot, shot, force, True, key=f"usdgaze-{shot.name}-{uuid.uuid4().hex[:8]}",
+                                 pure=False) for shot in shots]
+        for future in dask_completed(futures):
+            yield future.result()
+
+
+def run_shots(shots: list[Shot], workers: int = 1, dask: str | None = None, force: bool = False,
+              on_record: Callable[[dict], None] | None = None) -> list[dict]:
+    """Run every shot; records in manifest order (``on_record`` sees each as it finishes)."""
+    stream = run_dask(shots, dask, force) if dask else run_local(shots, workers, force)
+    records = []
+    for record in stream:
+        records.append(record)
+        if on_record:
+            on_record(record)
+    return sorted(records, key=lambda r: r["index"])
+
+
+def exit_code(records: list[dict]) -> int:
+    """0 all done or skipped, 2 some bad input, 1 some internal error (bad input wins: do not retry)."""
+    codes = {r["exit_code"] for r in records}
+    return 2 if 2 in codes else 1 if 1 in codes else 0
+
+
+def write_text(path: str | os.PathLike, text: str) -> None:
+    """Write a text file through the one atomic writer (temp file beside it, then rename)."""
+    from usdgaze.usd.layers import atomic_write
+
+    atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def summary(records: list[dict], manifest: str, mode: str, seconds: float, started: str,
+            task_index: int | None = None) -> dict:
+    """The JSON summary of one run: what ran where, counts by status, one record per shot."""
+    from usdgaze import __version__
+
+    counts = {status: sum(r["status"] == status for r in records) for status in EXIT_CODES}
+    return {"usdgaze": __version__, "manifest": str(manifest), "started": started, "mode": mode,
+            "task_index": task_index, "seconds": round(seconds, 3), "exit_code": exit_code(records),
+            "counts": counts, "shots": records}

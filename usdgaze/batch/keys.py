@@ -1,0 +1,85 @@
+"""Resume keys: a shot is redone only when something its result depends on changed.
+
+The key hashes the tool version, the shot's parameters, and the *contents* of every layer the
+input composes (root layer, sublayers, references, payloads, value clips: what
+``UsdUtils.ComputeAllDependencies`` finds) and of the map file and its layers. It is recorded in the
+override layer's ``customLayerData`` (``usdgaze.batchKey``); a shot whose outputs exist and whose
+recorded key matches is skipped.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+
+from usdgaze.batch.manifest import Shot
+from usdgaze.errors import UsdGazeError
+
+KEY_FIELD = "batchKey"
+
+
+def _file_digest(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def composed_files(root: str) -> tuple[list[str], list[str], list]:
+    """Real paths of the layers ``root`` composes (itself first), its unresolved layer paths, and the
+    opened layers (keep them alive so the stage opened next reuses them)."""
+    from pxr import UsdUtils
+
+    from usdgaze.errors import usd_failure
+
+    if not os.path.isfile(root):
+        raise UsdGazeError(f"{root}: no such file")
+    try:
+        layers, _assets, unresolved = UsdUtils.ComputeAllDependencies(root)
+    except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
+        raise UsdGazeError(f"{root}: cannot read its layers ({usd_failure(exc)})") from None
+    if not layers:
+        raise UsdGazeError(f"{root}: cannot open as a USD layer")
+    paths = [layer.realPath for layer in layers if layer.realPath]
+    return paths, sorted(str(p) for p in unresolved), layers
+
+
+def shot_key(shot: Shot) -> tuple[str, list]:
+    """The shot's resume key (hex) and the layers opened to compute it."""
+    from usdgaze import __version__
+
+    h = hashlib.sha256()
+    h.update(f"usdgaze {__version__}\n".encode())
+    h.update(json.dumps(shot.parameters(), sort_keys=True).encode() + b"\n")
+    sources = [("input", shot.values["input"])]
+    if "map" in shot.values:
+        file, _, prim = shot.values["map"].partition(":/")
+        h.update(f"map prim /{prim}\n".encode())
+        sources.append(("map", file))
+    opened = []
+    for role, path in sources:
+        files, unresolved, layers = composed_files(path)
+        opened.extend(layers)
+        for f in files:
+            # Contents, not paths: moving a shot tree does not redo it; editing any layer does.
+            h.update(f"{role} layer {_file_digest(f)}\n".encode())
+        for u in unresolved:
+            h.update(f"{role} unresolved {u}\n".encode())
+    return h.hexdigest(), opened
+
+
+def recorded_key(out: str) -> str | None:
+    """The key recorded in an existing override layer, or None (missing, unreadable, no key)."""
+    from pxr import Sdf
+
+    if not os.path.isfile(out):
+        return None
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(out, metadataOnly=True)
+    except Exception:  # an unreadable old output is simply redone
+        return None
+    data = layer.customLayerData.get("usdgaze", {}) if layer else {}
+    key = data.get(KEY_FIELD) if hasattr(data, "get") else None
+    return str(key) if key else None

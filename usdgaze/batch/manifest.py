@@ -1,0 +1,221 @@
+"""Batch manifests: TOML jobs (shots) with defaults, validated up front, mapped onto ``api.apply``.
+
+A manifest lists shots; paths are relative to the manifest's folder::
+
+    [defaults]                  # optional; any shot key
+    fixation = 2.0
+
+    [[job]]
+    name = "walk_01"            # default: the input's file stem
+    input = "shots/walk_01.usdc"
+    out = "out/walk_01_gaze.usdc"
+    preview = "out/walk_01_preview.usda"        # or sublayer_into = "shots/walk_01_shot.usda"
+    shifts = ["2s:60:0", "5s:-120:10"]
+    # map = "maps/studio.usda:/GazeMap"; skel_root = "/Char/Body"
+
+Every key a shot may carry is one row of :data:`KEYS`: how its value is checked and normalized, and
+which ``api.apply`` argument (or ``PassOptions`` field) it becomes. Adding an apply option to the
+manifest is one row there.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from usdgaze.errors import UsdGazeError
+
+# -- value checks: (value, label, folder) -> normalized value; ``label(key, value)`` names the
+#    manifest, the shot and the key, as :mod:`usdgaze.values` does for the CLI ---------------------
+
+Label = Callable[[str, object], str]
+
+
+def _text(key: str):
+    def check(value: Any, label: Label, base: Path) -> str:
+        if not isinstance(value, str) or not value.strip():
+            raise UsdGazeError(f"{label(key, repr(value))}: expected a non-empty string")
+        return value
+    return check
+
+
+def _path(key: str, layer: bool = False):
+    def check(value: Any, label: Label, base: Path) -> str:
+        path = os.path.normpath(os.path.join(base, _text(key)(value, label, base)))
+        if layer and Path(path).suffix.lower() not in (".usda", ".usdc", ".usd"):
+            raise UsdGazeError(f"{label(key, repr(value))}: must end in .usda, .usdc or .usd")
+        return path
+    return check
+
+
+def _map(value: Any, label: Label, base: Path) -> str:
+    file, sep, prim = _text("map")(value, label, base).partition(":/")
+    return _path("map")(file, label, base) + (f":/{prim}" if sep else "")
+
+
+def _shifts(value: Any, label: Label, base: Path) -> list[str]:
+    from usdgaze.values import check_shifts
+
+    return [str(s) for s in check_shifts(value, label)]
+
+
+def _fixation(value: Any, label: Label, base: Path) -> float:
+    from usdgaze.values import check_fixation
+
+    return check_fixation(value, label)
+
+
+def _as_given(value: Any, label: Label, base: Path) -> Any:
+    return value  # checked with the keys it combines with (see _COMBINED)
+
+
+def _binding(values: dict, where: str):
+    """``bind`` and ``forward`` together are one ``PassOptions.binding``."""
+    from usdgaze.core.hints import parse_hints
+
+    return parse_hints(values.get("bind"), values.get("forward"), bind_label=f"{where}: bind",
+                       forward_label=f"{where}: forward")
+
+
+@dataclass(frozen=True)
+class Key:
+    """One manifest key: its check and the ``api.apply`` keyword it feeds (``options.F``: a
+    ``PassOptions`` field; None: used by the batch itself)."""
+
+    check: Callable[[Any, Label, Path], Any]
+    to: str | None
+    required: bool = False
+    output: bool = False
+    """A path the shot writes (not part of its resume key)."""
+
+
+KEYS: dict[str, Key] = {
+    "name": Key(_text("name"), None),
+    "input": Key(_path("input"), "input_path", required=True),
+    "out": Key(_path("out", layer=True), "out", required=True, output=True),
+    "preview": Key(_path("preview", layer=True), "preview", output=True),
+    "sublayer_into": Key(_path("sublayer_into", layer=True), "sublayer_into", output=True),
+    "shifts": Key(_shifts, "shifts", required=True),
+    "map": Key(_map, "map_spec"),
+    "skel_root": Key(_text("skel_root"), "skel_root"),
+    "fixation": Key(_fixation, "options.fixation_m"),
+    "bind": Key(_as_given, "options.binding"),
+    "forward": Key(_as_given, "options.binding"),
+}
+
+# Targets fed by several keys: built from all of them at once (and checked up front).
+_COMBINED: dict[str, Callable[[dict, str], Any]] = {"options.binding": _binding}
+
+
+@dataclass(frozen=True)
+class Shot:
+    """One validated manifest job: normalized values by manifest key, paths absolute."""
+
+    index: int
+    name: str
+    values: dict = field(default_factory=dict)
+    where: str = ""
+    """How messages name it: ``MANIFEST: job I 'NAME'``."""
+
+    @property
+    def out(self) -> str:
+        return self.values["out"]
+
+    def outputs(self) -> list[str]:
+        return [self.values[k] for k, spec in KEYS.items() if spec.output and k in self.values]
+
+    def parameters(self) -> dict:
+        """What the result depends on besides file contents: every non-path, non-output value."""
+        return {k: v for k, v in sorted(self.values.items())
+                if KEYS[k].to is not None and not KEYS[k].output and k not in ("input", "map")}
+
+
+def apply_kwargs(shot: Shot) -> dict:
+    """The ``usdgaze.api.apply`` keyword arguments of a shot (``options`` built from ``options.*`` keys)."""
+    from usdgaze.passes.shift import PassOptions
+
+    kwargs, options = {}, {}
+    for key, value in shot.values.items():
+        to = KEYS[key].to
+        if to is None:
+            continue
+        value = _COMBINED[to](shot.values, shot.where) if to in _COMBINED else value
+        if to.startswith("options."):
+            options[to.removeprefix("options.")] = value
+        else:
+            kwargs[to] = value
+    if options:
+        kwargs["options"] = PassOptions(**options)
+    return kwargs
+
+
+def _where(path: Path, index: int, name: str | None) -> str:
+    return f"{path}: job {index}" + (f" '{name}'" if name else "")
+
+
+def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
+    from usdgaze.api import ApplyRequest, check_request
+
+    if not isinstance(raw, dict):
+        raise UsdGazeError(f"{path}: job {index}: is a {type(raw).__name__}, expected a [[job]] table")
+    merged = {**defaults, **raw}
+    where = _where(path, index, raw.get("name") if isinstance(raw.get("name"), str) else None)
+    label = lambda key, value: f"{where}: {key} = {value}"  # noqa: E731
+    unknown = sorted(set(merged) - set(KEYS))
+    if unknown:
+        raise UsdGazeError(f"{where}: unknown key '{unknown[0]}' (keys: {', '.join(sorted(KEYS))})")
+    for key, spec in KEYS.items():
+        if spec.required and key not in merged:
+            raise UsdGazeError(f"{where}: missing '{key}'")
+    base = path.parent.resolve()
+    values = {k: KEYS[k].check(v, label, base) for k, v in merged.items()}
+    name = values.pop("name", None) or Path(values["input"]).stem
+    shot = Shot(index=index, name=name, values=values, where=_where(path, index, name))
+    check_request(ApplyRequest(**apply_kwargs(shot)), label)  # the CLI's and the API's own checks
+    return shot
+
+
+def _check_files(path: Path, shots: list[Shot]) -> None:
+    """No shot writes the manifest, a file any shot reads, or a file another shot writes. Shots run in
+    parallel, so two inserting into one sublayer target would race: each shot gets its own."""
+    from usdgaze.files.identity import Identities
+
+    ids = Identities()
+    ids.read(path, "manifest")
+    for s in shots:
+        ids.read(s.values["input"], f"input of {s.where},")
+        if "map" in s.values:
+            ids.read(s.values["map"].partition(":/")[0], f"map of {s.where},")
+    for s in shots:
+        for key in ("out", "preview", "sublayer_into"):
+            if key in s.values:
+                ids.write(s.values[key], f"{s.where}: {key}")
+
+
+def load_manifest(path: str | os.PathLike) -> list[Shot]:
+    """The shots of a manifest, every key checked before any shot runs (one-line errors)."""
+    from usdgaze.ingest.tomlio import load_toml
+
+    path = Path(path)
+    data = load_toml(path)
+    extra = sorted(set(data) - {"defaults", "job"})
+    if extra:
+        raise UsdGazeError(f"{path}: unknown table '{extra[0]}' (tables: [defaults], [[job]])")
+    defaults = data.get("defaults", {})
+    if not isinstance(defaults, dict):
+        raise UsdGazeError(f"{path}: 'defaults' must be a table ([defaults])")
+    if "name" in defaults:
+        raise UsdGazeError(f"{path}: [defaults]: name: a name belongs to one job")
+    jobs = data.get("job", [])
+    if not isinstance(jobs, list) or not jobs:
+        raise UsdGazeError(f"{path}: no [[job]] entries")
+    shots = [_check_shot(path, i, raw, defaults) for i, raw in enumerate(jobs)]
+    names: dict[str, Shot] = {}
+    for s in shots:
+        if s.name in names:
+            raise UsdGazeError(f"{s.where}: name '{s.name}' is also the name of job {names[s.name].index}")
+        names[s.name] = s
+    _check_files(path, shots)
+    return shots

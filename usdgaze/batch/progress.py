@@ -1,0 +1,49 @@
+"""Progress of a batch: a tqdm bar on a terminal, one plain line per shot otherwise (farm logs)."""
+
+from __future__ import annotations
+
+import sys
+from typing import TextIO
+
+
+def shot_line(record: dict, done: int, total: int) -> str:
+    """``[3/20] done       walk_01  1.23 s  (message)``"""
+    width = len(str(total))
+    line = f"[{done:>{width}}/{total}] {record['status']:<14} {record['name']}  {record['seconds']:.2f} s"
+    if record.get("message"):
+        line += f"  {record['message']}"
+    return line
+
+
+class Progress:
+    """Reports each finished shot; a bar when ``stream`` is a terminal."""
+
+    def __init__(self, total: int, stream: TextIO | None = None, bar: bool | None = None) -> None:
+        self.total, self.done = total, 0
+        self.stream = stream or sys.stderr
+        use_bar = self.stream.isatty() if bar is None else bar
+        self.bar = None
+        if use_bar:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="shot", file=self.stream, dynamic_ncols=True)
+
+    def __call__(self, record: dict) -> None:
+        self.done += 1
+        line = shot_line(record, self.done, self.total)
+        if self.bar is not None:
+            self.bar.write(line, file=self.stream)
+            self.bar.set_postfix_str(record["name"], refresh=False)
+            self.bar.update(1)
+        else:
+            print(line, file=self.stream, flush=True)
+        for warning in record.get("warnings", []):
+            text = f"    warning: {warning}"
+            if self.bar is not None:
+                self.bar.write(text, file=self.stream)
+            else:
+                print(text, file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
