@@ -35,6 +35,7 @@ _COMMANDS = {
     "plot": ("usdgaze.console.plot", "plot"),
     "preview": ("usdgaze.console.preview", "preview"),
     "validate": ("usdgaze.console.validate", "validate"),
+    "attend": ("usdgaze.console.attend", "attend"),
 }
 
 

@@ -57,6 +57,12 @@ class KinematicBody(SecondOrder):
         super().__init__(self.n_dof, h, name)
         self.base = base
         self._up_x = _skew(base.up)
+        # per-step constants of the single-step path (the rollout calls it once per step)
+        self._lx = _skew(base.left)
+        self._lx2 = self._lx @ self._lx
+        self._ux2 = self._up_x @ self._up_x
+        self._a = base.neck - base.spine
+        self._c = base.eyes - base.neck
 
     def _pieces(self, Q: np.ndarray, ks: np.ndarray):
         b = self.base
@@ -100,8 +106,14 @@ class KinematicBody(SecondOrder):
         return dp, dR
 
     def head_pose(self, x, k):
-        p, R = self.head_pose_batch(x[None], k)
-        return p[0], R[0]
+        k = int(self.base.at(k))
+        q = x[self.xs][: self.n]
+        s, c = np.sin(q), np.cos(q)
+        i3, ux, ux2, lx, lx2 = np.eye(3), self._up_x, self._ux2, self._lx[k], self._lx2[k]
+        gs = (i3 + s[0] * ux + (1 - c[0]) * ux2) @ (i3 + s[1] * lx + (1 - c[1]) * lx2)
+        gn = (i3 + s[2] * ux + (1 - c[2]) * ux2) @ (i3 + s[3] * lx + (1 - c[3]) * lx2)
+        gng = gn @ gs
+        return self.base.spine[k] + gs @ self._a[k] + gng @ self._c[k], gng @ self.base.head_axes[k]
 
     def head_pose_jacobian(self, x, k):
         dp, dR = self.head_jacobian_batch(x[None], k)
