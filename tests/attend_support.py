@@ -25,7 +25,9 @@ def compose(tmp: Path, inp: Path, out: Path, name: str = "composed.usda") -> Pat
     root.subLayerPaths[:] = [str(out), str(inp)]
     for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
         setattr(root, key, getattr(src, key))
-    root.pseudoRoot.SetInfo("upAxis", src.pseudoRoot.GetInfo("upAxis"))
+    for key in ("upAxis", "metersPerUnit"):
+        if src.pseudoRoot.HasInfo(key):
+            root.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
     root.Save()
     return tmp / name
 

@@ -10,8 +10,8 @@
 * ``stepping_stones.usda``: the cmu_131_01 walk, a stone at each footfall (found from the toes'
   height and speed in the capture; each stone records ``userProperties:landing``, ``lift`` and
   ``swingStart``, the time code the foot stepping onto it leaves its previous contact); a stone's
-  importance rises to 1 at the swing start of the stone before it and falls back to 0.05 when its
-  foot lands (the task: see docs/attend.md);
+  importance rises to 1 at the swing start before its own (the other foot leaving, in a walk) and
+  falls back to 0.05 when its foot lands (the task: see docs/attend.md);
 * ``obstacles.usda``: the cmu_131_02 walk among eight spheres crossing its path.
 
 Object motion is authored as time-sampled translations at 30 fps.
@@ -169,8 +169,11 @@ def main() -> None:
     steps = footfalls(times, world, names, tcps)
     layer = _new_layer(HERE / "stepping_stones.usda", ["../cmu/cmu_131_01.usdc"], times[0], times[-1], tcps)
     imp_codes = np.arange(times[0], times[-1] + 1e-6, STEP)
+    swings = sorted(st[2] for st in steps)
     for i, (land, lift, swing, pos) in enumerate(steps):
-        rise = steps[i - 1][2] if i > 0 else times[0]  # the foot stepping onto the stone before lifts
+        # the previous swing start (of the other foot, in a walk): the stone becomes the next target
+        earlier = [w for w in swings if w < swing]
+        rise = earlier[-1] if earlier else times[0]
         imp = np.where((imp_codes >= rise) & (imp_codes < land), 1.0, 0.05)
         _ball(layer, f"/Stones/Stone{i:02d}", imp_codes, pos[None], 0.15, "static", imp)
         prim = layer.GetPrimAtPath(f"/Stones/Stone{i:02d}")

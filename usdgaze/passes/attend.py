@@ -19,6 +19,7 @@ from usdgaze.core.kinematics import Pose, forward, with_ancestors
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.passes.shift import EyeRange, PassOptions, _aim_eyes, _assemble, _with_eyes
 from usdgaze.planning.kinbody import BaseChain
+from usdgaze.vision import eye as eyemod
 from usdgaze.vision import loop
 
 # The eyes aim at the point of sight each from its own position; near fixation that needs a few
@@ -98,7 +99,6 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
     seconds = clip.seconds
     q = _interp(seconds, t_plan, res.offsets)
     left_w = _interp(seconds, t_plan, bc.left)
-    sight_m = _interp(seconds, t_plan, res.sight)
     new_rot = _drive(clip, rig, base, spine, neck, q, left_w)
 
     def new_local(j: int):
@@ -108,9 +108,18 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
     head = chain.head
     moved = forward(with_ancestors([head], rig.parents), rig.parents, new_local)
     mpu = clip.meters_per_unit
-    s2w_inv = np.linalg.inv(clip.skel_to_world)
-    sight_units = sight_m / mpu
-    sight_skel = _world(s2w_inv, sight_units)
+    # The point of sight at the frames, from the interpolated eye pose on the moved head (not the
+    # planner's points interpolated in space, which would bend a saccade's path and speed).
+    e = _interp(seconds, t_plan, res.eye)
+    to_rest = rot.multiply(moved.rotation[head], rot.conjugate(rig.rest_q[head]))
+    f, l, u = (rot.rotate(to_rest, np.broadcast_to(v, (len(seconds), 3))) for v in (frame.forward, frame.left, frame.up))
+    ct, st, cp, sp = np.cos(e[:, 0]), np.sin(e[:, 0]), np.cos(e[:, 1]), np.sin(e[:, 1])
+    direction = (cp * ct)[:, None] * f + (cp * st)[:, None] * l + sp[:, None] * u
+    mid = 0.5 * sum(moved.place(int(rig.parents[j]), rig.local(j)[0]) for j in rig.eyes)
+    scale = np.cbrt(np.abs(np.linalg.det(clip.skel_to_world[:, :3, :3])))
+    dist = eyemod.distance(e[:, 2])[0] / mpu / scale
+    sight_skel = mid + dist[:, None] * direction
+    sight_units = _world(clip.skel_to_world, sight_skel)
     eyes = _aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP)
     new_rot.update(eyes.rotations)
     anim_joints, rotations, translations, scales = _assemble(rig, new_rot, {})

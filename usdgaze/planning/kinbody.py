@@ -49,9 +49,15 @@ def _rot(axis_skew: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 class KinematicBody(SecondOrder):
-    """Gaze-chain offsets as a ``BodyPart`` for the stacked dynamics."""
+    """Gaze-chain offsets as a ``BodyPart`` for the stacked dynamics.
+
+    ``LO``/``HI``: the offsets' range (radians): upper spine yaw +-35, pitch +-25 deg; neck yaw +-60,
+    pitch +-40 deg on top of the base motion (soft bounds in the cost, clipped in simulation).
+    """
 
     n_dof = 4
+    LO = np.radians([-35.0, -25.0, -60.0, -40.0])
+    HI = np.radians([35.0, 25.0, 60.0, 40.0])
 
     def __init__(self, base: BaseChain, h: float, name: str = "body") -> None:
         super().__init__(self.n_dof, h, name)

@@ -37,7 +37,9 @@ class Weights:
     bnd: float = 0.1
     dist: float = 1.0
     head_pos: float = 10.0  # relative weight of the head-displacement part of c_trk (metres vs radians)
-    rate: float = 0.1  # relative weight of offset rates in c_trk
+    offsets: float = 20.0  # relative weight of the chain offsets (radians) in c_trk: the kinematic body
+    # has no mass, so its deviation from the base motion is what its tracking term must price
+    rate: float = 1.0  # relative weight of offset rates in c_trk
     gamma: float = 1.0
     u_scale: np.ndarray = field(default_factory=lambda: np.ones(0))
 
@@ -66,11 +68,11 @@ class AttendCost:
         bx, ex = self.body.xs, self.eye.xs
         nq = self.body.n
         qb = X[:, bx]
-        c = w.trk * (np.sum(qb[:, :nq] ** 2, 1) + w.rate * np.sum(qb[:, nq:] ** 2, 1))
+        c = w.trk * w.offsets * (np.sum(qb[:, :nq] ** 2, 1) + w.rate * np.sum(qb[:, nq:] ** 2, 1))
         lx = np.zeros((N, nx)) if derivs else None
         lxx = np.zeros((N, nx, nx)) if derivs else None
         if derivs:
-            wv = np.r_[np.ones(nq), np.full(nq, w.rate)] * w.trk
+            wv = np.r_[np.ones(nq), np.full(nq, w.rate)] * w.trk * w.offsets
             lx[:, bx] = 2 * wv * qb
             idx = np.arange(bx.start, bx.stop)
             lxx[:, idx, idx] = 2 * wv
@@ -86,6 +88,16 @@ class AttendCost:
             g = 2 * w.trk * w.head_pos
             lx += g * np.einsum("ni,nix->nx", dh, dp)
             lxx += g * np.einsum("nix,niy->nxy", dp, dp)
+        # soft bounds of the body offsets, in degrees
+        if hasattr(self.body, "LO"):
+            qd = qb[:, :nq]
+            for sign, edge in ((1.0, self.body.HI), (-1.0, self.body.LO)):
+                v, d1, d2 = smax(sign * (qd - edge) * DEG, w.gamma)
+                c = c + w.bnd * v.sum(1)
+                if derivs:
+                    lx[:, bx.start:bx.start + nq] += w.bnd * d1 * sign * DEG
+                    ii = np.arange(bx.start, bx.start + nq)
+                    lxx[:, ii, ii] += w.bnd * d2 * DEG**2
         # soft eye-range bounds (degrees for the angles, mm for zeta)
         e = X[:, ex]
         scale = np.array([DEG, DEG, 1.0])

@@ -3,8 +3,8 @@
 theta (azimuth, + toward the character's left) and psi (elevation, + up) are radians in the head
 frame; zeta is the focal length in mm. The point-of-sight distance is d = s * zeta / (1 - zeta/17)
 with the scale s = 1/17 m per mm, i.e. d = x / (1 - x) metres for x = zeta/17: zeta = 3.4 mm looks
-0.25 m away (near fixation), 8.5 mm 1 m, 15.3 mm 9 m, and 17 mm is infinity. The planner's range
-stops at ``ZETA_HI`` = 16.5 mm (d = 33 m, "infinity" for a shot: beyond it parallax is nil and d's
+0.25 m away (near fixation, the planner's lower bound ``ZETA_LO``), 8.5 mm 1 m, 15.3 mm 9 m, and
+17 mm is infinity. The planner's range stops at ``ZETA_HI`` = 16.5 mm (d = 33 m, "infinity" for a shot: beyond it parallax is nil and d's
 derivative, which grows as 1/(1 - zeta/17)^2, would make the optimization stiff); d itself is
 clamped at ``ZETA_CAP`` so it stays finite whatever the state.
 
@@ -26,7 +26,8 @@ ZETA_INF = 17.0
 ZETA_HI = 16.5
 ZETA_CAP = 17.0 * 0.99
 SCALE_M_PER_MM = 1.0 / 17.0
-LO = np.array([-THETA, PSI_LO, 0.0])
+ZETA_LO = 3.4  # mm: d = 0.25 m, the near point of fixation
+LO = np.array([-THETA, PSI_LO, ZETA_LO])
 HI = np.array([THETA, PSI_HI, ZETA_HI])
 SACCADE_SPEED = np.radians(800.0)
 PURSUIT_SPEED = np.radians(100.0)
@@ -45,7 +46,7 @@ def distance(zeta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def zeta_for(d: np.ndarray) -> np.ndarray:
     """The focal length that puts the point of sight at distance d (m)."""
     x = np.asarray(d) / (1.0 + np.asarray(d))
-    return np.clip(ZETA_INF * x, 0.0, ZETA_HI)
+    return np.clip(ZETA_INF * x, ZETA_LO, ZETA_HI)
 
 
 def speed_bound(t: np.ndarray) -> np.ndarray:

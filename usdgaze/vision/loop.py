@@ -68,7 +68,7 @@ class LoopOptions:
     mode: str = "uncertainty"
     seed: int = 0
     max_tracked: int = 4
-    drop_sigma: float = 25.0
+    drop_sigma: float = 4.0  # sigma_p above which a track is dropped (unit_m^2: 20 cm standard deviation)
     sigma_v0: float = 100.0  # velocity variance of a new track, in unit_m^2 / s^2 (1 (m/s)^2)
     unit_m: float = 0.1
     iterations: int = 3
@@ -118,8 +118,10 @@ class _Filters:
                 self.sig[j] = np.array([r, self.opts.sigma_v0, 0.0])
         return seen
 
-    def choose(self, k: int, eyes: np.ndarray) -> list[int]:
-        ranked = sorted(self.mu, key=lambda j: (-self.things[j].importance_at(k), np.linalg.norm(self.mu[j][:3] - eyes), j))
+    def choose(self, k: int, eyes: np.ndarray, seen: np.ndarray) -> list[int]:
+        """Most important first; among equals the ones in view, then the nearest."""
+        ranked = sorted(self.mu, key=lambda j: (-self.things[j].importance_at(k), not seen[j],
+                                                np.linalg.norm(self.mu[j][:3] - eyes), j))
         return ranked[: self.opts.max_tracked]
 
 
@@ -211,7 +213,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
             out.sigma_p[k, j] = filters.sig[j][0]
             if np.linalg.norm(filters.mu[j][:3] - p_eyes) < 0.8:  # arrived (caught)
                 done.add(j)
-        slots = filters.choose(k, p_eyes)
+        slots = filters.choose(k, p_eyes, out.visible[k])
         out.optimized[k, slots] = True
         belief = Belief(len(slots), np.array([things[j].accel for j in slots]).reshape(-1, 3), filters.params, sight)
         stack = Stacked([eye, body, belief])
@@ -228,13 +230,17 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         out.eye[k], out.offsets[k], out.sight[k] = e, qb[:4], pps
         de = eyemod.limit(e, u[eye.us], float(eyemod.speed_bound(k * h)), h)
         e = e + h * de
-        qb = _body_step(qb, u[eye.nu:], h)
+        qb = _body_step(qb, u[eye.nu:], h, body.LO, body.HI)
         if progress:
             progress(k)
     return out
 
 
-def _body_step(qb: np.ndarray, acc: np.ndarray, h: float) -> np.ndarray:
+def _body_step(qb: np.ndarray, acc: np.ndarray, h: float, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The simulated chain: the model's step, stopped at the offsets' range."""
     n = len(acc)
     qd = qb[n:] + h * acc
-    return np.concatenate([qb[:n] + h * qd, qd])
+    q = qb[:n] + h * qd
+    clipped = np.clip(q, lo, hi)
+    qd = np.where(clipped != q, 0.0, qd)
+    return np.concatenate([clipped, qd])
