@@ -103,10 +103,22 @@ class Stacked:
         Un = np.empty_like(U)
         Ka = K[:, :, cols]
         Xa = X[:, cols]
-        for i in range(len(U)):
-            Un[i] = U[i] + alpha * kff[i] + Ka[i] @ (Xn[i, cols] - Xa[i])
-            for p in active:
-                Xn[i + 1, p.xs] = p.step(Xn[i], Un[i], k0 + i)
+        base = U + alpha * kff
+        if all(hasattr(p, "linear_rows") for p in active):  # x' = A x + B u: fused, no per-part calls
+            rows = [p.linear_rows() for p in active]
+            A = np.vstack([r[0] for r in rows])[:, cols]
+            B = np.vstack([r[1] for r in rows])
+            xa = Xn[0, cols].copy()
+            for i in range(len(U)):
+                u = base[i] + Ka[i] @ (xa - Xa[i])
+                Un[i] = u
+                xa = A @ xa + B @ u
+                Xn[i + 1, cols] = xa
+        else:
+            for i in range(len(U)):
+                Un[i] = base[i] + Ka[i] @ (Xn[i, cols] - Xa[i])
+                for p in active:
+                    Xn[i + 1, p.xs] = p.step(Xn[i], Un[i], k0 + i)
         for p in passive:
             Xn[:, p.xs] = p.rollout(Xn, k0)
         return Xn, Un
@@ -139,6 +151,10 @@ class SecondOrder(Part):
         fu[:n, j0:j0 + n] = h * h * eye
         fu[n:, j0:j0 + n] = h * eye
         return fx, fu
+
+    def linear_rows(self):
+        """(df/dx, df/du) rows: the step is linear and the same at every k."""
+        return self._rows()
 
     def linearize(self, x, u, k):
         return self._rows()

@@ -106,6 +106,8 @@ def rollout(dyn: Dynamics, x0: np.ndarray, U: np.ndarray, k0: int = 0) -> np.nda
 def total_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0) -> float:
     """Sum of running costs plus the terminal cost."""
     n = len(U)
+    if hasattr(cost, "total_batch"):
+        return float(cost.total_batch(X, U, k0))
     if hasattr(cost, "cost_batch"):
         running = float(np.sum(cost.cost_batch(X[:n], U, k0)))
     else:

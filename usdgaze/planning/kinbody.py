@@ -73,7 +73,7 @@ class KinematicBody(SecondOrder):
     def _pieces(self, Q: np.ndarray, ks: np.ndarray):
         b = self.base
         ks = b.at(ks)
-        lx = _skew(b.left[ks])  # (N,3,3)
+        lx = self._lx[ks]  # (N,3,3)
         ux = np.broadcast_to(self._up_x, lx.shape)
         ry_s, rp_s = _rot(ux, Q[:, 0]), _rot(lx, Q[:, 1])
         ry_n, rp_n = _rot(ux, Q[:, 2]), _rot(lx, Q[:, 3])

@@ -160,15 +160,17 @@ class Belief(Part):
         vis = visibility(mp, p[:, None], R[:, None, :, 0])[0]
         r = r + (1 - vis) * R_OUT
         S = np.empty((N, n, 3))
-        s = B0[:, 6:9].copy()
-        S[0] = s
+        S[0] = B0[:, 6:9]
+        sp_, sv_, spv_ = S[0, :, 0].copy(), S[0, :, 1].copy(), S[0, :, 2].copy()
+        h2 = h * h
         for k in range(N - 1):
-            sp = s[:, 0] + 2 * h * s[:, 2] + h * h * s[:, 1] + a
-            sv = s[:, 1] + a
-            spv = s[:, 2] + h * s[:, 1]
-            den = sp + r[k]
-            s = np.stack([sp * r[k] / den, sv - spv * spv / den, spv * r[k] / den], -1)
-            S[k + 1] = s
+            pb = sp_ + 2 * h * spv_ + h2 * sv_ + a
+            vb = sv_ + a
+            cb = spv_ + h * sv_
+            rk = r[k]
+            den = pb + rk
+            sp_, sv_, spv_ = pb * rk / den, vb - cb * cb / den, cb * rk / den
+            S[k + 1, :, 0], S[k + 1, :, 1], S[k + 1, :, 2] = sp_, sv_, spv_
         return np.concatenate([mp, mv, S], -1).reshape(N, -1)
 
     def step(self, x, u, k):

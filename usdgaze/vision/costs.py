@@ -163,6 +163,11 @@ class AttendCost:
         return c, lu, luu
 
     # -- the ddp.Cost protocol ------------------------------------------------------------------
+    def total_batch(self, X, U, k0):
+        """Running costs of X[:N], U plus the terminal cost of X[N], with one pass over the states."""
+        state = self._state_terms(X, k0, False)[0]
+        return float(np.sum(state) + np.sum(self._control_terms(U, k0, False)[0]))
+
     def cost_batch(self, X, U, k0):
         return self._state_terms(X, k0, False)[0] + self._control_terms(U, k0, False)[0]
 

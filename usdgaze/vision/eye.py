@@ -100,6 +100,9 @@ class Eye(Part):
         fu[:, self.us] = self.h * np.eye(3)
         return fx, fu
 
+    def linear_rows(self):
+        return self._rows()
+
     def linearize(self, x, u, k):
         return self._rows()
 
@@ -113,9 +116,28 @@ class Sight:
 
     def __init__(self, eye: Eye, body) -> None:
         self.eye, self.body = eye, body
+        self._cache: tuple | None = None
+
+    def _key(self, X: np.ndarray) -> bytes:
+        cols = np.r_[np.arange(self.eye.xs.start, self.eye.xs.stop), np.arange(self.body.xs.start, self.body.xs.stop)]
+        return np.ascontiguousarray(X[:, cols]).tobytes()
 
     def points(self, X: np.ndarray, k0: int):
-        """Point of sight, eye midpoint and head axes for rows of X (steps k0, k0+1, ...)."""
+        """Point of sight, eye midpoint and head axes for rows of X (steps k0, k0+1, ...).
+
+        The last result is kept: a rollout, its cost and its terminal cost ask for the same rows (or
+        leading rows of them) in turn, and only the eye and body columns matter.
+        """
+        key = self._key(X)
+        c = self._cache
+        if c is not None and c[0] == k0 and c[1][: len(key)] == key:
+            n = len(X)
+            return c[2][:n], c[3][:n], c[4][:n]
+        out = self._points(X, k0)
+        self._cache = (k0, key) + out
+        return out
+
+    def _points(self, X: np.ndarray, k0: int):
         p, R = self.body.head_pose_batch(X, k0)
         e = X[:, self.eye.xs]
         d, _ = distance(e[:, 2])

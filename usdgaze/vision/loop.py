@@ -35,6 +35,7 @@ from usdgaze.vision.costs import AttendCost, Weights
 
 MODES = ("uncertainty", "distance", "sequential")
 LOCK_AFTER_STEPS = 8
+PROPOSE_EVERY = 4  # planner steps between look-at proposals (100 ms), and whenever the slots change
 
 
 @dataclass
@@ -194,7 +195,8 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
     body = KinematicBody(base, h)
     eye = eyemod.Eye(h)
     filters = _Filters(things, opts)
-    mpc = ddp.RecedingHorizon(horizon, eye.nu + body.nu, ddp.Options(max_iter=opts.iterations, tol=1e-3, mu_init=1.0, mu_min=1e-2))
+    mpc = ddp.RecedingHorizon(horizon, eye.nu + body.nu, ddp.Options(max_iter=opts.iterations, tol=1e-3, mu_init=1.0, mu_min=1e-2,
+                                                                          alphas=(1.0, 0.3, 0.1, 0.03)))
     e = np.array([0.0, 0.0, float(eyemod.zeta_for(opts.start_distance_m))])
     qb = np.zeros(body.nx)
     out = LoopResult(np.zeros((n_steps, 3)), np.zeros((n_steps, 4)), np.zeros((n_steps, 3)),
@@ -202,6 +204,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
                      np.zeros((n_steps, n_obj), bool), np.zeros((n_steps, n_obj), bool))
     done: set[int] = set()
     locked: list[int] = []
+    last_slots: list[int] = []
     for k in range(n_steps):
         sight = eyemod.Sight(eye, body)
         Stacked([eye, body])  # bind slices for the sensing pose
@@ -224,7 +227,9 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         n_h = mpc.horizon + 1
         ts = h * np.arange(n_h)[:, None]
         targets = [filters.mu[j][:3] + ts * filters.mu[j][3:] + 0.5 * ts**2 * things[j].accel for j in slots]
-        mpc.U = _seed(stack, cost, x, mpc.U, k, targets)
+        if k % PROPOSE_EVERY == 0 or slots != last_slots:
+            mpc.U = _seed(stack, cost, x, mpc.U, k, targets)
+        last_slots = slots
         u, sol = mpc.step(stack, cost, x, k)
         out.solves.append(sol.costs)
         out.eye[k], out.offsets[k], out.sight[k] = e, qb[:4], pps
