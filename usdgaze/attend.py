@@ -57,24 +57,36 @@ class AttendReport:
 
 
 def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[str] | None = None,
-           settings: AttendSettings | None = None, skel_root: str | None = None, progress=None) -> AttendReport:
+           settings: AttendSettings | None = None, skel_root: str | None = None, progress=None,
+           no_clobber: bool = False) -> AttendReport:
     """Synthesize attention-driven eye, head and upper-spine motion; write ``out``. Nothing on failure."""
-    from usdgaze.api import bind, select_roots
-    from usdgaze.passes.attend import apply_attend
-    from usdgaze.usd.attendio import add_inspection
-    from usdgaze.usd.layers import AnimOverride, LayerInfo, atomic_export, build_override, check_output_path
-    from usdgaze.usd.objects import object_prims, read_objects
-    from usdgaze.usd.skelio import open_stage, read_clip, skeletons_under
+    from usdgaze.files.transaction import Outputs
 
     settings = settings or AttendSettings()
     settings.check()
     source = str(input_path)
     if not Path(source).is_file():
         raise UsdGazeError(f"{source}: no such file")
-    out_path = check_output_path(out)
-    if os.path.abspath(out_path) == os.path.abspath(source):
-        raise UsdGazeError(f"{out_path}: --out would overwrite the input")
-    stage = open_stage(source)
+    with Outputs(no_clobber=no_clobber) as tx:
+        from usdgaze.api import _open_input
+        from usdgaze.usd.layers import check_output_path
+
+        tx.read(source)  # first, so a clash names the input as such
+        out_path = tx.claim(check_output_path(out), "--out")
+        stage = _open_input(tx, source)
+        report, layer = _attend(stage, source, out_path, objects, settings, skel_root, progress)
+        tx.stage_layer(out_path, layer)
+    return report
+
+
+def _attend(stage, source, out_path, objects, settings, skel_root, progress):
+    from usdgaze.api import bind, select_roots
+    from usdgaze.passes.attend import apply_attend
+    from usdgaze.usd.attendio import add_inspection
+    from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
+    from usdgaze.usd.objects import object_prims, read_objects
+    from usdgaze.usd.skelio import read_clip, skeletons_under
+
     prims = object_prims(stage, source, objects)
     roots = select_roots(stage, source, skel_root)
     report = AttendReport(output=str(out_path))
@@ -123,8 +135,7 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
     for character, times, result, paths in inspections:
         add_inspection(layer, character, times, result.sight_world, result.eye_pose, paths,
                        result.estimates_world, result.uncertainty)
-    atomic_export(layer, out_path)
-    return report
+    return report, layer
 
 
 def _override(clip, result, AnimOverride):
