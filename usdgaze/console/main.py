@@ -36,6 +36,7 @@ _COMMANDS = {
     "preview": ("usdgaze.console.preview", "preview"),
     "validate": ("usdgaze.console.validate", "validate"),
     "batch": ("usdgaze.console.batch", "batch"),
+    "attend": ("usdgaze.console.attend", "attend"),
 }
 
 

@@ -85,6 +85,44 @@ class Stacked:
         rows = [p.linearize_batch(X, U, k0) for p in self.parts]
         return np.concatenate([r[0] for r in rows], axis=1), np.concatenate([r[1] for r in rows], axis=1)
 
+    def forward_pass(self, X, U, kff, K, alpha, k0):
+        """Roll out u = U + alpha kff + K (x - X) with the passive parts done last, in one batch.
+
+        A *passive* part (``passive = True``, no controls, read by no other part: the belief) does
+        not change the other parts' motion, so they are stepped first and the passive part follows
+        their whole trajectory at once (``rollout``). Its feedback columns are left out of the policy:
+        the deviation of a passive part is itself a function of the others' deviation. None when no
+        part is passive (the solver then steps the whole state).
+        """
+        passive = [p for p in self.parts if getattr(p, "passive", False)]
+        if not passive:
+            return None
+        active = [p for p in self.parts if p not in passive]
+        cols = np.concatenate([np.arange(p.xs.start, p.xs.stop) for p in active])
+        Xn = X.copy()
+        Un = np.empty_like(U)
+        Ka = K[:, :, cols]
+        Xa = X[:, cols]
+        base = U + alpha * kff
+        if all(hasattr(p, "linear_rows") for p in active):  # x' = A x + B u: fused, no per-part calls
+            rows = [p.linear_rows() for p in active]
+            A = np.vstack([r[0] for r in rows])[:, cols]
+            B = np.vstack([r[1] for r in rows])
+            xa = Xn[0, cols].copy()
+            for i in range(len(U)):
+                u = base[i] + Ka[i] @ (xa - Xa[i])
+                Un[i] = u
+                xa = A @ xa + B @ u
+                Xn[i + 1, cols] = xa
+        else:
+            for i in range(len(U)):
+                Un[i] = base[i] + Ka[i] @ (Xn[i, cols] - Xa[i])
+                for p in active:
+                    Xn[i + 1, p.xs] = p.step(Xn[i], Un[i], k0 + i)
+        for p in passive:
+            Xn[:, p.xs] = p.rollout(Xn, k0)
+        return Xn, Un
+
 
 class SecondOrder(Part):
     """A double integrator (semi-implicit Euler): state [q, qd], control qdd.
@@ -113,6 +151,10 @@ class SecondOrder(Part):
         fu[:n, j0:j0 + n] = h * h * eye
         fu[n:, j0:j0 + n] = h * eye
         return fx, fu
+
+    def linear_rows(self):
+        """(df/dx, df/du) rows: the step is linear and the same at every k."""
+        return self._rows()
 
     def linearize(self, x, u, k):
         return self._rows()

@@ -5,8 +5,10 @@ x_{i+1} = f(x_i, u_i, k0+i), with Gauss-Newton (first-order dynamics) DDP, i.e. 
 Riccati-like pass over quadratic expansions of the cost and linearizations of the dynamics, then a
 forward pass along the new feedback policy.
 
-* Levenberg-Marquardt regularization: ``Quu + mu I``; mu grows when Quu is not positive definite or
-  no step decreases the cost, and shrinks after every accepted step.
+* Levenberg-Marquardt regularization: ``Quu + mu I`` (``regularization="control"``), or ``mu I`` on
+  V_xx, i.e. ``Quu + mu fu'fu`` (``"state"``, Tassa et al. 2012, better when controls have mixed
+  units); mu grows when the regularized Quu is not positive definite or no step decreases the cost,
+  and shrinks after every accepted step.
 * Line search: step sizes ``alphas`` are tried in order; a step is accepted only if the true cost
   decreases (and by at least ``armijo`` of the predicted decrease), so the cost is monotone
   non-increasing within a solve (``Solution.costs``).
@@ -15,11 +17,14 @@ forward pass along the new feedback policy.
 
 Dynamics and costs are protocols. Per-step methods are required; a batched method
 (``linearize_batch``, ``derivs_batch``, ``cost_batch``) is used when present, because the
-linearization of a whole window vectorizes over steps while the rollout cannot.
+linearization of a whole window vectorizes over steps while the rollout cannot. A dynamics may
+also offer ``forward_pass(X, U, kff, K, alpha, k0) -> (X_new, U_new) | None`` to roll a policy out
+its own way (``compose.Stacked`` does, for parts that no other part reads).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Callable, Protocol, Sequence, runtime_checkable
 
@@ -68,6 +73,7 @@ class Options:
     mu_shrink: float = 0.3
     alphas: Sequence[float] = (1.0, 0.5, 0.25, 0.1, 0.03, 0.01)
     armijo: float = 1e-4
+    regularization: str = "control"  # "control": Quu + mu I; "state": V_xx + mu I (Quu + mu fu'fu)
 
 
 @dataclass
@@ -86,8 +92,12 @@ class Solution:
 
 def rollout(dyn: Dynamics, x0: np.ndarray, U: np.ndarray, k0: int = 0) -> np.ndarray:
     """States x_0..x_N under the open-loop controls U."""
-    X = np.empty((len(U) + 1, dyn.nx))
+    X = np.zeros((len(U) + 1, dyn.nx))
     X[0] = x0
+    if hasattr(dyn, "forward_pass"):
+        fast = dyn.forward_pass(X, U, np.zeros_like(U), np.zeros((len(U), dyn.nu, dyn.nx)), 0.0, k0)
+        if fast is not None:
+            return fast[0]
     for i, u in enumerate(U):
         X[i + 1] = dyn.step(X[i], u, k0 + i)
     return X
@@ -96,6 +106,8 @@ def rollout(dyn: Dynamics, x0: np.ndarray, U: np.ndarray, k0: int = 0) -> np.nda
 def total_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0) -> float:
     """Sum of running costs plus the terminal cost."""
     n = len(U)
+    if hasattr(cost, "total_batch"):
+        return float(cost.total_batch(X, U, k0))
     if hasattr(cost, "cost_batch"):
         running = float(np.sum(cost.cost_batch(X[:n], U, k0)))
     else:
@@ -122,7 +134,7 @@ def expand_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0):
     return running, cost.terminal_derivs(X[n], k0 + n)
 
 
-def _backward(fx, fu, running, terminal, mu: float):
+def _backward(fx, fu, running, terminal, mu: float, state_reg: bool = False):
     """Feedforward k, gains K and the predicted decrease terms; None if Quu + mu I is not PD."""
     lx, lu, lxx, luu, lux = running
     vx, vxx = terminal
@@ -139,11 +151,17 @@ def _backward(fx, fu, running, terminal, mu: float):
         qxx = lxx[i] + A.T @ vxx @ A
         quu = luu[i] + B.T @ vxx_b
         qux = lux[i] + vxx_b.T @ A
+        if state_reg:  # mu I on V_xx (Tassa et al. 2012): the same push in every control's own units
+            quu_reg = quu + mu * (B.T @ B)
+            qux_r = qux + mu * (B.T @ A)
+        else:
+            quu_reg = quu + mu * eye
+            qux_r = qux
         try:
-            chol = np.linalg.cholesky(quu + mu * eye)
+            np.linalg.cholesky(quu_reg)  # the positive-definiteness test
         except np.linalg.LinAlgError:
             return None
-        sol = _chol_solve(chol, np.column_stack([qu, qux]))
+        sol = np.linalg.solve(quu_reg, np.column_stack([qu, qux_r]))
         k_i, K_i = -sol[:, 0], -sol[:, 1:]
         kff[i], K[i] = k_i, K_i
         d1 += k_i @ qu
@@ -154,14 +172,11 @@ def _backward(fx, fu, running, terminal, mu: float):
     return kff, K, d1, d2
 
 
-def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    from scipy.linalg import solve_triangular
-
-    y = solve_triangular(chol, rhs, lower=True, check_finite=False)
-    return solve_triangular(chol.T, y, lower=False, check_finite=False)
-
-
 def _forward(dyn, cost, X, U, kff, K, alpha, k0):
+    if hasattr(dyn, "forward_pass"):  # a dynamics that rolls a policy out faster than step by step
+        fast = dyn.forward_pass(X, U, kff, K, alpha, k0)
+        if fast is not None:
+            return fast[0], fast[1], total_cost(cost, fast[0], fast[1], k0)
     Xn = np.empty_like(X)
     Un = np.empty_like(U)
     Xn[0] = X[0]
@@ -188,7 +203,7 @@ def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0
         running, terminal = expand_cost(cost, X, U, k0)
         accepted = False
         while mu <= opt.mu_max and not accepted:
-            back = _backward(fx, fu, running, terminal, mu)
+            back = _backward(fx, fu, running, terminal, mu, opt.regularization == "state")
             if back is None:
                 mu = _grow(mu, opt)
                 continue
@@ -228,6 +243,8 @@ def shift_controls(U: np.ndarray) -> np.ndarray:
 class RecedingHorizon:
     """Model-predictive control: solve a window, apply its first control, shift, repeat.
 
+    The Levenberg-Marquardt parameter the last solve ended with starts the next one.
+
     ``step`` takes the problem of the current window (the dynamics and cost may change between calls,
     e.g. when the set of tracked objects changes; only ``nu`` must stay the same), warm-starts from the
     previous solution shifted by one step, and returns the first control and the solution.
@@ -241,10 +258,14 @@ class RecedingHorizon:
         self.options = options or Options()
         self.U = np.zeros((horizon, nu)) if U_init is None else np.array(U_init, dtype=float)
         self.last: Solution | None = None
+        self.mu = self.options.mu_init
 
     def step(self, dyn: Dynamics, cost: Cost, x: np.ndarray, k: int) -> tuple[np.ndarray, Solution]:
-        sol = solve(dyn, cost, x, self.U, k, self.options)
+        # The regularization is warm-started too: consecutive windows are nearly the same problem.
+        opts = dataclasses.replace(self.options, mu_init=self.mu)
+        sol = solve(dyn, cost, x, self.U, k, opts)
         self.last = sol
+        self.mu = min(max(sol.mu, self.options.mu_min), self.options.mu_max)
         self.U = shift_controls(sol.U)
         return sol.U[0].copy(), sol
 

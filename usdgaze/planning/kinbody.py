@@ -49,19 +49,31 @@ def _rot(axis_skew: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 class KinematicBody(SecondOrder):
-    """Gaze-chain offsets as a ``BodyPart`` for the stacked dynamics."""
+    """Gaze-chain offsets as a ``BodyPart`` for the stacked dynamics.
+
+    ``LO``/``HI``: the offsets' range (radians): upper spine yaw +-35, pitch +-25 deg; neck yaw +-60,
+    pitch +-40 deg on top of the base motion (soft bounds in the cost, clipped in simulation).
+    """
 
     n_dof = 4
+    LO = np.radians([-35.0, -25.0, -60.0, -40.0])
+    HI = np.radians([35.0, 25.0, 60.0, 40.0])
 
     def __init__(self, base: BaseChain, h: float, name: str = "body") -> None:
         super().__init__(self.n_dof, h, name)
         self.base = base
         self._up_x = _skew(base.up)
+        # per-step constants of the single-step path (the rollout calls it once per step)
+        self._lx = _skew(base.left)
+        self._lx2 = self._lx @ self._lx
+        self._ux2 = self._up_x @ self._up_x
+        self._a = base.neck - base.spine
+        self._c = base.eyes - base.neck
 
     def _pieces(self, Q: np.ndarray, ks: np.ndarray):
         b = self.base
         ks = b.at(ks)
-        lx = _skew(b.left[ks])  # (N,3,3)
+        lx = self._lx[ks]  # (N,3,3)
         ux = np.broadcast_to(self._up_x, lx.shape)
         ry_s, rp_s = _rot(ux, Q[:, 0]), _rot(lx, Q[:, 1])
         ry_n, rp_n = _rot(ux, Q[:, 2]), _rot(lx, Q[:, 3])
@@ -100,8 +112,14 @@ class KinematicBody(SecondOrder):
         return dp, dR
 
     def head_pose(self, x, k):
-        p, R = self.head_pose_batch(x[None], k)
-        return p[0], R[0]
+        k = int(self.base.at(k))
+        q = x[self.xs][: self.n]
+        s, c = np.sin(q), np.cos(q)
+        i3, ux, ux2, lx, lx2 = np.eye(3), self._up_x, self._ux2, self._lx[k], self._lx2[k]
+        gs = (i3 + s[0] * ux + (1 - c[0]) * ux2) @ (i3 + s[1] * lx + (1 - c[1]) * lx2)
+        gn = (i3 + s[2] * ux + (1 - c[2]) * ux2) @ (i3 + s[3] * lx + (1 - c[3]) * lx2)
+        gng = gn @ gs
+        return self.base.spine[k] + gs @ self._a[k] + gng @ self._c[k], gng @ self.base.head_axes[k]
 
     def head_pose_jacobian(self, x, k):
         dp, dR = self.head_jacobian_batch(x[None], k)

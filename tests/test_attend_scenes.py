@@ -1,0 +1,154 @@
+"""``usdgaze attend``: field of view, stepping stones, determinism, bad inputs (one line, exit 2)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd
+
+from tests import measure
+from tests.attend_support import ATTEND, angle_to, compose, gaze, positions
+from usdgaze.console.main import main
+
+CMU = ATTEND.parent / "cmu"
+
+
+def _stage_with(tmp, name, sublayers, build, start=None, end=None, tcps=None):
+    layer = Sdf.Layer.CreateNew(str(tmp / name))
+    layer.subLayerPaths[:] = [str(s) for s in sublayers]
+    src = Sdf.Layer.FindOrOpen(str(sublayers[0]))
+    layer.startTimeCode = src.startTimeCode if start is None else start
+    layer.endTimeCode = src.endTimeCode if end is None else end
+    layer.timeCodesPerSecond = layer.framesPerSecond = tcps or src.timeCodesPerSecond
+    layer.pseudoRoot.SetInfo("upAxis", "Y")
+    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)  # USD's fallback would be centimetres
+    build(layer)
+    layer.Save()
+    return tmp / name
+
+
+def _object(layer, path, samples, type_name="Sphere"):
+    for parent in Sdf.Path(path).GetAncestorsRange():
+        if parent.pathElementCount == 1 or parent == Sdf.Path(path):
+            spec = Sdf.CreatePrimInLayer(layer, parent)
+            spec.specifier = Sdf.SpecifierDef
+            spec.typeName = "Xform" if parent != Sdf.Path(path) else type_name
+    prim = layer.GetPrimAtPath(path)
+    prim.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    if type_name in ("Sphere", "Xform"):
+        tr = Sdf.AttributeSpec(prim, "xformOp:translate", Sdf.ValueTypeNames.Double3)
+        for t, p in samples:
+            layer.SetTimeSample(tr.path, float(t), Gf.Vec3d(*p))
+        Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    return prim
+
+
+def test_an_object_outside_the_field_of_view_is_not_looked_at_before_it_enters(tmp_path):
+    """A ball comes from behind the character's right, passes it and goes ahead."""
+    base = [ATTEND / "standing.usdc", CMU / "cmu_131_01.usdc"]
+    p = measure.posed(str(ATTEND / "ball_throw.usda"), "/root/Body/BodySkel")
+    eyes = p.position("Head")[0]
+    fwd = p.skel_to_world[:3, :3].T @ measure.character_forward_skel(p, "LeftHip", "RightHip")
+    fwd = fwd - fwd[1] * np.array([0, 1.0, 0])
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, [0, 1.0, 0])
+    start = eyes - 3.0 * fwd + 1.2 * right
+    end = eyes + 4.0 * fwd + 1.2 * right
+    samples = [(1 + 4 * i, tuple(start + (end - start) * i / 60)) for i in range(61)]
+    stage = _stage_with(tmp_path, "behind.usda", base, lambda l: _object(l, "/Objects/Passing", samples))
+    out = tmp_path / "behind_out.usdc"
+    assert main(["attend", str(stage), "--out", str(out), "--window", "0.6"]) == 0
+    g = gaze(compose(tmp_path, stage, out))
+    ball = positions(g.stage, "/Objects/Passing", g.times)
+    to = ball - g.eyes
+    in_view = np.degrees(np.arccos(np.clip((to / np.linalg.norm(to, axis=1, keepdims=True) * g.head_fwd).sum(1), -1, 1))) <= 60
+    first = int(np.argmax(in_view))
+    assert 5 < first < len(g.times) - 10
+    assert angle_to(g, ball)[:first].min() > 20.0
+    assert angle_to(g, ball)[first:].min() < 5.0  # and it is looked at once seen
+
+
+@pytest.fixture(scope="module")
+def stones(tmp_path_factory):
+    """The stepping-stone walk cropped to frames 480-800 (the walk), at 30 fps."""
+    tmp = tmp_path_factory.mktemp("stones")
+    src = Sdf.Layer.FindOrOpen(str(CMU / "cmu_131_01.usdc"))
+    anim = "/root/Body/BodySkel/scaled_131_01"
+    codes = np.arange(480.0, 800.0 + 1e-6, 4.0)
+
+    def crop(layer):
+        prim = Sdf.CreatePrimInLayer(layer, anim)
+        prim.specifier = Sdf.SpecifierOver
+        for name in ("rotations", "translations", "scales"):
+            a = src.GetPrimAtPath(anim).attributes[name]
+            spec = Sdf.AttributeSpec(prim, name, a.typeName)
+            for c in codes:
+                value = src.QueryTimeSample(a.path, c) if src.GetNumTimeSamplesForPath(a.path) else a.default
+                layer.SetTimeSample(spec.path, float(c), value)
+
+    stage = _stage_with(tmp, "walk.usda", [ATTEND / "stepping_stones.usda"], crop, 480.0, 800.0)
+    out = tmp / "walk_out.usdc"
+    assert main(["attend", str(stage), "--out", str(out), "--window", "0.6"]) == 0
+    return gaze(compose(tmp, stage, out))
+
+
+def test_line_of_sight_reaches_the_next_stone_before_its_foot_lifts(stones):
+    g = stones
+    checked, missed = 0, []
+    for prim in g.stage.Traverse():
+        land = prim.GetAttribute("userProperties:landing")
+        if not land:
+            continue
+        swing = prim.GetAttribute("userProperties:swingStart").Get()
+        if not (g.times[0] + 48 <= swing <= g.times[-1]):  # give the planner 0.4 s to start
+            continue
+        stone = positions(g.stage, str(prim.GetPath()), g.times)
+        before = g.times <= swing
+        dist = np.linalg.norm(g.sight - stone, axis=1)
+        if not ((angle_to(g, stone)[before] < 5.0).any() or dist[before].min() < 0.3):
+            missed.append(str(prim.GetPath()))
+        checked += 1
+    # 5 of the 6 footfalls in the crop are fixated in time; the miss is Stone14, the foot shuffled
+    # beside the other as the walk stops (its importance overlaps two other stones').
+    assert checked >= 6 and len(missed) <= 1, missed
+
+
+def test_same_seed_same_bytes_other_seed_differs(tmp_path):
+    outs = []
+    for i, seed in enumerate(("3", "3", "4")):
+        out = tmp_path / f"s{i}.usda"
+        assert main(["attend", str(ATTEND / "ball_throw.usda"), "--out", str(out), "--window", "0.3",
+                     "--seed", seed]) == 0
+        outs.append(out.read_bytes())
+    assert outs[0] == outs[1] and outs[0] != outs[2]
+
+
+def _typeless(layer):
+    spec = Sdf.CreatePrimInLayer(layer, "/Objects/Marker")
+    spec.specifier = Sdf.SpecifierDef
+    spec.typeName = "Scope"
+    spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+
+
+@pytest.mark.parametrize("case", ["no objects", "no transform", "alpha", "window", "missing prim"])
+def test_bad_inputs_one_line_exit_2_nothing_written(tmp_path, capsys, case):
+    stage, extra = ATTEND / "ball_throw.usda", []
+    if case == "no objects":
+        stage = CMU / "cmu_131_01.usdc"
+        want = "no objects to look at"
+    elif case == "no transform":
+        stage = _stage_with(tmp_path, "bad.usda", [ATTEND / "ball_throw.usda"], _typeless)
+        want = "/Objects/Marker: is a Scope without a transform"
+    elif case == "alpha":
+        extra, want = ["--alpha", "-0.1"], "--alpha -0.1: the process noise must be >= 0"
+    elif case == "window":
+        extra, want = ["--window", "0.03"], "--window 0.03 s: shorter than two planner steps"
+    else:
+        extra, want = ["--objects", "/Objects/Nope"], "/Objects/Nope: no such prim"
+    out = tmp_path / "out.usda"
+    args = ["attend", str(stage), "--out", str(out)] + (extra if case != "window" else extra)
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and want in err, err
+    assert not out.exists() and not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]

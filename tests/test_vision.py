@@ -1,0 +1,108 @@
+"""Eye, belief and cost derivatives against central differences; the Kalman filter against its textbook form."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.test_ddp import _base_chain, _fd, _rel_err
+from usdgaze.planning import ddp
+from usdgaze.planning.compose import Stacked
+from usdgaze.planning.kinbody import KinematicBody
+from usdgaze.vision import eye as eyemod
+from usdgaze.vision.belief import SLOT, Belief, VisionParams, kalman_update
+from usdgaze.vision.costs import AttendCost
+from usdgaze.vision.loop import LoopOptions, Thing, run
+
+H = 0.025
+
+
+def _problem(pos_a, pos_b, seed=0):
+    body = KinematicBody(_base_chain(seed=seed), H)
+    eye = eyemod.Eye(H)
+    sight = eyemod.Sight(eye, body)
+    belief = Belief(2, [[0, 0, -9.81], [0, 0, 0]], VisionParams(0.2, 0.3, H), sight)
+    stack = Stacked([eye, body, belief])
+    rng = np.random.default_rng(seed)
+    x = np.zeros(stack.nx)
+    x[:3] = [0.2, -0.1, 8.0]
+    x[3:11] = rng.normal(0, 0.2, 8)
+    b = x[11:].reshape(2, SLOT)
+    b[:, :3] = [pos_a, pos_b]
+    b[:, 3:6] = rng.normal(0, 1, (2, 3))
+    b[:, 6:] = [[0.3, 0.5, 0.1], [0.1, 0.2, 0.05]]
+    return stack, sight, x, rng.normal(0, 1, stack.nu)
+
+
+@pytest.mark.parametrize("where", ["in view", "at the edge of the field of view"])
+def test_stacked_eye_body_belief_derivatives(where):
+    # an object near the +-60 deg edge exercises the visibility weight's derivative
+    b = [1.0, 1.6, 1.6] if where != "in view" else [1.5, -0.5, 1.5]
+    stack, _, x, u = _problem([2.0, 0.3, 1.6], b)
+    for k in (0, 3):
+        fx, fu = stack.linearize(x, u, k)
+        assert _rel_err(fx, _fd(lambda y: stack.step(y, u, k), x)) <= 1e-4
+        assert _rel_err(fu, _fd(lambda v: stack.step(x, v, k), u)) <= 1e-4
+        for part in stack.parts:  # each part's own rows
+            rows = slice(part.xs.start, part.xs.stop)
+            assert _rel_err(fx[rows], _fd(lambda y: stack.step(y, u, k)[rows], x)) <= 1e-4, part.name
+
+
+def test_point_of_sight_jacobian():
+    stack, sight, x, _ = _problem([2.0, 0.3, 1.6], [1.5, -0.5, 1.5])
+    pps, _, _, J, _, _ = sight.jacobian(x[None], 2)
+    assert _rel_err(J[0], _fd(lambda y: sight.points(y[None], 2)[0][0], x)) <= 1e-4
+    assert np.allclose(sight.point(x, 2)[0], pps[0])
+
+
+@pytest.mark.parametrize("mode", ["uncertainty", "distance", "sequential"])
+def test_cost_derivatives(mode):
+    stack, sight, x, u = _problem([2.0, 0.3, 1.6], [1.5, -0.5, 1.5])
+    c = AttendCost(stack, sight, np.array([1.0, 0.5]), mode=mode, target=1)
+    u = u * 30  # past the pursuit bound: the speed penalty is active
+    lx, lu, lxx, luu, _ = c.derivs(x, u, 9)  # step 9: inside a recharge window
+    assert _rel_err(lx, _fd(lambda y: np.array(c.l(y, u, 9)), x)) <= 1e-4
+    assert _rel_err(lu, _fd(lambda v: np.array(c.l(x, v, 9)), u)) <= 1e-4
+    assert _rel_err(luu, _fd(lambda v: c.derivs(x, v, 9)[1], u)) <= 1e-4
+    tx, _ = c.terminal_derivs(x, 9)
+    assert _rel_err(tx, _fd(lambda y: np.array(c.terminal(y, 9)), x)) <= 1e-4
+
+
+def test_kalman_update_matches_the_matrix_filter():
+    """The 3-vector covariance update equals the full 6x6 Kalman filter of appendix A."""
+    p = VisionParams(alpha=0.2, eta=0.3, h=H)
+    rng = np.random.default_rng(1)
+    mu, s = rng.normal(0, 1, 6), np.array([0.4, 0.9, 0.2])
+    z, r, a = rng.normal(0, 1, 3), 0.3, np.array([0, 0, -9.81])
+    I3 = np.eye(3)
+    F = np.block([[I3, H * I3], [0 * I3, I3]])
+    Sig = np.block([[s[0] * I3, s[2] * I3], [s[2] * I3, s[1] * I3]])
+    Hm = np.hstack([I3, 0 * I3])
+    Sb = F @ Sig @ F.T + p.alpha * np.eye(6)
+    K = Sb @ Hm.T @ np.linalg.inv(Hm @ Sb @ Hm.T + r * I3)
+    mb = F @ mu + np.r_[np.zeros(3), H * a]
+    mu_ref = mb + K @ (z - Hm @ mb)
+    Sig_ref = (np.eye(6) - K @ Hm) @ Sb
+    mu_new, s_new = kalman_update(mu, s, z, r, a, p)
+    assert np.allclose(mu_new, mu_ref) and np.allclose(s_new, [Sig_ref[0, 0], Sig_ref[3, 3], Sig_ref[0, 3]])
+    assert np.allclose(Sig_ref, np.kron([[s_new[0], s_new[2]], [s_new[2], s_new[1]]], I3))
+
+
+def test_eye_distance_scale():
+    d, dd = eyemod.distance(np.array([3.4, 8.5, 15.3, eyemod.ZETA_HI]))
+    assert np.allclose(d[:3], [0.25, 1.0, 9.0]) and d[3] > 30
+    assert np.allclose(dd, _fd(lambda z: eyemod.distance(z)[0], np.array([3.4, 8.5, 15.3, eyemod.ZETA_HI])).diagonal())
+    assert np.allclose(eyemod.distance(eyemod.zeta_for(np.array([0.5, 2.0])))[0], [0.5, 2.0])
+    bound = eyemod.speed_bound(np.array([0.0, 0.19, 0.21, 0.39, 0.41]))
+    assert np.allclose(np.degrees(bound), [800, 800, 100, 100, 800])
+
+
+def test_every_planner_solve_decreases_its_cost_monotonically():
+    K = 24
+    base = _base_chain(K, seed=3)
+    t = np.arange(K)[:, None] * H
+    balls = [Thing("a", np.array([6.0, 1.0, 1.8]) + t * [-4.0, -0.5, 0.0], kind="moving"),
+             Thing("b", np.array([6.0, -1.5, 1.2]) + t * [-3.0, 0.6, 0.0], kind="moving")]
+    res = run(base, balls, LoopOptions(h=H, window_s=0.3), K)
+    assert all(np.all(np.diff(c) < 0) for c in res.solves)
+    assert sum(len(c) > 1 for c in res.solves) >= K // 2  # most solves took at least one step

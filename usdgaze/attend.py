@@ -1,0 +1,160 @@
+"""The Python API of ``usdgaze attend``: read stage -> clip + objects -> visuomotor loop -> layer."""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from usdgaze import __version__
+from usdgaze.errors import UsdGazeError
+from usdgaze.vision import loop
+from usdgaze.vision.costs import Weights
+
+
+@dataclass
+class AttendSettings:
+    """What ``usdgaze attend`` takes besides its files (see docs/attend.md)."""
+
+    alpha: float = 0.2
+    cost: str = "uncertainty"
+    window_s: float = 0.8
+    h: float = 0.025
+    seed: int = 0
+    eta: float = 0.3
+    max_tracked: int = 4
+    iterations: int = 3
+
+    def check(self) -> None:
+        if not np.isfinite(self.alpha) or self.alpha < 0:
+            raise UsdGazeError(f"--alpha {self.alpha:g}: the process noise must be >= 0")
+        if self.cost not in loop.MODES:
+            raise UsdGazeError(f"--cost {self.cost}: expected one of {', '.join(loop.MODES)}")
+        if not np.isfinite(self.h) or not 0.005 <= self.h <= 0.1:
+            raise UsdGazeError(f"planner step {self.h:g} s: expected 0.005-0.1 s (the paper uses 0.02-0.03)")
+        if not np.isfinite(self.window_s) or self.window_s < 2 * self.h - 1e-9:
+            raise UsdGazeError(f"--window {self.window_s:g} s: shorter than two planner steps (2 x {self.h:g} s)")
+        if self.window_s > 5.0:
+            raise UsdGazeError(f"--window {self.window_s:g} s: longer than 5 s (the paper uses 0.6-1.2 s)")
+
+    def loop_options(self) -> loop.LoopOptions:
+        return loop.LoopOptions(alpha=self.alpha, eta=self.eta, h=self.h, window_s=self.window_s, mode=self.cost,
+                                seed=self.seed, max_tracked=self.max_tracked, iterations=self.iterations,
+                                weights=Weights())
+
+
+@dataclass
+class AttendReport:
+    output: str
+    characters: list[dict] = field(default_factory=list)
+    objects: list[dict] = field(default_factory=list)
+    planner: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    results: list = field(default_factory=list, repr=False)
+
+
+def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[str] | None = None,
+           settings: AttendSettings | None = None, skel_root: str | None = None, progress=None,
+           no_clobber: bool = False) -> AttendReport:
+    """Synthesize attention-driven eye, head and upper-spine motion; write ``out``. Nothing on failure."""
+    from usdgaze.files.transaction import Outputs
+
+    settings = settings or AttendSettings()
+    settings.check()
+    source = str(input_path)
+    if not Path(source).is_file():
+        raise UsdGazeError(f"{source}: no such file")
+    with Outputs(no_clobber=no_clobber) as tx:
+        from usdgaze.api import _open_input
+        from usdgaze.usd.layers import check_output_path
+
+        tx.read(source)  # first, so a clash names the input as such
+        out_path = tx.claim(check_output_path(out), "--out")
+        stage = _open_input(tx, source)
+        report, layer = _attend(stage, source, out_path, objects, settings, skel_root, progress)
+        tx.stage_layer(out_path, layer)
+    return report
+
+
+def _attend(stage, source, out_path, objects, settings, skel_root, progress):
+    from usdgaze.api import bind, select_roots
+    from usdgaze.passes.attend import apply_attend
+    from usdgaze.usd.attendio import add_inspection
+    from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
+    from usdgaze.usd.objects import object_prims, read_objects
+    from usdgaze.usd.skelio import read_clip, skeletons_under
+
+    prims = object_prims(stage, source, objects)
+    roots = select_roots(stage, source, skel_root)
+    report = AttendReport(output=str(out_path))
+    overrides, inspections, info = [], [], None
+    t_start, cpu_start = time.perf_counter(), time.process_time()
+    steps = frames = 0
+    for root in roots:
+        skels = skeletons_under(root)
+        if not skels:
+            raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
+        clip = read_clip(stage, skels[0], root, source)
+        chain, frame = bind(clip, None)
+        h = settings.h
+        t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)
+        codes = clip.start_time + t_plan * clip.time_codes_per_second
+        objs = read_objects(stage, source, prims, codes, clip.meters_per_unit)
+        things = [loop.Thing(o.path, o.positions, o.importance, o.radius, o.kind) for o in objs]
+        result = apply_attend(clip, chain, frame, things, settings.loop_options(), progress)
+        steps += len(result.planner_times)
+        frames += len(clip.times)
+        overrides.append(_override(clip, result, AnimOverride))
+        inspections.append((clip.skel_root, clip.times, result, [o.path for o in objs]))
+        report.results.append(result)
+        report.characters.append({"skel_root": clip.skel_root, "animation": clip.animation, "frames": len(clip.times),
+                                  "added_joints": result.added_joints,
+                                  "changed_joints": [j.rsplit('/', 1)[-1] for j in result.changed_joints]})
+        report.objects = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]
+        if info is None:
+            info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time, clip.end_time,
+                             clip.up_axis, clip.meters_per_unit)
+    wall, cpu = time.perf_counter() - t_start, time.process_time() - cpu_start
+    solves = [c for r in report.results for c in r.loop.solves]
+    report.planner = {
+        "steps": steps, "frames": frames, "seconds": round(wall, 3), "cpu_seconds": round(cpu, 3),
+        "frames_per_second": round(frames / wall, 1) if wall > 0 else None,
+        "frames_per_cpu_second": round(frames / cpu, 1) if cpu > 0 else None,
+        "mean_iterations": round(float(np.mean([len(c) - 1 for c in solves])), 2) if solves else 0,
+        "cost_monotone": bool(all(np.all(np.diff(c) <= 0) for c in solves)),
+        "window_s": settings.window_s, "h": settings.h, "alpha": settings.alpha, "cost": settings.cost,
+        "seed": settings.seed,
+    }
+    info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",
+                               "objects": [str(p.GetPath()) for p in prims], "alpha": settings.alpha,
+                               "cost": settings.cost, "window_s": settings.window_s, "seed": settings.seed}}
+    layer = build_override(overrides, info, fmt=out_path.suffix.lstrip("."))
+    for character, times, result, paths in inspections:
+        add_inspection(layer, character, times, result.sight_world, result.eye_pose, paths,
+                       result.estimates_world, result.uncertainty)
+    return report, layer
+
+
+def _override(clip, result, AnimOverride):
+    grew = len(result.anim_joints) > len(clip.anim_joints)
+    o = AnimOverride(animation=clip.animation, times=clip.times, joints=result.anim_joints,
+                     rotations=result.rotations, translations=result.translations if grew else None,
+                     scales=result.scales if grew else None, write_joints=grew)
+    if result.added_joints:
+        o.skeleton = clip.skeleton
+        o.skeleton_joints = clip.joints + result.added_joints
+        o.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
+        o.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
+        if clip.joint_names is not None:
+            o.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
+    return o
+
+
+def _object_summary(path: str, result, j: int) -> dict:
+    lp = result.loop
+    seen = lp.visible[:, j]
+    first = float(result.planner_times[np.argmax(seen)]) if seen.any() else None
+    return {"path": path, "first_seen_s": first, "tracked_share": round(float(np.mean(~np.isnan(lp.sigma_p[:, j]))), 3)}

@@ -1,0 +1,159 @@
+"""The attend pass: from a clip and moving objects, eyes + neck + upper spine chosen by the planner.
+
+Data flow: clip (UsdSkel arrays) -> base gaze chain in world metres on the planner grid -> the
+visuomotor loop (``usdgaze.vision.loop``) -> offsets and point of sight back on the clip's frames ->
+new local rotations for the first upper-spine joint, the first neck joint (the head when there is no
+neck) and both eyes (aimed at the point of sight, so vergence follows the focal distance).
+Pure numpy apart from what it is given.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.core.clip import SkelClip
+from usdgaze.core.kinematics import Pose, forward, with_ancestors
+from usdgaze.core.rig import Chain, CharacterFrame
+from usdgaze.passes.shift import EyeRange, PassOptions, _aim_eyes, _assemble, _with_eyes
+from usdgaze.planning.kinbody import BaseChain
+from usdgaze.vision import eye as eyemod
+from usdgaze.vision import loop
+
+# The eyes aim at the point of sight each from its own position; near fixation that needs a few
+# degrees more than the cyclopean range, which the planner bounds (eye.LO/HI).
+_EYE_CLAMP = EyeRange(yaw=50.0, up=32.0, down=52.0)
+
+
+@dataclass
+class AttendResult:
+    anim_joints: list[str]
+    rotations: np.ndarray
+    translations: np.ndarray
+    scales: np.ndarray
+    added_joints: list[str]
+    added_rest_local: np.ndarray | None
+    added_bind_world: np.ndarray | None
+    changed_joints: list[str]
+    sight_world: np.ndarray  # (F, 3) stage units
+    estimates_world: np.ndarray  # (F, O, 3) stage units, NaN while untracked
+    uncertainty: np.ndarray  # (F, O) sigma_p, m^2, NaN while untracked
+    eye_pose: np.ndarray  # (F, 3) theta, psi (deg), zeta (mm)
+    loop: loop.LoopResult = field(repr=False, default=None)
+    planner_times: np.ndarray | None = None
+
+
+def _spine_neck(chain: Chain) -> tuple[int, int]:
+    roles = chain.roles
+    spine = (roles.get("upperSpine") or roles.get("lowerSpine") or [chain.pelvis])[0]
+    neck = (roles.get("neck") or [chain.head])[0]
+    return int(spine), int(neck)
+
+
+def _interp(t_new: np.ndarray, t: np.ndarray, v: np.ndarray) -> np.ndarray:
+    flat = v.reshape(len(t), -1)
+    out = np.stack([np.interp(t_new, t, flat[:, i]) for i in range(flat.shape[1])], -1)
+    return out.reshape((len(t_new),) + v.shape[1:])
+
+
+def _world(m: np.ndarray, p: np.ndarray) -> np.ndarray:
+    return np.einsum("fij,fj->fi", m[:, :3, :3], p) + m[:, :3, 3]
+
+
+def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: Pose, h: float
+               ) -> tuple[BaseChain, np.ndarray]:
+    """The base motion's pivots, eye midpoint and head axes on the planner grid (world, metres)."""
+    spine, neck = _spine_neck(chain)
+    s2w, mpu, up = clip.skel_to_world, clip.meters_per_unit, clip.world_up
+    head = chain.head
+    eyes = 0.5 * sum(base.place(int(rig.parents[e]), rig.local(e)[0]) for e in rig.eyes)
+    pts = [(_world(s2w, base.position[j]) * mpu) for j in (spine, neck)] + [_world(s2w, eyes) * mpu]
+    to_rest = rot.multiply(base.rotation[head], rot.conjugate(rig.rest_q[head]))
+    axes = np.stack([rot.normalize(np.einsum("fij,fj->fi", s2w[:, :3, :3], rot.rotate(to_rest, np.broadcast_to(v, (len(to_rest), 3)))))
+                     for v in (frame.forward, frame.left, frame.up)], -1)
+    seconds = clip.seconds
+    t = np.arange(0.0, seconds[-1] + 1e-9, h)
+    P = [_interp(t, seconds, p) for p in pts]
+    A = _interp(t, seconds, axes)
+    # re-orthonormalize the interpolated head axes (forward first, then up)
+    f = rot.normalize(A[..., 0])
+    u = rot.normalize(A[..., 2] - np.sum(A[..., 2] * f, -1, keepdims=True) * f)
+    A = np.stack([f, np.cross(u, f), u], -1)
+    left = A[..., 1] - np.outer(A[..., 1] @ up, up)
+    left = rot.normalize(np.where(np.linalg.norm(left, axis=-1, keepdims=True) > 1e-6, left, np.cross(up, f)))
+    return BaseChain(P[0], P[1], P[2], A, left, up), t
+
+
+def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: list[loop.Thing],
+                 options: loop.LoopOptions, progress=None) -> AttendResult:
+    """Run the visuomotor loop on one clip and turn its result into animation arrays."""
+    rig = _with_eyes(clip, chain, frame, PassOptions())
+    spine, neck = _spine_neck(chain)
+    base = forward(with_ancestors(list(chain.path) + list(rig.eyes), rig.parents), rig.parents, rig.local)
+    bc, t_plan = base_chain(clip, chain, frame, rig, base, options.h)
+    for th in things:
+        th.up = clip.world_up
+    res = loop.run(bc, things, options, len(t_plan), progress)
+    seconds = clip.seconds
+    q = _interp(seconds, t_plan, res.offsets)
+    left_w = _interp(seconds, t_plan, bc.left)
+    new_rot = _drive(clip, rig, base, spine, neck, q, left_w)
+
+    def new_local(j: int):
+        t_, q_, s_ = rig.local(j)
+        return t_, new_rot.get(j, q_), s_
+
+    head = chain.head
+    moved = forward(with_ancestors([head], rig.parents), rig.parents, new_local)
+    mpu = clip.meters_per_unit
+    # The point of sight at the frames, from the interpolated eye pose on the moved head (not the
+    # planner's points interpolated in space, which would bend a saccade's path and speed).
+    e = _interp(seconds, t_plan, res.eye)
+    to_rest = rot.multiply(moved.rotation[head], rot.conjugate(rig.rest_q[head]))
+    f, l, u = (rot.rotate(to_rest, np.broadcast_to(v, (len(seconds), 3))) for v in (frame.forward, frame.left, frame.up))
+    ct, st, cp, sp = np.cos(e[:, 0]), np.sin(e[:, 0]), np.cos(e[:, 1]), np.sin(e[:, 1])
+    direction = (cp * ct)[:, None] * f + (cp * st)[:, None] * l + sp[:, None] * u
+    mid = 0.5 * sum(moved.place(int(rig.parents[j]), rig.local(j)[0]) for j in rig.eyes)
+    scale = np.cbrt(np.abs(np.linalg.det(clip.skel_to_world[:, :3, :3])))
+    dist = eyemod.distance(e[:, 2])[0] / mpu / scale
+    sight_skel = mid + dist[:, None] * direction
+    sight_units = _world(clip.skel_to_world, sight_skel)
+    eyes = _aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP)
+    new_rot.update(eyes.rotations)
+    anim_joints, rotations, translations, scales = _assemble(rig, new_rot, {})
+    est = _interp(seconds, t_plan, res.estimate) / mpu
+    unc = _interp(seconds, t_plan, res.sigma_p)
+    eye_pose = _interp(seconds, t_plan, res.eye) * [180 / np.pi, 180 / np.pi, 1.0]
+    out = AttendResult(anim_joints, rotations, translations, scales, rig.added, None, None,
+                       [rig.joints[j] for j in sorted(new_rot)], sight_units, est, unc, eye_pose, res, t_plan)
+    if rig.added:
+        out.added_rest_local = rig.rest_local[-2:]
+        out.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
+    return out
+
+
+def _drive(clip: SkelClip, rig, base: Pose, spine: int, neck: int, q: np.ndarray, left_w: np.ndarray
+           ) -> dict[int, np.ndarray]:
+    """Local rotations of the spine and neck joints carrying the world offsets G_s, G_n."""
+    s3 = clip.skel_to_world[:, :3, :3]
+    inv = np.linalg.inv(s3)
+    up_s = rot.normalize(np.einsum("fij,j->fi", inv, clip.world_up))
+    left_s = rot.normalize(np.einsum("fij,fj->fi", inv, left_w))
+
+    def g(yaw, pitch):
+        return rot.multiply(rot.from_axis_angle(up_s, yaw), rot.from_axis_angle(left_s, pitch))
+
+    gs, gn = g(q[:, 0], q[:, 1]), g(q[:, 2], q[:, 3])
+    ident = np.tile(rot.IDENTITY, (len(q), 1))
+    out = {}
+    p_s = int(rig.parents[spine])
+    pw = base.rotation[p_s] if p_s >= 0 else ident
+    out[spine] = rot.normalize(rot.multiply(rot.conjugate_into(rot.conjugate(pw), gs), rig.local(spine)[1]))
+    p_n = int(rig.parents[neck])
+    pw_n = rot.multiply(gs, base.rotation[p_n]) if p_n >= 0 else ident
+    if neck == spine:
+        return out
+    out[neck] = rot.normalize(rot.multiply(rot.conjugate_into(rot.conjugate(pw_n), gn), rig.local(neck)[1]))
+    return out

@@ -1,0 +1,221 @@
+"""The belief over objects (Eom et al. 4.3, appendix A): one Kalman filter per object.
+
+Object state x = [p, v]; process x' = F x + y + delta, F = [[I, hI], [0, I]], y = [0, h a] with a
+the gravity for ballistic objects (0 for others), delta ~ N(0, alpha I). Observation z = p + rho,
+rho ~ N(0, r I). Every covariance block stays a multiple of I, so each filter keeps the paper's
+3-vector sigma = [sigma_p, sigma_v, sigma_pv] and the update is scalar per object.
+
+Observation noise r grows with the distance D from the point of sight to the object:
+r = r0 + 1 - exp(-D / eta), with D smoothed at 0 (sqrt(D^2 + eps^2) - eps) so it is twice
+differentiable and r0 keeping the gain finite; the paper's formula is partly garbled in our copy, this
+is its legible part: 0 at the fovea, rising to 1 far from it, eta the fovea constant. Outside the +-60 deg field of view there is no observation: the simulation skips the
+update, the planner adds ``R_OUT`` smoothly, (1 - vis) R_OUT with vis a logistic of the angle.
+
+Units. The paper gives r in [0, 1) and alpha = 0.2 as bare numbers. Covariances here are kept in
+units of ``unit_m`` squared (0.1 m: r = 1 is an observation error of 10 cm standard deviation, and
+alpha = 0.2 adds (4.5 cm)^2 a step): the recursions for sigma and the gain K = sp/(sp + r) do not
+depend on the unit, only the drawn observation z = p + unit_m sqrt(r) N(0, I) does, so the paper's
+numbers keep their meaning relative to each other. Read in metres, r would be a 1 m error, which
+keeps a fixating eye from ever settling on a ball.
+
+Planning uses the expected mean mu' = F mu + y (deterministic); simulation draws z with a seeded
+generator and applies the full update (``kalman_update``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdgaze.planning.compose import Part
+
+FOV = np.radians(60.0)
+COS_FOV = np.cos(FOV)
+VIS_WIDTH = 0.03  # logistic width in cos(angle): ~ +-3 deg around the edge of the field of view
+R_OUT = 50.0
+R0 = 1e-4
+GRAVITY = 9.81
+EPS_D = 0.02  # metres: smooths |p_ps - p| at 0 so r is twice differentiable
+SLOT = 9  # mu_p (3), mu_v (3), sigma_p, sigma_v, sigma_pv
+
+
+@dataclass
+class VisionParams:
+    alpha: float = 0.2
+    eta: float = 0.3  # fovea constant, metres
+    h: float = 0.025
+    unit_m: float = 0.1  # the length unit of the belief's covariance numbers (see the module docstring)
+
+
+def predict_cov(s: np.ndarray, alpha: float, h: float) -> np.ndarray:
+    """A priori [sp, sv, spv] (rows of s) and the constant Jacobian M."""
+    sp, sv, spv = s[..., 0], s[..., 1], s[..., 2]
+    return np.stack([sp + 2 * h * spv + h * h * sv + alpha, sv + alpha, spv + h * sv], -1)
+
+
+def predict_jac(h: float) -> np.ndarray:
+    return np.array([[1.0, h * h, 2 * h], [0.0, 1.0, 0.0], [0.0, h, 1.0]])
+
+
+def update_cov(sb: np.ndarray, r: np.ndarray):
+    """A posteriori sigma from the a priori sb and noise r; d/dsb (..., 3, 3) and d/dr (..., 3)."""
+    p, v, pv = sb[..., 0], sb[..., 1], sb[..., 2]
+    S = p + r
+    S2 = S * S
+    out = np.stack([p * r / S, v - pv * pv / S, pv * r / S], -1)
+    z = np.zeros_like(p)
+    d_sb = np.stack([np.stack([r * r / S2, z, z], -1),
+                     np.stack([pv * pv / S2, np.ones_like(p), -2 * pv / S], -1),
+                     np.stack([-pv * r / S2, z, r / S], -1)], -2)
+    d_r = np.stack([p * p / S2, pv * pv / S2, pv * p / S2], -1)
+    return out, d_sb, d_r
+
+
+def noise(pps: np.ndarray, pos: np.ndarray, eta: float):
+    """r0 + 1 - exp(-D/eta) with D the distance smoothed at 0, and its gradient w.r.t. the point of sight."""
+    diff = pps - pos
+    ds = np.sqrt(np.sum(diff * diff, -1) + EPS_D * EPS_D)
+    e = np.exp(-(ds - EPS_D) / eta)
+    return R0 + 1.0 - e, (e / (eta * ds))[..., None] * diff
+
+
+def visibility(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray):
+    """Smooth in-view weight, and its gradients w.r.t. pos (= -w.r.t. eyes) and forward."""
+    v = pos - eyes
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    n = np.maximum(n, 1e-9)
+    c = np.sum(v * forward, -1, keepdims=True) / n
+    s = 1.0 / (1.0 + np.exp(-(c[..., 0] - COS_FOV) / VIS_WIDTH))
+    ds_dc = (s * (1 - s) / VIS_WIDTH)[..., None]
+    return s, ds_dc * (forward / n - c * v / n**2), ds_dc * v / n
+
+
+def in_view(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """The hard +-60 deg test the simulation uses."""
+    v = pos - eyes
+    c = np.sum(v * forward, -1) / np.maximum(np.linalg.norm(v, axis=-1), 1e-9)
+    return c >= COS_FOV
+
+
+def kalman_update(mu: np.ndarray, s: np.ndarray, z: np.ndarray | None, r: float, accel: np.ndarray,
+                  params: VisionParams):
+    """One filter step for one object; z None means not observed (prediction only)."""
+    h = params.h
+    mp = mu[:3] + h * mu[3:]
+    mv = mu[3:] + h * accel
+    sb = predict_cov(s, params.alpha, h)
+    if z is None:
+        return np.concatenate([mp, mv]), sb
+    S = sb[0] + r
+    m = z - mp
+    s_new, _, _ = update_cov(sb, np.asarray(r))
+    return np.concatenate([mp + sb[0] / S * m, mv + sb[2] / S * m]), s_new
+
+
+class Belief(Part):
+    """The planner's belief over ``n`` object slots: expected mean, covariance through the sight."""
+
+    name = "belief"
+    passive = True  # no controls, read by no other part: rolled out after the eye and body (compose.Stacked)
+
+    def __init__(self, n: int, accel: np.ndarray, params: VisionParams, sight) -> None:
+        self.n, self.accel, self.params, self.sight = n, np.asarray(accel, float).reshape(n, 3), params, sight
+        self.nx, self.nu = SLOT * n, 0
+
+    def _split(self, X):
+        B = X[:, self.xs].reshape(len(X), self.n, SLOT)
+        return B[..., :3], B[..., 3:6], B[..., 6:9]
+
+    def _r(self, X, k0, with_jac: bool):
+        mp, _, s = self._split(X)
+        if with_jac:
+            pps, p, R, J, dp, dR = self.sight.jacobian(X, k0)
+        else:
+            pps, p, R = self.sight.points(X, k0)
+        r_d, g_pps = noise(pps[:, None], mp, self.params.eta)
+        vis, g_pos, g_fwd = visibility(mp, p[:, None], R[:, None, :, 0])
+        r = r_d + (1 - vis) * R_OUT
+        if not with_jac:
+            return s, r
+        # dr/dx (N, n, NX): through the point of sight, the object estimate, the eyes and the head forward
+        dr = np.einsum("nsi,nix->nsx", g_pps, J)
+        dr -= R_OUT * (np.einsum("nsi,nix->nsx", -g_pos, dp) + np.einsum("nsi,nix->nsx", g_fwd, dR[:, :, 0]))
+        d_pos = -g_pps - R_OUT * g_pos
+        cols = self.xs.start + SLOT * np.arange(self.n)[:, None] + np.arange(3)
+        for j in range(self.n):
+            dr[:, j, cols[j]] += d_pos[:, j]
+        return s, r, dr
+
+    def rollout(self, X: np.ndarray, k0: int) -> np.ndarray:
+        """Belief states along a window whose other parts are already in X (row 0: the start)."""
+        h, a, n = self.params.h, self.params.alpha, self.n
+        N = len(X)
+        B0 = X[0, self.xs].reshape(n, SLOT)
+        i = np.arange(N)[:, None, None]
+        mv = B0[None, :, 3:6] + i * h * self.accel[None]
+        mp = B0[None, :, :3] + i * h * B0[None, :, 3:6] + h * h * (i * (i - 1) / 2) * self.accel[None]
+        pps, p, R = self.sight.points(X, k0)
+        r = noise(pps[:, None], mp, self.params.eta)[0]
+        vis = visibility(mp, p[:, None], R[:, None, :, 0])[0]
+        r = r + (1 - vis) * R_OUT
+        S = np.empty((N, n, 3))
+        S[0] = B0[:, 6:9]
+        sp_, sv_, spv_ = S[0, :, 0].copy(), S[0, :, 1].copy(), S[0, :, 2].copy()
+        h2 = h * h
+        for k in range(N - 1):
+            pb = sp_ + 2 * h * spv_ + h2 * sv_ + a
+            vb = sv_ + a
+            cb = spv_ + h * sv_
+            rk = r[k]
+            den = pb + rk
+            sp_, sv_, spv_ = pb * rk / den, vb - cb * cb / den, cb * rk / den
+            S[k + 1, :, 0], S[k + 1, :, 1], S[k + 1, :, 2] = sp_, sv_, spv_
+        return np.concatenate([mp, mv, S], -1).reshape(N, -1)
+
+    def step(self, x, u, k):
+        h, a = self.params.h, self.params.alpha
+        B = x[self.xs].reshape(self.n, SLOT)
+        mp, mv, s = B[:, :3], B[:, 3:6], B[:, 6:9]
+        pps, p, R = self.sight.point(x, k)
+        r = noise(pps, mp, self.params.eta)[0]
+        v = mp - p
+        cosang = (v @ R[:, 0]) / np.maximum(np.sqrt(np.einsum("si,si->s", v, v)), 1e-9)
+        r = r + R_OUT * (1.0 - 1.0 / (1.0 + np.exp(-(cosang - COS_FOV) / VIS_WIDTH)))
+        sp = s[:, 0] + 2 * h * s[:, 2] + h * h * s[:, 1] + a
+        sv = s[:, 1] + a
+        spv = s[:, 2] + h * s[:, 1]
+        S = sp + r
+        out = np.empty((self.n, SLOT))
+        out[:, :3] = mp + h * mv
+        out[:, 3:6] = mv + h * self.accel
+        out[:, 6] = sp * r / S
+        out[:, 7] = sv - spv * spv / S
+        out[:, 8] = spv * r / S
+        return out.ravel()
+
+    def _next(self, X, k0):
+        h = self.params.h
+        mp, mv, _ = self._split(X)
+        s, r = self._r(X, k0, with_jac=False)
+        s_new, _, _ = update_cov(predict_cov(s, self.params.alpha, h), r)
+        out = np.concatenate([mp + h * mv, mv + h * self.accel, s_new], -1)
+        return out.reshape(len(X), -1)
+
+    def linearize(self, x, u, k):
+        fx, fu = self.linearize_batch(x[None], u[None], k)
+        return fx[0], fu[0]
+
+    def linearize_batch(self, X, U, k0):
+        h, N = self.params.h, len(X)
+        s, r, dr = self._r(X, k0, with_jac=True)
+        sb = predict_cov(s, self.params.alpha, h)
+        _, d_sb, d_r = update_cov(sb, r)
+        fx = np.zeros((N, self.n, SLOT, self.stack.nx))
+        M = predict_jac(h)
+        for j in range(self.n):
+            c0 = self.xs.start + SLOT * j
+            fx[:, j, :6, c0:c0 + 6] = np.block([[np.eye(3), h * np.eye(3)], [np.zeros((3, 3)), np.eye(3)]])
+            fx[:, j, 6:, :] = d_r[:, j, :, None] * dr[:, j, None, :]
+            fx[:, j, 6:, c0 + 6:c0 + 9] += d_sb[:, j] @ M
+        return fx.reshape(N, self.nx, self.stack.nx), np.zeros((N, self.nx, self.stack.nu))
