@@ -31,6 +31,7 @@ Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 _BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
 # Fractions of standing height used where the skeleton gives no length (leaf joints).
 _LEAF_LENGTH = {"head": 0.12, "hand": 0.06, "foot": 0.06, "other": 0.03}
+_STILL_DEG = 0.5
 _EYE = re.compile(r"eye", re.I)
 _HINGES = {"shank": 1.0, "forearm": -1.0}  # flexion axis = sign * (bone direction x forward)
 
@@ -219,6 +220,11 @@ def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: n
         q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
         rv = rot.to_rotvec(q)
         ang = np.degrees(np.linalg.norm(rv, axis=1))
+        if ang.max() < _STILL_DEG:
+            # A joint the motion holds at rest throughout (CMU's hip and collar joints) is welded:
+            # no degrees of freedom the controller would have to hold still.
+            kind[b] = "weld"
+            continue
         if kind[b] == "ball":
             rng[b, 1] = min(180.0, max(rng[b, 1], float(ang.max()) + 10.0))
             continue

@@ -1,0 +1,194 @@
+"""MuJoCo full-body dynamics as a part of the planner's state: x = [q, qdot] in minimal coordinates.
+
+The body state is ``2 nv`` long: positions in tangent (exponential) coordinates, velocities as
+MuJoCo's ``qvel``. Positions are the base position (metres, world), the base orientation as the
+rotation vector of ``anchor^T R_base`` (``anchor`` is a fixed rotation the caller sets per window,
+e.g. the reference heading, so the vector stays far from its singularity at pi), each ball joint's
+rotation vector and each hinge's angle. Differences of such states are meaningful, which is what the
+solver's feedback ``K (x - X)`` needs.
+
+``step`` is one MuJoCo ``mj_step`` with ``opt.timestep = h``: the semi-implicit Euler integrator
+(velocities first, positions from the new velocities; joint damping implicit), no substeps.
+``linearize`` takes MuJoCo's finite-difference transition matrices (``mjd_transitionFD``), which
+perturb positions in the tangent space, and maps them to these coordinates with the right Jacobian
+of SO(3) per rotation: ``dx = Jr^-1(r) dtangent``.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from usdgaze.physics.model import BodyModel
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    z = np.zeros(v.shape[:-1])
+    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1), np.stack([v[..., 2], z, -v[..., 0]], -1),
+                     np.stack([-v[..., 1], v[..., 0], z], -1)], -2)
+
+
+def _jr(r: np.ndarray, inverse: bool) -> np.ndarray:
+    """Right Jacobian of SO(3) (or its inverse) at rotation vectors ``r`` ``(n, 3)``."""
+    th = np.linalg.norm(r, axis=-1)[:, None, None]
+    s = _skew(r)
+    s2 = s @ s
+    small = th < 1e-6
+    t = np.where(small, 1.0, th)
+    if inverse:
+        c = np.where(small, 1.0 / 12.0, 1.0 / t**2 - (1 + np.cos(t)) / (2 * t * np.sin(t)))
+        return np.eye(3) + 0.5 * s + c * s2
+    a = np.where(small, 0.5, (1 - np.cos(t)) / t**2)
+    b = np.where(small, 1.0 / 6.0, (t - np.sin(t)) / t**3)
+    return np.eye(3) - a * s + b * s2
+
+
+def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors of MuJoCo (w, x, y, z) quaternions ``(n, 4)``."""
+    q = np.where(q[:, :1] < 0, -q, q)
+    v = q[:, 1:]
+    s = np.linalg.norm(v, axis=1, keepdims=True)
+    ang = 2.0 * np.arctan2(s, q[:, :1])
+    return v * np.divide(ang, s, out=np.full_like(s, 2.0), where=s > 1e-12)
+
+
+def _rotvec_to_quat(r: np.ndarray) -> np.ndarray:
+    ang = np.linalg.norm(r, axis=1, keepdims=True)
+    k = np.divide(np.sin(0.5 * ang), ang, out=np.full_like(ang, 0.5), where=ang > 1e-12)
+    return np.concatenate([np.cos(0.5 * ang), r * k], axis=1)
+
+
+def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    w1, v1, w2, v2 = a[..., :1], a[..., 1:], b[..., :1], b[..., 1:]
+    return np.concatenate([w1 * w2 - np.sum(v1 * v2, -1, keepdims=True), w1 * v2 + w2 * v1 + np.cross(v1, v2)], -1)
+
+
+class MujocoBody:
+    """The simulated body as a dynamics part (``nx = 2 nv``, ``nu`` motors), usable on its own as a
+    ``ddp.Dynamics`` or stacked with the eye and belief parts (``bind`` gives it its slices)."""
+
+    name = "body"
+
+    def __init__(self, model: BodyModel, h: float = 0.02, forces: Callable[[int], np.ndarray] | None = None,
+                 centered: bool = False, eps: float = 1e-6) -> None:
+        import mujoco
+
+        from usdgaze.physics import mjcf
+
+        self.model, self.h, self.centered, self.eps = model, float(h), centered, eps
+        self.mj = mujoco.MjModel.from_xml_string(mjcf.write(model, timestep=h))
+        self.data = mujoco.MjData(self.mj)
+        self.nv, self.nq = self.mj.nv, self.mj.nq
+        self.nx, self.nu = 2 * self.nv, self.mj.nu
+        self.xs, self.us = slice(0, self.nx), slice(0, self.nu)
+        self.stack = None
+        self.forces = forces
+        self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
+        qadr, dadr = model.layout()
+        balls = [b for b, k in enumerate(model.kind) if k == "ball"]
+        hinges = [b for b, k in enumerate(model.kind) if k == "hinge"]
+        self._bq, self._bd = qadr[balls], dadr[balls]
+        self._hq, self._hd = qadr[hinges], dadr[hinges]
+        # Rotation blocks of the position tangent: base orientation first, then the balls.
+        self._rot = np.concatenate([[3], self._bd])
+
+    # -- coordinates ------------------------------------------------------------------------------
+    def bind(self, stack, xs: slice, us: slice) -> None:
+        self.stack, self.xs, self.us = stack, xs, us
+
+    def set_anchor(self, quat_wxyz: np.ndarray) -> None:
+        self.anchor = np.asarray(quat_wxyz, dtype=float) / np.linalg.norm(quat_wxyz)
+
+    def to_state(self, qpos: np.ndarray, qvel: np.ndarray | None = None) -> np.ndarray:
+        """Body states ``(..., 2 nv)`` from ``qpos`` ``(..., nq)`` (and ``qvel``, default zero)."""
+        single = np.ndim(qpos) == 1
+        qpos = np.atleast_2d(qpos)
+        n = len(qpos)
+        pos = np.zeros((n, self.nv))
+        pos[:, 0:3] = qpos[:, 0:3]
+        conj = self.anchor * np.array([1, -1, -1, -1])
+        pos[:, 3:6] = _quat_to_rotvec(_qmul(np.broadcast_to(conj, (n, 4)), qpos[:, 3:7]))
+        if len(self._bq):
+            q = qpos[:, self._bq[:, None] + np.arange(4)].reshape(-1, 4)
+            pos[:, self._bd[:, None] + np.arange(3)] = _quat_to_rotvec(q).reshape(n, -1, 3)
+        pos[:, self._hd] = qpos[:, self._hq]
+        vel = np.zeros((n, self.nv)) if qvel is None else np.atleast_2d(qvel)
+        out = np.concatenate([pos, vel], axis=1)
+        return out[0] if single else out
+
+    def to_mujoco(self, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``qpos``, ``qvel`` of one body state."""
+        pos, vel = xb[: self.nv], xb[self.nv:]
+        qpos = np.zeros(self.nq)
+        qpos[0:3] = pos[0:3]
+        qpos[3:7] = _qmul(self.anchor, _rotvec_to_quat(pos[None, 3:6])[0])
+        if len(self._bq):
+            qpos[self._bq[:, None] + np.arange(4)] = _rotvec_to_quat(pos[self._bd[:, None] + np.arange(3)])
+        qpos[self._hq] = pos[self._hd]
+        return qpos, vel.copy()
+
+    def _tangent_map(self, xb: np.ndarray, inverse: bool) -> np.ndarray:
+        """Per rotation block, ``dx/dtangent`` (``inverse=False`` gives Jr^-1) or its inverse."""
+        r = xb[self._rot[:, None] + np.arange(3)]
+        return _jr(r, inverse=not inverse)
+
+    # -- dynamics ---------------------------------------------------------------------------------
+    def _load(self, xb: np.ndarray, ub: np.ndarray, k: int) -> None:
+        d = self.data
+        d.qpos[:], d.qvel[:] = self.to_mujoco(xb)
+        d.ctrl[:] = ub
+        d.qacc_warmstart[:] = 0.0
+        d.xfrc_applied[:] = 0.0 if self.forces is None else self.forces(k)
+        d.time = k * self.h
+
+    def step_body(self, xb: np.ndarray, ub: np.ndarray, k: int) -> np.ndarray:
+        import mujoco
+
+        self._load(xb, ub, k)
+        bad = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        mujoco.mj_step(self.mj, self.data)
+        if self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number != bad:
+            # MuJoCo resets an unstable state to qpos0; say so to the solver instead (infinite cost).
+            return np.full(self.nx, np.nan)
+        return self.to_state(self.data.qpos, self.data.qvel)
+
+    def step(self, x: np.ndarray, u: np.ndarray, k: int) -> np.ndarray:
+        return self.step_body(x[self.xs], u[self.us], k)
+
+    def linearize_body(self, xb: np.ndarray, ub: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """(A, B) of one step in these coordinates: ``(2nv, 2nv)``, ``(2nv, nu)``."""
+        import mujoco
+
+        nv = self.nv
+        self._load(xb, ub, k)
+        A = np.zeros((2 * nv, 2 * nv))
+        B = np.zeros((2 * nv, self.nu))
+        mujoco.mjd_transitionFD(self.mj, self.data, self.eps, self.centered, A, B, None, None)
+        # Tangent -> minimal coordinates: rows by Jr^-1 at the next state, columns by Jr at this one.
+        self._load(xb, ub, k)
+        mujoco.mj_step(self.mj, self.data)
+        xn = self.to_state(self.data.qpos, self.data.qvel)
+        out_map = self._tangent_map(xn, inverse=False)  # Jr^-1(r')
+        in_map = self._tangent_map(xb, inverse=True)  # Jr(r)
+        idx = self._rot[:, None] + np.arange(3)
+        for blk in range(len(self._rot)):
+            rows = idx[blk]
+            A[rows, :] = out_map[blk] @ A[rows, :]
+            B[rows, :] = out_map[blk] @ B[rows, :]
+            A[:, rows] = A[:, rows] @ in_map[blk]
+        return A, B
+
+    def linearize(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        A, B = self.linearize_body(x[self.xs], u[self.us], k)
+        if self.stack is None:
+            return A, B
+        fx = np.zeros((self.nx, self.stack.nx))
+        fu = np.zeros((self.nx, self.stack.nu))
+        fx[:, self.xs] = A
+        fu[:, self.us] = B
+        return fx, fu
+
+    def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
+        pairs = [self.linearize(X[i], U[i], k0 + i) for i in range(len(U))]
+        return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
