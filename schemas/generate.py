@@ -44,15 +44,19 @@ VALIDATORS = {
                          "and GazeMapAPI sits on a SkelRoot.",
     "AnimationArrays": "A SkelAnimation's rotations, translations and scales hold one finite entry per joint at "
                        "every time sample, and its rotations are unit quaternions.",
+    "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift parses and "
+                         "starts inside the stage's time range, every character it names is a SkelRoot there.",
 }
-VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"]}
+VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "GazeLayerSchedule": []}
 USDVIEW_PLUGIN = "usdgaze.review.usdview_plugin"
 
 
 def extra_plugins() -> list[dict]:
     """The plugInfo entries of the validator and usdview Python plugins."""
-    validators = {name: {"doc": doc, "schemaTypes": VALIDATOR_SCHEMA_TYPES.get(name, ["UsdGazeGazeMapAPI"])}
-                  for name, doc in VALIDATORS.items()}
+    validators = {}
+    for name, doc in VALIDATORS.items():
+        types = VALIDATOR_SCHEMA_TYPES.get(name, ["UsdGazeGazeMapAPI"])
+        validators[name] = {"doc": doc, **({"schemaTypes": types} if types else {})}  # none: a stage validator
     validators["keywords"] = ["UsdGazeValidators"]
     return [
         {"Info": {"Validators": validators}, "LibraryPath": "", "Name": VALIDATOR_PLUGIN,

@@ -190,3 +190,22 @@ def test_attention_panel_shows_which_object_the_point_of_sight_is_on(tmp_path):
             x = int(round(top.transData.transform((when, row))[0]))
             assert mask[y - 1:y + 2, x].any() == expected, (name, when)
     plt.close(fig)
+
+
+def test_target_error_panel_draws_each_target_at_its_error(tmp_path):
+    plt = plotting.pyplot()
+    t = np.linspace(0.0, 3.0, 301)
+    errors = {"ball": np.where(t < 1.0, 30.0, 2.0), "cup": np.full_like(t, 12.0)}
+    fig, ax = plt.subplots(figsize=(6, 3))
+    plotting.panel_target_error(ax, t, errors, "test")
+    fig.canvas.draw()
+    png = tmp_path / "err.png"
+    fig.savefig(png)
+    height = fig.canvas.get_width_height()[1]
+    for (name, err), colour in zip(errors.items(), plotting.JOINT_COLOURS):
+        mask = _mask(png, colour, 20)
+        for when in (0.5, 2.0):
+            x, y = ax.transData.transform((when, err[np.searchsorted(t, when)]))
+            y = int(round(height - y))
+            assert mask[y - 2:y + 3, int(round(x))].any(), (name, when)
+    plt.close(fig)

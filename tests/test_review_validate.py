@@ -148,3 +148,17 @@ def test_validate_is_silent_on_a_clean_result_and_lints_a_bad_one(tmp_path, caps
     assert {(r["validator"], r["error"]) for r in records} >= {
         ("usdgaze.review.validators:GazeMapArrays", "Length"), ("usdgaze.review.validators:GazeMapRanges", "Range")}
     assert main(["validate", str(tmp_path / "missing.usda")]) == 2
+
+
+def test_schedule_validator_catches_late_shifts_and_missing_characters(tmp_path):
+    layer = tmp_path / "g.usda"
+    api.apply(SAMPLES[0], ["2s:60:0"], layer, preview=tmp_path / "preview.usda")
+    stage = Usd.Stage.Open(str(tmp_path / "preview.usda"))
+    assert _ours(stage) == []
+    edit = Sdf.Layer.FindOrOpen(str(layer))
+    record = dict(edit.customLayerData["usdgaze"])
+    record["shifts"] = ["2s:60:0", "100s:0:0"]
+    record["characters"] = [*record["characters"], "/Nope"]
+    edit.customLayerData = {"usdgaze": record}
+    found = sorted((v, e) for v, e, _, _ in _ours(stage))
+    assert found == [("GazeLayerSchedule", "MissingCharacter"), ("GazeLayerSchedule", "ShiftOutOfRange")]

@@ -17,7 +17,7 @@ def plot(input_path, layer, out_dir, skel_root) -> None:
 
     INPUT is opened with LAYER as its strongest sublayer in memory; neither file is changed.
     """
-    from usdgaze.review._outputs import Outputs
+    from usdgaze.files.transaction import Outputs
     from usdgaze.review.composed import read_review
     from usdgaze.review.plotting import pyplot, write_plots
 

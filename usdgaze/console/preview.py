@@ -30,7 +30,7 @@ def preview(input_path, layer, out, sheet, camera, layout, fps, size, sheet_coun
     from pathlib import Path
 
     from usdgaze.review import preview as pv
-    from usdgaze.review._outputs import Outputs
+    from usdgaze.files.transaction import Outputs
     from usdgaze.review.composed import composed_stage, read_review
 
     started = time.perf_counter()

@@ -50,7 +50,7 @@ class CharacterReview:
     chain: Chain
     frame: CharacterFrame
     neutral_world: np.ndarray
-    """Skeleton-space transforms ``(J, 4, 4)`` of the neutral (bind) pose of the composed joints."""
+    """Skeleton-space neutral (bind, else rest) pose ``(J, 4, 4)``: where head and eyes look ahead."""
     skel_to_world: np.ndarray
     """``(F, 4, 4)`` or ``(1, 4, 4)``."""
     up: np.ndarray

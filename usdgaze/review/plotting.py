@@ -162,8 +162,11 @@ def panel_attention(ax_top, ax_bottom, seconds, point_of_sight: np.ndarray, obje
 
 # -- figures ---------------------------------------------------------------------------------------
 
-def _name(c) -> str:
-    return c.skel_root.rsplit("/", 1)[-1] or "character"
+def names(review) -> list[str]:
+    """A file-name-safe name per character: the SkelRoot's name, or its whole path where names repeat."""
+    leaves = [c.skel_root.rsplit("/", 1)[-1] or "character" for c in review.characters]
+    full = [c.skel_root.strip("/").replace("/", "_") or "character" for c in review.characters]
+    return leaves if len(set(leaves)) == len(leaves) else full
 
 
 def figures(review) -> dict[str, object]:
@@ -171,8 +174,7 @@ def figures(review) -> dict[str, object]:
     plt = pyplot()
     out = {}
     times = [t for t, _, _ in review.shifts]
-    for c in review.characters:
-        name = _name(c)
+    for c, name in zip(review.characters, names(review)):
         cascades = analysis.shift_cascade(c, review.shifts)
         if cascades:
             fig, axes = plt.subplots(len(cascades), 1, figsize=(10, 3.2 * len(cascades)), squeeze=False)
@@ -224,8 +226,7 @@ def summary_figure(review):
     chars = review.characters
     fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 9.5 * len(chars)), squeeze=False)
     times = [t for t, _, _ in review.shifts]
-    for n, c in enumerate(chars):
-        name = _name(c)
+    for n, (c, name) in enumerate(zip(chars, names(review))):
         panel_gaze(axes[3 * n, 0], c.seconds, analysis.requested_steps(c.seconds, review.shifts),
                    analysis.achieved_change(c), times, f"{name}: requested vs achieved change of the line of sight")
         cascades = analysis.shift_cascade(c, review.shifts)

@@ -59,15 +59,32 @@ def _figures(review, which: str, rows: np.ndarray) -> list[render.Figure]:
         origin, direction = analysis.sight(c, posed)
         reach = (review.fixation_m or 2.0) * units_per_m
         pos = posed.world[rows, :, :3, 3]
-        bones = [(j, int(p)) for j, p in enumerate(c.parents) if p >= 0 and j not in (c.eyes or ())]
+        bones = _bones(c, posed, units_per_m)
         out.append(render.Figure(
             positions=pos, bones=bones, head=c.chain.head,
             head_forward=analysis.head_direction(c, posed)[rows],
             sight_origin=origin[rows], sight_end=origin[rows] + reach * direction[rows],
             body=render.BASE_BODY if which == "base" else render.GAZE_BODY,
             sight=render.BASE_SIGHT if which == "base" else render.GAZE_SIGHT,
-            caption="base" if which == "base" else "gaze",
+            caption="base" if which == "base" else "gaze", focus=c.chain.pelvis,
         ))
+    return out
+
+
+MAX_BONE_M = 0.6
+"""Longer "bones" are root motion (a ground-level root joint under a walking pelvis) or props, not
+body segments (an adult's thigh is ~0.45 m): they are not drawn."""
+
+
+def _bones(c, posed, units_per_m: float) -> list[tuple[int, int]]:
+    """(child, parent) pairs drawn as capsules: body segments, not eyes, not root-motion links."""
+    pos = posed.world[:, :, :3, 3]
+    out = []
+    for j, p in enumerate(c.parents):
+        if p < 0 or j in (c.eyes or ()):
+            continue
+        if np.linalg.norm(pos[:, j] - pos[:, p], axis=-1).max() <= MAX_BONE_M * units_per_m:
+            out.append((j, int(p)))
     return out
 
 
@@ -237,8 +254,13 @@ def contact_sheet(review, opts: PreviewOptions, stage):
     cols = max(1, min(opts.sheet_columns, len(times)))
     rows = int(np.ceil(len(times) / cols))
     sheet = Image.new("RGB", (cols * scene.width, rows * scene.height), render.BACKGROUND)
+    from PIL import ImageDraw
+
+    draw = ImageDraw.Draw(sheet)
     for i in range(len(times)):
-        sheet.paste(scene.frame(i).convert("RGB"), ((i % cols) * scene.width, (i // cols) * scene.height))
+        x, y = (i % cols) * scene.width, (i // cols) * scene.height
+        sheet.paste(scene.frame(i).convert("RGB"), (x, y))
+        draw.rectangle((x, y, x + scene.width - 1, y + scene.height - 1), outline=render.FRAME)
     return sheet, scene
 
 

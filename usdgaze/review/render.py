@@ -15,6 +15,8 @@ import numpy as np
 BACKGROUND = (246, 245, 242)
 GRID = (214, 212, 206)
 TEXT = (40, 40, 40)
+FRAME = (150, 150, 150)
+"""Contact sheet tile borders."""
 BASE_BODY = (120, 128, 140)
 GAZE_BODY = (196, 120, 64)
 BASE_SIGHT = (40, 90, 200)
@@ -42,6 +44,8 @@ class Figure:
     body: tuple[int, int, int]
     sight: tuple[int, int, int]
     caption: str
+    focus: int = 0
+    """The joint the named cameras follow (the pelvis)."""
     targets: dict[str, np.ndarray] = field(default_factory=dict)
     """Optional named points ``(F, 3)`` (look-at targets, objects)."""
 
@@ -93,19 +97,19 @@ def _basis(kind: str, forward: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, 
 
 def named_camera(kind: str, figures: list[Figure], up: np.ndarray, width: int, height: int,
                  margin: float = 0.06) -> Camera:
-    """An orthographic front/side/top camera that follows the figures' pelvis (joint 0) over the floor
-    and frames everything any figure draws, on every frame, at one scale."""
+    """An orthographic front/side/top camera that follows the figures' pelvis over the floor and
+    frames everything any figure draws, on every frame, at one scale."""
     f = figures[0].positions.shape[0]
     forward = figures[0].head_forward[0]
     r, u, d = _basis(kind, forward, up)
-    root = np.mean([fig.positions[:, 0] for fig in figures], axis=0)
-    heights = np.concatenate([fig.positions.reshape(-1, 3) @ up for fig in figures])
+    root = np.mean([fig.positions[:, fig.focus] for fig in figures], axis=0)
+    drawn = [fig.positions[:, sorted({j for bone in fig.bones for j in bone})] for fig in figures]
+    heights = np.concatenate([d.reshape(-1, 3) @ up for d in drawn])
     mid = 0.5 * (heights.min() + heights.max())
     centre = root - np.outer(root @ up, up) + mid * up
     # Frame the bodies and the near part of the lines of sight; a long one may leave the panel.
     near = [fig.sight_origin + 0.35 * (fig.sight_end - fig.sight_origin) for fig in figures]
-    pts = np.concatenate([np.concatenate([fig.positions, n[:, None]], axis=1)
-                          for fig, n in zip(figures, near)], axis=1) - centre[:, None]
+    pts = np.concatenate([np.concatenate([d, n[:, None]], axis=1) for d, n in zip(drawn, near)], axis=1) - centre[:, None]
     ex, ey = np.abs(pts @ r).max(), np.abs(pts @ u).max()
     scale = min(width * (0.5 - margin) / max(ex, 1e-9), height * (0.5 - margin) / max(ey, 1e-9))
     rot = np.stack([r, u, -d])  # rows: camera axes in stage space

@@ -32,7 +32,6 @@ from usdgaze.gaze.motion import TIMING_FIELDS
 PLUGIN = "usdgaze.review.validators"
 """The Python plugin's name in plugInfo.json (= this module); validator names are ``PLUGIN:Name``."""
 KEYWORD = "UsdGazeValidators"
-SCHEMA_TYPE = "UsdGazeGazeMapAPI"
 
 
 
@@ -200,6 +199,46 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
     return errors
 
 
+def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
+    """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
+    range, and every character it names is a SkelRoot on the stage."""
+    from usdgaze.values import ShiftRequest
+    from usdgaze.errors import UsdGazeError
+
+    errors = []
+    start, end, tcps = stage.GetStartTimeCode(), stage.GetEndTimeCode(), stage.GetTimeCodesPerSecond()
+    for layer in stage.GetLayerStack(includeSessionLayers=False):
+        record = (layer.customLayerData or {}).get("usdgaze")
+        if not isinstance(record, dict) or "shifts" not in record:
+            continue
+        name = layer.GetDisplayName()
+        for text in record.get("shifts", []):
+            try:
+                shift = ShiftRequest.parse(str(text))
+            except UsdGazeError as exc:
+                errors.append(_stage_error(stage, "BadShift", f"{name}: customLayerData usdgaze.shifts: {exc}"))
+                continue
+            code = start + shift.time * tcps if shift.seconds else shift.time
+            if stage.HasAuthoredTimeCodeRange() and not start <= code <= end:
+                errors.append(_stage_error(stage, "ShiftOutOfRange",
+                                           f"{name}: shift {text} starts at time code {code:g}, outside the stage's "
+                                           f"range [{start:g}, {end:g}]"))
+        for path in record.get("characters", []):
+            prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
+            if not prim or not prim.IsA(UsdSkel.Root):
+                errors.append(_stage_error(stage, "MissingCharacter",
+                                           f"{name}: customLayerData usdgaze.characters names {path}, which is not a "
+                                           f"SkelRoot on this stage"))
+    return errors
+
+
+def _stage_error(stage, name: str, message: str):
+    site = UsdValidation.ValidationErrorSite(stage, Sdf.Path.absoluteRootPath)
+    return UsdValidation.ValidationError(name, UsdValidation.ValidationErrorType.Error, [site], message)
+
+
+STAGE_TASKS = {"GazeLayerSchedule": gaze_layer_schedule}
+
 TASKS = {
     "GazeMapArrays": gaze_map_arrays,
     "GazeMapRanges": gaze_map_ranges,
@@ -211,7 +250,7 @@ TASKS = {
 
 def names() -> list[str]:
     """Full names of usdgaze's validators."""
-    return [f"{PLUGIN}:{n}" for n in TASKS]
+    return [f"{PLUGIN}:{n}" for n in list(TASKS) + list(STAGE_TASKS)]
 
 
 def register() -> None:
@@ -219,18 +258,19 @@ def register() -> None:
     (the normal case), else with metadata built here (a registry built before usdgaze's plugin was)."""
     registry = UsdValidation.ValidationRegistry()
     info = None
-    for short, task in TASKS.items():
+    for short, task in list(TASKS.items()) + list(STAGE_TASKS.items()):
         name = f"{PLUGIN}:{short}"
+        stage_level = short in STAGE_TASKS
         if registry.HasValidator(name):
             continue
         if registry.GetValidatorMetadata(name) is not None:
-            registry.RegisterPluginPrimValidator(name, task)
+            (registry.RegisterPluginStageValidator if stage_level else registry.RegisterPluginPrimValidator)(name, task)
         else:
             info = info or declared()
             md = UsdValidation.ValidatorMetadata(
                 name=name, doc=info[short]["doc"], keywords=[KEYWORD],
-                schemaTypes=info[short]["schemaTypes"], isTimeDependent=False, isSuite=False)
-            registry.RegisterPrimValidator(md, task, [])
+                schemaTypes=info[short].get("schemaTypes", []), isTimeDependent=False, isSuite=False)
+            (registry.RegisterStageValidator if stage_level else registry.RegisterPrimValidator)(md, task, [])
 
 
 register()
