@@ -115,15 +115,15 @@ def _break_bind(kind: str):
     def edit(layer: Sdf.Layer, rig: syn.Rig) -> None:
         spec = layer.GetAttributeAtPath(rig.skeleton + ".bindTransforms")
         mats = list(spec.default)
-        if kind == "short":
-            mats = mats[:-3]
-        else:
-            mats[3] = Sdf.ValueTypeNames.Matrix4d.defaultValue * (0.0 if kind == "singular" else float("nan"))
+        if kind == "collapsed":  # exporters that write identity bind transforms: every joint at the origin
+            mats = [Sdf.ValueTypeNames.Matrix4d.defaultValue] * len(mats)
         spec.default = Vt.Matrix4dArray(mats)
     return edit
 
 
-@pytest.mark.parametrize("kind", ["short", "singular", "nan"])
+# Short, singular or non-finite bindTransforms are broken data and refused (docs/bad-inputs.md); a bind
+# pose that is well-formed but cannot be a neutral pose falls back to the rest pose, with a warning.
+@pytest.mark.parametrize("kind", ["collapsed"])
 def test_unusable_bind_transforms_fall_back_to_the_rest_pose(tmp_path, kind):
     rig = syn.make_rig(tmp_path / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False)
     layer = Sdf.Layer.FindOrOpen(str(rig.path))
