@@ -234,11 +234,11 @@ def b_batch_out_equals_preview(d):
 
 
 def b_batch_report_is_the_manifest(d):
-    return manifest(d, f"[[job]]\n{JOB}", "--report", str(d / "manifest.toml"))
+    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "manifest.toml"))
 
 
 def b_batch_report_is_a_jobs_out(d):
-    return manifest(d, f"[[job]]\n{JOB}", "--report", str(d / "gaze.usdc"))
+    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "gaze.usdc"))
 
 
 def b_batch_out_is_the_manifest(d):
@@ -349,12 +349,12 @@ def b_physics_model_out_missing_folder(d):
 
 
 def b_batch_report_missing_folder(d):
-    return manifest(d, f"[[job]]\n{JOB}", "--report", str(d / "nofolder" / "report.json"))
+    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "nofolder" / "report.json"))
 
 
 def b_batch_report_is_a_folder(d):
     (d / "report.json").mkdir()
-    return manifest(d, f"[[job]]\n{JOB}", "--report", str(d / "report.json"))
+    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "report.json"))
 
 
 # -- --no-clobber ---------------------------------------------------------------------------------

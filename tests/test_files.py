@@ -238,7 +238,7 @@ def test_batch_creates_missing_folders_only_for_jobs_that_succeed(tmp_path):
     (tmp_path / "m.toml").write_text(
         '[[job]]\nname = "good"\ninput = "in.usda"\nout = "a/good.usdc"\nshifts = ["0.5s:30:0"]\n'
         '[[job]]\nname = "bad"\ninput = "in.usda"\nout = "b/bad.usdc"\nshifts = ["0.5s:30:0"]\nskel_root = "/None"\n')
-    code, out, err = run_inprocess(["batch", str(tmp_path / "m.toml"), "--report", str(tmp_path / "r.json")], tmp_path)
+    code, out, err = run_inprocess(["batch", str(tmp_path / "m.toml"), "--summary", str(tmp_path / "r.json")], tmp_path)
     assert code == 2, err
     assert (tmp_path / "a" / "good.usdc").exists() and not (tmp_path / "b").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "in.usda", "m.toml", "r.json"]

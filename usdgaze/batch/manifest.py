@@ -123,6 +123,11 @@ class Shot:
     def out(self) -> str:
         return self.values["out"]
 
+    @property
+    def label(self) -> str:
+        """``job I 'NAME'``: how file clashes name it (after the file's own path)."""
+        return f"job {self.index} '{self.name}'"
+
     def outputs(self) -> list[str]:
         return [self.values[k] for k, spec in KEYS.items() if spec.output and k in self.values]
 
@@ -159,7 +164,7 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
     from usdgaze.api import ApplyRequest, check_request
 
     if not isinstance(raw, dict):
-        raise UsdGazeError(f"{path}: job {index}: is a {type(raw).__name__}, expected a [[job]] table")
+        raise UsdGazeError(f"{path}: job {index}: {raw!r} is not a table; expected [[job]] tables")
     merged = {**defaults, **raw}
     where = _where(path, index, raw.get("name") if isinstance(raw.get("name"), str) else None)
     label = lambda key, value: f"{where}: {key} = {value}"  # noqa: E731
@@ -177,21 +182,23 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
     return shot
 
 
-def _check_files(path: Path, shots: list[Shot]) -> None:
-    """No shot writes the manifest, a file any shot reads, or a file another shot writes. Shots run in
+def manifest_files(path: str | os.PathLike, shots: list[Shot]):
+    """The files a run reads and writes (an :class:`~usdgaze.files.identity.Identities`): no shot
+    writes the manifest, a file any shot reads, or a file another shot writes. Shots run in
     parallel, so two inserting into one sublayer target would race: each shot gets its own."""
     from usdgaze.files.identity import Identities
 
     ids = Identities()
     ids.read(path, "manifest")
     for s in shots:
-        ids.read(s.values["input"], f"input of {s.where},")
+        ids.read(s.values["input"], f"input of {s.label}")
         if "map" in s.values:
-            ids.read(s.values["map"].partition(":/")[0], f"map of {s.where},")
+            ids.read(s.values["map"].partition(":/")[0], f"map of {s.label}")
     for s in shots:
         for key in ("out", "preview", "sublayer_into"):
             if key in s.values:
-                ids.write(s.values[key], f"{s.where}: {key}")
+                ids.write(s.values[key], f"{s.label} {key}")
+    return ids
 
 
 def load_manifest(path: str | os.PathLike) -> list[Shot]:
@@ -209,7 +216,9 @@ def load_manifest(path: str | os.PathLike) -> list[Shot]:
     if "name" in defaults:
         raise UsdGazeError(f"{path}: [defaults]: name: a name belongs to one job")
     jobs = data.get("job", [])
-    if not isinstance(jobs, list) or not jobs:
+    if not isinstance(jobs, list):
+        raise UsdGazeError(f"{path}: job = {jobs!r}: expected [[job]] tables")
+    if not jobs:
         raise UsdGazeError(f"{path}: no [[job]] entries")
     shots = [_check_shot(path, i, raw, defaults) for i, raw in enumerate(jobs)]
     names: dict[str, Shot] = {}
@@ -217,5 +226,9 @@ def load_manifest(path: str | os.PathLike) -> list[Shot]:
         if s.name in names:
             raise UsdGazeError(f"{s.where}: name '{s.name}' is also the name of job {names[s.name].index}")
         names[s.name] = s
-    _check_files(path, shots)
+    try:
+        manifest_files(path, shots)
+    except UsdGazeError as exc:  # the clash names the files and jobs; the manifest goes first
+        message = str(exc)
+        raise UsdGazeError(message if message.startswith(f"{path}:") else f"{path}: {message}") from None
     return shots

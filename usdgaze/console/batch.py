@@ -30,12 +30,13 @@ from usdgaze.errors import UsdGazeError
 def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path, emit) -> None:
     """Run the gaze shots of MANIFEST; skip those whose inputs and parameters are unchanged."""
     from usdgaze.batch import engine
-    from usdgaze.batch.manifest import load_manifest
+    from usdgaze.batch.manifest import load_manifest, manifest_files
     from usdgaze.batch.progress import Progress
+    from usdgaze.files.transaction import Outputs
 
     if dask_address and workers > 1:
         raise UsdGazeError("--dask and --workers are alternatives: the cluster's workers run the shots")
-    shots = load_manifest(manifest)
+    shots = all_shots = load_manifest(manifest)
     if emit:
         from usdgaze.batch.emit import emit as write_jobs
 
@@ -47,16 +48,19 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
             raise UsdGazeError(f"{manifest}: --task-index {task_index} out of range (0..{len(shots) - 1})")
         shots = [shots[task_index]]
     mode = f"dask {dask_address}" if dask_address else f"{workers} worker{'s' * (workers > 1)}"
+    path = Path(summary_path) if summary_path else _default_summary(Path(manifest), task_index)
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     t0 = time.perf_counter()
-    progress = Progress(len(shots))
-    try:
-        records = engine.run_shots(shots, workers=workers, dask=dask_address, force=force, on_record=progress)
-    finally:
-        progress.close()
-    report = engine.summary(records, manifest, mode, time.perf_counter() - t0, started, task_index)
-    path = Path(summary_path) if summary_path else _default_summary(Path(manifest), task_index)
-    engine.write_text(path, json.dumps(report, indent=2) + "\n")
+    # The summary is claimed before any shot runs: it may be none of the files the shots read or write.
+    with Outputs(ids=manifest_files(manifest, all_shots)) as tx:
+        tx.claim(path, "--summary")
+        progress = Progress(len(shots))
+        try:
+            records = engine.run_shots(shots, workers=workers, dask=dask_address, force=force, on_record=progress)
+        finally:
+            progress.close()
+        report = engine.summary(records, manifest, mode, time.perf_counter() - t0, started, task_index)
+        tx.stage_text(path, json.dumps(report, indent=2) + "\n")
     counts = ", ".join(f"{n} {status}" for status, n in report["counts"].items() if n)
     click.echo(f"{len(records)} shots in {report['seconds']:.2f} s ({mode}): {counts}; summary {path}")
     ctx.exit(report["exit_code"])

@@ -113,9 +113,9 @@ class _Staged:
 class Outputs:
     """One command's outputs, all or none. Use as a context manager; ``commit`` on success."""
 
-    def __init__(self, no_clobber: bool = False) -> None:
+    def __init__(self, no_clobber: bool = False, ids: Identities | None = None) -> None:
         self.no_clobber = no_clobber
-        self.ids = Identities()
+        self.ids = ids if ids is not None else Identities()
         self._claims: dict[Path, _Staged] = {}
         self._tmpdirs: dict[Path, Path] = {}
         self._mode = 0o666 & ~current_umask()
