@@ -138,14 +138,15 @@ def test_batch_runs_every_shot_keeps_failures_to_their_shot_and_resumes(tmp_path
 
 @pytest.mark.parametrize("body, words", [
     ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\ncolour = "red"\n', ["job 0", "'colour'", "unknown key"]),
-    ('[[job]]\nname = "a"\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2"]\n', ["job 0 'a'", "'shifts'", "1:2"]),
-    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nfixation = -1\n', ["'fixation'", "positive"]),
+    ('[[job]]\nname = "a"\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2"]\n', ["job 0 'a'", "shift", "1:2"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nfixation = -1\n', ["job 0: fixation = -1", "positive"]),
     ('[[job]]\ninput = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["'out'", "missing"]),
-    ('[[job]]\ninput = "walk1.usdc"\nout = "y.txt"\nshifts = ["1:2:3"]\n', ["'out'", ".usda"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.txt"\nshifts = ["1:2:3"]\n', ["job 0: out", ".usda"]),
     ('[defaults]\nshifts = ["1:2:3"]\n[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\n'
-     '[[job]]\ninput = "walk2.usdc"\nout = "y.usdc"\n', ["job 1", "as job 0"]),
+     '[[job]]\ninput = "walk2.usdc"\nout = "y.usdc"\n', ["job 1: out", "job 0: out", "same file"]),
     ('[[jobs]]\ninput = "walk1.usdc"\n', ["unknown table 'jobs'"]),
-    ('[[job]]\ninput = "walk1.usdc"\nout = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["'out'", "overwrite the input"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["job 0: out", "refusing to overwrite an input"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nbind = ["skull=j5"]\n', ["job 0: bind skull=", "unknown role"]),
 ])
 def test_bad_manifest_is_one_line_naming_file_job_and_key(tmp_path, capsys, body, words):
     manifest = _tree(tmp_path, body)

@@ -12,6 +12,7 @@ A manifest lists shots; paths are relative to the manifest's folder::
     preview = "out/walk_01_preview.usda"        # or sublayer_into = "shots/walk_01_shot.usda"
     shifts = ["2s:60:0", "5s:-120:10"]
     # map = "maps/studio.usda:/GazeMap"; skel_root = "/Char/Body"
+    # bind = ["pelvis=j1", "head=j5"] (or a table: bind = { neck = ["j3", "j4"] }); forward = [0, 0, 1]
 
 Every key a shot may carry is one row of :data:`KEYS`: how its value is checked and normalized, and
 which ``api.apply`` argument (or ``PassOptions`` field) it becomes. Adding an apply option to the
@@ -172,7 +173,7 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
     base = path.parent.resolve()
     values = {k: KEYS[k].check(v, label, base) for k, v in merged.items()}
     name = values.pop("name", None) or Path(values["input"]).stem
-    shot = Shot(index=index, name=name, values=values, where=_where(path, index, name))
+    shot = Shot(index=index, name=name, values=values, where=where)
     check_request(ApplyRequest(**apply_kwargs(shot)), label)  # the CLI's and the API's own checks
     return shot
 
