@@ -1,7 +1,7 @@
 """Helpers for the bad-input catalogue builders (tests/bad_cases_*.py) and its runner.
 
 A builder gets an empty case folder ``d``, writes what the case needs there and returns the argv of
-one command: ``usdgaze`` arguments, or ``["batch", ...]`` for ``pipeline/batch.py``.
+one command: ``usdgaze`` arguments (``["batch", MANIFEST, ...]`` for ``usdgaze batch``).
 """
 
 from __future__ import annotations
@@ -165,10 +165,7 @@ def run_inprocess(argv: list[str], cwd: Path) -> tuple[int, str, str]:
         os.chdir(cwd)
         try:
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-                if argv[0] == "batch":
-                    code = _batch_main(argv[1:])
-                else:
-                    code = main(argv)
+                code = main(argv)  # ``batch`` is a usdgaze command like the others
         finally:
             os.chdir(old)
             os.dup2(saved, 2)
@@ -178,21 +175,8 @@ def run_inprocess(argv: list[str], cwd: Path) -> tuple[int, str, str]:
     return code, out.getvalue(), err.getvalue() + text
 
 
-_BATCH_MAIN = None
-
-
-def _batch_main(argv: list[str]) -> int:
-    global _BATCH_MAIN
-    if _BATCH_MAIN is None:
-        _BATCH_MAIN = runpy.run_path(str(BATCH), run_name="usdgaze_batch")["main"]
-    try:
-        return _BATCH_MAIN(argv)
-    except SystemExit as exc:  # argparse
-        return int(exc.code or 0)
-
-
 def run_subprocess(argv: list[str], cwd: Path) -> tuple[int, str, str]:
-    cmd = [sys.executable, str(BATCH), *argv[1:]] if argv[0] == "batch" else [*CLI, *argv]
+    cmd = [*CLI, *argv]
     p = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, timeout=300)
     return p.returncode, p.stdout, p.stderr
 

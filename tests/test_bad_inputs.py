@@ -463,7 +463,7 @@ def test_bad_input(results, case_id):
     assert code == 2, (code, stderr)
     assert "Traceback" not in stderr
     assert len(lines) == 1, stderr
-    prefix = "usdgaze-batch" if argv[0] == "batch" else "usdgaze"
+    prefix = "usdgaze"
     assert pattern(message, d, prefix).match(lines[0]), (lines[0], message)
     if argv[0] != "batch":
         assert stdout == ""

@@ -51,6 +51,14 @@ def _path(key: str, layer: bool = False):
     return check
 
 
+def _flag(key: str):
+    def check(value: Any, label: Label, base: Path) -> bool:
+        if not isinstance(value, bool):
+            raise UsdGazeError(f"{label(key, repr(value))}: expected true or false")
+        return value
+    return check
+
+
 def _map(value: Any, label: Label, base: Path) -> str:
     file, sep, prim = _text("map")(value, label, base).partition(":/")
     return _path("map")(file, label, base) + (f":/{prim}" if sep else "")
@@ -65,6 +73,8 @@ def _shifts(value: Any, label: Label, base: Path) -> list[str]:
 def _fixation(value: Any, label: Label, base: Path) -> float:
     from usdgaze.values import check_fixation
 
+    if isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)  # messages show the distance as the pass takes it
     return check_fixation(value, label)
 
 
@@ -90,20 +100,25 @@ class Key:
     required: bool = False
     output: bool = False
     """A path the shot writes (not part of its resume key)."""
+    keyed: bool = True
+    """Part of the resume key as a value (False: file contents stand in for it, or it cannot change
+    the result)."""
 
 
 KEYS: dict[str, Key] = {
     "name": Key(_text("name"), None),
-    "input": Key(_path("input"), "input_path", required=True),
+    "input": Key(_path("input"), "input_path", required=True, keyed=False),
     "out": Key(_path("out", layer=True), "out", required=True, output=True),
     "preview": Key(_path("preview", layer=True), "preview", output=True),
     "sublayer_into": Key(_path("sublayer_into", layer=True), "sublayer_into", output=True),
+    "plot": Key(_path("plot"), "plot", output=True),
     "shifts": Key(_shifts, "shifts", required=True),
-    "map": Key(_map, "map_spec"),
+    "map": Key(_map, "map_spec", keyed=False),
     "skel_root": Key(_text("skel_root"), "skel_root"),
     "fixation": Key(_fixation, "options.fixation_m"),
     "bind": Key(_as_given, "options.binding"),
     "forward": Key(_as_given, "options.binding"),
+    "no_clobber": Key(_flag("no_clobber"), "no_clobber", keyed=False),
 }
 
 # Targets fed by several keys: built from all of them at once (and checked up front).
@@ -121,6 +136,11 @@ class Shot:
     """How messages name it: ``MANIFEST: job I 'NAME'``."""
 
     @property
+    def label(self) -> str:
+        """``job I 'NAME'``, as the file checks name it."""
+        return f"job {self.index} '{self.name}'"
+
+    @property
     def out(self) -> str:
         return self.values["out"]
 
@@ -130,7 +150,7 @@ class Shot:
     def parameters(self) -> dict:
         """What the result depends on besides file contents: every non-path, non-output value."""
         return {k: v for k, v in sorted(self.values.items())
-                if KEYS[k].to is not None and not KEYS[k].output and k not in ("input", "map")}
+                if KEYS[k].to is not None and not KEYS[k].output and KEYS[k].keyed}
 
 
 def apply_kwargs(shot: Shot) -> dict:
@@ -153,14 +173,14 @@ def apply_kwargs(shot: Shot) -> dict:
 
 
 def _where(path: Path, index: int, name: str | None) -> str:
-    return f"{path}: job {index}" + (f" '{name}'" if name else "")
+    return f"{path}: job {index}" + (f" '{name}'" if name is not None else "")
 
 
 def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
     from usdgaze.api import ApplyRequest, check_request
 
     if not isinstance(raw, dict):
-        raise UsdGazeError(f"{path}: job {index}: is a {type(raw).__name__}, expected a [[job]] table")
+        raise UsdGazeError(f"{path}: job {index}: {raw!r} is not a table; expected [[job]] tables")
     merged = {**defaults, **raw}
     where = _where(path, index, raw.get("name") if isinstance(raw.get("name"), str) else None)
     label = lambda key, value: f"{where}: {key} = {value}"  # noqa: E731
@@ -184,15 +204,21 @@ def _check_files(path: Path, shots: list[Shot]) -> None:
     from usdgaze.files.identity import Identities
 
     ids = Identities()
+    register(ids, path, shots)
+
+
+def register(ids, path: Path, shots: list[Shot]) -> None:
+    """Record the manifest and every shot's inputs as read, every shot's outputs as written, in an
+    :class:`usdgaze.files.identity.Identities` (a clash is a one-line error naming both)."""
     ids.read(path, "manifest")
     for s in shots:
-        ids.read(s.values["input"], f"input of {s.where},")
+        ids.read(s.values["input"], f"input of {s.label}")
         if "map" in s.values:
-            ids.read(s.values["map"].partition(":/")[0], f"map of {s.where},")
+            ids.read(s.values["map"].partition(":/")[0], f"map of {s.label}")
     for s in shots:
-        for key in ("out", "preview", "sublayer_into"):
+        for key in ("out", "preview", "sublayer_into", "plot"):
             if key in s.values:
-                ids.write(s.values[key], f"{s.where}: {key}")
+                ids.write(s.values[key], f"{s.label} {key}")
 
 
 def load_manifest(path: str | os.PathLike) -> list[Shot]:
@@ -206,11 +232,13 @@ def load_manifest(path: str | os.PathLike) -> list[Shot]:
         raise UsdGazeError(f"{path}: unknown table '{extra[0]}' (tables: [defaults], [[job]])")
     defaults = data.get("defaults", {})
     if not isinstance(defaults, dict):
-        raise UsdGazeError(f"{path}: 'defaults' must be a table ([defaults])")
+        raise UsdGazeError(f"{path}: [defaults] must be a table of job keys")
     if "name" in defaults:
         raise UsdGazeError(f"{path}: [defaults]: name: a name belongs to one job")
     jobs = data.get("job", [])
-    if not isinstance(jobs, list) or not jobs:
+    if not isinstance(jobs, list):
+        raise UsdGazeError(f"{path}: job = {jobs!r}: expected [[job]] tables")
+    if not jobs:
         raise UsdGazeError(f"{path}: no [[job]] entries")
     shots = [_check_shot(path, i, raw, defaults) for i, raw in enumerate(jobs)]
     names: dict[str, Shot] = {}
