@@ -2,7 +2,12 @@
 
 import sys
 
-from usdgaze.console.main import main
+
+def main(argv: list[str] | None = None) -> int:
+    from usdgaze.console.main import main as usdgaze
+
+    return usdgaze(["batch", *(sys.argv[1:] if argv is None else argv)])
+
 
 if __name__ == "__main__":
-    sys.exit(main(["batch", *sys.argv[1:]]))
+    sys.exit(main())

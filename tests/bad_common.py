@@ -1,7 +1,7 @@
 """Helpers for the bad-input catalogue builders (tests/bad_cases_*.py) and its runner.
 
 A builder gets an empty case folder ``d``, writes what the case needs there and returns the argv of
-one command: ``usdgaze`` arguments (``["batch", ...]`` for ``usdgaze batch``).
+one command: ``usdgaze`` arguments (``["batch", MANIFEST, ...]`` for ``usdgaze batch``).
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ import contextlib
 import dataclasses
 import io
 import os
+import runpy
 import shutil
 import subprocess
 import sys
@@ -26,6 +27,7 @@ from . import synthetic as syn
 
 ROOT = Path(__file__).resolve().parents[1]
 CLI = [sys.executable, "-m", "usdgaze"]
+BATCH = ROOT / "pipeline" / "batch.py"
 SHIFT = ["--shift", "0.5s:30:0"]
 _CACHE = Path(tempfile.mkdtemp(prefix="usdgaze-bad-rigs-"))
 _RIGS: dict[tuple, syn.Rig] = {}
@@ -163,7 +165,7 @@ def run_inprocess(argv: list[str], cwd: Path) -> tuple[int, str, str]:
         os.chdir(cwd)
         try:
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-                code = main(argv)
+                code = main(argv)  # ``batch`` is a usdgaze command like the others
         finally:
             os.chdir(old)
             os.dup2(saved, 2)
@@ -174,7 +176,8 @@ def run_inprocess(argv: list[str], cwd: Path) -> tuple[int, str, str]:
 
 
 def run_subprocess(argv: list[str], cwd: Path) -> tuple[int, str, str]:
-    p = subprocess.run([*CLI, *argv], capture_output=True, text=True, cwd=cwd, timeout=300)
+    cmd = [*CLI, *argv]
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, timeout=300)
     return p.returncode, p.stdout, p.stderr
 
 

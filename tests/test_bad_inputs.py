@@ -5,10 +5,10 @@ builders are here and in tests/bad_cases_*.py (``b_<id>``), every row has one an
 A row's message is a pattern: ``{dir}`` stands for the case's folder, ``…`` for any text.
 
 How the commands run, honestly: spawning ~220 Python processes that each import pxr costs minutes
-on two cores, so most cases call the console entry point (``usdgaze.console.main.main``) inside
-this process, with stdout, stderr and file descriptor 2
+on two cores, so most cases call the console entry point (``usdgaze.console.main.main``, or
+``pipeline/batch.py``'s ``main``) inside this process, with stdout, stderr and file descriptor 2
 (USD's C++ diagnostics) captured. The ``SUBPROCESS`` subset, at least one case of each class, runs
-as a real ``python -m usdgaze`` process in parallel with those. After each
+as a real ``python -m usdgaze`` / ``pipeline/batch.py`` process in parallel with those. After each
 case the whole case folder (bytes, modes, symlinks) must be as it was before the command ran.
 
 Also here: an ``apply`` killed in the middle of writing leaves no file at ``--out`` (and an older
@@ -365,7 +365,7 @@ def b_dump_map_bad_extension(d):
 BUILDERS = {name[2:].replace("_", "-"): fn for module in (globals(), vars(bad_cases_files), vars(bad_cases_stage),
                                                            vars(bad_cases_values))
             for name, fn in dict(module).items() if name.startswith("b_")}
-# Run through a real ``python -m usdgaze`` process: one or more of each class.
+# Run through a real ``python -m usdgaze`` (or ``pipeline/batch.py``) process: one or more of each class.
 SUBPROCESS = {
     "text-garbage", "out-hard-link-of-input", "out-is-a-referenced-layer", "preview-read-only-folder", "out-disk-full",
     "sublayer-into-read-only-file", "rotations-authored-as-float3", "character-inside-an-instance",
@@ -463,7 +463,8 @@ def test_bad_input(results, case_id):
     assert code == 2, (code, stderr)
     assert "Traceback" not in stderr
     assert len(lines) == 1, stderr
-    assert pattern(message, d, "usdgaze").match(lines[0]), (lines[0], message)
+    prefix = "usdgaze"
+    assert pattern(message, d, prefix).match(lines[0]), (lines[0], message)
     if argv[0] != "batch":
         assert stdout == ""
     # Nothing written, nothing changed: no output, no temporary, every file's bytes and mode as they were.

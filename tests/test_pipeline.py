@@ -138,20 +138,22 @@ def test_batch_runs_every_shot_keeps_failures_to_their_shot_and_resumes(tmp_path
 
 @pytest.mark.parametrize("body, words", [
     ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\ncolour = "red"\n', ["job 0", "'colour'", "unknown key"]),
-    ('[[job]]\nname = "a"\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2"]\n', ["job 0 'a'", "shift = '1:2'", "TIME:YAW:PITCH"]),
-    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nfixation = -1\n', ["fixation = -1", "positive"]),
+    ('[[job]]\nname = "a"\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2"]\n', ["job 0 'a'", "shift", "1:2"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nfixation = -1\n', ["job 0: fixation = -1", "positive"]),
     ('[[job]]\ninput = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["'out'", "missing"]),
-    ('[[job]]\ninput = "walk1.usdc"\nout = "y.txt"\nshifts = ["1:2:3"]\n', ["out = 'y.txt'", ".usda"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.txt"\nshifts = ["1:2:3"]\n', ["job 0: out", ".usda"]),
     ('[defaults]\nshifts = ["1:2:3"]\n[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\n'
-     '[[job]]\ninput = "walk2.usdc"\nout = "y.usdc"\n', ["job 1 'walk2' out", "job 0 'walk1' out", "same file"]),
+     '[[job]]\ninput = "walk2.usdc"\nout = "y.usdc"\n', ["y.usdc: job 1 'walk2' out", "job 0 'walk1' out", "same file"]),
     ('[[jobs]]\ninput = "walk1.usdc"\n', ["unknown table 'jobs'"]),
-    ('[[job]]\ninput = "walk1.usdc"\nout = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["job 0 'walk1' out", "overwrite an input"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["walk1.usdc: job 0 'walk1' out is", "input of job 0 'walk1'", "refusing to overwrite an input"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nbind = ["skull=j5"]\n', ["job 0: bind skull=", "unknown role"]),
+    ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nno_clobber = "yes"\n', ["job 0: no_clobber = 'yes'", "true or false"]),
 ])
 def test_bad_manifest_is_one_line_naming_file_job_and_key(tmp_path, capsys, body, words):
     manifest = _tree(tmp_path, body)
     assert main(["batch", str(manifest)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and str(manifest) in err, err
+    assert err.count("\n") == 0 and str(tmp_path) in err, err  # the manifest, or the file two keys clash on
     for w in words:
         assert w in err, (w, err)
     assert not (tmp_path / "y.usdc").exists() and not list(tmp_path.glob("*.summary.json"))

@@ -107,8 +107,8 @@ _EMITTERS = {"deadline": _deadline, "opencue": _opencue, "slurm": _slurm}
 
 
 def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike) -> list[Path]:
-    """Write the job files for ``count`` shots of ``manifest`` into ``folder``; returns their paths."""
-    from usdgaze.batch.engine import write_text
+    """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths."""
+    from usdgaze.files.transaction import Outputs
 
     if kind not in _EMITTERS:
         raise UsdGazeError(f"--emit {kind}: unknown farm (choose from {', '.join(FORMATS)})")
@@ -116,11 +116,11 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
-    folder.mkdir(parents=True, exist_ok=True)
     files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"))
-    written = []
-    for name, text in files.items():
-        path = folder / name
-        write_text(path, text)
-        written.append(path)
-    return written
+    with Outputs() as tx:
+        tx.read(manifest, "manifest")
+        tx.make_folder(folder)
+        for name, text in files.items():
+            tx.claim(folder / name, "--emit")
+            tx.stage_text(folder / name, text)
+    return [folder / name for name in files]

@@ -145,11 +145,13 @@ def exit_code(records: list[dict]) -> int:
     return 2 if 2 in codes else 1 if 1 in codes else 0
 
 
-def write_text(path: str | os.PathLike, text: str) -> None:
-    """Write a text file through the one atomic writer (temp file beside it, then rename)."""
-    from usdgaze.usd.layers import atomic_write
+def write_text(path: str | os.PathLike, text: str, flag: str = "--summary") -> None:
+    """Write a text file through the one writer (staged beside it, renamed into place)."""
+    from usdgaze.files.transaction import Outputs
 
-    atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    with Outputs() as tx:
+        tx.claim(path, flag)
+        tx.stage_text(path, text)
 
 
 def summary(records: list[dict], manifest: str, mode: str, seconds: float, started: str,

@@ -12,6 +12,7 @@ A manifest lists shots; paths are relative to the manifest's folder::
     preview = "out/walk_01_preview.usda"        # or sublayer_into = "shots/walk_01_shot.usda"
     shifts = ["2s:60:0", "5s:-120:10"]
     # map = "maps/studio.usda:/GazeMap"; skel_root = "/Char/Body"
+    # bind = ["pelvis=j1", "head=j5"] (or a table: bind = { neck = ["j3", "j4"] }); forward = [0, 0, 1]
 
 Every key a shot may carry is one row of :data:`KEYS`: how its value is checked and normalized, and
 which ``api.apply`` argument (or ``PassOptions`` field) it becomes. Adding an apply option to the
@@ -50,6 +51,14 @@ def _path(key: str, layer: bool = False):
     return check
 
 
+def _flag(key: str):
+    def check(value: Any, label: Label, base: Path) -> bool:
+        if not isinstance(value, bool):
+            raise UsdGazeError(f"{label(key, repr(value))}: expected true or false")
+        return value
+    return check
+
+
 def _map(value: Any, label: Label, base: Path) -> str:
     file, sep, prim = _text("map")(value, label, base).partition(":/")
     return _path("map")(file, label, base) + (f":/{prim}" if sep else "")
@@ -64,6 +73,8 @@ def _shifts(value: Any, label: Label, base: Path) -> list[str]:
 def _fixation(value: Any, label: Label, base: Path) -> float:
     from usdgaze.values import check_fixation
 
+    if isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)  # messages show the distance as the pass takes it
     return check_fixation(value, label)
 
 
@@ -89,20 +100,25 @@ class Key:
     required: bool = False
     output: bool = False
     """A path the shot writes (not part of its resume key)."""
+    keyed: bool = True
+    """Part of the resume key as a value (False: file contents stand in for it, or it cannot change
+    the result)."""
 
 
 KEYS: dict[str, Key] = {
     "name": Key(_text("name"), None),
-    "input": Key(_path("input"), "input_path", required=True),
+    "input": Key(_path("input"), "input_path", required=True, keyed=False),
     "out": Key(_path("out", layer=True), "out", required=True, output=True),
     "preview": Key(_path("preview", layer=True), "preview", output=True),
     "sublayer_into": Key(_path("sublayer_into", layer=True), "sublayer_into", output=True),
+    "plot": Key(_path("plot"), "plot", output=True),
     "shifts": Key(_shifts, "shifts", required=True),
-    "map": Key(_map, "map_spec"),
+    "map": Key(_map, "map_spec", keyed=False),
     "skel_root": Key(_text("skel_root"), "skel_root"),
     "fixation": Key(_fixation, "options.fixation_m"),
     "bind": Key(_as_given, "options.binding"),
     "forward": Key(_as_given, "options.binding"),
+    "no_clobber": Key(_flag("no_clobber"), "no_clobber", keyed=False),
 }
 
 # Targets fed by several keys: built from all of them at once (and checked up front).
@@ -120,13 +136,13 @@ class Shot:
     """How messages name it: ``MANIFEST: job I 'NAME'``."""
 
     @property
-    def out(self) -> str:
-        return self.values["out"]
+    def label(self) -> str:
+        """``job I 'NAME'``, as the file checks name it."""
+        return f"job {self.index} '{self.name}'"
 
     @property
-    def label(self) -> str:
-        """``job I 'NAME'``: how file clashes name it (after the file's own path)."""
-        return f"job {self.index} '{self.name}'"
+    def out(self) -> str:
+        return self.values["out"]
 
     def outputs(self) -> list[str]:
         return [self.values[k] for k, spec in KEYS.items() if spec.output and k in self.values]
@@ -134,7 +150,7 @@ class Shot:
     def parameters(self) -> dict:
         """What the result depends on besides file contents: every non-path, non-output value."""
         return {k: v for k, v in sorted(self.values.items())
-                if KEYS[k].to is not None and not KEYS[k].output and k not in ("input", "map")}
+                if KEYS[k].to is not None and not KEYS[k].output and KEYS[k].keyed}
 
 
 def apply_kwargs(shot: Shot) -> dict:
@@ -157,7 +173,7 @@ def apply_kwargs(shot: Shot) -> dict:
 
 
 def _where(path: Path, index: int, name: str | None) -> str:
-    return f"{path}: job {index}" + (f" '{name}'" if name else "")
+    return f"{path}: job {index}" + (f" '{name}'" if name is not None else "")
 
 
 def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
@@ -177,28 +193,32 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
     base = path.parent.resolve()
     values = {k: KEYS[k].check(v, label, base) for k, v in merged.items()}
     name = values.pop("name", None) or Path(values["input"]).stem
-    shot = Shot(index=index, name=name, values=values, where=_where(path, index, name))
+    shot = Shot(index=index, name=name, values=values, where=where)
     check_request(ApplyRequest(**apply_kwargs(shot)), label)  # the CLI's and the API's own checks
     return shot
 
 
-def manifest_files(path: str | os.PathLike, shots: list[Shot]):
-    """The files a run reads and writes (an :class:`~usdgaze.files.identity.Identities`): no shot
-    writes the manifest, a file any shot reads, or a file another shot writes. Shots run in
+def _check_files(path: Path, shots: list[Shot]) -> None:
+    """No shot writes the manifest, a file any shot reads, or a file another shot writes. Shots run in
     parallel, so two inserting into one sublayer target would race: each shot gets its own."""
     from usdgaze.files.identity import Identities
 
     ids = Identities()
+    register(ids, path, shots)
+
+
+def register(ids, path: Path, shots: list[Shot]) -> None:
+    """Record the manifest and every shot's inputs as read, every shot's outputs as written, in an
+    :class:`usdgaze.files.identity.Identities` (a clash is a one-line error naming both)."""
     ids.read(path, "manifest")
     for s in shots:
         ids.read(s.values["input"], f"input of {s.label}")
         if "map" in s.values:
             ids.read(s.values["map"].partition(":/")[0], f"map of {s.label}")
     for s in shots:
-        for key in ("out", "preview", "sublayer_into"):
+        for key in ("out", "preview", "sublayer_into", "plot"):
             if key in s.values:
                 ids.write(s.values[key], f"{s.label} {key}")
-    return ids
 
 
 def load_manifest(path: str | os.PathLike) -> list[Shot]:
@@ -212,7 +232,7 @@ def load_manifest(path: str | os.PathLike) -> list[Shot]:
         raise UsdGazeError(f"{path}: unknown table '{extra[0]}' (tables: [defaults], [[job]])")
     defaults = data.get("defaults", {})
     if not isinstance(defaults, dict):
-        raise UsdGazeError(f"{path}: 'defaults' must be a table ([defaults])")
+        raise UsdGazeError(f"{path}: [defaults] must be a table of job keys")
     if "name" in defaults:
         raise UsdGazeError(f"{path}: [defaults]: name: a name belongs to one job")
     jobs = data.get("job", [])
@@ -226,9 +246,5 @@ def load_manifest(path: str | os.PathLike) -> list[Shot]:
         if s.name in names:
             raise UsdGazeError(f"{s.where}: name '{s.name}' is also the name of job {names[s.name].index}")
         names[s.name] = s
-    try:
-        manifest_files(path, shots)
-    except UsdGazeError as exc:  # the clash names the files and jobs; the manifest goes first
-        message = str(exc)
-        raise UsdGazeError(message if message.startswith(f"{path}:") else f"{path}: {message}") from None
+    _check_files(path, shots)
     return shots
