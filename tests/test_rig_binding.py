@@ -242,7 +242,7 @@ def test_bind_and_forward_on_the_command_line_and_in_a_manifest_give_the_api_lay
 
     manifest.write_text('[[job]]\ninput = "in.usda"\nout = "x.usdc"\nshifts = ["1:2:3"]\nbind = ["skull=j5"]\n')
     p = subprocess.run([*CLI, "batch", str(manifest)], capture_output=True, text=True, timeout=120)
-    assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "job 0 'in': bind skull=...: unknown role" in p.stderr
+    assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "job 0: bind skull=...: unknown role" in p.stderr
 
 
 # -- names, without a stage ----------------------------------------------------------------------------
