@@ -239,3 +239,15 @@ def b_build_map_sheet_yaw_not_a_number(d):
 
 def b_build_map_bad_out_extension(d):
     return ["build-map", str(sheet(d)), "--out", str(d / "map.json")]
+
+
+def b_build_map_rest_speed_inf(d):
+    return ["build-map", str(sheet(d)), "--out", str(d / "map.usda"), "--rest-speed", "inf"]
+
+
+def b_build_map_start_speed_nan(d):
+    return ["build-map", str(sheet(d)), "--out", str(d / "map.usda"), "--start-speed", "nan"]
+
+
+def b_build_map_min_trials_zero(d):
+    return ["build-map", str(sheet(d)), "--out", str(d / "map.usda"), "--min-trials", "0"]

@@ -149,8 +149,12 @@ def big(tmp_path_factory):
 
 
 def _start_and_catch_writing(src: Path, d: Path) -> subprocess.Popen:
-    """Start an apply and return once its override is being written in the temporary folder."""
-    proc = subprocess.Popen([*CLI, "apply", str(src), *SHIFT, "--out", str(d / "gaze.usdc")],
+    """Start an apply and return once its override is being written in the temporary folder.
+
+    The plot staged after the override keeps the command writing for a second or more, so that a
+    loaded machine still catches it between the first staged byte and the commit."""
+    proc = subprocess.Popen([*CLI, "apply", str(src), *SHIFT, "--out", str(d / "gaze.usdc"),
+                             "--plot", str(d / "plot.png")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
@@ -159,7 +163,7 @@ def _start_and_catch_writing(src: Path, d: Path) -> subprocess.Popen:
             return proc
         time.sleep(0.001)
     proc.kill()
-    raise AssertionError(f"never caught the write in progress (exit {proc.returncode})")
+    raise AssertionError(f"never caught the write in progress (exit {proc.returncode}): {proc.communicate()}")
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])

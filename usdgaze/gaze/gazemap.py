@@ -52,15 +52,16 @@ def _random_blends(params: np.ndarray, count: int, blend_size: int, rng: np.rand
     n = len(params)
     weights = np.zeros((max(count, 0), n))
     if count <= 0 or n < 2:
+        weights[:, 0] = 1.0  # one example: every blend is that example
         return weights
     try:
         triangles = Delaunay(params).simplices
     except (QhullError, ValueError):
         triangles = np.zeros((0, 3), dtype=int)
-    n_tri = (2 * count) // 3 if len(triangles) else 0
+    a, b, c = (params[triangles[:, i]] for i in range(3))
+    area = 0.5 * np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    n_tri = (2 * count) // 3 if len(triangles) and area.sum() > 0 else 0
     if n_tri:
-        a, b, c = (params[triangles[:, i]] for i in range(3))
-        area = 0.5 * np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
         pick = rng.choice(len(triangles), size=n_tri, p=area / area.sum())
         r1, r2 = np.sqrt(rng.uniform(size=n_tri)), rng.uniform(size=n_tri)
         bary = np.column_stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2])
@@ -142,8 +143,9 @@ class ParametricGazeMap:
         q, n = weights.shape
         c = min(n, _CANDIDATES)
         eps = 1e-4
-        dist, _ = self._example_tree.query(target, k=n)
-        order = np.argsort(self._example_tree.query(target, k=n)[1], axis=1)
+        dist, nearest = self._example_tree.query(target, k=n)
+        dist, nearest = dist.reshape(q, n), nearest.reshape(q, n)  # k=1 gives 1-D arrays
+        order = np.argsort(nearest, axis=1)
         dist_by_example = np.take_along_axis(dist, order, axis=1)
         score = np.where(weights > 1e-9, -1.0, dist_by_example)
         cand = np.argsort(score, axis=1, kind="stable")[:, :c]  # (Q, C) example indices

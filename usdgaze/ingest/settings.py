@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import asdict, dataclass
 
 from usdgaze.errors import UsdGazeError
@@ -64,7 +66,8 @@ class BuildSettings:
             ("min_trials", self.min_trials >= 1),
         )
         for name, ok in checks:
-            if not ok:
+            value = getattr(self, name)
+            if not ok or (isinstance(value, float) and not math.isfinite(value)):
                 raise SettingsError(f"build setting {name} = {getattr(self, name)} is out of range")
 
     def as_dict(self) -> dict:
