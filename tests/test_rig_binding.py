@@ -226,6 +226,13 @@ def test_bind_and_forward_on_the_command_line_and_in_a_manifest_give_the_api_lay
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert (tmp_path / "cli.usdc").read_bytes() == (tmp_path / "api.usdc").read_bytes()
+    # The layer records the hints, so the review tools bind the chain as the pass did.
+    from usdgaze.review.composed import read_review
+
+    record = Sdf.Layer.FindOrOpen(str(tmp_path / "cli.usdc")).customLayerData["usdgaze"]
+    assert list(record["bind"]) == flags and list(record["forward"]) == list(map(float, rig.forward))
+    (character,) = read_review(rig.path, tmp_path / "cli.usdc").characters
+    assert character.chain.head == rig.joints.index(rig.joint("head"))
 
     table = ", ".join(f'{r} = "{j[0]}"' for r, j in parse_hints(flags[:2]).bindings)
     manifest = tmp_path / "jobs.toml"
