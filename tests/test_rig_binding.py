@@ -111,31 +111,48 @@ def test_neutral_is_the_bind_pose_when_rest_is_the_first_frame(tmp_path):
     assert max(off) > 2.0, off
 
 
-def _break_bind(kind: str):
-    def edit(layer: Sdf.Layer, rig: syn.Rig) -> None:
+def _edit_bind(rig: syn.Rig, kind: str) -> None:
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    if kind == "missing":
+        del layer.GetPrimAtPath(rig.skeleton).properties["bindTransforms"]
+    else:
         spec = layer.GetAttributeAtPath(rig.skeleton + ".bindTransforms")
         mats = list(spec.default)
-        if kind == "collapsed":  # exporters that write identity bind transforms: every joint at the origin
+        if kind == "short":
+            mats = mats[:-3]
+        elif kind == "one-point":  # an exporter's placeholder: every joint at the origin
             mats = [Sdf.ValueTypeNames.Matrix4d.defaultValue] * len(mats)
+        else:
+            mats[3] = Sdf.ValueTypeNames.Matrix4d.defaultValue * (0.0 if kind == "singular" else float("nan"))
         spec.default = Vt.Matrix4dArray(mats)
-    return edit
-
-
-# Short, singular or non-finite bindTransforms are broken data and refused (docs/bad-inputs.md); a bind
-# pose that is well-formed but cannot be a neutral pose falls back to the rest pose, with a warning.
-@pytest.mark.parametrize("kind", ["collapsed"])
-def test_unusable_bind_transforms_fall_back_to_the_rest_pose(tmp_path, kind):
-    rig = syn.make_rig(tmp_path / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False)
-    layer = Sdf.Layer.FindOrOpen(str(rig.path))
-    _break_bind(kind)(layer, rig)
     layer.Save()
+
+
+@pytest.mark.parametrize("kind", ["missing", "one-point"])
+def test_a_bind_pose_that_says_nothing_falls_back_to_the_rest_pose(tmp_path, kind):
+    rig = syn.make_rig(tmp_path / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False)
+    _edit_bind(rig, kind)
     report = api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
-    assert len(report.warnings) == 1 and "bindTransforms" in report.warnings[0] and "restTransforms" in report.warnings[0]
+    if kind == "one-point":  # authored but unusable: said
+        assert len(report.warnings) == 1 and "neutral pose from restTransforms (bindTransforms puts every joint" \
+            in report.warnings[0]
+    else:
+        assert report.warnings == []
     base = measure.posed(str(rig.path), rig.skeleton, neutral="rest")
     new = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton, neutral="rest")
     change, _ = sight_change(base, new, rig)
     for s, hold in hold_windows(dict(rig=rig, base=base, report=report)):
         assert np.abs(change[hold] - [s["yaw"], s["pitch"]]).max() <= 0.5
+
+
+@pytest.mark.parametrize("kind", ["short", "singular", "nan"])
+def test_broken_bind_transforms_are_refused(tmp_path, kind):
+    rig = syn.make_rig(tmp_path / "in.usda", frames=30, mesh=False)
+    _edit_bind(rig, kind)
+    with pytest.raises(UsdGazeError) as err:
+        api.apply(rig.path, SHIFTS[:1], tmp_path / "gaze.usdc")
+    assert f"{rig.skeleton}.bindTransforms: " in str(err.value) and "\n" not in str(err.value)
+    assert not (tmp_path / "gaze.usdc").exists()
 
 
 # -- hints ------------------------------------------------------------------------------------------
@@ -226,6 +243,13 @@ def test_bind_and_forward_on_the_command_line_and_in_a_manifest_give_the_api_lay
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert (tmp_path / "cli.usdc").read_bytes() == (tmp_path / "api.usdc").read_bytes()
+    # The layer records the hints, so the review tools bind the chain as the pass did.
+    from usdgaze.review.composed import read_review
+
+    record = Sdf.Layer.FindOrOpen(str(tmp_path / "cli.usdc")).customLayerData["usdgaze"]
+    assert list(record["bind"]) == flags and list(record["forward"]) == list(map(float, rig.forward))
+    (character,) = read_review(rig.path, tmp_path / "cli.usdc").characters
+    assert character.chain.head == rig.joints.index(rig.joint("head"))
 
     table = ", ".join(f'{r} = "{j[0]}"' for r, j in parse_hints(flags[:2]).bindings)
     manifest = tmp_path / "jobs.toml"

@@ -31,6 +31,7 @@ from usdgaze.usd.layers import (
     write_preview,
 )
 from usdgaze.core.hints import BindHints
+from usdgaze.core.hints import to_record as hints_record
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 
 @dataclass
@@ -333,6 +334,7 @@ def _provenance(source: str, requests: list[ShiftRequest], report: ApplyReport, 
             "eyeRange": {"yaw": float(options.eye_range.yaw), "up": float(options.eye_range.up),
                          "down": float(options.eye_range.down)},
             "fixation": float(options.fixation_m),
+            **hints_record(options.binding),
         }
     }
 

@@ -88,3 +88,22 @@ def parse_hints(bind: Iterable[str] | Mapping[str, object] | None = None, forwar
         seen.add(role)
     vec = _forward(forward, forward_label) if forward is not None else None
     return BindHints(tuple(items), vec, bind_label, forward_label)
+
+
+def to_record(hints: BindHints) -> dict:
+    """The hints as a layer's ``customLayerData["usdgaze"]`` keys (none when there are none), so that
+    the review tools bind the chain the way the pass did."""
+    record: dict = {}
+    if hints.bindings:
+        record["bind"] = [f"{role}={'+'.join(joints)}" for role, joints in hints.bindings]
+    if hints.forward is not None:
+        record["forward"] = [float(v) for v in hints.forward]
+    return record
+
+
+def from_record(record: Mapping, where: str) -> BindHints:
+    """The hints an override layer recorded (see :func:`to_record`)."""
+    bind, forward = record.get("bind"), record.get("forward")
+    return parse_hints(list(bind) if bind is not None else None, list(forward) if forward is not None else None,
+                       bind_label=f"{where}: customLayerData usdgaze.bind",
+                       forward_label=f"{where}: customLayerData usdgaze.forward")

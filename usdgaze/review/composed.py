@@ -148,6 +148,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     from pxr import UsdGeom
 
     from usdgaze import api
+    from usdgaze.core.hints import from_record
     from usdgaze.usd import schema
     from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
 
@@ -160,6 +161,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     # Every SkelRoot whose animation the layer overrides (or the one named).
     roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
     touched = {str(p.path) for p in _prim_specs(gaze_layer)}
+    hints = from_record(record, layer_file)  # the --bind/--forward the pass was given
     for root in roots:
         own = schema.read_map(root, source) if schema.has_map(root) else None
         for skel in skeletons_under(root):
@@ -171,7 +173,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 base_clip = read_clip(stage, stage.GetPrimAtPath(skel.GetPath()), stage.GetPrimAtPath(root.GetPath()), source)
             finally:
                 stage.UnmuteLayer(gaze_layer.identifier)
-            chain, frame = api.bind(gaze_clip, own)
+            chain, frame = api.bind(gaze_clip, own, hints)
             parents = gaze_clip.parents
             review.characters.append(CharacterReview(
                 skel_root=gaze_clip.skel_root, skeleton=gaze_clip.skeleton, joints=list(gaze_clip.joints),

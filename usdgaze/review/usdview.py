@@ -50,19 +50,25 @@ def _characters(stage):
     from pxr import UsdGeom
 
     from usdgaze import api as gaze_api
+    from usdgaze.core.hints import from_record
     from usdgaze.review.composed import CharacterReview, _pose
     from usdgaze.usd import schema
     from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
 
     source = stage.GetRootLayer().identifier
     up = np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0])
+    layers = gaze_layers(stage)
+    try:  # bind as the pass did: with the --bind/--forward its layer recorded
+        hints = from_record(layers[0].customLayerData["usdgaze"], layers[0].identifier) if layers else None
+    except UsdGazeError:
+        hints = None
     out = []
     for root in skel_roots(stage):
         own = schema.read_map(root, source) if schema.has_map(root) else None
         for skel in skeletons_under(root):
             try:
                 clip = read_clip(stage, skel, root, source)
-                chain, frame = gaze_api.bind(clip, own)
+                chain, frame = gaze_api.bind(clip, own, hints)
             except UsdGazeError:
                 continue
             posed = _pose(clip, clip.joints, clip.rest_local, clip.parents)
