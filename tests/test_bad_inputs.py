@@ -33,7 +33,7 @@ import pytest
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from pxr import Sdf, Vt
 
-from . import bad_cases_files, bad_cases_stage, bad_cases_values, measure
+from . import bad_cases_files, bad_cases_look, bad_cases_stage, bad_cases_values, measure
 from .bad_common import (apply_argv, dump_map, edited, quats, remove, rig, run_inprocess, run_subprocess, set_sample,
                          snapshot, unmount_all)
 
@@ -362,80 +362,8 @@ def b_dump_map_bad_extension(d):
     return ["dump-map", str(d / "map.json")]
 
 
-def _with_prims(d: Path, **kw) -> Path:
-    """The rig plus look-at targets: an animated Xform /World/Ball and a typeless /World/Note."""
-    def add(layer, rig):
-        ball = Sdf.CreatePrimInLayer(layer, "/World/Ball")
-        ball.specifier, ball.typeName = Sdf.SpecifierDef, "Xform"
-        Sdf.CreatePrimInLayer(layer, "/World").specifier = Sdf.SpecifierDef
-        note = Sdf.CreatePrimInLayer(layer, "/World/Note")
-        note.specifier = Sdf.SpecifierDef
-    return _edited(d, add, **kw)
-
-
-def _with_schedule(d: Path, **arrays) -> Path:
-    """The rig with GazeScheduleAPI on its SkelRoot and the given gaze:schedule:* arrays."""
-    types = {"time": Sdf.ValueTypeNames.DoubleArray, "kind": Sdf.ValueTypeNames.TokenArray,
-             "target": Sdf.ValueTypeNames.IntArray, "weight": Sdf.ValueTypeNames.FloatArray}
-
-    def schedule(layer, rig):
-        prim = layer.GetPrimAtPath(rig.skel_root)
-        op = Sdf.TokenListOp()
-        op.prependedItems = ["GazeScheduleAPI"]
-        prim.SetInfo("apiSchemas", op)
-        for name, value in arrays.items():
-            attr = Sdf.AttributeSpec(prim, f"gaze:schedule:{name}", types[name], Sdf.VariabilityUniform)
-            attr.default = value
-    return _edited(d, schedule)
-
-
-def b_look_at_missing_prim(d):
-    return _apply(d, _rig(d).path, shifts=["--look-at", "/World/Door@10"])
-
-
-def b_look_at_not_xformable(d):
-    return _apply(d, _with_prims(d), shifts=["--look-at", "/World/Note@10"])
-
-
-def b_look_at_malformed(d):
-    return _apply(d, _rig(d).path, shifts=["--look-at", "/World/Door"])
-
-
-def b_look_at_weight_out_of_range(d):
-    return _apply(d, _rig(d).path, shifts=["--look-at", "0,1.6,3@10:weight=1.5"])
-
-
-def b_look_at_the_eyes(d):
-    rig = _rig(d)
-    p = measure.posed(str(rig.path), rig.skeleton)
-    left, right = rig.eye_leaves
-    eyes = 0.5 * (p.position(left)[0] + p.position(right)[0])
-    return _apply(d, rig.path, shifts=["--look-at", ",".join(repr(float(v)) for v in eyes) + "@0"])
-
-
-def b_directive_outside_animation(d):
-    return _apply(d, _rig(d).path, shifts=["--look-at", "0,1.6,3@99s"])
-
-
-def b_release_bad_option(d):
-    return _apply(d, _rig(d).path, shifts=["--release", "10:weight=0"])
-
-
-def b_schedule_unequal_arrays(d):
-    return _apply(d, _with_schedule(d, time=Vt.DoubleArray([10.0]), kind=Vt.TokenArray(["look", "shift"])), shifts=[])
-
-
-def b_schedule_bad_kind(d):
-    return _apply(d, _with_schedule(d, time=Vt.DoubleArray([10.0]), kind=Vt.TokenArray(["stare"])), shifts=[])
-
-
-def b_schedule_target_index(d):
-    return _apply(d, _with_schedule(d, time=Vt.DoubleArray([10.0]), kind=Vt.TokenArray(["look"]),
-                                    target=Vt.IntArray([3])), shifts=[])
-
-
 BUILDERS = {name[2:].replace("_", "-"): fn for module in (globals(), vars(bad_cases_files), vars(bad_cases_stage),
-                                                           vars(bad_cases_values))
+                                                           vars(bad_cases_values), vars(bad_cases_look))
             for name, fn in dict(module).items() if name.startswith("b_")}
 # Run through a real ``python -m usdgaze`` (or ``pipeline/batch.py``) process: one or more of each class.
 SUBPROCESS = {

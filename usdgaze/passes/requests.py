@@ -120,6 +120,8 @@ def parse_shift(text: str, label=None) -> DirectiveRequest:
     else:
         head, options = text, []
     where = label("shift", repr(text)) if label else f"--shift '{text}'"
+    if any("=" not in part for part in options):  # a fourth field that is no option
+        head = text
     shift = ShiftRequest.parse(head, lambda key, value: where)
     return DirectiveRequest("shift", shift.time, shift.seconds, shift.yaw, shift.pitch,
                             **_options(options, "--shift", text, ("weight", "blend")))
