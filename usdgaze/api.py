@@ -305,8 +305,8 @@ def _root_directives(root, source: str, requests: list[DirectiveRequest]) -> lis
     """The command's directives, or without any the SkelRoot's own schedule."""
     from usdgaze.usd import schedule
 
-    if requests:
-        return requests
+    if requests:  # in time order, as a schedule holds them: the same directives record the same text
+        return sorted(requests, key=lambda r: (r.seconds, r.time))
     if not schedule.has_schedule(root):
         raise UsdGazeError(f"{source}:{root.GetPath()}: no --shift, --look-at or --release given and no "
                            f"{schedule.API_NAME} on this SkelRoot; nothing to do")
