@@ -1,5 +1,8 @@
 """The gaze pass on real CMU capture (Y-up Blender export, 120.0048 tc/s, starts at 1, no eyes).
 
+These check the paper's model (``eye_timing model``: the eyes follow the map's gaze progress, with
+its overshoot); tests/test_look.py checks the default saccadic eyes.
+
 Every number here is measured on the composed result with UsdSkel's own forward kinematics
 (tests/measure.py), not with usdgaze's math.
 """
@@ -15,6 +18,7 @@ from pxr import Sdf, Usd, UsdSkel, UsdValidation
 
 import usdgaze
 from usdgaze import api
+from usdgaze.passes.look import LookOptions
 
 from . import measure
 
@@ -26,6 +30,7 @@ HEAD = "Head"
 SHIFTS = ["150:60:0", "400:-120:10", "700:0:0", "950:30:-20"]
 CHAIN_LEAVES = {"Hips", "lowerback", "Chest", "Chest2", "lowerneck", "Neck", "Head", "LeftEye", "RightEye"}
 LEG_ROOTS = {"LHipJoint", "RHipJoint"}
+MODEL = LookOptions(eye_timing="model")
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +39,7 @@ def run(tmp_path_factory):
     src = d / "cmu_131_02.usdc"
     shutil.copy(CMU / "cmu_131_02.usdc", src)
     before = measure.sha256(src)
-    report = api.apply(src, SHIFTS, d / "gaze.usdc", preview=d / "preview.usda")
+    report = api.apply(src, SHIFTS, d / "gaze.usdc", preview=d / "preview.usda", look=MODEL)
     base = measure.posed(str(src), SKEL)
     new = measure.posed(str(d / "preview.usda"), SKEL)
     fwd = measure.character_forward_skel(base, "LeftHip", "RightHip")
@@ -209,8 +214,12 @@ def test_override_layer_metadata_and_only_overs(run):
     specs = []
     layer.Traverse(Sdf.Path.absoluteRootPath, lambda p: specs.append(p))
     prims = [layer.GetPrimAtPath(p) for p in specs if p.IsPrimPath()]
-    assert prims and all(p.specifier == Sdf.SpecifierOver for p in prims)
-    assert {str(p.path) for p in prims} == {"/root", "/root/Body", SKEL, ANIM}
+    # Only overs, apart from the review guides the layer defines under the skeleton.
+    guides = SKEL + "/gazeGuides"
+    assert prims and all(p.specifier == Sdf.SpecifierOver for p in prims if not str(p.path).startswith(guides))
+    assert {str(p.path) for p in prims if not str(p.path).startswith(guides)} == {"/root", "/root/Body", SKEL, ANIM}
+    assert {str(p.path) for p in prims if str(p.path).startswith(guides)} == {
+        guides, guides + "/leftEyeSight", guides + "/rightEyeSight"}
 
 
 def test_composed_result_passes_the_validators_the_input_passes(run):
@@ -223,5 +232,5 @@ def test_composed_result_passes_the_validators_the_input_passes(run):
 
 
 def test_same_inputs_give_byte_identical_layers(run, tmp_path):
-    api.apply(run["src"], SHIFTS, tmp_path / "again.usdc")
+    api.apply(run["src"], SHIFTS, tmp_path / "again.usdc", look=MODEL)
     assert (tmp_path / "again.usdc").read_bytes() == (run["dir"] / "gaze.usdc").read_bytes()

@@ -24,6 +24,7 @@ import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from pxr import Sdf, Usd, UsdSkel, UsdValidation
 
 from usdgaze import api
+from usdgaze.passes.look import LookOptions
 from usdgaze.errors import UsdGazeError
 from usdgaze.passes.shift import EyeRange, PassOptions
 
@@ -63,7 +64,9 @@ def run(request, tmp_path_factory):
     d = tmp_path_factory.mktemp(request.param)
     rig = syn.make_rig(d / "in.usda", frames=_frames(kw), **kw)
     before = measure.sha256(rig.path)
-    report = api.apply(rig.path, SHIFTS, d / "gaze.usdc", preview=d / "preview.usda")
+    # The paper's eye timing: these check the model's hold phases; tests/test_look.py the saccades.
+    report = api.apply(rig.path, SHIFTS, d / "gaze.usdc", preview=d / "preview.usda",
+                       look=LookOptions(eye_timing="model"))
     base = measure.posed(str(rig.path), rig.skeleton)
     new = measure.posed(str(d / "preview.usda"), rig.skeleton)
     return dict(name=request.param, dir=d, rig=rig, before=before, report=report, base=base, new=new)

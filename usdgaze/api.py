@@ -16,8 +16,10 @@ from usdgaze.gaze.defaults import default_definition
 from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.errors import UsdGazeError
 from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes.shift import PassOptions, PassResult, apply_gaze
-from usdgaze.values import ShiftRequest, check_pass_options, check_shifts, cli_label
+from usdgaze.passes.look import Directive, LookOptions, apply_look, to_skel
+from usdgaze.passes.requests import DirectiveRequest, check_directives
+from usdgaze.passes.shift import PassOptions, PassResult
+from usdgaze.values import ShiftRequest, check_pass_options, cli_label
 from usdgaze.files.transaction import Outputs
 from usdgaze.usd.layers import (
     AnimOverride,
@@ -53,6 +55,14 @@ class ApplyRequest:
     progress: object = None
     record: dict = field(default_factory=dict)
     """Extra entries for the override's ``customLayerData["usdgaze"]`` (the batch's resume key)."""
+    look_at: list[DirectiveRequest | str] = field(default_factory=list)
+    """``TARGET@TIME[:weight=W][:blend=B]`` directives (see :mod:`usdgaze.passes.requests`)."""
+    release: list[DirectiveRequest | str] = field(default_factory=list)
+    """``TIME[:blend=B]`` directives."""
+    look: LookOptions = field(default_factory=LookOptions)
+    """Eye timing, pursuit and reach of the look pass."""
+    guides: bool = True
+    """Author guide-purpose lines of sight and the point of sight for review."""
 
     @property
     def source(self) -> str:
@@ -72,6 +82,9 @@ class CharacterReport:
     frames: int
     added_joints: list[str]
     result: PassResult
+    guide: tuple | None = None
+    """(times, eye positions (2, F, 3) and point of sight (F, 3) in skeleton space, point of sight in
+    world space, line width), when guides are written."""
 
 
 @dataclass
@@ -83,6 +96,8 @@ class ApplyReport:
     preview: str | None = None
     plot: str | None = None
     sublayered_into: str | None = None
+    directives: dict[str, list[str]] = field(default_factory=dict)
+    """Per SkelRoot, the directives applied, as flags (from the command or the SkelRoot's schedule)."""
 
 
 def select_roots(stage, source: str, skel_root: str | None):
@@ -160,10 +175,12 @@ def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints 
 
 def apply(input_path: str | os.PathLike, shifts: list[ShiftRequest | str], out: str | os.PathLike,
           **options) -> ApplyReport:
-    """Add gaze shifts to the skeletal animation(s) of ``input_path``; write ``out`` as an override layer.
+    """Add gaze directives to the skeletal animation(s) of ``input_path``; write ``out`` as an override layer.
 
     Keywords are the fields of :class:`ApplyRequest` (``skel_root``, ``map_spec``, ``sublayer_into``,
-    ``preview``, ``plot``, ``no_clobber``, ``options``, ``progress``). Nothing is written unless
+    ``preview``, ``plot``, ``no_clobber``, ``options``, ``progress``, ``look_at``, ``release``,
+    ``look``, ``guides``). Without shifts, look-ats or releases, each SkelRoot's GazeScheduleAPI
+    schedule is applied. Nothing is written unless
     everything succeeds; no output may be a file the command reads (``sublayer_into`` changes only
     that layer's subLayers).
     """
@@ -179,7 +196,7 @@ def run(req: ApplyRequest) -> ApplyReport:
         forced = schema.load_map(req.map_spec, tx) if req.map_spec else None
         roots = select_roots(stage, req.source, req.skel_root)
         report, overrides, info = _run_pass(stage, roots, forced, requests, req)
-        info.custom = _provenance(req.source, requests, report, req.options)
+        info.custom = _provenance(req.source, requests, report, req.options, req.look)
         info.custom["usdgaze"].update(req.record)
         _stage_outputs(tx, req, stage, report, overrides, info)
     if req.sublayer_into is not None:
@@ -187,8 +204,8 @@ def run(req: ApplyRequest) -> ApplyReport:
     return report
 
 
-def check_request(req: ApplyRequest, label=cli_label) -> list[ShiftRequest]:
-    """Values and combinations that are wrong whatever the stage; the parsed shifts.
+def check_request(req: ApplyRequest, label=cli_label) -> list[DirectiveRequest]:
+    """Values and combinations that are wrong whatever the stage; the parsed directives.
 
     The one check of the CLI, the API and the batch manifest (``label`` names a value in each).
     """
@@ -196,7 +213,7 @@ def check_request(req: ApplyRequest, label=cli_label) -> list[ShiftRequest]:
     if req.sublayer_into is not None and req.preview is not None:
         raise UsdGazeError("--sublayer-into and --preview are alternatives; pass one" if label is cli_label
                            else f"{label('sublayer_into', req.sublayer_into)}: sublayer_into and preview are alternatives; pass one")
-    return check_shifts(req.shifts, label)
+    return check_directives(req.shifts, req.look_at, req.release, req.look, label)
 
 
 def _claim_outputs(tx: Outputs, req: ApplyRequest) -> None:
@@ -241,6 +258,8 @@ def _run_pass(stage, roots, forced, requests, req):
     overrides: list[AnimOverride] = []
     seen_anims: dict[str, str] = {}
     for root in roots:
+        root_requests = _root_directives(root, source, requests)
+        report.directives[str(root.GetPath())] = [r.flag for r in root_requests]
         own = schema.read_map(root, source) if schema.has_map(root) else None
         definition = forced or own or default_definition()
         map_source = req.map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
@@ -260,11 +279,15 @@ def _run_pass(stage, roots, forced, requests, req):
             chain, frame = bind(clip, own, req.options.binding)
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
                 report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")
-            result = apply_gaze(clip, chain, frame, gaze_map, [r.to_shift(clip) for r in requests], req.options)
-            report.warnings.extend(_late_shift_warnings(clip, requests))
+            directives, targets, names = _directives(stage, clip, root_requests)
+            result = apply_look(clip, chain, frame, gaze_map, directives, targets, req.options, req.look, names)
             report.warnings.extend(result.warnings)
             overrides.append(_override(clip, chain, result))
             report.characters.append(_character_report(clip, chain, frame, map_source, result))
+            if req.guides:
+                report.characters[-1].guide = (
+                    clip.times, np.stack([to_skel(clip, p) for p in result.eye_positions]),
+                    to_skel(clip, result.point_of_sight), result.point_of_sight, 0.003 / clip.meters_per_unit)
             if req.progress:
                 req.progress(clip)
     return report, overrides, _layer_info(stage)
@@ -279,15 +302,49 @@ def _layer_info(stage) -> LayerInfo:
                      str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)))
 
 
-def _late_shift_warnings(clip: SkelClip, requests: list[ShiftRequest]) -> list[str]:
-    out = []
+def _root_directives(root, source: str, requests: list[DirectiveRequest]) -> list[DirectiveRequest]:
+    """The command's directives, or without any the SkelRoot's own schedule."""
+    from usdgaze.usd import schedule
+
+    if requests:  # in time order, as a schedule holds them: the same directives record the same text
+        return sorted(requests, key=lambda r: (r.seconds, r.time))
+    if not schedule.has_schedule(root):
+        raise UsdGazeError(f"{source}:{root.GetPath()}: no --shift, --look-at or --release given and no "
+                           f"{schedule.API_NAME} on this SkelRoot; nothing to do")
+    return schedule.read_schedule(root, source)
+
+
+def _directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
+                ) -> tuple[list[Directive], list[np.ndarray], list[str]]:
+    """Pass directives for one clip, and the world positions per frame of what its looks look at."""
+    from usdgaze.usd.targets import sample_target
+
+    tcps = clip.time_codes_per_second
+    first, last = clip.seconds[0], clip.seconds[-1]
+    index_of: dict = {}
+    targets: list[np.ndarray] = []
+    names: list[str] = []
+    directives = []
     for r in requests:
-        if r.to_shift(clip).time_s > clip.seconds[-1]:
-            out.append(
-                f"{clip.where()}: shift {r} starts at {r.to_shift(clip).time_s:g} s, after the animation's "
-                f"last sample ({clip.seconds[-1]:g} s); it changes nothing"
-            )
-    return out
+        t = r.time_s(clip.start_time, tcps)
+        if not first - 1e-9 <= t <= last + 1e-9:
+            raise UsdGazeError(
+                f"{clip.where()}: {r.flag} lies outside the animation (time codes {clip.times[0]:g} to "
+                f"{clip.times[-1]:g}, {first:g} to {last:g} s)")
+        index = -1
+        if r.kind == "look":
+            key = r.target if r.target is not None else r.point
+            if key not in index_of:
+                index_of[key] = len(targets)
+                if r.target is not None:
+                    targets.append(sample_target(stage, r.target, clip.times, clip.source))
+                    names.append(r.target)
+                else:
+                    targets.append(np.tile(np.asarray(r.point, dtype=float), (len(clip.times), 1)))
+                    names.append(",".join(f"{v:g}" for v in r.point))
+            index = index_of[key]
+        directives.append(Directive(t, r.kind, r.yaw, r.pitch, index, r.weight, r.blend_s(tcps)))
+    return directives, targets, names
 
 
 def _override(clip: SkelClip, chain: Chain, result: PassResult) -> AnimOverride:
@@ -322,12 +379,18 @@ def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_s
     )
 
 
-def _provenance(source: str, requests: list[ShiftRequest], report: ApplyReport, options: PassOptions) -> dict:
+def _provenance(source: str, requests: list[DirectiveRequest], report: ApplyReport, options: PassOptions,
+                look: LookOptions) -> dict:
+    # Only what the directives say, never where they came from: a schedule and the same flags
+    # record the same text.
+    flags = [f for fl in report.directives.values() for f in fl]
     return {
         "usdgaze": {
             "version": __version__,
             "input": os.path.basename(source),
-            "shifts": [str(r) for r in requests],
+            "shifts": list(dict.fromkeys(f.split(" ", 1)[1] for f in flags if f.startswith("--shift "))),
+            "directives": report.directives,
+            "eyeTiming": look.eye_timing,
             "maps": sorted({c.map_source for c in report.characters}),
             "characters": [c.skel_root for c in report.characters],
             # What the review tools draw the eye angles against, and the point of sight's distance.
@@ -347,6 +410,14 @@ def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
         check_sublayer_target(req.sublayer_into, animations)
     out = Path(req.out)
     layer = build_override(overrides, info, fmt=out.suffix.lstrip("."))
+    if req.guides:
+        from pxr import Sdf
+
+        from usdgaze.usd.guides import author_guides
+
+        with Sdf.ChangeBlock():
+            for c in report.characters:
+                author_guides(layer, c.skeleton, *c.guide)
     atomic_export(layer, out, tx)
     if req.preview is not None:
         default_prim = stage.GetRootLayer().defaultPrim or None

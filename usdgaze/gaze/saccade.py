@@ -67,27 +67,31 @@ def slerp(a: np.ndarray, b: np.ndarray, s: np.ndarray) -> np.ndarray:
 
 def pursue(target: np.ndarray, eye: np.ndarray, seconds: np.ndarray, start: int, onset_s: float,
            latency_s: float = 0.15, max_deg_s: float = MAX_PURSUIT_DEG_S) -> np.ndarray:
-    """Tracked point ``(F', 3)`` for frames ``start..``: the target's own motion, late and speed-capped.
+    """Tracked point ``(F', 3)`` for frames ``start..``: on the target at ``start``, then turning with
+    the target's own angular velocity as it was ``latency_s`` earlier (none before ``onset_s +
+    latency_s``: motion seen only since the target was picked), capped at ``max_deg_s``.
 
-    From ``target[start]`` the point moves with the target's world velocity as it was ``latency_s``
-    earlier (zero before ``onset_s + latency_s``: motion seen only since the target was picked), its
-    component across the line of sight capped at ``max_deg_s`` as seen from ``eye``. The viewer's own
-    motion never enters: the eyes cancel it at once (VOR), so a still target is held exactly.
+    The target's own motion is its world velocity across the line of sight; the viewer's motion never
+    enters, because the eyes cancel it at once (VOR), so a still target is held exactly. The lag
+    behind the target is a rotation about the eye that accumulates (pursuit - target) angular
+    velocity; summing its rotation vectors is exact for motion about one axis (a target circling or
+    crossing the viewer) and close for the small lags that catch-up saccades leave.
     """
     t = seconds[start:]
     if len(t) < 2:
         return target[start:start + 1].copy()
-    # Target velocity per frame interval, sampled at the delayed times (piecewise linear path).
-    delayed = np.column_stack([np.interp(t - latency_s, seconds, target[:, k]) for k in range(3)])
-    seen = (t - latency_s) >= onset_s
-    step = np.diff(delayed, axis=0) * (seen[1:] & seen[:-1])[:, None]
-    dt = np.diff(t)
-    los = target[start + 1:] - eye[start + 1:]
-    dist = np.linalg.norm(los, axis=-1, keepdims=True)
-    u = los / np.where(dist > 0, dist, 1.0)
-    along = np.sum(step * u, -1, keepdims=True) * u
-    across = step - along
-    speed = np.degrees(np.linalg.norm(across, axis=-1) / np.maximum(dist[:, 0], 1e-12)) / np.maximum(dt, 1e-12)
-    scale = np.minimum(1.0, max_deg_s / np.maximum(speed, 1e-12))
-    moved = along + across * scale[:, None]
-    return target[start] + np.concatenate([np.zeros((1, 3)), np.cumsum(moved, axis=0)])
+    # Angular velocity of the target's own motion seen from the eye, over the whole path (rad/s),
+    # so the late copy reaches back before ``start`` (a catch-up saccade does not reset pursuit).
+    los_all = target - eye
+    dist_all = np.maximum(np.linalg.norm(los_all, axis=-1), 1e-12)
+    velocity = np.gradient(target, seconds, axis=0) if len(seconds) > 1 else np.zeros_like(target)
+    omega_all = np.cross(los_all / dist_all[:, None], velocity) / dist_all[:, None]
+    mid = 0.5 * (t[1:] + t[:-1])
+    omega = np.column_stack([np.interp(mid, seconds, omega_all[:, k]) for k in range(3)])
+    seen = mid - latency_s
+    delayed = np.column_stack([np.interp(seen, seconds, omega_all[:, k]) for k in range(3)])
+    delayed[seen < onset_s] = 0.0
+    speed = np.linalg.norm(delayed, axis=-1)
+    pursuit = delayed * np.minimum(1.0, np.radians(max_deg_s) / np.maximum(speed, 1e-12))[:, None]
+    lag = np.concatenate([np.zeros((1, 3)), np.cumsum((pursuit - omega) * np.diff(t)[:, None], axis=0)])
+    return eye[start:] + rot.rotate(rot.from_rotvec(lag), los_all[start:])

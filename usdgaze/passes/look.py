@@ -70,13 +70,18 @@ class LookOptions:
     """Least time from the end of one saccade to the next (Eom et al.: 200 ms)."""
     replan_fraction: float = 0.7
     """A new body shift starts when the eyes would need this fraction of their range."""
-    replan_interval_s: float = 0.3
-    anticipation_s: float = 0.25
+    replan_interval_s: float = 0.2
+    anticipation_s: float = 0.4
     """A new body shift starts this much before the eyes would need it (the base motion is known)."""
     """Least time between two body shifts toward one moving target."""
     reach_yaw_deg: float = 150.0
     """Largest body turn (line-of-sight change before the eyes) toward a target."""
-    reach_pitch_deg: float = 60.0
+    reach_pitch_deg: float = 80.0
+    comfort_fraction: float = 0.5
+    body_pace_deg_s: float = 450.0
+    """A body shift toward a moving target turns each segment against its parent at most this fast."""
+    """When the map's own head share would leave the eyes beyond this fraction of their range, the
+    body turns further, to bring them back to it."""
 
 
 @dataclass
@@ -90,13 +95,13 @@ class _Epoch:
 
 # -- geometry ----------------------------------------------------------------------------------------
 
-def _points_to_world(clip: SkelClip, p: np.ndarray) -> np.ndarray:
+def to_world(clip: SkelClip, p: np.ndarray) -> np.ndarray:
     m = clip.skel_to_world
     return np.einsum("fij,fj->fi", np.broadcast_to(m[:, :3, :3], (len(p), 3, 3)), p) + np.broadcast_to(
         m[:, :3, 3], p.shape)
 
 
-def _points_to_skel(clip: SkelClip, p: np.ndarray) -> np.ndarray:
+def to_skel(clip: SkelClip, p: np.ndarray) -> np.ndarray:
     inv = np.linalg.inv(clip.skel_to_world)
     return np.einsum("fij,fj->fi", np.broadcast_to(inv[:, :3, :3], (len(p), 3, 3)), p) + np.broadcast_to(
         inv[:, :3, 3], p.shape)
@@ -116,9 +121,11 @@ def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.n
 
 # -- the body: gaze shifts through the map -----------------------------------------------------------
 
-def _head_change(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarray, hint: float) -> np.ndarray:
-    """Gaze change the body (without the eyes) makes on the canonical chain ``(F, 2)``."""
-    return motion.achieved_gaze(_body_only(sp.schedule(gaze_map, shifts, seconds).displacement), hint)
+def _head_change(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarray, hint: float
+                 ) -> tuple[np.ndarray, sp.Schedule]:
+    """Gaze change the body (without the eyes) makes on the canonical chain ``(F, 2)``, and the plan."""
+    plan = sp.schedule(gaze_map, shifts, seconds)
+    return motion.achieved_gaze(_body_only(plan.displacement), hint), plan
 
 
 def _body_only(offsets: np.ndarray) -> np.ndarray:
@@ -129,66 +136,83 @@ def _body_only(offsets: np.ndarray) -> np.ndarray:
 
 
 def _plan_look(gaze_map, shifts: list[Shift], epoch: _Epoch, end: int, rel: np.ndarray, seconds: np.ndarray,
-               limits: sp.EyeRange, opts: LookOptions) -> None:
+               base_ae: np.ndarray, limits: sp.EyeRange, opts: LookOptions) -> None:
     """Body shifts and eye events toward one target over frames ``epoch.start .. end``."""
     a = epoch.start
     reach = np.array([opts.reach_yaw_deg, opts.reach_pitch_deg])
     # The line of sight reaches as far as the head turns for a shift at the reach, plus the eyes.
-    head_reach = motion.achieved_gaze(_body_only(gaze_map.query(opts.reach_yaw_deg, 0.0).offsets), opts.reach_yaw_deg)
-    sight_limit = float(head_reach[..., 0].squeeze()) + limits.yaw - 2.0
+    sight_limit = float(_head_of(gaze_map, np.array([opts.reach_yaw_deg, 0.0]))[0]) + limits.yaw - 2.0
 
-    def request(j: int, yaw: float, previous: np.ndarray | None) -> np.ndarray:
+    def request(j: int, yaw: float, previous: np.ndarray | None) -> tuple[np.ndarray, tuple | None]:
+        """Map request toward the target seen from frame ``j``, and the change whose timing it takes."""
         want = np.array([yaw, rel[j, 1]])
-        if previous is not None:
-            # Aim where the target will be, against the base gaze, once the shift is done: the path
-            # of the body and of the target are known to the animator (and to the character).
-            change = want - previous
-            lead = float(gaze_map.query_full(change[0], change[1], correct=False).motions.timing[0])
-            ahead = min(int(np.searchsorted(seconds, seconds[j] + lead)), end - 1, len(seconds) - 1)
-            if ahead > j:
-                want = np.array([rot.unwrap_near(rel[ahead, 0], yaw), rel[ahead, 1]])
-        return np.clip(want, -reach, reach)
+        if previous is None:
+            return _body_request(gaze_map, want, reach, limits, opts.comfort_fraction), None
+        # Aim where the target will be, against the base gaze, once the shift is done: the paths of
+        # the body and of the target are known to the animator (and to the character).
+        change = want - previous
+        lead = float(gaze_map.query_full(change[0], change[1], correct=False).motions.timing[0])
+        ahead = min(int(np.searchsorted(seconds, seconds[j] + lead)), end - 1, len(seconds) - 1)
+        ahead = max(ahead, j)
+        want = np.array([rot.unwrap_near(rel[ahead, 0], yaw), rel[ahead, 1]])
+        new = _body_request(gaze_map, want, reach, limits, opts.comfort_fraction)
+        # How far the head turns in the world, not against a base gaze that may be swinging.
+        world = (base_ae[ahead] + new) - (base_ae[j] + previous)
+        world[0] = (world[0] + 180.0) % 360.0 - 180.0
+        return new, (float(world[0]), float(world[1]))
 
     if abs(rel[a, 0]) > sight_limit:  # out of reach from the start: keep looking ahead
         lost, current = True, np.zeros(2)
         shifts.append(Shift(float(seconds[a]), 0.0, 0.0))
         epoch.events.append((a, "base", False))
     else:
-        current = request(a, rel[a, 0], None)
+        current, _ = request(a, rel[a, 0], None)
         shifts.append(Shift(float(seconds[a]), *current))
         epoch.events.append((a, "target", False))
         lost = False
     last = seconds[a]
     cursor = a + 1
     frames = np.arange(len(seconds))
+
+    def add(j: int, new: np.ndarray, timing=None, disp=None) -> None:
+        """A body shift at frame j, never faster per segment than the pace allows from where the
+        body is then (a shift in progress included)."""
+        if disp is None:
+            disp = sp.schedule(gaze_map, shifts, seconds).displacement
+        change = timing if timing is not None else tuple(new - current)
+        shifts.append(Shift(float(seconds[j]), *new, timing_change=timing,
+                            min_duration_s=_min_duration(gaze_map, disp[j], new, change, opts.body_pace_deg_s)))
     while cursor < end:
         window = (frames >= cursor) & (frames < end)
         if not lost:
             near = rot.unwrap_near(rel[:, 0], current[0])
-            head = _head_change(gaze_map, shifts, seconds, float(current[0]))
+            head, plan = _head_change(gaze_map, shifts, seconds, float(current[0]))
+            disp = plan.displacement
+            # Let a shift get well under way before the next one takes over from it.
+            wait = max(opts.replan_interval_s, 0.5 * plan.timing[-1]["duration"]) if plan.timing else 0.0
             need_yaw = near - head[:, 0]
             need_pitch = rel[:, 1] - head[:, 1]
             f = opts.replan_fraction
             trig = (np.abs(need_yaw) > f * limits.yaw) | (need_pitch > f * limits.up) | (need_pitch < -f * limits.down)
             trig = _soon(trig, seconds, opts.anticipation_s)
             out = np.flatnonzero(window & (np.abs(near) > sight_limit))
-            go = np.flatnonzero(window & trig & (seconds >= last + opts.replan_interval_s))
+            go = np.flatnonzero(window & trig & (seconds >= last + wait))
             j_out = out[0] if len(out) else end
             j_go = go[0] if len(go) else end
             if j_out >= end and j_go >= end:
                 return
             if j_out <= j_go:  # behind the character: let go, look ahead
+                add(int(j_out), np.zeros(2), disp=disp)
                 lost, current, last = True, np.zeros(2), seconds[j_out]
-                shifts.append(Shift(float(last), 0.0, 0.0))
                 epoch.events.append((int(j_out), "base", False))
                 cursor = j_out + 1
                 continue
-            new = request(j_go, near[j_go], current)
+            new, timing = request(j_go, near[j_go], current)
             if np.abs(new - current).max() < 5.0:  # e.g. already at the edge of reach
                 cursor = int(np.searchsorted(seconds, seconds[j_go] + opts.replan_interval_s))
                 continue
+            add(int(j_go), new, timing, disp)
             current, last = new, seconds[j_go]
-            shifts.append(Shift(float(last), *current))
             cursor = j_go + 1
         else:
             back = np.flatnonzero(window & (np.abs(rel[:, 0]) <= sight_limit - 10.0)
@@ -196,10 +220,55 @@ def _plan_look(gaze_map, shifts: list[Shift], epoch: _Epoch, end: int, rel: np.n
             if not len(back):
                 return
             j = int(back[0])
-            current, last, lost = request(j, rel[j, 0], None), seconds[j], False
-            shifts.append(Shift(float(last), *current))
+            new = request(j, rel[j, 0], None)[0]
+            add(j, new)
+            current, last, lost = new, seconds[j], False
             epoch.events.append((j, "target", False))
             cursor = j + 1
+
+
+def _head_of(gaze_map: ParametricGazeMap, request: np.ndarray) -> np.ndarray:
+    """Settled gaze change of the body alone (no eyes) for a map request, on the canonical chain."""
+    offsets = gaze_map.query(np.array([request[0]]), np.array([request[1]])).offsets.reshape(1, 5, 4)
+    return motion.achieved_gaze(_body_only(offsets), request[0])[0]
+
+
+def _min_duration(gaze_map: ParametricGazeMap, start: np.ndarray, b: np.ndarray, timing_change, pace: float) -> float:
+    """Shortest duration of a body shift from segment offsets ``start`` to request ``b`` that keeps every body
+    segment's own peak speed under ``pace`` deg/s: the map's split can change much more than the gaze
+    does, and its cascade gives late segments a short window."""
+    q = gaze_map.query(np.array([b[0]]), np.array([b[1]])).offsets.reshape(5, 4)
+    turn = np.degrees(rot.angle(rot.relative(start[:4], q[:4])))
+    timing = np.asarray(gaze_map.query_full(timing_change[0], timing_change[1], correct=False).motions.timing, float)
+    starts, peak, beta = timing[motion.START_SLICE], timing[motion.PEAK], timing[motion.BETA]
+    window = np.where(starts < peak, peak - starts, 1.0 - starts)
+    scale = np.where(starts < peak, 1.0 + beta, 1.0)
+    # The quintic's peak slope is 1.875 times its mean.
+    return float(np.max(1.875 * turn * scale / (np.maximum(window, 0.05) * pace)))
+
+
+def _body_request(gaze_map: ParametricGazeMap, want: np.ndarray, reach: np.ndarray, limits: sp.EyeRange,
+                  comfort: float) -> np.ndarray:
+    """The map request toward line-of-sight change ``want``: the map's own head-eye split, unless that
+    leaves the eyes beyond ``comfort`` of their range; then enough more body to bring them back."""
+    natural = np.clip(want, -reach, reach)
+    head = _head_of(gaze_map, natural)
+    eyes = want - head
+    lo = np.array([-limits.yaw, -limits.down]) * comfort
+    hi = np.array([limits.yaw, limits.up]) * comfort
+    if np.all((eyes >= lo) & (eyes <= hi)):
+        return natural
+    out = (eyes < lo) | (eyes > hi)
+    goal = want - np.clip(eyes, lo, hi)
+    best, best_miss = natural, np.abs(goal - head)[out].max()
+    request = natural
+    for _ in range(4):  # fixed point on the canonical chain: the head change is near-linear in the request
+        request = np.where(out, np.clip(request + goal - head, -reach, reach), natural)
+        head = _head_of(gaze_map, request)
+        miss = np.abs(goal - head)[out].max()
+        if miss < best_miss:
+            best, best_miss = request, miss
+    return best
 
 
 def _soon(flags: np.ndarray, seconds: np.ndarray, within_s: float) -> np.ndarray:
@@ -223,7 +292,7 @@ def _weights(directives: list[Directive], seconds: np.ndarray) -> np.ndarray:
 
 
 def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[int, np.ndarray],
-          limits: sp.EyeRange, opts: LookOptions) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
+          base_ae: np.ndarray, limits: sp.EyeRange, opts: LookOptions) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
     """Body shifts, eye epochs and weight keys for the directives (sorted by time)."""
     shifts: list[Shift] = []
     epochs: list[_Epoch] = []
@@ -247,7 +316,7 @@ def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[
         if a >= len(seconds):
             continue
         if d.kind == "look":
-            _plan_look(gaze_map, shifts, epoch, end, rel[d.target], seconds, limits, opts)
+            _plan_look(gaze_map, shifts, epoch, end, rel[d.target], seconds, base_ae, limits, opts)
             continue
         yaw, pitch = (d.yaw, d.pitch) if d.kind == "shift" else (0.0, 0.0)
         shifts.append(Shift(float(t), yaw, pitch, cut=cut))
@@ -262,7 +331,8 @@ def _check(clip: SkelClip, directives: list[Directive], targets: list[np.ndarray
         raise UsdGazeError(f"eye timing '{opts.eye_timing}': expected one of {', '.join(EYE_TIMINGS)}")
     for a, b in zip(directives, directives[1:]):
         if a.time_s == b.time_s:
-            raise UsdGazeError(f"{clip.where()}: two directives at the same time {a.time_s:g} s")
+            what = "shifts" if a.kind == b.kind == "shift" else "directives"
+            raise UsdGazeError(f"{clip.where()}: two {what} at the same time {a.time_s:g} s")
     for d in directives:
         if d.kind not in KINDS:
             raise UsdGazeError(f"{clip.where()}: directive kind '{d.kind}': expected one of {', '.join(KINDS)}")
@@ -333,17 +403,17 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     seconds = clip.seconds
     base = sp.prepare(clip, chain, frame, options)
     rig, up = base.rig, base.up
-    eye_b = _points_to_world(clip, 0.5 * (base.pose.position[rig.eyes[0]] + base.pose.position[rig.eyes[1]]))
+    eye_b = to_world(clip, 0.5 * (base.pose.position[rig.eyes[0]] + base.pose.position[rig.eyes[1]]))
     _check_distance(clip, directives, targets, eye_b, target_names)
     rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up) for d in directives if d.kind == "look"}
 
-    shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, options.eye_range, look)
+    shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look)
     plan = sp.schedule(gaze_map, shifts, seconds)
     weight = _weights(keys, seconds)
     full = weight >= 1.0
     disp = np.where(full[:, None, None], plan.displacement, rot.power(plan.displacement, weight[:, None]))
     body = sp.move_body(base, chain, frame, disp)
-    eye_m = _points_to_world(clip, body.eye_centre(rig))
+    eye_m = to_world(clip, body.eye_centre(rig))
     fixation = options.fixation_m / clip.meters_per_unit
     scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight)
 
@@ -362,5 +432,31 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     inv = np.where(full, 1.0 / np.maximum(distance, 1e-12),
                    (1.0 - weight) / fixation + weight / np.maximum(distance, 1e-12))
     wanted_point = eye_m + direction / inv[:, None]
-    return sp.finish(clip, chain, frame, base, body, plan, _points_to_skel(clip, wanted_point), options,
-                     saccading=sight.saccading)
+    result = sp.finish(clip, chain, frame, base, body, plan, to_skel(clip, wanted_point), options,
+                       saccading=sight.saccading)
+    result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [])
+    return result
+
+
+def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[_Epoch], result: PassResult,
+              base_ae: np.ndarray, options: PassOptions, names: list[str]) -> list[str]:
+    """Shifts that miss their request once settled; targets that went out of reach."""
+    ends = [d.time_s for d in directives[1:]] + [np.inf]
+    shifts = [(Shift(d.time_s, d.yaw, d.pitch), end) for d, end in zip(directives, ends) if d.kind == "shift"]
+    plan = sp.Schedule(np.empty(0), result.requested, result.settled, [])
+    out = sp.reach_warnings(clip, [s for s, _ in shifts], plan, base_ae, result.achieved, result.eye_angles,
+                            options, ends=[e for _, e in shifts])
+    seconds = clip.seconds
+    for epoch in epochs:
+        d = epoch.directive
+        if d.kind != "look":
+            continue
+        name = names[d.target] if d.target < len(names) else f"target {d.target}"
+        lost = [seconds[f] for f, kind, _ in epoch.events if kind == "base"]
+        back = [seconds[f] for f, kind, _ in epoch.events[1:] if kind == "target"]
+        for t in lost:
+            again = next((b for b in back if b > t), None)
+            out.append(f"{clip.where()}: look at {name} from {d.time_s:g} s: the target is out of reach "
+                       f"(behind the character) at {t:g} s; the gaze returns to the base motion's"
+                       + (f" and takes the target up again at {again:g} s" if again is not None else ""))
+    return out

@@ -110,23 +110,21 @@ def _options(parts: list[str], flag: str, whole: str, allowed: tuple[str, ...]) 
     return out
 
 
-def parse_shift(text: str) -> DirectiveRequest:
+def parse_shift(text: str, label=None) -> DirectiveRequest:
     """``TIME:YAW:PITCH[:weight=W][:blend=B]``."""
-    parts = text.split(":")
-    expected = f"--shift '{text}': expected TIME:YAW:PITCH, e.g. 48:60:-10 or 2.5s:60:-10"
-    m = _TIME.match(parts[0])
-    if len(parts) < 3 or not m or not all(re.fullmatch(rf"\s*{_NUM}\s*", p) for p in parts[1:3]):
-        raise UsdGazeError(expected)
-    time, seconds = float(m.group(1)), m.group(2) == "s"
-    yaw, pitch = float(parts[1]), float(parts[2])
-    if not np.isfinite([time, yaw, pitch]).all():
-        raise UsdGazeError(f"--shift '{text}': values must be finite")
-    if abs(pitch) > 90.0:
-        raise UsdGazeError(f"--shift '{text}': pitch must lie in [-90, 90] deg")
-    if abs(yaw) > 360.0:
-        raise UsdGazeError(f"--shift '{text}': yaw must lie in [-360, 360] deg (more than a full turn is no gaze shift)")
-    return DirectiveRequest("shift", time, seconds, yaw, pitch,
-                            **_options(parts[3:], "--shift", text, ("weight", "blend")))
+    from usdgaze.values import ShiftRequest
+
+    if isinstance(text, str):
+        parts = text.split(":")
+        head, options = ":".join(parts[:3]), parts[3:]
+    else:
+        head, options = text, []
+    where = label("shift", repr(text)) if label else f"--shift '{text}'"
+    if any("=" not in part for part in options):  # a fourth field that is no option
+        head = text
+    shift = ShiftRequest.parse(head, lambda key, value: where)
+    return DirectiveRequest("shift", shift.time, shift.seconds, shift.yaw, shift.pitch,
+                            **_options(options, "--shift", text, ("weight", "blend")))
 
 
 def parse_look(text: str) -> DirectiveRequest:
@@ -154,3 +152,24 @@ def parse_release(text: str) -> DirectiveRequest:
     parts = text.split(":")
     time, seconds = _time(parts[0], "--release", text)
     return DirectiveRequest("release", time, seconds, **_options(parts[1:], "--release", text, ("blend",)))
+
+
+def check_directives(shifts, look_at, release, look, label=None) -> list[DirectiveRequest]:
+    """Parse the three kinds of directive flags (texts or parsed requests), in that order; the eye
+    timing must be one the look pass knows. An empty result means: use the SkelRoots' schedules."""
+    from usdgaze.passes.look import EYE_TIMINGS
+    from usdgaze.values import ShiftRequest
+
+    for key, values in (("shifts", shifts), ("look_at", look_at), ("release", release)):
+        if isinstance(values, (str, bytes)) or not isinstance(values, (list, tuple)):
+            raise UsdGazeError(f"{key}: expected a list of directive strings, got {values!r}")
+    if look.eye_timing not in EYE_TIMINGS:
+        raise UsdGazeError(f"--eye-timing {look.eye_timing}: expected one of {', '.join(EYE_TIMINGS)}")
+    out: list[DirectiveRequest] = []
+    for s in shifts:
+        if isinstance(s, ShiftRequest):
+            s = DirectiveRequest("shift", s.time, s.seconds, s.yaw, s.pitch)
+        out.append(s if isinstance(s, DirectiveRequest) else parse_shift(s, label))
+    out += [r if isinstance(r, DirectiveRequest) else parse_look(r) for r in look_at]
+    out += [r if isinstance(r, DirectiveRequest) else parse_release(r) for r in release]
+    return out

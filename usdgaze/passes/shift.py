@@ -50,6 +50,11 @@ class Shift:
     pitch: float
     cut: bool = False
     """Reach the request at once (used where the change is invisible, e.g. at zero gaze weight)."""
+    timing_change: tuple[float, float] | None = None
+    """Gaze change whose timing the shift takes (default: the change of request). A shift that holds
+    a target while the base motion swings moves the head little in the world, whatever its request."""
+    min_duration_s: float = 0.0
+    """Lower bound on the shift's duration (keeps the displacement's own speed bounded)."""
 
 
 @dataclass(frozen=True)
@@ -192,12 +197,12 @@ def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarr
             start_delta = previous.evaluate(np.array([t0]))[1][0]
         else:
             start_delta = previous.request
-        change = request - start_delta
+        change = request - start_delta if shifts[k].timing_change is None else np.asarray(shifts[k].timing_change)
         # Timing only: the uncorrected blend is enough, and much cheaper.
         timing = gaze_map.query_full(change[0], change[1], correct=False).motions.timing
-        if shifts[k].cut:
+        if shifts[k].cut or timing[motion.DURATION] < shifts[k].min_duration_s:
             timing = np.array(timing, dtype=float)
-            timing[motion.DURATION] = 0.0
+            timing[motion.DURATION] = 0.0 if shifts[k].cut else shifts[k].min_duration_s
         segment = _Segment(float(t0), request, target, motion.GazeMotions(target, timing), previous, bool(inherit))
         rows = np.flatnonzero((seconds >= t0) & (seconds < t1))
         if len(rows):
@@ -399,14 +404,16 @@ def _aim_eyes(rig: _Rig, frame: CharacterFrame, moved: Pose, sight_point: np.nda
     return out
 
 
-def _reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae: np.ndarray,
-                    achieved: np.ndarray, eye_angles: np.ndarray, options: PassOptions) -> list[str]:
-    """One line per shift whose hold misses the request by more than the tolerance, saying why."""
+def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae: np.ndarray,
+                    achieved: np.ndarray, eye_angles: np.ndarray, options: PassOptions,
+                    ends: list[float] | None = None) -> list[str]:
+    """One line per shift whose hold (until the next shift, or ``ends[k]``) misses the request by
+    more than the tolerance, saying why."""
     limits = options.eye_range
     seconds = clip.seconds
     warnings = []
     for k, sh in enumerate(shifts):
-        end = shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
+        end = ends[k] if ends is not None else shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
         hold = plan.settled & (seconds >= sh.time_s) & (seconds < end)
         if not np.any(hold) or np.abs(achieved[hold] - plan.requested[hold]).max() <= options.tolerance_deg:
             continue
@@ -551,7 +558,7 @@ def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     distance = np.broadcast_to(options.fixation_m / clip.meters_per_unit / world_scale, (len(seconds),))
     result = finish(clip, chain, frame, base, body, plan, centre + distance[:, None] * wanted_s, options,
                     requested=plan.requested)
-    result.warnings = _reach_warnings(clip, shifts, plan, base_ae, result.achieved, result.eye_angles, options)
+    result.warnings = reach_warnings(clip, shifts, plan, base_ae, result.achieved, result.eye_angles, options)
     return result
 
 

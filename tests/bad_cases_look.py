@@ -1,0 +1,82 @@
+"""Catalogue builders: look-at targets, directive syntax and range, GazeScheduleAPI schedules."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pxr import Sdf, Vt
+
+from . import measure
+from .bad_common import apply_argv, edited, rig
+
+
+def _with_prims(d: Path, **kw) -> Path:
+    """The rig plus look-at targets: an animated Xform /World/Ball and a typeless /World/Note."""
+    def add(layer, rig):
+        ball = Sdf.CreatePrimInLayer(layer, "/World/Ball")
+        ball.specifier, ball.typeName = Sdf.SpecifierDef, "Xform"
+        Sdf.CreatePrimInLayer(layer, "/World").specifier = Sdf.SpecifierDef
+        note = Sdf.CreatePrimInLayer(layer, "/World/Note")
+        note.specifier = Sdf.SpecifierDef
+    return edited(d, add, **kw)
+
+
+def _with_schedule(d: Path, **arrays) -> Path:
+    """The rig with GazeScheduleAPI on its SkelRoot and the given gaze:schedule:* arrays."""
+    types = {"time": Sdf.ValueTypeNames.DoubleArray, "kind": Sdf.ValueTypeNames.TokenArray,
+             "target": Sdf.ValueTypeNames.IntArray, "weight": Sdf.ValueTypeNames.FloatArray}
+
+    def schedule(layer, rig):
+        prim = layer.GetPrimAtPath(rig.skel_root)
+        op = Sdf.TokenListOp()
+        op.prependedItems = ["GazeScheduleAPI"]
+        prim.SetInfo("apiSchemas", op)
+        for name, value in arrays.items():
+            attr = Sdf.AttributeSpec(prim, f"gaze:schedule:{name}", types[name], Sdf.VariabilityUniform)
+            attr.default = value
+    return edited(d, schedule)
+
+
+def b_look_at_missing_prim(d):
+    return apply_argv(d, rig(d).path, shifts=["--look-at", "/World/Door@10"])
+
+
+def b_look_at_not_xformable(d):
+    return apply_argv(d, _with_prims(d), shifts=["--look-at", "/World/Note@10"])
+
+
+def b_look_at_malformed(d):
+    return apply_argv(d, rig(d).path, shifts=["--look-at", "/World/Door"])
+
+
+def b_look_at_weight_out_of_range(d):
+    return apply_argv(d, rig(d).path, shifts=["--look-at", "0,1.6,3@10:weight=1.5"])
+
+
+def b_look_at_the_eyes(d):
+    r = rig(d)
+    p = measure.posed(str(r.path), r.skeleton)
+    left, right = r.eye_leaves
+    eyes = 0.5 * (p.position(left)[0] + p.position(right)[0])
+    return apply_argv(d, r.path, shifts=["--look-at", ",".join(repr(float(v)) for v in eyes) + "@0"])
+
+
+def b_directive_outside_animation(d):
+    return apply_argv(d, rig(d).path, shifts=["--look-at", "0,1.6,3@99s"])
+
+
+def b_release_bad_option(d):
+    return apply_argv(d, rig(d).path, shifts=["--release", "10:weight=0"])
+
+
+def b_schedule_unequal_arrays(d):
+    return apply_argv(d, _with_schedule(d, time=Vt.DoubleArray([10.0]), kind=Vt.TokenArray(["look", "shift"])), shifts=[])
+
+
+def b_schedule_bad_kind(d):
+    return apply_argv(d, _with_schedule(d, time=Vt.DoubleArray([10.0]), kind=Vt.TokenArray(["stare"])), shifts=[])
+
+
+def b_schedule_target_index(d):
+    return apply_argv(d, _with_schedule(d, time=Vt.DoubleArray([10.0]), kind=Vt.TokenArray(["look"]),
+                                    target=Vt.IntArray([3])), shifts=[])

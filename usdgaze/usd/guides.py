@@ -1,0 +1,62 @@
+"""Review guides in the override layer: each eye's line of sight and the point of sight, per frame.
+
+Under each Skeleton the layer defines ``gazeGuides`` (a Scope) holding one guide-purpose
+BasisCurves per eye (a two-point line from the eye to the point of sight, time-sampled, in the
+Skeleton's space, so it follows the character's transform) and a time-sampled
+``gaze:pointOfSight`` (point3d, world space, stage units) on the Scope. Guide purpose keeps them
+out of renders; usdview shows them with "Display Guide" on. Authored at the Sdf level; call it
+inside the writer's ``Sdf.ChangeBlock``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Sdf, Vt
+
+SCOPE = "gazeGuides"
+POINT_OF_SIGHT = "gaze:pointOfSight"
+EYE_CURVES = ("leftEyeSight", "rightEyeSight")
+_T = Sdf.ValueTypeNames
+
+
+def _attr(prim: Sdf.PrimSpec, name: str, type_name, uniform: bool = False) -> Sdf.AttributeSpec:
+    return Sdf.AttributeSpec(prim, name, type_name, Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying)
+
+
+def _define(layer: Sdf.Layer, path: Sdf.Path, type_name: str) -> Sdf.PrimSpec:
+    prim = Sdf.CreatePrimInLayer(layer, path)
+    prim.specifier = Sdf.SpecifierDef
+    prim.typeName = type_name
+    return prim
+
+
+def guide_path(skeleton: str) -> Sdf.Path:
+    return Sdf.Path(skeleton).AppendChild(SCOPE)
+
+
+def author_guides(layer: Sdf.Layer, skeleton: str, times: np.ndarray, eyes_skel: np.ndarray,
+                  sight_skel: np.ndarray, sight_world: np.ndarray, width: float) -> None:
+    """Author the guides for one skeleton: ``eyes_skel (2, F, 3)`` and ``sight_skel (F, 3)`` in
+    skeleton space, ``sight_world (F, 3)`` in world space, lines ``width`` stage units wide."""
+    scope = _define(layer, guide_path(skeleton), "Scope")
+    pos_attr = _attr(scope, POINT_OF_SIGHT, _T.Point3d)
+    pos_attr.SetInfo("documentation", "World point both eyes fixate, per frame (stage units); written by usdgaze for review.")
+    for name, eye in zip(EYE_CURVES, eyes_skel):
+        curve = _define(layer, scope.path.AppendChild(name), "BasisCurves")
+        _attr(curve, "purpose", _T.Token, uniform=True).default = "guide"
+        _attr(curve, "type", _T.Token, uniform=True).default = "linear"
+        _attr(curve, "curveVertexCounts", _T.IntArray).default = Vt.IntArray([2])
+        _attr(curve, "widths", _T.FloatArray).default = Vt.FloatArray([float(width)])
+        curve.attributes["widths"].SetInfo("interpolation", "constant")
+        _attr(curve, "primvars:displayColor", _T.Color3fArray).default = Vt.Vec3fArray(
+            [(0.1, 0.9, 0.2) if name == EYE_CURVES[0] else (0.9, 0.2, 0.1)])
+        curve.attributes["primvars:displayColor"].SetInfo("interpolation", "constant")
+        points = _attr(curve, "points", _T.Point3fArray)
+        extent = _attr(curve, "extent", _T.Float3Array)
+        lines = np.stack([eye, sight_skel], axis=1).astype(np.float32)  # (F, 2, 3)
+        lo, hi = lines.min(axis=1), lines.max(axis=1)
+        for k, t in enumerate(times):
+            layer.SetTimeSample(points.path, float(t), Vt.Vec3fArray.FromNumpy(lines[k]))
+            layer.SetTimeSample(extent.path, float(t), Vt.Vec3fArray.FromNumpy(np.stack([lo[k], hi[k]])))
+    for k, t in enumerate(times):
+        layer.SetTimeSample(pos_attr.path, float(t), tuple(float(v) for v in sight_world[k]))
