@@ -149,3 +149,18 @@ def test_input_untouched_and_muting_restores(one_ball):
     layer = g.stage.GetRootLayer()
     muted = measure.posed(layer.realPath, "/root/Body/BodySkel", mute=[str(out)])
     assert np.array_equal(muted.world, plain.world)
+
+
+def test_realize_map_looks_at_the_planners_fixations_through_the_gaze_map(tmp_path, one_ball):
+    """--realize map: the fixations become look directives; the map's cascade moves the whole chain."""
+    _, direct, ball = one_ball["0.2"]
+    out, g = _run(tmp_path, ATTEND / "ball_throw.usda", "--realize", "map", name="map.usdc")
+    f = _flight(g, 1.2)
+    on_map = angle_to(g, ball)[f] < FIX_DEG
+    on_direct = angle_to(direct, ball)[_flight(direct, 1.2)] < FIX_DEG
+    assert on_map.mean() > 0.6 and on_direct.mean() > 0.8
+    plain = measure.posed(str(ATTEND / "ball_throw.usda"), "/root/Body/BodySkel")
+    moved = measure.posed(str(g.stage.GetRootLayer().realPath), "/root/Body/BodySkel")
+    head = plain.index("Head")
+    turn = measure.rotation_angle_deg(moved.world[:, head, :3, :3], plain.world[:, head, :3, :3])
+    assert turn.max() > 5.0  # the head took part
