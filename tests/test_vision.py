@@ -124,3 +124,23 @@ def test_at_most_four_objects_in_the_optimization_the_nearest_in_view_all_update
         nearest = set(cand[np.argsort(d[cand])][:4])
         assert set(np.flatnonzero(res.optimized[k])) == nearest
     assert known[-1].all()  # the two left out keep being observed and updated
+
+
+def test_sight_needs_only_the_body_part_protocol():
+    """A body offering just head_pose / head_pose_jacobian (the BodyPart minimum) gives the same sight."""
+    stack, sight, x, _ = _problem([2.0, 0.3, 1.6], [1.5, -0.5, 1.5])
+    body = sight.body
+
+    class Minimal:
+        def head_pose(self, x, k):
+            return body.head_pose(x, k)
+
+        def head_pose_jacobian(self, x, k):
+            return body.head_pose_jacobian(x, k)
+
+    minimal = eyemod.Sight(sight.eye, Minimal())
+    minimal.body.xs = body.xs
+    X = np.stack([x, x * 0.9])
+    for a, b in zip(sight.jacobian(X, 1), minimal.jacobian(X, 1)):
+        assert np.allclose(a, b)
+    assert np.allclose(sight.points(X, 1)[0], minimal.points(X, 1)[0])

@@ -155,8 +155,9 @@ def _look_at_controls(stack, X: np.ndarray, U: np.ndarray, k0: int, target: np.n
     Each step moves the eye straight toward the target's eye angles as fast as the speed bound of
     that instant allows; the focal length follows the target's distance.
     """
-    eye, body = stack["eye"], stack["body"]
-    p, R = body.head_pose_batch(X, k0)
+    eye = stack["eye"]
+    sight = next(p.sight for p in stack.parts if hasattr(p, "sight"))
+    p, R = sight._poses(X, k0)
     local = np.einsum("nji,nj->ni", R, target - p)
     want = np.column_stack([eyemod.angles_for(local), eyemod.zeta_for(np.linalg.norm(local, axis=1))])
     want = np.clip(want, eyemod.LO, eyemod.HI)
