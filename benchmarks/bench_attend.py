@@ -7,7 +7,7 @@ to one thread. Prints planner steps per CPU second and what that is in output fr
 (Eom et al. 2019: full-body physics, 6-core 3.5 GHz i7) and the goal of >= 30 frames/s with 4 objects.
 Also prints the same steps per wall second (other jobs on the machine inflate the wall time).
 
-    python benchmarks/bench_attend.py [--seconds 2.0] [--window 0.8] [--runs 3]
+    python benchmarks/bench_attend.py [--seconds 2.0] [--window 0.8] [--runs 3] [--iterations 3]
 """
 
 from __future__ import annotations
@@ -49,13 +49,13 @@ def scene(n: int, h: float, K: int) -> list[Thing]:
     return out
 
 
-def measure(n: int, seconds: float, window: float, runs: int) -> tuple[float, float, int]:
+def measure(n: int, seconds: float, window: float, runs: int, iterations: int = 3) -> tuple[float, float, int]:
     h = 0.025
     K = int(seconds / h)
     best_cpu = best_wall = np.inf
     for _ in range(runs):
         c0, w0 = time.process_time(), time.perf_counter()
-        run(standing(K), scene(n, h, K), LoopOptions(h=h, window_s=window), K)
+        run(standing(K), scene(n, h, K), LoopOptions(h=h, window_s=window, iterations=iterations), K)
         best_cpu = min(best_cpu, time.process_time() - c0)
         best_wall = min(best_wall, time.perf_counter() - w0)
     return K / best_cpu, K / best_wall, K
@@ -66,13 +66,14 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=2.0)
     ap.add_argument("--window", type=float, default=0.8)
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--iterations", type=int, default=3, help="DDP iterations per planner step (default as attend)")
     args = ap.parse_args()
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):
         print(f"planner window {args.window} s, h 0.025 s, {args.seconds} s of animation, best of {args.runs}")
         for n in (1, 4):
-            cpu, wall, K = measure(n, args.seconds, args.window, args.runs)
+            cpu, wall, K = measure(n, args.seconds, args.window, args.runs, args.iterations)
             f24, f30 = cpu * 0.025 * 24, cpu * 0.025 * 30
             print(f"{n} object(s): {cpu:6.1f} steps/CPU-s ({wall:5.1f} per wall s) = {f24:5.1f} frames/s at 24 fps, "
                   f"{f30:5.1f} at 30 fps; paper 1-6 frames/s -> {f24 / 6:4.1f}-{f24 / 1:5.1f}x"

@@ -35,13 +35,23 @@ def two_balls(tmp_path_factory):
     return runs
 
 
+INPUTS = [ATTEND / "ball_throw.usda", ATTEND / "standing.usdc", ATTEND.parent / "cmu" / "cmu_131_01.usdc"]
+
+
+def _fingerprints():
+    return [(measure.sha256(p), p.stat().st_mode) for p in INPUTS]
+
+
 @pytest.fixture(scope="module")
 def one_ball(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("one")
-    runs = {}
+    before = _fingerprints()
+    runs = {"before": before}
     for alpha in ("0", "0.2", "0.4"):
         out, g = _run(tmp, ATTEND / "ball_throw.usda", "--alpha", alpha, name=f"a{alpha}.usdc")
         runs[alpha] = (out, g, positions(g.stage, "/Objects/Ball", g.times))
+    before = runs.pop("before")
+    runs["inputs_unchanged"] = before == _fingerprints()
     return runs
 
 
@@ -82,7 +92,8 @@ def test_sequential_tracks_one_ball_then_the_other(two_balls):
 
 def test_alpha_zero_glances_once_alpha_positive_tracks(one_ball):
     share = {}
-    for alpha, (_, g, ball) in one_ball.items():
+    for alpha in ("0", "0.2", "0.4"):
+        _, g, ball = one_ball[alpha]
         f = _flight(g, 1.3)
         on = angle_to(g, ball)[f] < FIX_DEG
         share[alpha] = on.mean()
@@ -128,7 +139,7 @@ def test_uncertainty_grows_while_not_looked_at(two_balls):
 
 
 def test_eye_range_and_speed_limits(one_ball, two_balls):
-    for g in [r[1] for r in one_ball.values()] + [r[0] for r in two_balls.values()]:
+    for g in [one_ball[a][1] for a in ("0", "0.2", "0.4")] + [r[0] for r in two_balls.values()]:
         assert np.abs(g.yaw).max() <= 44.2 + 0.5
         assert -47.1 - 0.5 <= g.pitch.min() and g.pitch.max() <= 27.7 + 0.5
         # eye-in-head angular speed between frames
@@ -143,9 +154,25 @@ def test_eye_range_and_speed_limits(one_ball, two_balls):
 
 
 def test_input_untouched_and_muting_restores(one_ball):
+    assert one_ball["inputs_unchanged"]  # bytes and modes of every input file, before and after three runs
     out, g, _ = one_ball["0.2"]
     plain = measure.posed(str(ATTEND / "ball_throw.usda"), "/root/Body/BodySkel")
     assert plain.world.shape[1] == 31  # no eye joints in the input; the override adds two
     layer = g.stage.GetRootLayer()
     muted = measure.posed(layer.realPath, "/root/Body/BodySkel", mute=[str(out)])
     assert np.array_equal(muted.world, plain.world)
+
+
+def test_realize_map_looks_at_the_planners_fixations_through_the_gaze_map(tmp_path, one_ball):
+    """--realize map: the fixations become look directives; the map's cascade moves the whole chain."""
+    _, direct, ball = one_ball["0.2"]
+    out, g = _run(tmp_path, ATTEND / "ball_throw.usda", "--realize", "map", name="map.usdc")
+    f = _flight(g, 1.2)
+    on_map = angle_to(g, ball)[f] < FIX_DEG
+    on_direct = angle_to(direct, ball)[_flight(direct, 1.2)] < FIX_DEG
+    assert on_map.mean() > 0.6 and on_direct.mean() > 0.8
+    plain = measure.posed(str(ATTEND / "ball_throw.usda"), "/root/Body/BodySkel")
+    moved = measure.posed(str(g.stage.GetRootLayer().realPath), "/root/Body/BodySkel")
+    head = plain.index("Head")
+    turn = measure.rotation_angle_deg(moved.world[:, head, :3, :3], plain.world[:, head, :3, :3])
+    assert turn.max() > 2.0  # the head took part (the ball comes from nearly straight ahead)

@@ -118,7 +118,7 @@ def test_same_seed_same_bytes_other_seed_differs(tmp_path):
     outs = []
     for i, seed in enumerate(("3", "3", "4")):
         out = tmp_path / f"s{i}.usda"
-        assert main(["attend", str(ATTEND / "ball_throw.usda"), "--out", str(out), "--window", "0.3",
+        assert main(["attend", str(ATTEND / "ball_throw.usda"), "--out", str(out), "--window", "0.1",
                      "--seed", seed]) == 0
         outs.append(out.read_bytes())
     assert outs[0] == outs[1] and outs[0] != outs[2]

@@ -362,6 +362,33 @@ def b_dump_map_bad_extension(d):
     return ["dump-map", str(d / "map.json")]
 
 
+def _attend(d: Path, src: Path, *extra: str) -> list[str]:
+    return ["attend", str(src), "--out", str(d / "gaze.usdc"), *extra]
+
+
+def _gaze_object(layer: Sdf.Layer, path: str, type_name: str) -> None:
+    spec = Sdf.CreatePrimInLayer(layer, path)
+    spec.specifier = Sdf.SpecifierDef
+    spec.typeName = type_name
+    spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+
+
+def b_attend_no_objects(d):
+    return _attend(d, _rig(d).path)
+
+
+def b_attend_object_without_transform(d):
+    return _attend(d, _edited(d, lambda layer, rig: _gaze_object(layer, "/Marker", "Scope")))
+
+
+def b_attend_negative_alpha(d):
+    return _attend(d, _edited(d, lambda layer, rig: _gaze_object(layer, "/Ball", "Sphere")), "--alpha", "-0.1")
+
+
+def b_attend_window_too_short(d):
+    return _attend(d, _edited(d, lambda layer, rig: _gaze_object(layer, "/Ball", "Sphere")), "--window", "0.03")
+
+
 BUILDERS = {name[2:].replace("_", "-"): fn for module in (globals(), vars(bad_cases_files), vars(bad_cases_stage),
                                                            vars(bad_cases_values), vars(bad_cases_look))
             for name, fn in dict(module).items() if name.startswith("b_")}

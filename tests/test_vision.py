@@ -106,3 +106,41 @@ def test_every_planner_solve_decreases_its_cost_monotonically():
     res = run(base, balls, LoopOptions(h=H, window_s=0.3), K)
     assert all(np.all(np.diff(c) < 0) for c in res.solves)
     assert sum(len(c) > 1 for c in res.solves) >= K // 2  # most solves took at least one step
+
+
+def test_at_most_four_objects_in_the_optimization_the_nearest_in_view_all_updated():
+    K = 12
+    base = _base_chain(K, seed=0)
+    t = np.arange(K)[:, None] * H
+    eyes = base.eyes[0]
+    things = [Thing(f"o{i}", eyes + [2.0 + 0.7 * i, 0.3 * (-1) ** i, 0.0] + t * [-0.5, 0.0, 0.0], kind="moving")
+              for i in range(6)]
+    res = run(base, things, LoopOptions(h=H, window_s=0.2), K)
+    assert res.optimized.sum(1).max() == 4
+    known = ~np.isnan(res.sigma_p)
+    for k in range(K):
+        d = np.linalg.norm(res.estimate[k] - res.eyes[k], axis=1)
+        cand = np.flatnonzero(known[k] & res.visible[k])
+        nearest = set(cand[np.argsort(d[cand])][:4])
+        assert set(np.flatnonzero(res.optimized[k])) == nearest
+    assert known[-1].all()  # the two left out keep being observed and updated
+
+
+def test_sight_needs_only_the_body_part_protocol():
+    """A body offering just head_pose / head_pose_jacobian (the BodyPart minimum) gives the same sight."""
+    stack, sight, x, _ = _problem([2.0, 0.3, 1.6], [1.5, -0.5, 1.5])
+    body = sight.body
+
+    class Minimal:
+        def head_pose(self, x, k):
+            return body.head_pose(x, k)
+
+        def head_pose_jacobian(self, x, k):
+            return body.head_pose_jacobian(x, k)
+
+    minimal = eyemod.Sight(sight.eye, Minimal())
+    minimal.body.xs = body.xs
+    X = np.stack([x, x * 0.9])
+    for a, b in zip(sight.jacobian(X, 1), minimal.jacobian(X, 1)):
+        assert np.allclose(a, b)
+    assert np.allclose(sight.points(X, 1)[0], minimal.points(X, 1)[0])

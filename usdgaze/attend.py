@@ -27,6 +27,7 @@ class AttendSettings:
     eta: float = 0.3
     max_tracked: int = 4
     iterations: int = 3
+    realize: str = "direct"  # "direct": the planner's eyes and chain; "map": its fixations through the gaze map
 
     def check(self) -> None:
         if not np.isfinite(self.alpha) or self.alpha < 0:
@@ -37,6 +38,8 @@ class AttendSettings:
             raise UsdGazeError(f"planner step {self.h:g} s: expected 0.005-0.1 s (the paper uses 0.02-0.03)")
         if not np.isfinite(self.window_s) or self.window_s < 2 * self.h - 1e-9:
             raise UsdGazeError(f"--window {self.window_s:g} s: shorter than two planner steps (2 x {self.h:g} s)")
+        if self.realize not in ("direct", "map"):
+            raise UsdGazeError(f"--realize {self.realize}: expected direct or map")
         if self.window_s > 5.0:
             raise UsdGazeError(f"--window {self.window_s:g} s: longer than 5 s (the paper uses 0.6-1.2 s)")
 
@@ -107,12 +110,15 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         result = apply_attend(clip, chain, frame, things, settings.loop_options(), progress)
         steps += len(result.planner_times)
         frames += len(clip.times)
-        overrides.append(_override(clip, result, AnimOverride))
+        written = result
+        if settings.realize == "map":
+            written = _realize_map(stage, source, root, clip, chain, frame, prims, result, settings.h)
+        overrides.append(_override(clip, written, AnimOverride))
         inspections.append((clip.skel_root, clip.times, result, [o.path for o in objs]))
         report.results.append(result)
         report.characters.append({"skel_root": clip.skel_root, "animation": clip.animation, "frames": len(clip.times),
-                                  "added_joints": result.added_joints,
-                                  "changed_joints": [j.rsplit('/', 1)[-1] for j in result.changed_joints]})
+                                  "added_joints": written.added_joints,
+                                  "changed_joints": [j.rsplit('/', 1)[-1] for j in written.changed_joints]})
         report.objects = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]
         if info is None:
             info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time, clip.end_time,
@@ -126,7 +132,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         "mean_iterations": round(float(np.mean([len(c) - 1 for c in solves])), 2) if solves else 0,
         "cost_monotone": bool(all(np.all(np.diff(c) <= 0) for c in solves)),
         "window_s": settings.window_s, "h": settings.h, "alpha": settings.alpha, "cost": settings.cost,
-        "seed": settings.seed,
+        "seed": settings.seed, "realize": settings.realize,
     }
     info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",
                                "objects": [str(p.GetPath()) for p in prims], "alpha": settings.alpha,
@@ -136,6 +142,24 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         add_inspection(layer, character, times, result.sight_world, result.eye_pose, paths,
                        result.estimates_world, result.uncertainty)
     return report, layer
+
+
+def _realize_map(stage, source, root, clip, chain, frame, prims, result, h):
+    """The planner's fixations as look directives, realized by the look pass through the gaze map."""
+    from usdgaze.gaze.defaults import default_definition
+    from usdgaze.gaze.gazemap import ParametricGazeMap
+    from usdgaze.passes.look import Directive, apply_look
+    from usdgaze.usd import schema
+    from usdgaze.usd.objects import read_objects
+
+    definition = schema.read_map(root, source) if schema.has_map(root) else default_definition()
+    targets = [o.positions for o in read_objects(stage, source, prims, clip.times, 1.0)]  # stage units
+    directives = [Directive(t, "look", target=j) if j >= 0 else Directive(t, "release")
+                  for t, j in loop.fixations(result.loop, h)]
+    if not directives:
+        directives = [Directive(0.0, "release")]
+    return apply_look(clip, chain, frame, ParametricGazeMap(definition), directives, targets,
+                      target_names=[str(p.GetPath()) for p in prims])
 
 
 def _override(clip, result, AnimOverride):

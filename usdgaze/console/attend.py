@@ -18,14 +18,17 @@ import click
               help="Attention cost: the paper's uncertainty, the distance-sum baseline, or one object after another.")
 @click.option("--window", "window_s", default=0.8, show_default=True, type=float, help="Planner window, seconds.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Seed of the simulated observation noise.")
+@click.option("--realize", default="direct", show_default=True, type=click.Choice(["direct", "map"]),
+              help="direct: write the planner's eyes, neck and spine; map: turn its fixations into look-at "
+                   "directives realized through the gaze map (cascade, overshoot, saccades).")
 @click.option("--skel-root", default=None, help="SkelRoot prim path (default: the only one).")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
-def attend(input_path, out, objects, alpha, cost, window_s, seed, skel_root, as_json) -> None:
+def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, as_json) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     from usdgaze.attend import AttendSettings, attend as run
 
     paths = [p.strip() for p in objects.split(",") if p.strip()] if objects else None
-    settings = AttendSettings(alpha=alpha, cost=cost, window_s=window_s, seed=seed)
+    settings = AttendSettings(alpha=alpha, cost=cost, window_s=window_s, seed=seed, realize=realize)
     report = run(input_path, out, paths, settings, skel_root=skel_root)
     summary = {"output": report.output, "characters": report.characters, "objects": report.objects,
                "planner": report.planner, "warnings": report.warnings}

@@ -137,8 +137,20 @@ class Sight:
         self._cache = (k0, key) + out
         return out
 
+    def _poses(self, X: np.ndarray, k0: int):
+        if hasattr(self.body, "head_pose_batch"):
+            return self.body.head_pose_batch(X, k0)
+        poses = [self.body.head_pose(x, k0 + i) for i, x in enumerate(X)]  # the BodyPart protocol minimum
+        return np.stack([p for p, _ in poses]), np.stack([R for _, R in poses])
+
+    def _jacobians(self, X: np.ndarray, k0: int):
+        if hasattr(self.body, "head_jacobian_batch"):
+            return self.body.head_jacobian_batch(X, k0)
+        jac = [self.body.head_pose_jacobian(x, k0 + i) for i, x in enumerate(X)]
+        return np.stack([a for a, _ in jac]), np.stack([b for _, b in jac])
+
     def _points(self, X: np.ndarray, k0: int):
-        p, R = self.body.head_pose_batch(X, k0)
+        p, R = self._poses(X, k0)
         e = X[:, self.eye.xs]
         d, _ = distance(e[:, 2])
         dl, _, _ = direction_local(e)
@@ -154,8 +166,8 @@ class Sight:
 
     def jacobian(self, X: np.ndarray, k0: int):
         """(pps, p, R, dpps (N,3,NX), dp (N,3,NX), dR (N,3,3,NX))."""
-        p, R = self.body.head_pose_batch(X, k0)
-        dp, dR = self.body.head_jacobian_batch(X, k0)
+        p, R = self._poses(X, k0)
+        dp, dR = self._jacobians(X, k0)
         e = X[:, self.eye.xs]
         d, dd = distance(e[:, 2])
         dl, dl_th, dl_ps = direction_local(e)

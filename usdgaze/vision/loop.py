@@ -86,6 +86,7 @@ class LoopResult:
     sigma_p: np.ndarray  # (K, O), NaN while untracked
     visible: np.ndarray  # (K, O) bool: observed this step
     optimized: np.ndarray  # (K, O) bool: in the planner's slots this step
+    eyes: np.ndarray | None = None  # (K, 3) eye midpoint (m)
     solves: list[list[float]] = field(default_factory=list)  # cost per iteration, per step
 
 
@@ -154,8 +155,9 @@ def _look_at_controls(stack, X: np.ndarray, U: np.ndarray, k0: int, target: np.n
     Each step moves the eye straight toward the target's eye angles as fast as the speed bound of
     that instant allows; the focal length follows the target's distance.
     """
-    eye, body = stack["eye"], stack["body"]
-    p, R = body.head_pose_batch(X, k0)
+    eye = stack["eye"]
+    sight = next(p.sight for p in stack.parts if hasattr(p, "sight"))
+    p, R = sight._poses(X, k0)
     local = np.einsum("nji,nj->ni", R, target - p)
     want = np.column_stack([eyemod.angles_for(local), eyemod.zeta_for(np.linalg.norm(local, axis=1))])
     want = np.clip(want, eyemod.LO, eyemod.HI)
@@ -202,6 +204,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
     out = LoopResult(np.zeros((n_steps, 3)), np.zeros((n_steps, 4)), np.zeros((n_steps, 3)),
                      np.full((n_steps, n_obj, 3), np.nan), np.full((n_steps, n_obj), np.nan),
                      np.zeros((n_steps, n_obj), bool), np.zeros((n_steps, n_obj), bool))
+    out.eyes = np.zeros((n_steps, 3))
     done: set[int] = set()
     locked: list[int] = []
     last_slots: list[int] = []
@@ -211,6 +214,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         x_pose = np.concatenate([e, qb])
         pps, p_eyes, R = (a[0] for a in sight.points(x_pose[None], k))
         out.visible[k] = filters.sense(k, p_eyes, R[:, 0], pps)
+        out.eyes[k] = p_eyes
         for j in filters.mu:
             out.estimate[k, j] = filters.mu[j][:3]
             out.sigma_p[k, j] = filters.sig[j][0]
@@ -239,6 +243,32 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         if progress:
             progress(k)
     return out
+
+
+def fixations(res: LoopResult, h: float, within_deg: float = 5.0, min_s: float = 0.1) -> list[tuple[float, int]]:
+    """(time s, object index or -1) at each change of what the planner fixates.
+
+    An object is fixated when the line of sight passes within ``within_deg`` of its estimate; a
+    fixation shorter than ``min_s`` is not a change (a saccade passing over an object).
+    """
+    v = res.sight - res.eyes
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    w = res.estimate - res.eyes[:, None]
+    w /= np.linalg.norm(w, axis=2, keepdims=True)
+    ang = np.degrees(np.arccos(np.clip(np.einsum("ki,koi->ko", v, w), -1, 1)))
+    ang = np.where(np.isnan(ang), np.inf, ang)
+    best = np.argmin(ang, axis=1) if ang.shape[1] else np.zeros(len(v), int)
+    on = np.where(ang[np.arange(len(v)), best] <= within_deg, best, -1) if ang.shape[1] else best - 1
+    changes: list[tuple[float, int]] = []
+    k, n = 0, len(on)
+    while k < n:
+        j = k
+        while j < n and on[j] == on[k]:
+            j += 1
+        if (j - k) * h >= min_s and (not changes or changes[-1][1] != on[k]):
+            changes.append((k * h, int(on[k])))
+        k = j
+    return changes
 
 
 def _body_step(qb: np.ndarray, acc: np.ndarray, h: float, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
