@@ -37,14 +37,14 @@ def _mask(png: Path, colour: str, tol: int = 40) -> np.ndarray:
     return np.abs(rgb - _hex(colour)).sum(-1) <= tol
 
 
-def composed_root(layer: Path) -> Sdf.Layer:
-    """[layer, input] under a root with the input's timing (else USD rescales the samples)."""
+def composed_root(layer: Path | None, base: Path = CMU) -> Sdf.Layer:
+    """[layer, base] under a root with the input's timing (else USD rescales the samples)."""
     src = Sdf.Layer.FindOrOpen(str(CMU))
     root = Sdf.Layer.CreateAnonymous(".usda")
     root.timeCodesPerSecond, root.framesPerSecond = src.timeCodesPerSecond, src.framesPerSecond
     root.startTimeCode, root.endTimeCode = src.startTimeCode, src.endTimeCode
     root.pseudoRoot.SetInfo("upAxis", src.pseudoRoot.GetInfo("upAxis"))
-    root.subLayerPaths = [str(layer), str(CMU)]
+    root.subLayerPaths = [str(layer), str(base)] if layer is not None else [str(base)]
     return root
 
 
@@ -209,3 +209,87 @@ def test_target_error_panel_draws_each_target_at_its_error(tmp_path):
             y = int(round(height - y))
             assert mask[y - 2:y + 3, int(round(x))].any(), (name, when)
     plt.close(fig)
+
+
+def test_target_error_plot_of_a_scheduled_look_matches_usdskel(tmp_path):
+    from pxr import Gf, UsdGeom
+
+    from usdgaze.passes.requests import DirectiveRequest
+    from usdgaze.usd.schedule import write_schedule
+
+    shot = tmp_path / "shot.usda"
+    root = composed_root(None)
+    stage = Usd.Stage.Open(root)
+    UsdGeom.Xform.Define(stage, "/Ball").AddTranslateOp().Set(Gf.Vec3d(100.0, 150.0, 0.0))
+    write_schedule(stage.GetPrimAtPath("/root/Body"), [DirectiveRequest("look", 241.0, target="/Ball")])
+    root.Export(str(shot))
+    layer = tmp_path / "g.usdc"
+    api.apply(shot, ["2s:60:0"], layer)
+    assert main(["plot", str(shot), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    png = tmp_path / "p" / "Body_targets.png"
+    fig = plotting.figures(read_review(shot, layer))["Body_targets"]
+    fig.canvas.draw()
+    ax, height = fig.axes[0], fig.canvas.get_width_height()[1]
+
+    composed = composed_root(layer, shot)
+    composed.Export(str(tmp_path / "composed.usda"))
+    p = measure.posed(str(tmp_path / "composed.usda"), "/root/Body/BodySkel")
+    fwd = measure.character_forward_skel(p, "LeftHip", "RightHip")
+    sight = measure.sight_line(p, "LeftEye", "RightEye", measure.local_forward(p, "LeftEye", fwd),
+                               measure.local_forward(p, "RightEye", fwd))
+    origin = 0.5 * (p.position("LeftEye") + p.position("RightEye"))
+    to_ball = np.array([100.0, 150.0, 0.0]) - origin
+    error = measure.angle_between(sight, to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
+    seconds = (p.times - p.times[0]) / Usd.Stage.Open(str(shot)).GetTimeCodesPerSecond()
+    mask = _mask(png, plotting.JOINT_COLOURS[0], 20)
+    for row in (300, 600, 900):
+        x, y = ax.transData.transform((seconds[row], error[row]))
+        x, y = int(round(x)), int(round(height - y))
+        assert mask[y - 2:y + 3, x].any(), (row, error[row])
+    x_before, _ = ax.transData.transform((1.0, 0.0))  # the look begins at 2 s: nothing drawn before
+    assert not mask[:, int(x_before)].any()
+
+
+def test_attention_plot_reads_an_attend_layer(run, tmp_path):
+    """The attend pass's inspection prims (format of usdgaze/usd/attendio.py on the attend branch),
+    authored here into a copy of a gaze layer: the plot shows the looked-at object's band."""
+    from pxr import Gf, UsdGeom
+
+    folder, layer = run
+    shot = tmp_path / "shot.usda"
+    root = composed_root(None)
+    stage = Usd.Stage.Open(root)
+    for name, x in (("Ball", 100.0), ("Cup", -100.0)):
+        UsdGeom.Xform.Define(stage, f"/Objects/{name}").AddTranslateOp().Set(Gf.Vec3d(x, 100.0, 0.0))
+    root.Export(str(shot))
+    attend = tmp_path / "attend.usda"
+    Sdf.Layer.FindOrOpen(str(layer)).Export(str(attend))
+    out = Sdf.Layer.FindOrOpen(str(attend))
+    times = np.arange(1.0, 997.0, 8.0)
+    with Sdf.ChangeBlock():
+        for path in ("/UsdGazeAttend", "/UsdGazeAttend/Body", "/UsdGazeAttend/Body/Ball", "/UsdGazeAttend/Body/Cup"):
+            spec = Sdf.CreatePrimInLayer(out, path)
+            spec.specifier, spec.typeName = Sdf.SpecifierDef, "Scope"
+        pos = Sdf.AttributeSpec(out.GetPrimAtPath("/UsdGazeAttend/Body"), "gaze:attend:pointOfSight",
+                                Sdf.ValueTypeNames.Point3f).path
+        for t in times:
+            out.SetTimeSample(pos, float(t), Gf.Vec3f(100.0 if t < 500 else -100.0, 100.0, 0.0))
+        for name in ("Ball", "Cup"):
+            child = out.GetPrimAtPath(f"/UsdGazeAttend/Body/{name}")
+            Sdf.AttributeSpec(child, "gaze:attend:object", Sdf.ValueTypeNames.String).default = f"/Objects/{name}"
+            unc = Sdf.AttributeSpec(child, "gaze:attend:uncertainty", Sdf.ValueTypeNames.Float).path
+            for t in times:
+                out.SetTimeSample(unc, float(t), float(t / 1000.0))
+    out.Save()
+    assert main(["plot", str(shot), "--layer", str(attend), "--out", str(tmp_path / "p")]) == 0
+    fig = plotting.figures(read_review(shot, attend))["Body_attention"]
+    fig.canvas.draw()
+    top, height = fig.axes[0], fig.canvas.get_width_height()[1]
+    png = tmp_path / "p" / "Body_attention.png"
+    tcps = 120.00479955795427
+    for row, colour in ((0, plotting.JOINT_COLOURS[0]), (1, plotting.JOINT_COLOURS[1])):  # Ball, then Cup
+        mask = _mask(png, colour, 20)
+        y = int(round(height - top.transData.transform((0, row))[1]))
+        for t_code, on in ((200.0, row == 0), (800.0, row == 1)):
+            x = int(round(top.transData.transform(((t_code - 1.0) / tcps, row))[0]))
+            assert mask[y - 1:y + 2, x].any() == on, (row, t_code)

@@ -199,6 +199,43 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
     return errors
 
 
+def gaze_schedule(prim: Usd.Prim, time_range=None) -> list:
+    """A GazeScheduleAPI: storage as its reader checks it, every target a prim of the stage one can
+    look at (Xformable or Boundable), every directive inside the stage's time range."""
+    from pxr import UsdGeom
+
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.usd import schedule as sch
+
+    try:
+        directives = sch.read_schedule(prim, "")
+    except UsdGazeError as exc:  # the reader's one-line verdict, sited on the attribute it names
+        text = str(exc)
+        prefix = f":{prim.GetPath()}"
+        text = text[len(prefix):] if text.startswith(prefix) else text
+        attr = text[1:].split(":", 3) if text.startswith(".") else None
+        name = ":".join(attr[:3]) if attr and len(attr) > 3 else None
+        path = prim.GetPath().AppendProperty(name) if name and prim.HasProperty(name) else prim.GetPath()
+        return [_error(prim, path, "Malformed", text.lstrip(".: ") if name is None else text[1:])]
+    errors = []
+    stage = prim.GetStage()
+    rel = prim.GetRelationship(sch.TARGETS_REL)
+    for target in (rel.GetForwardedTargets() if rel else []):
+        t = stage.GetPrimAtPath(target)
+        if not t or not (t.IsA(UsdGeom.Xformable) or t.IsA(UsdGeom.Boundable)):
+            errors.append(_error(prim, rel.GetPath(), "MissingTarget",
+                                 f"{sch.TARGETS_REL}: {target} is {'not an Xformable or Boundable prim' if t else 'no prim'} "
+                                 "on this stage"))
+    if stage.HasAuthoredTimeCodeRange():
+        start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+        late = [d.time for d in directives if not start <= d.time <= end]
+        if late:
+            errors.append(_error(prim, prim.GetPath().AppendProperty(sch.TIME), "OutOfRange",
+                                 f"{sch.TIME}: {', '.join(f'{t:g}' for t in late[:3])} outside the stage's time range "
+                                 f"[{start:g}, {end:g}]"))
+    return errors
+
+
 def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
     """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
     range, and every character it names is a SkelRoot on the stage."""
@@ -245,6 +282,7 @@ TASKS = {
     "GazeMapUnitQuaternions": gaze_map_unit_quaternions,
     "GazeMapRoleJoints": gaze_map_role_joints,
     "AnimationArrays": animation_arrays,
+    "GazeSchedule": gaze_schedule,
 }
 
 
