@@ -250,46 +250,43 @@ def test_target_error_plot_of_a_scheduled_look_matches_usdskel(tmp_path):
     assert not mask[:, int(x_before)].any()
 
 
-def test_attention_plot_reads_an_attend_layer(run, tmp_path):
-    """The attend pass's inspection prims (format of usdgaze/usd/attendio.py on the attend branch),
-    authored here into a copy of a gaze layer: the plot shows the looked-at object's band."""
-    from pxr import Gf, UsdGeom
+def test_attention_plot_of_a_real_attend_run(tmp_path):
+    """``usdgaze attend`` on the shipped two-ball stage, then ``plot``: the band shows the object
+    nearest the point of sight, as the layer's own samples and USD's transforms say."""
+    from pxr import UsdGeom
 
-    folder, layer = run
-    shot = tmp_path / "shot.usda"
-    root = composed_root(None)
-    stage = Usd.Stage.Open(root)
-    for name, x in (("Ball", 100.0), ("Cup", -100.0)):
-        UsdGeom.Xform.Define(stage, f"/Objects/{name}").AddTranslateOp().Set(Gf.Vec3d(x, 100.0, 0.0))
-    root.Export(str(shot))
-    attend = tmp_path / "attend.usda"
-    Sdf.Layer.FindOrOpen(str(layer)).Export(str(attend))
-    out = Sdf.Layer.FindOrOpen(str(attend))
-    times = np.arange(1.0, 997.0, 8.0)
-    with Sdf.ChangeBlock():
-        for path in ("/UsdGazeAttend", "/UsdGazeAttend/Body", "/UsdGazeAttend/Body/Ball", "/UsdGazeAttend/Body/Cup"):
-            spec = Sdf.CreatePrimInLayer(out, path)
-            spec.specifier, spec.typeName = Sdf.SpecifierDef, "Scope"
-        pos = Sdf.AttributeSpec(out.GetPrimAtPath("/UsdGazeAttend/Body"), "gaze:attend:pointOfSight",
-                                Sdf.ValueTypeNames.Point3f).path
-        for t in times:
-            out.SetTimeSample(pos, float(t), Gf.Vec3f(100.0 if t < 500 else -100.0, 100.0, 0.0))
-        for name in ("Ball", "Cup"):
-            child = out.GetPrimAtPath(f"/UsdGazeAttend/Body/{name}")
-            Sdf.AttributeSpec(child, "gaze:attend:object", Sdf.ValueTypeNames.String).default = f"/Objects/{name}"
-            unc = Sdf.AttributeSpec(child, "gaze:attend:uncertainty", Sdf.ValueTypeNames.Float).path
-            for t in times:
-                out.SetTimeSample(unc, float(t), float(t / 1000.0))
-    out.Save()
-    assert main(["plot", str(shot), "--layer", str(attend), "--out", str(tmp_path / "p")]) == 0
-    fig = plotting.figures(read_review(shot, attend))["Body_attention"]
+    stage_path = CMU.parents[1] / "attend" / "two_balls.usda"
+    layer = tmp_path / "attend.usdc"
+    assert main(["attend", str(stage_path), "--out", str(layer)]) == 0
+    assert main(["plot", str(stage_path), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    review = read_review(stage_path, layer)
+    name = plotting.names(review)[0]
+    png = tmp_path / "p" / f"{name}_attention.png"
+    fig = plotting.figures(review)[f"{name}_attention"]
     fig.canvas.draw()
     top, height = fig.axes[0], fig.canvas.get_width_height()[1]
-    png = tmp_path / "p" / "Body_attention.png"
-    tcps = 120.00479955795427
-    for row, colour in ((0, plotting.JOINT_COLOURS[0]), (1, plotting.JOINT_COLOURS[1])):  # Ball, then Cup
-        mask = _mask(png, colour, 20)
-        y = int(round(height - top.transData.transform((0, row))[1]))
-        for t_code, on in ((200.0, row == 0), (800.0, row == 1)):
-            x = int(round(top.transData.transform(((t_code - 1.0) / tcps, row))[0]))
-            assert mask[y - 1:y + 2, x].any() == on, (row, t_code)
+
+    stage = Usd.Stage.Open(str(stage_path))
+    out = Sdf.Layer.FindOrOpen(str(layer))
+    sight_path = next(p for p in [s.path for s in out.rootPrims["UsdGazeAttend"].nameChildren]).AppendProperty(
+        "gaze:attend:pointOfSight")
+    objects = sorted(str(p.GetPath()) for p in stage.Traverse() if p.HasAPI("GazeObjectAPI"))
+    assert len(objects) == 2
+    times = out.ListTimeSamplesForPath(sight_path)
+    tcps, start = stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode()
+    checked = 0
+    for t in times[5::10]:
+        point = np.array(out.QueryTimeSample(sight_path, t), dtype=float)
+        cache = UsdGeom.XformCache(Usd.TimeCode(t))
+        where = [np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(o)).ExtractTranslation()) for o in objects]
+        nearest = int(np.argmin([np.linalg.norm(point - w) for w in where]))
+        gap = abs(np.linalg.norm(point - where[0]) - np.linalg.norm(point - where[1]))
+        if gap < 0.05:  # about equally near: either band may be drawn at the switch
+            continue
+        x = int(round(top.transData.transform(((t - start) / tcps, 0))[0]))
+        for row in (0, 1):
+            y = int(round(height - top.transData.transform((0, row))[1]))
+            drawn = _mask(png, plotting.JOINT_COLOURS[row], 20)[y - 1:y + 2, x - 1:x + 2].any()
+            assert drawn == (row == nearest), (t, row, nearest)
+        checked += 1
+    assert checked >= 3

@@ -21,7 +21,8 @@ from usdgaze.usd.plugin import plugin_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = [ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc", ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc",
-           ROOT / "sample_stages" / "shared_map" / "crowd.usda", ROOT / "sample_stages" / "shared_map" / "gaze_map.usda"]
+           ROOT / "sample_stages" / "shared_map" / "crowd.usda", ROOT / "sample_stages" / "shared_map" / "gaze_map.usda",
+           *sorted((ROOT / "sample_stages" / "attend").glob("*.usd*"))]
 CROWD = SAMPLES[2]
 MAP_PRIM = "/CrowdA/Body"
 
@@ -197,3 +198,15 @@ def test_schedule_validator_catches_its_malformations(tmp_path, malform, error, 
     malform(prim)
     found = [(v, e, s) for v, e, s, _ in _ours(stage)]
     assert found == [("GazeSchedule", error, site)], _ours(stage)
+
+
+@pytest.mark.parametrize("attr, value, error", [
+    ("gaze:object:importance", 0.0, "Range"), ("gaze:object:radius", -1.0, "Range"),
+    ("gaze:object:kind", "bouncy", "UnknownKind")])
+def test_object_validator_catches_its_malformations(attr, value, error):
+    stage = Usd.Stage.Open(str(ROOT / "sample_stages" / "attend" / "two_balls.usda"))
+    assert _ours(stage) == []
+    stage.SetEditTarget(stage.GetSessionLayer())
+    prim = next(p for p in stage.Traverse() if p.HasAPI("GazeObjectAPI"))
+    prim.GetAttribute(attr).Set(value)
+    assert [(v, e, s) for v, e, s, _ in _ours(stage)] == [("GazeObject", error, f"{prim.GetPath()}.{attr}")]

@@ -201,11 +201,14 @@ def figures(review) -> dict[str, object]:
             fig, ax = plt.subplots(figsize=(10, 3.6))
             panel_target_error(ax, c.seconds, errors, f"{name}: look-at target error")
             out[f"{name}_targets"] = fig
+    # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body).
+    by_path = {c.skel_root.strip("/").replace("/", "_"): n for c, n in zip(review.characters, names(review))}
     for a in review.attention:
+        name = by_path.get(a.name, a.name)
         fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 5), sharex=True,
                                           gridspec_kw={"height_ratios": (1, 2)})
-        panel_attention(top, bottom, a.seconds, a.point_of_sight, a.objects, a.uncertainty, a.name)
-        out[f"{a.name}_attention"] = fig
+        panel_attention(top, bottom, a.seconds, a.point_of_sight, a.objects, a.uncertainty, name)
+        out[f"{name}_attention"] = fig
     for fig in out.values():
         fig.tight_layout()
     return out

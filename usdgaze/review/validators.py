@@ -236,6 +236,32 @@ def gaze_schedule(prim: Usd.Prim, time_range=None) -> list:
     return errors
 
 
+def gaze_object(prim: Usd.Prim, time_range=None) -> list:
+    """A GazeObjectAPI: on an Xformable, importance > 0 at every sample, radius >= 0, a known kind."""
+    from pxr import UsdGeom
+
+    errors = []
+    if not prim.IsA(UsdGeom.Xformable):
+        errors.append(_error(prim, prim.GetPath(), "NotXformable",
+                             f"GazeObjectAPI is applied to a {prim.GetTypeName() or 'typeless prim'}; "
+                             "it needs an Xformable (the object's world transform is its state)"))
+    attr = prim.GetAttribute("gaze:object:importance")
+    if attr:
+        values = [attr.Get(t) for t in attr.GetTimeSamples()] or [attr.Get()]
+        bad = [v for v in values if v is None or not np.isfinite(v) or v <= 0.0]
+        if bad:
+            errors.append(_error(prim, attr.GetPath(), "Range", f"gaze:object:importance: {bad[0]}, expected > 0"))
+    radius = prim.GetAttribute("gaze:object:radius")
+    if radius and radius.Get() is not None and not (np.isfinite(radius.Get()) and radius.Get() >= 0.0):
+        errors.append(_error(prim, radius.GetPath(), "Range", f"gaze:object:radius: {radius.Get()}, expected >= 0 m"))
+    kind = prim.GetAttribute("gaze:object:kind")
+    allowed = ("", "ballistic", "static", "moving")
+    if kind and kind.Get() is not None and str(kind.Get()) not in allowed:
+        errors.append(_error(prim, kind.GetPath(), "UnknownKind",
+                             f"gaze:object:kind: '{kind.Get()}', expected one of {', '.join(repr(a) for a in allowed)}"))
+    return errors
+
+
 def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
     """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
     range, and every character it names is a SkelRoot on the stage."""
@@ -283,6 +309,7 @@ TASKS = {
     "GazeMapRoleJoints": gaze_map_role_joints,
     "AnimationArrays": animation_arrays,
     "GazeSchedule": gaze_schedule,
+    "GazeObject": gaze_object,
 }
 
 
