@@ -44,10 +44,16 @@ VALIDATORS = {
                          "and GazeMapAPI sits on a SkelRoot.",
     "AnimationArrays": "A SkelAnimation's rotations, translations and scales hold one finite entry per joint at "
                        "every time sample, and its rotations are unit quaternions.",
+    "GazeSchedule": "A GazeScheduleAPI reads as a schedule (arrays one per directive, known kinds, times in order, "
+                    "weights and blends in range), each target is an Xformable or Boundable prim of the stage, "
+                    "and each directive lies in the stage's time range.",
+    "GazeObject": "A GazeObjectAPI sits on an Xformable, its importance is > 0 at every sample, its radius >= 0 "
+                  "and its kind one of the allowed tokens.",
     "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift parses and "
                          "starts inside the stage's time range, every character it names is a SkelRoot there.",
 }
-VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "GazeLayerSchedule": []}
+VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "GazeSchedule": ["UsdGazeGazeScheduleAPI"],
+                          "GazeObject": ["UsdGazeGazeObjectAPI"], "GazeLayerSchedule": []}
 USDVIEW_PLUGIN = "usdgaze.review.usdview_plugin"
 
 

@@ -37,14 +37,14 @@ def _mask(png: Path, colour: str, tol: int = 40) -> np.ndarray:
     return np.abs(rgb - _hex(colour)).sum(-1) <= tol
 
 
-def composed_root(layer: Path) -> Sdf.Layer:
-    """[layer, input] under a root with the input's timing (else USD rescales the samples)."""
+def composed_root(layer: Path | None, base: Path = CMU) -> Sdf.Layer:
+    """[layer, base] under a root with the input's timing (else USD rescales the samples)."""
     src = Sdf.Layer.FindOrOpen(str(CMU))
     root = Sdf.Layer.CreateAnonymous(".usda")
     root.timeCodesPerSecond, root.framesPerSecond = src.timeCodesPerSecond, src.framesPerSecond
     root.startTimeCode, root.endTimeCode = src.startTimeCode, src.endTimeCode
     root.pseudoRoot.SetInfo("upAxis", src.pseudoRoot.GetInfo("upAxis"))
-    root.subLayerPaths = [str(layer), str(CMU)]
+    root.subLayerPaths = [str(layer), str(base)] if layer is not None else [str(base)]
     return root
 
 
@@ -209,3 +209,84 @@ def test_target_error_panel_draws_each_target_at_its_error(tmp_path):
             y = int(round(height - y))
             assert mask[y - 2:y + 3, int(round(x))].any(), (name, when)
     plt.close(fig)
+
+
+def test_target_error_plot_of_a_scheduled_look_matches_usdskel(tmp_path):
+    from pxr import Gf, UsdGeom
+
+    from usdgaze.passes.requests import DirectiveRequest
+    from usdgaze.usd.schedule import write_schedule
+
+    shot = tmp_path / "shot.usda"
+    root = composed_root(None)
+    stage = Usd.Stage.Open(root)
+    UsdGeom.Xform.Define(stage, "/Ball").AddTranslateOp().Set(Gf.Vec3d(100.0, 150.0, 0.0))
+    write_schedule(stage.GetPrimAtPath("/root/Body"), [DirectiveRequest("look", 241.0, target="/Ball")])
+    root.Export(str(shot))
+    layer = tmp_path / "g.usdc"
+    api.apply(shot, ["2s:60:0"], layer)
+    assert main(["plot", str(shot), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    png = tmp_path / "p" / "Body_targets.png"
+    fig = plotting.figures(read_review(shot, layer))["Body_targets"]
+    fig.canvas.draw()
+    ax, height = fig.axes[0], fig.canvas.get_width_height()[1]
+
+    composed = composed_root(layer, shot)
+    composed.Export(str(tmp_path / "composed.usda"))
+    p = measure.posed(str(tmp_path / "composed.usda"), "/root/Body/BodySkel")
+    fwd = measure.character_forward_skel(p, "LeftHip", "RightHip")
+    sight = measure.sight_line(p, "LeftEye", "RightEye", measure.local_forward(p, "LeftEye", fwd),
+                               measure.local_forward(p, "RightEye", fwd))
+    origin = 0.5 * (p.position("LeftEye") + p.position("RightEye"))
+    to_ball = np.array([100.0, 150.0, 0.0]) - origin
+    error = measure.angle_between(sight, to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
+    seconds = (p.times - p.times[0]) / Usd.Stage.Open(str(shot)).GetTimeCodesPerSecond()
+    mask = _mask(png, plotting.JOINT_COLOURS[0], 20)
+    for row in (300, 600, 900):
+        x, y = ax.transData.transform((seconds[row], error[row]))
+        x, y = int(round(x)), int(round(height - y))
+        assert mask[y - 2:y + 3, x].any(), (row, error[row])
+    x_before, _ = ax.transData.transform((1.0, 0.0))  # the look begins at 2 s: nothing drawn before
+    assert not mask[:, int(x_before)].any()
+
+
+def test_attention_plot_of_a_real_attend_run(tmp_path):
+    """``usdgaze attend`` on the shipped two-ball stage, then ``plot``: the band shows the object
+    nearest the point of sight, as the layer's own samples and USD's transforms say."""
+    from pxr import UsdGeom
+
+    stage_path = CMU.parents[1] / "attend" / "two_balls.usda"
+    layer = tmp_path / "attend.usdc"
+    assert main(["attend", str(stage_path), "--out", str(layer)]) == 0
+    assert main(["plot", str(stage_path), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    review = read_review(stage_path, layer)
+    name = plotting.names(review)[0]
+    png = tmp_path / "p" / f"{name}_attention.png"
+    fig = plotting.figures(review)[f"{name}_attention"]
+    fig.canvas.draw()
+    top, height = fig.axes[0], fig.canvas.get_width_height()[1]
+
+    stage = Usd.Stage.Open(str(stage_path))
+    out = Sdf.Layer.FindOrOpen(str(layer))
+    sight_path = next(p for p in [s.path for s in out.rootPrims["UsdGazeAttend"].nameChildren]).AppendProperty(
+        "gaze:attend:pointOfSight")
+    objects = sorted(str(p.GetPath()) for p in stage.Traverse() if p.HasAPI("GazeObjectAPI"))
+    assert len(objects) == 2
+    times = out.ListTimeSamplesForPath(sight_path)
+    tcps, start = stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode()
+    checked = 0
+    for t in times[5::10]:
+        point = np.array(out.QueryTimeSample(sight_path, t), dtype=float)
+        cache = UsdGeom.XformCache(Usd.TimeCode(t))
+        where = [np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(o)).ExtractTranslation()) for o in objects]
+        nearest = int(np.argmin([np.linalg.norm(point - w) for w in where]))
+        gap = abs(np.linalg.norm(point - where[0]) - np.linalg.norm(point - where[1]))
+        if gap < 0.05:  # about equally near: either band may be drawn at the switch
+            continue
+        x = int(round(top.transData.transform(((t - start) / tcps, 0))[0]))
+        for row in (0, 1):
+            y = int(round(height - top.transData.transform((0, row))[1]))
+            drawn = _mask(png, plotting.JOINT_COLOURS[row], 20)[y - 1:y + 2, x - 1:x + 2].any()
+            assert drawn == (row == nearest), (t, row, nearest)
+        checked += 1
+    assert checked >= 3

@@ -96,6 +96,13 @@ def test_summary_prints_the_map_and_the_schedule(shot, capsys):
     assert "/root/Body: no GazeMapAPI (the built-in map is used)" in text
     assert "head=Head" in text and "leftEye=LeftEye" in text
     assert text in capsys.readouterr().out
+    # A schedule on the SkelRoot is listed too (authored in the session layer only).
+    from usdgaze.passes.requests import DirectiveRequest
+    from usdgaze.usd.schedule import write_schedule
+
+    stage.SetEditTarget(stage.GetSessionLayer())
+    write_schedule(stage.GetPrimAtPath("/root/Body"), [DirectiveRequest("shift", 240.0, yaw=30.0)])
+    assert "GazeScheduleAPI: 240:30:0" in usdview.summary(view)
 
 
 def test_plugin_container_builds_the_gaze_menu_from_plug_info(shot):

@@ -21,7 +21,8 @@ from usdgaze.usd.plugin import plugin_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = [ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc", ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc",
-           ROOT / "sample_stages" / "shared_map" / "crowd.usda", ROOT / "sample_stages" / "shared_map" / "gaze_map.usda"]
+           ROOT / "sample_stages" / "shared_map" / "crowd.usda", ROOT / "sample_stages" / "shared_map" / "gaze_map.usda",
+           *sorted((ROOT / "sample_stages" / "attend").glob("*.usd*"))]
 CROWD = SAMPLES[2]
 MAP_PRIM = "/CrowdA/Body"
 
@@ -162,3 +163,50 @@ def test_schedule_validator_catches_late_shifts_and_missing_characters(tmp_path)
     edit.customLayerData = {"usdgaze": record}
     found = sorted((v, e) for v, e, _, _ in _ours(stage))
     assert found == [("GazeLayerSchedule", "MissingCharacter"), ("GazeLayerSchedule", "ShiftOutOfRange")]
+
+
+def _scheduled(tmp_path):
+    from usdgaze.passes.requests import DirectiveRequest
+    from usdgaze.usd.schedule import write_schedule
+
+    path = tmp_path / "shot.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    stage.SetStartTimeCode(0)
+    stage.SetEndTimeCode(100)
+    root = stage.DefinePrim("/Char", "SkelRoot")
+    stage.DefinePrim("/Ball", "Sphere")
+    write_schedule(root, [DirectiveRequest("look", 10.0, target="/Ball"), DirectiveRequest("shift", 50.0, yaw=30.0)])
+    stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(str(path))
+    stage.SetEditTarget(stage.GetSessionLayer())
+    return stage, stage.GetPrimAtPath("/Char")
+
+
+@pytest.mark.parametrize("malform, error, site", [
+    (lambda p: p.GetRelationship("gaze:schedule:targets").SetTargets([Sdf.Path("/Nope")]), "MissingTarget",
+     "/Char.gaze:schedule:targets"),
+    (lambda p: p.GetAttribute("gaze:schedule:time").Set(Vt.DoubleArray([10.0, 500.0])), "OutOfRange",
+     "/Char.gaze:schedule:time"),
+    (lambda p: p.GetAttribute("gaze:schedule:kind").Set(Vt.TokenArray(["look", "stare"])), "Malformed",
+     "/Char.gaze:schedule:kind"),
+    (lambda p: p.GetAttribute("gaze:schedule:weight").Set(Vt.FloatArray([1.0])), "Malformed",
+     "/Char.gaze:schedule:weight"),
+], ids=["target", "time", "kind", "length"])
+def test_schedule_validator_catches_its_malformations(tmp_path, malform, error, site):
+    stage, prim = _scheduled(tmp_path)
+    assert _ours(stage) == []
+    malform(prim)
+    found = [(v, e, s) for v, e, s, _ in _ours(stage)]
+    assert found == [("GazeSchedule", error, site)], _ours(stage)
+
+
+@pytest.mark.parametrize("attr, value, error", [
+    ("gaze:object:importance", 0.0, "Range"), ("gaze:object:radius", -1.0, "Range"),
+    ("gaze:object:kind", "bouncy", "UnknownKind")])
+def test_object_validator_catches_its_malformations(attr, value, error):
+    stage = Usd.Stage.Open(str(ROOT / "sample_stages" / "attend" / "two_balls.usda"))
+    assert _ours(stage) == []
+    stage.SetEditTarget(stage.GetSessionLayer())
+    prim = next(p for p in stage.Traverse() if p.HasAPI("GazeObjectAPI"))
+    prim.GetAttribute(attr).Set(value)
+    assert [(v, e, s) for v, e, s, _ in _ours(stage)] == [("GazeObject", error, f"{prim.GetPath()}.{attr}")]

@@ -187,3 +187,17 @@ def peak_speeds(c, shifts, speed: np.ndarray | None = None) -> np.ndarray:
             continue
         out.append((np.linalg.norm(change[rows[-1]] - change[rows[0]]), speed[rows].max()))
     return np.array(out).reshape(-1, 2)
+
+
+def target_errors(c) -> dict[str, np.ndarray]:
+    """Per look-at directive, the angle (deg) between the line of sight and the direction from the
+    eyes to the target, on the frames the directive holds (NaN elsewhere)."""
+    if not c.looks or not c.eyes:
+        return {}
+    origin, d = sight(c, c.gaze)
+    out = {}
+    for look in c.looks:
+        to_target = rot.normalize(look.positions - origin)
+        err = np.degrees(np.arccos(np.clip(np.sum(d * to_target, axis=-1), -1.0, 1.0)))
+        out[look.label] = np.where((c.seconds >= look.start_s) & (c.seconds <= look.end_s), err, np.nan)
+    return out

@@ -56,9 +56,37 @@ class CharacterReview:
     up: np.ndarray
     meters_per_unit: float
 
+    looks: list["Look"] = field(default_factory=list)
+    """The look-at directives of the SkelRoot's GazeScheduleAPI, with their targets sampled."""
+
     @property
     def eyes(self) -> tuple[int, int] | None:
         return self.chain.eyes
+
+
+@dataclass
+class Look:
+    """One look-at directive: what, from when to when (seconds), where it is on every frame."""
+
+    label: str
+    start_s: float
+    end_s: float
+    positions: np.ndarray
+    """Target world positions ``(F, 3)`` at the clip's samples."""
+
+
+@dataclass
+class Attention:
+    """An attend run's inspection prims for one character (``/UsdGazeAttend/<character>``)."""
+
+    name: str
+    seconds: np.ndarray
+    point_of_sight: np.ndarray
+    """``(F, 3)`` stage units."""
+    objects: dict[str, np.ndarray]
+    """Object prim path -> world position ``(F, 3)`` (the estimate where the prim cannot be sampled)."""
+    uncertainty: dict[str, np.ndarray]
+    """Object prim path -> the belief's position uncertainty ``(F,)`` (NaN while not tracked)."""
 
 
 @dataclass
@@ -74,6 +102,7 @@ class Review:
     eye_range_recorded: bool = False
     """False for layers written before the limits were recorded (the defaults are shown then)."""
     fixation_m: float | None = None
+    attention: list[Attention] = field(default_factory=list)
 
 
 def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike):
@@ -185,11 +214,80 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),
                 meters_per_unit=gaze_clip.meters_per_unit,
             ))
+            review.characters[-1].looks = _looks(stage, root, gaze_clip, source)
             if not review.shifts and record.get("shifts"):
                 review.shifts = _shifts(record["shifts"], gaze_clip, layer_file)
+    review.attention = read_attention(stage, source)
     if not review.characters:
         raise UsdGazeError(f"{layer_file}: overrides no SkelAnimation of {source}; is it a usdgaze layer for this input?")
     return review
+
+
+ATTEND_ROOT = "/UsdGazeAttend"
+"""Where the attend pass writes its inspection prims: per character ``gaze:attend:pointOfSight``
+(point3f per frame), per object child ``gaze:attend:object`` (its path), ``gaze:attend:estimate``,
+``gaze:attend:uncertainty`` (float per frame, NaN while not tracked)."""
+
+
+def _series(attr) -> tuple[np.ndarray, np.ndarray]:
+    times = np.array(attr.GetTimeSamples(), dtype=float)
+    values = np.array([attr.Get(float(t)) for t in times], dtype=float)
+    return times, values
+
+
+def read_attention(stage, source: str) -> list[Attention]:
+    """The attend run's point of sight and per-object uncertainty, if the stage holds them."""
+    from usdgaze.usd.targets import sample_target
+
+    scope = stage.GetPrimAtPath(ATTEND_ROOT)
+    if not scope:
+        return []
+    tcps, start = stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode()
+    out = []
+    for character in scope.GetChildren():
+        sight = character.GetAttribute("gaze:attend:pointOfSight")
+        if not sight or not sight.GetNumTimeSamples():
+            continue
+        times, points = _series(sight)
+        objects, uncertainty = {}, {}
+        for child in character.GetChildren():
+            obj = child.GetAttribute("gaze:attend:object")
+            unc = child.GetAttribute("gaze:attend:uncertainty")
+            if not obj or not unc:
+                continue
+            path = str(obj.Get())
+            uncertainty[path] = np.interp(times, *_series(unc))
+            try:
+                objects[path] = sample_target(stage, path, times, source)
+            except UsdGazeError:  # no such prim here: where the belief put it
+                est_t, est = _series(child.GetAttribute("gaze:attend:estimate"))
+                objects[path] = np.stack([np.interp(times, est_t, est[:, k]) for k in range(3)], axis=1)
+        if objects:
+            out.append(Attention(character.GetName(), (times - start) / tcps, points, objects, uncertainty))
+    return out
+
+
+def _looks(stage, root, clip, source: str) -> list[Look]:
+    """Look directives of the SkelRoot's schedule, each until the next directive (or the clip's end)."""
+    from usdgaze.usd import schedule
+    from usdgaze.usd.targets import sample_target
+
+    if not schedule.has_schedule(root):
+        return []
+    directives = schedule.read_schedule(root, source)
+    tc = lambda t: (t - clip.start_time) / clip.time_codes_per_second  # noqa: E731
+    out = []
+    for k, d in enumerate(directives):
+        if d.kind != "look":
+            continue
+        end = tc(directives[k + 1].time) if k + 1 < len(directives) else float(clip.seconds[-1])
+        if d.target is not None:
+            positions, label = sample_target(stage, d.target, clip.times, source), d.target
+        else:
+            positions = np.broadcast_to(np.asarray(d.point, dtype=float), (len(clip.times), 3)).copy()
+            label = "point (" + ", ".join(f"{v:g}" for v in d.point) + ")"
+        out.append(Look(f"{label} from {tc(d.time):.2f} s", tc(d.time), end, positions))
+    return out
 
 
 def _prim_specs(layer):

@@ -130,6 +130,7 @@ def panel_target_error(ax, seconds, errors: dict[str, np.ndarray], title: str) -
     """Angle between the line of sight and the direction to each look-at target (deg)."""
     for i, (name, err) in enumerate(errors.items()):
         ax.plot(seconds, err, color=JOINT_COLOURS[i % len(JOINT_COLOURS)], lw=1.4, label=name)
+    ax.set_xlim(float(seconds[0]), float(seconds[-1]))
     ax.set_ylim(bottom=0.0)
     ax.set_title(title)
     ax.set_ylabel("target error (deg)")
@@ -195,6 +196,19 @@ def figures(review) -> dict[str, object]:
         panel_speed(a1, c.seconds, analysis.sight_speed(c), change, times, f"{name}: line-of-sight speed")
         panel_main_sequence(a2, analysis.peak_speeds(c, review.shifts, change), "peak per shift vs the main sequence")
         out[f"{name}_speed"] = fig
+        errors = analysis.target_errors(c)
+        if errors:
+            fig, ax = plt.subplots(figsize=(10, 3.6))
+            panel_target_error(ax, c.seconds, errors, f"{name}: look-at target error")
+            out[f"{name}_targets"] = fig
+    # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body).
+    by_path = {c.skel_root.strip("/").replace("/", "_"): n for c, n in zip(review.characters, names(review))}
+    for a in review.attention:
+        name = by_path.get(a.name, a.name)
+        fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 5), sharex=True,
+                                          gridspec_kw={"height_ratios": (1, 2)})
+        panel_attention(top, bottom, a.seconds, a.point_of_sight, a.objects, a.uncertainty, name)
+        out[f"{name}_attention"] = fig
     for fig in out.values():
         fig.tight_layout()
     return out

@@ -51,8 +51,18 @@ def check_output(path: str | os.PathLike, kind: str) -> Path:
 
 # -- scene ----------------------------------------------------------------------------------------
 
+def _objects(review, seconds: np.ndarray) -> dict[str, np.ndarray]:
+    """An attend run's objects at the given seconds (drawn like look-at targets)."""
+    out = {}
+    for a in review.attention:
+        for path, pos in a.objects.items():
+            out[path] = np.stack([np.interp(seconds, a.seconds, pos[:, k]) for k in range(3)], axis=1)
+    return out
+
+
 def _figures(review, which: str, rows: np.ndarray) -> list[render.Figure]:
     out = []
+    objects = _objects(review, review.characters[0].seconds[rows])
     for c in review.characters:
         posed = c.base if which == "base" else c.gaze
         units_per_m = _units_per_m(c)
@@ -67,6 +77,7 @@ def _figures(review, which: str, rows: np.ndarray) -> list[render.Figure]:
             body=render.BASE_BODY if which == "base" else render.GAZE_BODY,
             sight=render.BASE_SIGHT if which == "base" else render.GAZE_SIGHT,
             caption="base" if which == "base" else "gaze", focus=c.chain.pelvis,
+            targets={**{look.label: look.positions[rows] for look in c.looks}, **objects},
         ))
     return out
 

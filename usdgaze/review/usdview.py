@@ -204,12 +204,20 @@ def summary(api) -> str:
         for key in ("maps", "eyeRange", "fixation"):
             if key in record:
                 lines.append(f"  {key}: {_shown(record[key])}")
+    from usdgaze.usd import schedule
+
     for root in skel_roots(stage):
         if schema.has_map(root):
             n = len(root.GetAttribute("gaze:examples:yaw").Get() or [])
             lines.append(f"{root.GetPath()}: GazeMapAPI, {n} examples")
         else:
             lines.append(f"{root.GetPath()}: no GazeMapAPI (the built-in map is used)")
+        if schedule.has_schedule(root):
+            try:
+                directives = schedule.read_schedule(root, stage.GetRootLayer().GetDisplayName())
+                lines.append("  GazeScheduleAPI: " + ", ".join(str(d) for d in directives))
+            except UsdGazeError as exc:
+                lines.append(f"  GazeScheduleAPI: unreadable ({exc})")
     for clip, c in _characters(stage):
         roles = ", ".join(f"{r}={'+'.join(clip.joints[j].rsplit('/', 1)[-1] for j in idx) or '-'}"
                           for r, idx in c.chain.roles.items())

@@ -199,6 +199,69 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
     return errors
 
 
+def gaze_schedule(prim: Usd.Prim, time_range=None) -> list:
+    """A GazeScheduleAPI: storage as its reader checks it, every target a prim of the stage one can
+    look at (Xformable or Boundable), every directive inside the stage's time range."""
+    from pxr import UsdGeom
+
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.usd import schedule as sch
+
+    try:
+        directives = sch.read_schedule(prim, "")
+    except UsdGazeError as exc:  # the reader's one-line verdict, sited on the attribute it names
+        text = str(exc)
+        prefix = f":{prim.GetPath()}"
+        text = text[len(prefix):] if text.startswith(prefix) else text
+        attr = text[1:].split(":", 3) if text.startswith(".") else None
+        name = ":".join(attr[:3]) if attr and len(attr) > 3 else None
+        path = prim.GetPath().AppendProperty(name) if name and prim.HasProperty(name) else prim.GetPath()
+        return [_error(prim, path, "Malformed", text.lstrip(".: ") if name is None else text[1:])]
+    errors = []
+    stage = prim.GetStage()
+    rel = prim.GetRelationship(sch.TARGETS_REL)
+    for target in (rel.GetForwardedTargets() if rel else []):
+        t = stage.GetPrimAtPath(target)
+        if not t or not (t.IsA(UsdGeom.Xformable) or t.IsA(UsdGeom.Boundable)):
+            errors.append(_error(prim, rel.GetPath(), "MissingTarget",
+                                 f"{sch.TARGETS_REL}: {target} is {'not an Xformable or Boundable prim' if t else 'no prim'} "
+                                 "on this stage"))
+    if stage.HasAuthoredTimeCodeRange():
+        start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+        late = [d.time for d in directives if not start <= d.time <= end]
+        if late:
+            errors.append(_error(prim, prim.GetPath().AppendProperty(sch.TIME), "OutOfRange",
+                                 f"{sch.TIME}: {', '.join(f'{t:g}' for t in late[:3])} outside the stage's time range "
+                                 f"[{start:g}, {end:g}]"))
+    return errors
+
+
+def gaze_object(prim: Usd.Prim, time_range=None) -> list:
+    """A GazeObjectAPI: on an Xformable, importance > 0 at every sample, radius >= 0, a known kind."""
+    from pxr import UsdGeom
+
+    errors = []
+    if not prim.IsA(UsdGeom.Xformable):
+        errors.append(_error(prim, prim.GetPath(), "NotXformable",
+                             f"GazeObjectAPI is applied to a {prim.GetTypeName() or 'typeless prim'}; "
+                             "it needs an Xformable (the object's world transform is its state)"))
+    attr = prim.GetAttribute("gaze:object:importance")
+    if attr:
+        values = [attr.Get(t) for t in attr.GetTimeSamples()] or [attr.Get()]
+        bad = [v for v in values if v is None or not np.isfinite(v) or v <= 0.0]
+        if bad:
+            errors.append(_error(prim, attr.GetPath(), "Range", f"gaze:object:importance: {bad[0]}, expected > 0"))
+    radius = prim.GetAttribute("gaze:object:radius")
+    if radius and radius.Get() is not None and not (np.isfinite(radius.Get()) and radius.Get() >= 0.0):
+        errors.append(_error(prim, radius.GetPath(), "Range", f"gaze:object:radius: {radius.Get()}, expected >= 0 m"))
+    kind = prim.GetAttribute("gaze:object:kind")
+    allowed = ("", "ballistic", "static", "moving")
+    if kind and kind.Get() is not None and str(kind.Get()) not in allowed:
+        errors.append(_error(prim, kind.GetPath(), "UnknownKind",
+                             f"gaze:object:kind: '{kind.Get()}', expected one of {', '.join(repr(a) for a in allowed)}"))
+    return errors
+
+
 def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
     """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
     range, and every character it names is a SkelRoot on the stage."""
@@ -245,6 +308,8 @@ TASKS = {
     "GazeMapUnitQuaternions": gaze_map_unit_quaternions,
     "GazeMapRoleJoints": gaze_map_role_joints,
     "AnimationArrays": animation_arrays,
+    "GazeSchedule": gaze_schedule,
+    "GazeObject": gaze_object,
 }
 
 
