@@ -62,6 +62,13 @@ SCHEMES = {
         "knee": "{s}Shin", "ankle": "{s}Foot", "toe": "{s}Toe", "clav": "{s}Collar", "arm": "{s}ShldrBend",
         "forearm": "{s}ForearmBend", "hand": "{s}Hand",
     }, "l", "r"),
+    # Maya AdvancedSkeleton: no name says pelvis ("Root_M"), and "Hip_L" is a thigh.
+    "advanced": _sided({
+        "pelvis": "Root_M", "spine_a": "Spine1_M", "spine_b": "Spine2_M", "spine_c": "Chest_M", "neck": "Neck_M",
+        "head": "Head_M", "head_end": "HeadEnd_M", "eye": "Eye_{s}", "thigh": "Hip_{s}", "knee": "Knee_{s}",
+        "ankle": "Ankle_{s}", "toe": "Toes_{s}", "clav": "Scapula_{s}", "arm": "Shoulder_{s}", "forearm": "Elbow_{s}",
+        "hand": "Wrist_{s}",
+    }, "L", "R"),
     # A quadruped (use with body="quadruped"): Blender-style .L/.R, spine and neck numbered.
     "quadruped": _sided({
         "root": "root", "pelvis": "Pelvis", "spine_a": "Spine.001", "spine_b": "Spine.002", "spine_c": "Spine.003",

@@ -4,7 +4,8 @@ Rigs (tests/synthetic.py, names from tests/synthetic_names.py) carry the naming 
 have: Mixamo (``mixamorig:Spine1``), a game rig numbering every joint (``b_Spine01_02``,
 ``b_Neck_04``, ``b_Head_05``), Rigify (``DEF-spine.003``), 3ds Max Biped (``Bip01 Head``), Character
 Creator (``CC_Base_NeckTwist01``), VRoid (``J_Bip_C_Head``), DAZ Genesis (``abdomenLower``, ``lEye``),
-Unreal (``spine_01``), and a quadruped whose spine runs horizontally, Z up and Y up. Every number is
+Unreal (``spine_01``), Maya AdvancedSkeleton (``Root_M``, ``Hip_L`` a thigh), and a quadruped whose
+spine runs horizontally, Z up and Y up. Every number is
 measured with UsdSkel's forward kinematics on the composed result, head and eye axes taken from
 UsdSkel's bind pose (tests/measure.py), never from usdgaze's math.
 """
@@ -42,6 +43,7 @@ SCHEMES = {
     "vroid": dict(convention="vroid"),
     "daz": dict(convention="daz", meters_per_unit=0.01),
     "unreal": dict(convention="ue", up_axis="Z", meters_per_unit=0.01),
+    "advancedskeleton": dict(convention="advanced"),
     "quadruped-Z": dict(convention="quadruped", body="quadruped", up_axis="Z", turn_deg_per_s=6),
     "quadruped-Y": dict(convention="quadruped", body="quadruped", up_axis="Y"),
 }
