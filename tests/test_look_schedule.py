@@ -118,3 +118,18 @@ def test_pursuit_latency_cap_and_vor():
     walking = np.column_stack([np.zeros_like(seconds), 0.05 * np.sin(12 * seconds), 1.2 * seconds])
     still = np.tile([1.0, 1.6, 5.0], (len(seconds), 1))
     assert np.abs(saccade.pursue(still, walking, seconds, 10, 0.0) - still[10:]).max() < 1e-12
+
+
+def test_cli_look_at_release_and_eye_timing(scene, capsys):
+    import json
+
+    from usdgaze.console.main import main
+
+    d, root, _ = scene
+    code = main(["apply", str(root), "--look-at", "/World/Ball@100:weight=0.5", "--release", "300:blend=0.25s",
+                 "--eye-timing", "model", "--no-guides", "--out", str(d / "cli.usda"), "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert out["characters"][0]["directives"] == ["--look-at /World/Ball@100:weight=0.5", "--release 300:blend=0.25s"]
+    text = (d / "cli.usda").read_text()
+    assert "gazeGuides" not in text and 'eyeTiming = "model"' in text
