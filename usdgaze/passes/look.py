@@ -33,7 +33,7 @@ from usdgaze.core.rig import CharacterFrame, Chain
 from usdgaze.errors import UsdGazeError
 from usdgaze.gaze import motion, saccade
 from usdgaze.passes import eyes as eyes_mod
-from usdgaze.passes.body import TargetPlanner
+from usdgaze.passes.body import CachedMap, TargetPlanner
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes import shift as sp
 from usdgaze.passes.shift import PassOptions, PassResult, Shift
@@ -249,6 +249,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     _check_distance(clip, directives, targets, eye_b, target_names)
     rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up) for d in directives if d.kind == "look"}
 
+    gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
     shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look)
     plan = sp.schedule(gaze_map, shifts, seconds)
     weight = _weights(keys, seconds)
