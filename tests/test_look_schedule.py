@@ -118,3 +118,40 @@ def test_pursuit_latency_cap_and_vor():
     walking = np.column_stack([np.zeros_like(seconds), 0.05 * np.sin(12 * seconds), 1.2 * seconds])
     still = np.tile([1.0, 1.6, 5.0], (len(seconds), 1))
     assert np.abs(saccade.pursue(still, walking, seconds, 10, 0.0) - still[10:]).max() < 1e-12
+
+
+def test_cli_look_at_release_and_eye_timing(scene, capsys):
+    import json
+
+    from usdgaze.console.main import main
+
+    d, root, _ = scene
+    code = main(["apply", str(root), "--look-at", "/World/Ball@100:weight=0.5", "--release", "300:blend=0.25s",
+                 "--eye-timing", "model", "--no-guides", "--out", str(d / "cli.usda"), "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert out["characters"][0]["directives"] == ["--look-at /World/Ball@100:weight=0.5", "--release 300:blend=0.25s"]
+    text = (d / "cli.usda").read_text()
+    assert "gazeGuides" not in text and 'eyeTiming = "model"' in text
+
+
+def test_catch_up_saccades_keep_a_fast_target_in_sight():
+    from usdgaze.passes import eyes
+    from usdgaze.passes.look import LookOptions
+
+    seconds = np.arange(0.0, 3.0, 1 / 120)
+    eye = np.zeros((len(seconds), 3))
+    # A target crossing at 160 deg/s, faster than pursuit's 100: catch-up saccades must make up the rest.
+    ang = np.radians(160.0) * seconds - np.radians(120.0)
+    target = 3.0 * np.column_stack([np.sin(ang), np.zeros_like(ang), np.cos(ang)])
+    scene = eyes.Scene(seconds, eye, np.tile([0.0, 0.0, 2.0], (len(seconds), 1)))
+    sight = eyes.point_of_sight(scene, [(12, eyes.Goal("target", target))], LookOptions())
+    d = sight.point / np.linalg.norm(sight.point, axis=1, keepdims=True)
+    u = target / 3.0
+    err = np.degrees(np.arccos(np.clip(np.sum(d * u, 1), -1, 1)))
+    catch_ups = [s for s in sight.saccades if s[0] > seconds[12]]
+    assert len(catch_ups) >= 5
+    assert err[60:].max() < 1.0 + 0.2 * 60.0 + 5.0  # bounded: refractory 200 ms at a 60 deg/s shortfall
+    speed = np.degrees(np.arccos(np.clip(np.sum(d[1:] * d[:-1], 1), -1, 1))) * 120
+    assert speed.max() <= 800.0
+    assert np.median(speed[~sight.saccading[1:]][60:]) == pytest.approx(100.0, abs=2.0)  # pursuit at its cap

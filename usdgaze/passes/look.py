@@ -33,6 +33,7 @@ from usdgaze.core.rig import CharacterFrame, Chain
 from usdgaze.errors import UsdGazeError
 from usdgaze.gaze import motion, saccade
 from usdgaze.passes import eyes as eyes_mod
+from usdgaze.passes.body import CachedMap, TargetPlanner
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes import shift as sp
 from usdgaze.passes.shift import PassOptions, PassResult, Shift
@@ -119,165 +120,6 @@ def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.n
     return ae
 
 
-# -- the body: gaze shifts through the map -----------------------------------------------------------
-
-def _head_change(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarray, hint: float
-                 ) -> tuple[np.ndarray, sp.Schedule]:
-    """Gaze change the body (without the eyes) makes on the canonical chain ``(F, 2)``, and the plan."""
-    plan = sp.schedule(gaze_map, shifts, seconds)
-    return motion.achieved_gaze(_body_only(plan.displacement), hint), plan
-
-
-def _body_only(offsets: np.ndarray) -> np.ndarray:
-    """Segment offsets with the eyes left at rest."""
-    out = np.array(offsets, dtype=float)
-    out[..., 4, :] = rot.IDENTITY
-    return out
-
-
-def _plan_look(gaze_map, shifts: list[Shift], epoch: _Epoch, end: int, rel: np.ndarray, seconds: np.ndarray,
-               base_ae: np.ndarray, limits: sp.EyeRange, opts: LookOptions) -> None:
-    """Body shifts and eye events toward one target over frames ``epoch.start .. end``."""
-    a = epoch.start
-    reach = np.array([opts.reach_yaw_deg, opts.reach_pitch_deg])
-    # The line of sight reaches as far as the head turns for a shift at the reach, plus the eyes.
-    sight_limit = float(_head_of(gaze_map, np.array([opts.reach_yaw_deg, 0.0]))[0]) + limits.yaw - 2.0
-
-    def request(j: int, yaw: float, previous: np.ndarray | None) -> tuple[np.ndarray, tuple | None]:
-        """Map request toward the target seen from frame ``j``, and the change whose timing it takes."""
-        want = np.array([yaw, rel[j, 1]])
-        if previous is None:
-            return _body_request(gaze_map, want, reach, limits, opts.comfort_fraction), None
-        # Aim where the target will be, against the base gaze, once the shift is done: the paths of
-        # the body and of the target are known to the animator (and to the character).
-        change = want - previous
-        lead = float(gaze_map.query_full(change[0], change[1], correct=False).motions.timing[0])
-        ahead = min(int(np.searchsorted(seconds, seconds[j] + lead)), end - 1, len(seconds) - 1)
-        ahead = max(ahead, j)
-        want = np.array([rot.unwrap_near(rel[ahead, 0], yaw), rel[ahead, 1]])
-        new = _body_request(gaze_map, want, reach, limits, opts.comfort_fraction)
-        # How far the head turns in the world, not against a base gaze that may be swinging.
-        world = (base_ae[ahead] + new) - (base_ae[j] + previous)
-        world[0] = (world[0] + 180.0) % 360.0 - 180.0
-        return new, (float(world[0]), float(world[1]))
-
-    if abs(rel[a, 0]) > sight_limit:  # out of reach from the start: keep looking ahead
-        lost, current = True, np.zeros(2)
-        shifts.append(Shift(float(seconds[a]), 0.0, 0.0))
-        epoch.events.append((a, "base", False))
-    else:
-        current, _ = request(a, rel[a, 0], None)
-        shifts.append(Shift(float(seconds[a]), *current))
-        epoch.events.append((a, "target", False))
-        lost = False
-    last = seconds[a]
-    cursor = a + 1
-    frames = np.arange(len(seconds))
-
-    def add(j: int, new: np.ndarray, timing=None, disp=None) -> None:
-        """A body shift at frame j, never faster per segment than the pace allows from where the
-        body is then (a shift in progress included)."""
-        if disp is None:
-            disp = sp.schedule(gaze_map, shifts, seconds).displacement
-        change = timing if timing is not None else tuple(new - current)
-        shifts.append(Shift(float(seconds[j]), *new, timing_change=timing,
-                            min_duration_s=_min_duration(gaze_map, disp[j], new, change, opts.body_pace_deg_s)))
-    while cursor < end:
-        window = (frames >= cursor) & (frames < end)
-        if not lost:
-            near = rot.unwrap_near(rel[:, 0], current[0])
-            head, plan = _head_change(gaze_map, shifts, seconds, float(current[0]))
-            disp = plan.displacement
-            # Let a shift get well under way before the next one takes over from it.
-            wait = max(opts.replan_interval_s, 0.5 * plan.timing[-1]["duration"]) if plan.timing else 0.0
-            need_yaw = near - head[:, 0]
-            need_pitch = rel[:, 1] - head[:, 1]
-            f = opts.replan_fraction
-            trig = (np.abs(need_yaw) > f * limits.yaw) | (need_pitch > f * limits.up) | (need_pitch < -f * limits.down)
-            trig = _soon(trig, seconds, opts.anticipation_s)
-            out = np.flatnonzero(window & (np.abs(near) > sight_limit))
-            go = np.flatnonzero(window & trig & (seconds >= last + wait))
-            j_out = out[0] if len(out) else end
-            j_go = go[0] if len(go) else end
-            if j_out >= end and j_go >= end:
-                return
-            if j_out <= j_go:  # behind the character: let go, look ahead
-                add(int(j_out), np.zeros(2), disp=disp)
-                lost, current, last = True, np.zeros(2), seconds[j_out]
-                epoch.events.append((int(j_out), "base", False))
-                cursor = j_out + 1
-                continue
-            new, timing = request(j_go, near[j_go], current)
-            if np.abs(new - current).max() < 5.0:  # e.g. already at the edge of reach
-                cursor = int(np.searchsorted(seconds, seconds[j_go] + opts.replan_interval_s))
-                continue
-            add(int(j_go), new, timing, disp)
-            current, last = new, seconds[j_go]
-            cursor = j_go + 1
-        else:
-            back = np.flatnonzero(window & (np.abs(rel[:, 0]) <= sight_limit - 10.0)
-                                  & (seconds >= last + opts.replan_interval_s))
-            if not len(back):
-                return
-            j = int(back[0])
-            new = request(j, rel[j, 0], None)[0]
-            add(j, new)
-            current, last, lost = new, seconds[j], False
-            epoch.events.append((j, "target", False))
-            cursor = j + 1
-
-
-def _head_of(gaze_map: ParametricGazeMap, request: np.ndarray) -> np.ndarray:
-    """Settled gaze change of the body alone (no eyes) for a map request, on the canonical chain."""
-    offsets = gaze_map.query(np.array([request[0]]), np.array([request[1]])).offsets.reshape(1, 5, 4)
-    return motion.achieved_gaze(_body_only(offsets), request[0])[0]
-
-
-def _min_duration(gaze_map: ParametricGazeMap, start: np.ndarray, b: np.ndarray, timing_change, pace: float) -> float:
-    """Shortest duration of a body shift from segment offsets ``start`` to request ``b`` that keeps every body
-    segment's own peak speed under ``pace`` deg/s: the map's split can change much more than the gaze
-    does, and its cascade gives late segments a short window."""
-    q = gaze_map.query(np.array([b[0]]), np.array([b[1]])).offsets.reshape(5, 4)
-    turn = np.degrees(rot.angle(rot.relative(start[:4], q[:4])))
-    timing = np.asarray(gaze_map.query_full(timing_change[0], timing_change[1], correct=False).motions.timing, float)
-    starts, peak, beta = timing[motion.START_SLICE], timing[motion.PEAK], timing[motion.BETA]
-    window = np.where(starts < peak, peak - starts, 1.0 - starts)
-    scale = np.where(starts < peak, 1.0 + beta, 1.0)
-    # The quintic's peak slope is 1.875 times its mean.
-    return float(np.max(1.875 * turn * scale / (np.maximum(window, 0.05) * pace)))
-
-
-def _body_request(gaze_map: ParametricGazeMap, want: np.ndarray, reach: np.ndarray, limits: sp.EyeRange,
-                  comfort: float) -> np.ndarray:
-    """The map request toward line-of-sight change ``want``: the map's own head-eye split, unless that
-    leaves the eyes beyond ``comfort`` of their range; then enough more body to bring them back."""
-    natural = np.clip(want, -reach, reach)
-    head = _head_of(gaze_map, natural)
-    eyes = want - head
-    lo = np.array([-limits.yaw, -limits.down]) * comfort
-    hi = np.array([limits.yaw, limits.up]) * comfort
-    if np.all((eyes >= lo) & (eyes <= hi)):
-        return natural
-    out = (eyes < lo) | (eyes > hi)
-    goal = want - np.clip(eyes, lo, hi)
-    best, best_miss = natural, np.abs(goal - head)[out].max()
-    request = natural
-    for _ in range(4):  # fixed point on the canonical chain: the head change is near-linear in the request
-        request = np.where(out, np.clip(request + goal - head, -reach, reach), natural)
-        head = _head_of(gaze_map, request)
-        miss = np.abs(goal - head)[out].max()
-        if miss < best_miss:
-            best, best_miss = request, miss
-    return best
-
-
-def _soon(flags: np.ndarray, seconds: np.ndarray, within_s: float) -> np.ndarray:
-    """True where ``flags`` is true now or within the next ``within_s`` seconds."""
-    count = np.concatenate([[0], np.cumsum(flags)])
-    ahead = np.searchsorted(seconds, seconds + within_s, side="right")
-    return count[ahead] - count[np.arange(len(flags))] > 0
-
-
 def _weights(directives: list[Directive], seconds: np.ndarray) -> np.ndarray:
     """Gaze weight per frame: each key eases from the weight at its time to its own over its blend."""
     w = np.ones(len(seconds))
@@ -316,7 +158,7 @@ def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[
         if a >= len(seconds):
             continue
         if d.kind == "look":
-            _plan_look(gaze_map, shifts, epoch, end, rel[d.target], seconds, base_ae, limits, opts)
+            TargetPlanner(gaze_map, shifts, epoch.events, seconds, rel[d.target], base_ae, limits, opts).run(epoch.start, end)
             continue
         yaw, pitch = (d.yaw, d.pitch) if d.kind == "shift" else (0.0, 0.0)
         shifts.append(Shift(float(t), yaw, pitch, cut=cut))
@@ -407,6 +249,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     _check_distance(clip, directives, targets, eye_b, target_names)
     rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up) for d in directives if d.kind == "look"}
 
+    gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
     shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look)
     plan = sp.schedule(gaze_map, shifts, seconds)
     weight = _weights(keys, seconds)
@@ -452,6 +295,19 @@ def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[_Epoch],
         if d.kind != "look":
             continue
         name = names[d.target] if d.target < len(names) else f"target {d.target}"
+        end = next((e.start for e in epochs if e.start > epoch.start), len(seconds))
+        rows = np.zeros(len(seconds), dtype=bool)
+        rows[epoch.start:end] = True
+        for f, kind, _ in epoch.events:  # only while the target is held, not while let go
+            if kind == "base":
+                rows[f:end] = False
+        miss = np.linalg.norm(result.achieved - result.requested, axis=1)
+        held = rows & result.settled
+        if np.any(held) and miss[held].max() > options.tolerance_deg:
+            out.append(f"{clip.where()}: look at {name} from {d.time_s:g} s: the line of sight misses the target "
+                       f"by up to {miss[held].max():.1f} deg on {int((miss[held] > options.tolerance_deg).sum())} "
+                       f"frames (the eyes at their range: yaw +-{options.eye_range.yaw:g}, up "
+                       f"{options.eye_range.up:g}, down {options.eye_range.down:g} deg, and the body turns no further)")
         lost = [seconds[f] for f, kind, _ in epoch.events if kind == "base"]
         back = [seconds[f] for f, kind, _ in epoch.events[1:] if kind == "target"]
         for t in lost:

@@ -1,4 +1,4 @@
-"""Look-at targets from a stage: a prim's world position per time code, or a fixed world point.
+"""Look-at targets from a stage: a prim's world position per time code.
 
 A Boundable prim (geometry, a Skeleton, ...) is looked at in the centre of its world bounding box;
 any other Xformable at its pivot (``xformOp:translate:pivot`` when authored, else its origin).
@@ -8,25 +8,12 @@ each of the clip's time codes (USD's own interpolation between authored samples)
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError
 
-_NUMBER = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
-_POINT = re.compile(rf"^\s*({_NUMBER})\s*,\s*({_NUMBER})\s*,\s*({_NUMBER})\s*$")
 _PURPOSES = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
-
-
-def parse_point(text: str) -> tuple[float, float, float] | None:
-    """``X,Y,Z`` as three floats, or None when ``text`` is no point."""
-    m = _POINT.match(text)
-    if not m:
-        return None
-    point = tuple(float(v) for v in m.groups())
-    return point if all(np.isfinite(point)) else None
 
 
 def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:

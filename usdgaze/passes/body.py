@@ -1,0 +1,214 @@
+"""The body's part of looking at a target: gaze shifts through the map, re-planned as it moves (numpy).
+
+:class:`TargetPlanner` appends body :class:`~usdgaze.passes.shift.Shift` requests and eye events for
+one look directive. See :mod:`usdgaze.passes.look` for the policy and docs/look-at.md for the numbers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.gaze import motion
+from usdgaze.gaze.gazemap import ParametricGazeMap
+from usdgaze.passes import shift as sp
+from usdgaze.passes.shift import Shift
+
+
+class CachedMap:
+    """A gaze map that answers each (yaw, pitch) once: the planner re-schedules the same shifts many
+    times as it adds new ones, and a corrected query costs tens of milliseconds."""
+
+    def __init__(self, gaze_map: ParametricGazeMap) -> None:
+        self.map = gaze_map
+        self._rows: dict[tuple[float, float], motion.GazeMotions] = {}
+        self._full: dict[tuple[float, float, bool], object] = {}
+
+    def query(self, yaw_deg, pitch_deg) -> motion.GazeMotions:
+        yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
+        keys = list(zip(yaw.ravel().tolist(), pitch.ravel().tolist()))
+        missing = [k for k in dict.fromkeys(keys) if k not in self._rows]
+        if missing:
+            answer = self.map.query(np.array([k[0] for k in missing]), np.array([k[1] for k in missing]))
+            for i, k in enumerate(missing):
+                self._rows[k] = answer[i]
+        rows = [self._rows[k] for k in keys]
+        return motion.GazeMotions(np.stack([r.offsets for r in rows]).reshape(yaw.shape + (5, 4)),
+                                  np.stack([r.timing for r in rows]).reshape(yaw.shape + (7,)))
+
+    def query_full(self, yaw_deg, pitch_deg, correct: bool = True):
+        key = (float(yaw_deg), float(pitch_deg), bool(correct))
+        if key not in self._full:
+            self._full[key] = self.map.query_full(yaw_deg, pitch_deg, correct=correct)
+        return self._full[key]
+
+
+class TargetPlanner:
+    """Body shifts toward one target over a stretch of frames.
+
+    ``rel`` is the target's (azimuth, elevation) against the base line of sight per frame (yaw
+    wrapped), seen from the base motion's eyes. ``events`` receives ``(frame, "target" | "base",
+    cut)``: where the eyes take the target up, or let it go.
+    """
+
+    def __init__(self, gaze_map: ParametricGazeMap, shifts: list[Shift], events: list, seconds: np.ndarray,
+                 rel: np.ndarray, base_ae: np.ndarray, limits: sp.EyeRange, opts) -> None:
+        self.map, self.shifts, self.events, self.seconds = gaze_map, shifts, events, seconds
+        self.rel, self.base_ae, self.limits, self.opts = rel, base_ae, limits, opts
+        self.reach = np.array([opts.reach_yaw_deg, opts.reach_pitch_deg])
+        # The line of sight reaches as far as the head turns for a shift at the reach, plus the eyes.
+        self.sight_limit = float(head_of(gaze_map, np.array([opts.reach_yaw_deg, 0.0]))[0]) + limits.yaw - 2.0
+        self.current = np.zeros(2)
+        self.last = 0.0
+        self.end = len(seconds)
+
+    def run(self, start: int, end: int) -> None:
+        """Plan frames ``start .. end``."""
+        self.end, self.last = end, self.seconds[start]
+        if abs(self.rel[start, 0]) > self.sight_limit:  # out of reach from the start: keep looking ahead
+            self.shifts.append(Shift(float(self.seconds[start]), 0.0, 0.0))
+            self.events.append((start, "base", False))
+            lost = True
+        else:
+            self.current = self._request(start, self.rel[start, 0], None)[0]
+            self.shifts.append(Shift(float(self.seconds[start]), *self.current))
+            self.events.append((start, "target", False))
+            lost = False
+        cursor = start + 1
+        while cursor is not None and cursor < end:
+            cursor, lost = self._reacquire(cursor) if lost else self._track(cursor)
+
+    def _track(self, cursor: int) -> tuple[int | None, bool]:
+        """While the target is held: the next re-plan, or the let-go when it goes out of reach."""
+        s, opts, lim, rel = self.seconds, self.opts, self.limits, self.rel
+        window = (np.arange(len(s)) >= cursor) & (np.arange(len(s)) < self.end)
+        near = rot.unwrap_near(rel[:, 0], self.current[0])
+        plan = sp.schedule(self.map, self.shifts, s)
+        head = motion.achieved_gaze(body_only(plan.displacement), float(self.current[0]))
+        # Let a shift get well under way before the next one takes over from it.
+        wait = max(opts.replan_interval_s, 0.5 * plan.timing[-1]["duration"]) if plan.timing else 0.0
+        need_yaw, need_pitch = near - head[:, 0], rel[:, 1] - head[:, 1]
+        f = opts.replan_fraction
+        trig = (np.abs(need_yaw) > f * lim.yaw) | (need_pitch > f * lim.up) | (need_pitch < -f * lim.down)
+        trig = soon(trig, s, opts.anticipation_s)
+        out = np.flatnonzero(window & (np.abs(near) > self.sight_limit))
+        go = np.flatnonzero(window & trig & (s >= self.last + wait))
+        j_out = int(out[0]) if len(out) else self.end
+        j_go = int(go[0]) if len(go) else self.end
+        if j_out >= self.end and j_go >= self.end:
+            return None, False
+        if j_out <= j_go:  # behind the character: let go, look ahead
+            self._add(j_out, np.zeros(2), disp=plan.displacement)
+            self.current, self.last = np.zeros(2), s[j_out]
+            self.events.append((j_out, "base", False))
+            return j_out + 1, True
+        new, timing = self._request(j_go, near[j_go], self.current)
+        if np.abs(new - self.current).max() < 5.0:  # e.g. already at the edge of reach
+            return int(np.searchsorted(s, s[j_go] + opts.replan_interval_s)), False
+        self._add(j_go, new, timing, plan.displacement)
+        self.current, self.last = new, s[j_go]
+        return j_go + 1, False
+
+    def _reacquire(self, cursor: int) -> tuple[int | None, bool]:
+        """While let go: take the target up again once it is within reach (with some margin)."""
+        s = self.seconds
+        frames = np.arange(len(s))
+        back = np.flatnonzero((frames >= cursor) & (frames < self.end)
+                              & (np.abs(self.rel[:, 0]) <= self.sight_limit - 10.0)
+                              & (s >= self.last + self.opts.replan_interval_s))
+        if not len(back):
+            return None, True
+        j = int(back[0])
+        new = self._request(j, self.rel[j, 0], None)[0]
+        self._add(j, new)
+        self.current, self.last = new, s[j]
+        self.events.append((j, "target", False))
+        return j + 1, False
+
+    def _request(self, j: int, yaw: float, previous: np.ndarray | None) -> tuple[np.ndarray, tuple | None]:
+        """Map request toward the target seen from frame ``j``, and the change whose timing it takes."""
+        rel, opts = self.rel, self.opts
+        want = np.array([yaw, rel[j, 1]])
+        if previous is None:
+            return body_request(self.map, want, self.reach, self.limits, opts.comfort_fraction), None
+        # Aim where the target will be, against the base gaze, once the shift is done: the paths of
+        # the body and of the target are known to the animator (and to the character).
+        change = want - previous
+        lead = float(self.map.query_full(change[0], change[1], correct=False).motions.timing[0])
+        ahead = max(min(int(np.searchsorted(self.seconds, self.seconds[j] + lead)), self.end - 1), j)
+        want = np.array([rot.unwrap_near(rel[ahead, 0], yaw), rel[ahead, 1]])
+        new = body_request(self.map, want, self.reach, self.limits, opts.comfort_fraction)
+        # How far the head turns in the world, not against a base gaze that may be swinging.
+        world = (self.base_ae[ahead] + new) - (self.base_ae[j] + previous)
+        world[0] = (world[0] + 180.0) % 360.0 - 180.0
+        return new, (float(world[0]), float(world[1]))
+
+    def _add(self, j: int, new: np.ndarray, timing=None, disp=None) -> None:
+        """A body shift at frame j, never faster per segment than the pace allows from where the
+        body is then (a shift in progress included)."""
+        if disp is None:
+            disp = sp.schedule(self.map, self.shifts, self.seconds).displacement
+        change = timing if timing is not None else tuple(new - self.current)
+        self.shifts.append(Shift(float(self.seconds[j]), *new, timing_change=timing,
+                                 min_duration_s=min_duration(self.map, disp[j], new, change, self.opts.body_pace_deg_s)))
+
+
+def body_only(offsets: np.ndarray) -> np.ndarray:
+    """Segment offsets with the eyes left at rest."""
+    out = np.array(offsets, dtype=float)
+    out[..., 4, :] = rot.IDENTITY
+    return out
+
+
+def head_of(gaze_map: ParametricGazeMap, request: np.ndarray) -> np.ndarray:
+    """Settled gaze change of the body alone (no eyes) for a map request, on the canonical chain.
+
+    The uncorrected blend: its body split is the corrected one's within a degree or two, ten times cheaper.
+    """
+    offsets = gaze_map.query_full(float(request[0]), float(request[1]), correct=False).motions.offsets.reshape(1, 5, 4)
+    return motion.achieved_gaze(body_only(offsets), request[0])[0]
+
+
+def min_duration(gaze_map: ParametricGazeMap, start: np.ndarray, b: np.ndarray, timing_change, pace: float) -> float:
+    """Shortest duration of a body shift from segment offsets ``start`` to request ``b`` that keeps every body
+    segment's own peak speed under ``pace`` deg/s: the map's split can change much more than the gaze
+    does, and its cascade gives late segments a short window."""
+    q = gaze_map.query(np.array([b[0]]), np.array([b[1]])).offsets.reshape(5, 4)
+    turn = np.degrees(rot.angle(rot.relative(start[:4], q[:4])))
+    timing = np.asarray(gaze_map.query_full(timing_change[0], timing_change[1], correct=False).motions.timing, float)
+    starts, peak, beta = timing[motion.START_SLICE], timing[motion.PEAK], timing[motion.BETA]
+    window = np.where(starts < peak, peak - starts, 1.0 - starts)
+    scale = np.where(starts < peak, 1.0 + beta, 1.0)
+    # The quintic's peak slope is 1.875 times its mean.
+    return float(np.max(1.875 * turn * scale / (np.maximum(window, 0.05) * pace)))
+
+
+def body_request(gaze_map: ParametricGazeMap, want: np.ndarray, reach: np.ndarray, limits: sp.EyeRange,
+                  comfort: float) -> np.ndarray:
+    """The map request toward line-of-sight change ``want``: the map's own head-eye split, unless that
+    leaves the eyes beyond ``comfort`` of their range; then enough more body to bring them back."""
+    natural = np.clip(want, -reach, reach)
+    head = head_of(gaze_map, natural)
+    eyes = want - head
+    lo = np.array([-limits.yaw, -limits.down]) * comfort
+    hi = np.array([limits.yaw, limits.up]) * comfort
+    if np.all((eyes >= lo) & (eyes <= hi)):
+        return natural
+    out = (eyes < lo) | (eyes > hi)
+    goal = want - np.clip(eyes, lo, hi)
+    best, best_miss = natural, np.abs(goal - head)[out].max()
+    request = natural
+    for _ in range(4):  # fixed point on the canonical chain: the head change is near-linear in the request
+        request = np.where(out, np.clip(request + goal - head, -reach, reach), natural)
+        head = head_of(gaze_map, request)
+        miss = np.abs(goal - head)[out].max()
+        if miss < best_miss:
+            best, best_miss = request, miss
+    return best
+
+
+def soon(flags: np.ndarray, seconds: np.ndarray, within_s: float) -> np.ndarray:
+    """True where ``flags`` is true now or within the next ``within_s`` seconds."""
+    count = np.concatenate([[0], np.cumsum(flags)])
+    ahead = np.searchsorted(seconds, seconds + within_s, side="right")
+    return count[ahead] - count[np.arange(len(flags))] > 0
