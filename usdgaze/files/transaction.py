@@ -229,7 +229,7 @@ class Outputs:
 
     def stage_text(self, path: str | os.PathLike, text: str) -> None:
         def write(temp: str) -> None:
-            with open(temp, "w", newline="") as f:
+            with open(temp, "w", newline="", encoding="utf-8") as f:
                 f.write(text)
         self.stage_with(path, write)
 
