@@ -253,7 +253,16 @@ def _check_files(path: Path, shots: list[Shot]) -> None:
 
 def register(ids, path: Path, shots: list[Shot]) -> None:
     """Record the manifest and every shot's inputs as read, every shot's outputs as written, in an
-    :class:`usdgaze.files.identity.Identities` (a clash is a one-line error naming both)."""
+    :class:`usdgaze.files.identity.Identities`: a clash is a one-line error naming the manifest, the
+    file and both uses of it."""
+    try:
+        _register(ids, path, shots)
+    except UsdGazeError as exc:
+        message = str(exc)
+        raise UsdGazeError(message if message.startswith(f"{path}:") else f"{path}: {message}") from None
+
+
+def _register(ids, path: Path, shots: list[Shot]) -> None:
     ids.read(path, "manifest")
     for s in shots:
         ids.read(s.values["input"], f"input of {s.label}")
