@@ -26,7 +26,6 @@ asserted. Sections:
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
 import shutil
@@ -45,11 +44,11 @@ SHIFTS = ["0.1:60:0", "0.35:-120:10", "0.6:0:0", "0.85:30:-20"]  # fractions of 
 
 
 def _synthetic():
-    spec = importlib.util.spec_from_file_location("usdgaze_bench_synthetic", ROOT / "tests" / "synthetic.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from tests import synthetic  # a package module (it imports its neighbours relatively)
+
+    return synthetic
 
 
 def _shifts(seconds: float) -> list[str]:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import cProfile
-import importlib.util
 import io
 import pstats
 import sys
@@ -44,11 +43,11 @@ CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc"
 
 
 def _synthetic():
-    spec = importlib.util.spec_from_file_location("usdgaze_bench_synthetic", ROOT / "tests" / "synthetic.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from tests import synthetic  # a package module (it imports its neighbours relatively)
+
+    return synthetic
 
 
 # -- timing --------------------------------------------------------------------------------------

@@ -148,8 +148,8 @@ def b_batch_missing_input(d):
     return manifest(d, '[[job]]\nout = "gaze.usdc"\nshifts = ["1:2:3"]\n')
 
 
-def b_batch_missing_shifts(d):
-    return manifest(d, '[[job]]\ninput = "in.usda"\nout = "gaze.usdc"\n')
+def b_batch_look_at_malformed(d):
+    return manifest(d, '[[job]]\ninput = "in.usda"\nout = "gaze.usdc"\nlook_at = ["door"]\n')
 
 
 def b_batch_shifts_a_string(d):

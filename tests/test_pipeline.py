@@ -227,3 +227,26 @@ def test_progress_is_a_bar_on_a_terminal():
     progress.close()
     text = out.getvalue()
     assert "2/2" in text and "shot" in text and "[2/2] bad input      s1  0.50 s  x.usdc: no such file" in text
+
+
+def test_look_at_release_and_eye_timing_reach_the_look_pass(tmp_path):
+    manifest = _tree(tmp_path, """
+[[job]]
+name = "look"
+input = "walk1.usdc"
+out = "out/look.usdc"
+look_at = ["1,1.6,3@2s"]
+release = ["6s"]
+eye_timing = "model"
+guides = false
+""")
+    assert main(["batch", str(manifest)]) == 0
+    from usdgaze.api import apply
+    from usdgaze.passes.look import LookOptions
+
+    common = dict(look_at=["1,1.6,3@2s"], release=["6s"], guides=False)
+    apply(tmp_path / "walk1.usdc", [], tmp_path / "direct.usdc", look=LookOptions(eye_timing="model"), **common)
+    apply(tmp_path / "walk1.usdc", [], tmp_path / "saccade.usdc", **common)
+    batch_out = _samples(tmp_path / "out" / "look.usdc")
+    assert batch_out == _samples(tmp_path / "direct.usdc")
+    assert batch_out != _samples(tmp_path / "saccade.usdc")

@@ -10,13 +10,15 @@ A manifest lists shots; paths are relative to the manifest's folder::
     input = "shots/walk_01.usdc"
     out = "out/walk_01_gaze.usdc"
     preview = "out/walk_01_preview.usda"        # or sublayer_into = "shots/walk_01_shot.usda"
-    shifts = ["2s:60:0", "5s:-120:10"]
+    shifts = ["2s:60:0", "5s:-120:10"]          # and/or look_at = ["/World/Door@4s"], release = ["8s"];
+                                                # none of them: each SkelRoot's GazeScheduleAPI schedule
+    # eye_timing = "saccade" | "model"; guides = true
     # map = "maps/studio.usda:/GazeMap"; skel_root = "/Char/Body"
     # bind = ["pelvis=j1", "head=j5"] (or a table: bind = { neck = ["j3", "j4"] }); forward = [0, 0, 1]
 
 Every key a shot may carry is one row of :data:`KEYS`: how its value is checked and normalized, and
-which ``api.apply`` argument (or ``PassOptions`` field) it becomes. Adding an apply option to the
-manifest is one row there.
+which ``api.apply`` argument (or ``PassOptions`` / ``LookOptions`` field) it becomes. Adding an
+apply option to the manifest is one row there.
 """
 
 from __future__ import annotations
@@ -65,9 +67,39 @@ def _map(value: Any, label: Label, base: Path) -> str:
 
 
 def _shifts(value: Any, label: Label, base: Path) -> list[str]:
-    from usdgaze.values import check_shifts
+    from usdgaze.passes.requests import parse_shift
 
-    return [str(s) for s in check_shifts(value, label)]
+    if isinstance(value, (str, bytes)) or not isinstance(value, list):
+        raise UsdGazeError(f"{label('shifts', repr(value))}: expected a list of \"TIME:YAW:PITCH\" strings")
+    return [str(parse_shift(text, label)) for text in value]
+
+
+def _directives(key: str, parse: str, form: str):
+    """A list of ``look_at`` or ``release`` directive strings, each parsed as the CLI's flag is."""
+    def check(value: Any, label: Label, base: Path) -> list[str]:
+        from usdgaze.passes import requests
+
+        if isinstance(value, (str, bytes)) or not isinstance(value, list):
+            raise UsdGazeError(f"{label(key, repr(value))}: expected a list of \"{form}\" strings")
+        out = []
+        for text in value:
+            if not isinstance(text, str):
+                raise UsdGazeError(f"{label(key, repr(text))}: expected a \"{form}\" string")
+            try:
+                out.append(str(getattr(requests, parse)(text)))
+            except UsdGazeError as exc:  # the CLI's message names its flag: name the manifest key
+                reason = str(exc).split("': ", 1)[-1]
+                raise UsdGazeError(f"{label(key, repr(text))}: {reason}") from None
+        return out
+    return check
+
+
+def _choice(key: str, choices: tuple[str, ...]):
+    def check(value: Any, label: Label, base: Path) -> str:
+        if value not in choices:
+            raise UsdGazeError(f"{label(key, repr(value))}: expected one of {', '.join(choices)}")
+        return value
+    return check
 
 
 def _fixation(value: Any, label: Label, base: Path) -> float:
@@ -112,7 +144,11 @@ KEYS: dict[str, Key] = {
     "preview": Key(_path("preview", layer=True), "preview", output=True),
     "sublayer_into": Key(_path("sublayer_into", layer=True), "sublayer_into", output=True),
     "plot": Key(_path("plot"), "plot", output=True),
-    "shifts": Key(_shifts, "shifts", required=True),
+    "shifts": Key(_shifts, "shifts"),
+    "look_at": Key(_directives("look_at", "parse_look", "TARGET@TIME"), "look_at"),
+    "release": Key(_directives("release", "parse_release", "TIME"), "release"),
+    "eye_timing": Key(_choice("eye_timing", ("saccade", "model")), "look.eye_timing"),
+    "guides": Key(_flag("guides"), "guides"),
     "map": Key(_map, "map_spec", keyed=False),
     "skel_root": Key(_text("skel_root"), "skel_root"),
     "fixation": Key(_fixation, "options.fixation_m"),
@@ -154,21 +190,26 @@ class Shot:
 
 
 def apply_kwargs(shot: Shot) -> dict:
-    """The ``usdgaze.api.apply`` keyword arguments of a shot (``options`` built from ``options.*`` keys)."""
+    """The ``usdgaze.api.apply`` keyword arguments of a shot: ``GROUP.FIELD`` targets are fields of
+    the option dataclasses (``options``: PassOptions, ``look``: LookOptions)."""
+    from usdgaze.passes.look import LookOptions
     from usdgaze.passes.shift import PassOptions
 
-    kwargs, options = {}, {}
+    groups = {"options": PassOptions, "look": LookOptions}
+    kwargs, fields = {"shifts": []}, {name: {} for name in groups}
     for key, value in shot.values.items():
         to = KEYS[key].to
         if to is None:
             continue
         value = _COMBINED[to](shot.values, shot.where) if to in _COMBINED else value
-        if to.startswith("options."):
-            options[to.removeprefix("options.")] = value
+        group, dot, name = to.partition(".")
+        if dot:
+            fields[group][name] = value
         else:
             kwargs[to] = value
-    if options:
-        kwargs["options"] = PassOptions(**options)
+    for group, values in fields.items():
+        if values:
+            kwargs[group] = groups[group](**values)
     return kwargs
 
 
@@ -192,6 +233,9 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
             raise UsdGazeError(f"{where}: missing '{key}'")
     base = path.parent.resolve()
     values = {k: KEYS[k].check(v, label, base) for k, v in merged.items()}
+    if "shifts" in values and not values["shifts"] and not values.get("look_at") and not values.get("release"):
+        # Left out, the SkelRoots' own GazeScheduleAPI schedules apply; an empty list is a slip.
+        raise UsdGazeError(f"{label('shifts', '[]')}: no shift given; nothing to do")
     name = values.pop("name", None) or Path(values["input"]).stem
     shot = Shot(index=index, name=name, values=values, where=where)
     check_request(ApplyRequest(**apply_kwargs(shot)), label)  # the CLI's and the API's own checks
@@ -209,7 +253,16 @@ def _check_files(path: Path, shots: list[Shot]) -> None:
 
 def register(ids, path: Path, shots: list[Shot]) -> None:
     """Record the manifest and every shot's inputs as read, every shot's outputs as written, in an
-    :class:`usdgaze.files.identity.Identities` (a clash is a one-line error naming both)."""
+    :class:`usdgaze.files.identity.Identities`: a clash is a one-line error naming the manifest, the
+    file and both uses of it."""
+    try:
+        _register(ids, path, shots)
+    except UsdGazeError as exc:
+        message = str(exc)
+        raise UsdGazeError(message if message.startswith(f"{path}:") else f"{path}: {message}") from None
+
+
+def _register(ids, path: Path, shots: list[Shot]) -> None:
     ids.read(path, "manifest")
     for s in shots:
         ids.read(s.values["input"], f"input of {s.label}")
