@@ -23,11 +23,11 @@ from . import measure
 ROOT = Path(__file__).resolve().parents[1]
 CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 SKEL, ANIM, SKEL_ROOT = "/root/Body/BodySkel", "/root/Body/BodySkel/scaled_131_01", "/root/Body"
-SECONDS = 0.6
+SECONDS = 0.5
 PUSH = (0.1, 0.3, 150.0)  # start s, end s, newtons along the character's left
 
 
-def excerpt(path: Path, seconds: float, push=None) -> Path:
+def excerpt(path: Path, seconds: float, push=None, vector=None) -> Path:
     """A copy of the CMU stage cut to its first ``seconds``, optionally with a push on the SkelRoot."""
     layer = Sdf.Layer.FindOrOpen(str(CMU))
     tcps = layer.timeCodesPerSecond
@@ -53,7 +53,8 @@ def excerpt(path: Path, seconds: float, push=None) -> Path:
         left = posed.skel_to_world[:3, :3].T @ left_skel
         left /= np.linalg.norm(left)
         a, b, newtons = push
-        out.SetTimeSample(force.path, start + a * tcps, Gf.Vec3f(*(newtons * left)))
+        vec = newtons * left if vector is None else np.asarray(vector, dtype=float)
+        out.SetTimeSample(force.path, start + a * tcps, Gf.Vec3f(*vec))
         out.SetTimeSample(force.path, start + b * tcps, Gf.Vec3f(0, 0, 0))
     out.Save()
     return path
@@ -143,3 +144,20 @@ def test_each_solve_decreases_the_cost(tmp_path):
     for costs in result.solve_costs:
         assert all(b <= a for a, b in zip(costs, costs[1:]))
     assert result.solve_costs[0][-1] < 0.9 * result.solve_costs[0][0]
+
+
+def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
+    from usdgaze.console.main import main
+
+    # 5 kN straight down on the chest (stage Y up): no controller keeps the pelvis up.
+    src = excerpt(tmp_path / "crushed.usda", 0.2, (0.0, 0.2, 0.0), vector=(0.0, -5000.0, 0.0))
+    out = tmp_path / "sim.usda"
+    assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3", "--discard-failed"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "fell at" in err[0] and "nothing written" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["crushed.usda"]
+    assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3"]) == 0
+    printed = capsys.readouterr().out
+    assert "fell at" in printed and out.is_file()
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    assert "fell at" in list(layer.customLayerData["usdgaze:physics"][SKEL]["problems"])[0]

@@ -144,6 +144,8 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     out = check_output_path(out)
     if os.path.abspath(out) == os.path.abspath(source):
         raise UsdGazeError(f"{out}: --out would overwrite the input")
+    if not (np.isfinite(options.horizon_s) and 2 * options.h - 1e-9 <= options.horizon_s <= 5.0):
+        raise UsdGazeError(f"--window {options.horizon_s:g} s: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
     stage = open_stage(source)
     reports, overrides, terms = [], [], {}
     for root in select_roots(stage, source, skel_root):

@@ -71,7 +71,7 @@ class MujocoBody:
     name = "body"
 
     def __init__(self, model: BodyModel, h: float = 0.02, forces: Callable[[int], np.ndarray] | None = None,
-                 centered: bool = False, eps: float = 1e-6) -> None:
+                 centered: bool = False, eps: float = 1e-6, workers: int = 1) -> None:
         import mujoco
 
         from usdgaze.physics import mjcf
@@ -84,6 +84,7 @@ class MujocoBody:
         self.xs, self.us = slice(0, self.nx), slice(0, self.nu)
         self.stack = None
         self.forces = forces
+        self.workers, self._pool, self._clones = int(workers), None, []
         self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
         qadr, dadr = model.layout()
         balls = [b for b, k in enumerate(model.kind) if k == "ball"]
@@ -190,5 +191,30 @@ class MujocoBody:
         return fx, fu
 
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
-        pairs = [self.linearize(X[i], U[i], k0 + i) for i in range(len(U))]
+        """The window's linearizations; with ``workers > 1`` steps are split over threads, each with its
+        own copy of the part (MuJoCo releases the GIL inside its functions)."""
+        n = len(U)
+        if self.workers <= 1 or n < 2:
+            pairs = [self.linearize(X[i], U[i], k0 + i) for i in range(n)]
+        else:
+            from concurrent.futures import ThreadPoolExecutor
+
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(self.workers)
+                self._clones = [self._clone() for _ in range(self.workers)]
+            for c in self._clones:
+                c.anchor, c.stack, c.xs, c.us = self.anchor, self.stack, self.xs, self.us
+            chunks = np.array_split(np.arange(n), self.workers)
+            parts = self._pool.map(lambda a: [a[0].linearize(X[i], U[i], k0 + i) for i in a[1]],
+                                   zip(self._clones, chunks))
+            pairs = [p for chunk in parts for p in chunk]
         return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+
+    def _clone(self) -> "MujocoBody":
+        import copy
+        import mujoco
+
+        twin = copy.copy(self)
+        twin.data = mujoco.MjData(self.mj)
+        twin.workers, twin._pool = 1, None
+        return twin

@@ -36,6 +36,8 @@ class Options:
     horizon_s: float = 0.6
     iterations: int = 1
     first_iterations: int = 5
+    workers: int = 1  # threads for the window's finite differences
+    stop_after_fall_s: float = 0.2  # simulation ends this long after the pelvis first stays below the bar
     weights: Weights = field(default_factory=Weights)
 
 
@@ -108,7 +110,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
     from usdgaze.planning import ddp
 
     h = options.h
-    plan = MujocoBody(model, h=h)
+    plan = MujocoBody(model, h=h, workers=options.workers)
     sim = MujocoBody(model, h=h, forces=_schedule(model, pushes, h, plan.mj.nbody))
     ref_q = resample(ref_qpos_frames, ref_seconds, h, plan)
     ref_v = velocities(ref_q, h, plan.mj)
@@ -118,7 +120,8 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
     steps = len(ref_q) - 1
     tail = _inverse_dynamics(plan, ref_q, ref_v, h)
     pad = lambda k: tail[min(k, steps)]  # noqa: E731
-    mpc = ddp.RecedingHorizon(n, plan.nu, ddp.Options(max_iter=options.first_iterations),
+    solver: dict = {}
+    mpc = ddp.RecedingHorizon(n, plan.nu, ddp.Options(max_iter=options.first_iterations, **solver),
                               U_init=np.array([pad(i) for i in range(n)]))
     qpos = np.zeros((steps + 1, plan.nq))
     qpos[0] = ref_q[0]
@@ -127,6 +130,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
     feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(model)])
     depth = np.zeros(steps + 1)
     d = mujoco.MjData(plan.mj)
+    down = 0
     with threadpool_limits(1):  # small dense matrices: BLAS threads only contend
         for k in range(steps):
             plan.set_anchor(ref_q[k, 3:7])
@@ -134,14 +138,18 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
             x = plan.to_state(qpos[k], qvel)
             mpc.U[-1] = pad(k + n - 1)
             u, sol = mpc.step(plan, cost, x, k)
-            mpc.options = ddp.Options(max_iter=options.iterations)
+            mpc.options = ddp.Options(max_iter=options.iterations, **solver)
             costs.append([float(c) for c in sol.costs])
             xn = sim.step(x, u, k)
             if not np.all(np.isfinite(xn)):
-                qpos, qvel_ok = qpos[: k + 1], False
+                qpos = qpos[: k + 1]
                 break
             qpos[k + 1], qvel = sim.to_mujoco(xn)
             ctrl[k] = u
+            down = down + 1 if qpos[k + 1, 2] < FALL_RATIO * ref_q[k + 1, 2] else 0
+            if down * h >= options.stop_after_fall_s:  # on the ground: nothing left to control
+                qpos = qpos[: k + 2]
+                break
             d.qpos[:] = qpos[k + 1]
             mujoco.mj_kinematics(plan.mj, d)
             depth[k + 1] = _foot_depth(plan.mj, d, feet)
@@ -152,8 +160,9 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
     low = np.flatnonzero(ratio < FALL_RATIO)
     seconds = ref_seconds[0] + h * np.arange(kk)
     fell = float(seconds[low[0]]) if len(low) else (None if kk == steps + 1 else float(seconds[-1]))
+    depth = depth[:kk]
     return Result(seconds=seconds, qpos=qpos, ref_qpos=ref_q[:kk], ctrl=ctrl[: kk - 1], pelvis_ratio=ratio,
-                  joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth[:kk],
+                  joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth,
                   solve_costs=costs, fell_at=fell)
 
 
