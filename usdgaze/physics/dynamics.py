@@ -64,6 +64,10 @@ def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate([w1 * w2 - np.sum(v1 * v2, -1, keepdims=True), w1 * v2 + w2 * v1 + np.cross(v1, v2)], -1)
 
 
+def _quiet(message: str) -> None:
+    return None
+
+
 class MujocoBody:
     """The simulated body as a dynamics part (``nx = 2 nv``, ``nu`` motors), usable on its own as a
     ``ddp.Dynamics`` or stacked with the eye and belief parts (``bind`` gives it its slices)."""
@@ -77,6 +81,10 @@ class MujocoBody:
         from usdgaze.physics import mjcf
 
         self.model, self.h, self.centered, self.eps = model, float(h), centered, eps
+        # Trial controls of the line search can blow a step up; ``step_body`` reads MuJoCo's warning
+        # counter and hands the solver an infinite cost instead, so MuJoCo's own printout (and its
+        # MUJOCO_LOG.TXT in the working folder) would only be noise.
+        mujoco.set_mju_user_warning(_quiet)
         self.mj = mujoco.MjModel.from_xml_string(mjcf.write(model, timestep=h))
         self.data = mujoco.MjData(self.mj)
         self.nv, self.nq = self.mj.nv, self.mj.nq
@@ -147,9 +155,10 @@ class MujocoBody:
         import mujoco
 
         self._load(xb, ub, k)
-        bad = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        kinds = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
+        bad = [self.data.warning[w].number for w in kinds]
         mujoco.mj_step(self.mj, self.data)
-        if self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number != bad:
+        if [self.data.warning[w].number for w in kinds] != bad:
             # MuJoCo resets an unstable state to qpos0; say so to the solver instead (infinite cost).
             return np.full(self.nx, np.nan)
         return self.to_state(self.data.qpos, self.data.qvel)
