@@ -23,8 +23,15 @@ import click
                    "directives realized through the gaze map (cascade, overshoot, saccades).")
 @click.option("--skel-root", default=None, help="SkelRoot prim path (default: the only one).")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
-def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, as_json) -> None:
+@click.option("--physics", is_flag=True,
+              help="Simulate the whole body on MuJoCo under the full-body MPC, tracking the base motion (root "
+                   "included; pushes authored on the SkelRoot act on it). The eyes are not driven in this mode yet.")
+@click.option("--discard-failed", is_flag=True, help="With --physics: when a shot falls, write nothing and exit 2.")
+def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, as_json, physics,
+           discard_failed) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
+    if physics:
+        return _physics(input_path, out, window_s, skel_root, discard_failed, as_json)
     from usdgaze.attend import AttendSettings, attend as run
 
     paths = [p.strip() for p in objects.split(",") if p.strip()] if objects else None
@@ -44,3 +51,22 @@ def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_
     click.echo(f"planner: {p['steps']} steps of {p['h']} s, window {p['window_s']} s, "
                f"{p['mean_iterations']} iterations/step, {p['frames_per_second']} frames/s")
     click.echo(f"wrote {report.output}")
+
+
+def _physics(input_path, out, window_s, skel_root, discard_failed, as_json) -> None:
+    """``--physics``: the physics pass (usdgaze.passes.physics); one line per shot, a fall said plainly."""
+    from dataclasses import asdict
+
+    from usdgaze.passes.physics import run
+    from usdgaze.physics.mpc import Options
+
+    reports = run(input_path, out, Options(horizon_s=window_s), skel_root=skel_root, keep_failed=not discard_failed)
+    if as_json:
+        click.echo(json.dumps({"output": str(out), "shots": [asdict(r) for r in reports]}, indent=2))
+        return
+    for r in reports:
+        state = "; ".join(r.problems) if r.problems else "stayed up"
+        click.echo(f"{r.skeleton}: {state}; pelvis >= {r.min_pelvis_ratio:.0%} of the reference, mean joint error "
+                   f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground, "
+                   f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s")
+    click.echo(f"wrote {out}")

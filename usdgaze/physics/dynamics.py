@@ -64,6 +64,10 @@ def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate([w1 * w2 - np.sum(v1 * v2, -1, keepdims=True), w1 * v2 + w2 * v1 + np.cross(v1, v2)], -1)
 
 
+def _quiet(message: str) -> None:
+    return None
+
+
 class MujocoBody:
     """The simulated body as a dynamics part (``nx = 2 nv``, ``nu`` motors), usable on its own as a
     ``ddp.Dynamics`` or stacked with the eye and belief parts (``bind`` gives it its slices)."""
@@ -71,12 +75,16 @@ class MujocoBody:
     name = "body"
 
     def __init__(self, model: BodyModel, h: float = 0.02, forces: Callable[[int], np.ndarray] | None = None,
-                 centered: bool = False, eps: float = 1e-6) -> None:
+                 centered: bool = False, eps: float = 1e-6, workers: int = 1) -> None:
         import mujoco
 
         from usdgaze.physics import mjcf
 
         self.model, self.h, self.centered, self.eps = model, float(h), centered, eps
+        # Trial controls of the line search can blow a step up; ``step_body`` reads MuJoCo's warning
+        # counter and hands the solver an infinite cost instead, so MuJoCo's own printout (and its
+        # MUJOCO_LOG.TXT in the working folder) would only be noise.
+        mujoco.set_mju_user_warning(_quiet)
         self.mj = mujoco.MjModel.from_xml_string(mjcf.write(model, timestep=h))
         self.data = mujoco.MjData(self.mj)
         self.nv, self.nq = self.mj.nv, self.mj.nq
@@ -84,6 +92,7 @@ class MujocoBody:
         self.xs, self.us = slice(0, self.nx), slice(0, self.nu)
         self.stack = None
         self.forces = forces
+        self.workers, self._pool, self._clones = int(workers), None, []
         self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
         qadr, dadr = model.layout()
         balls = [b for b, k in enumerate(model.kind) if k == "ball"]
@@ -146,9 +155,10 @@ class MujocoBody:
         import mujoco
 
         self._load(xb, ub, k)
-        bad = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        kinds = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
+        bad = [self.data.warning[w].number for w in kinds]
         mujoco.mj_step(self.mj, self.data)
-        if self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number != bad:
+        if [self.data.warning[w].number for w in kinds] != bad:
             # MuJoCo resets an unstable state to qpos0; say so to the solver instead (infinite cost).
             return np.full(self.nx, np.nan)
         return self.to_state(self.data.qpos, self.data.qvel)
@@ -190,5 +200,30 @@ class MujocoBody:
         return fx, fu
 
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
-        pairs = [self.linearize(X[i], U[i], k0 + i) for i in range(len(U))]
+        """The window's linearizations; with ``workers > 1`` steps are split over threads, each with its
+        own copy of the part (MuJoCo releases the GIL inside its functions)."""
+        n = len(U)
+        if self.workers <= 1 or n < 2:
+            pairs = [self.linearize(X[i], U[i], k0 + i) for i in range(n)]
+        else:
+            from concurrent.futures import ThreadPoolExecutor
+
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(self.workers)
+                self._clones = [self._clone() for _ in range(self.workers)]
+            for c in self._clones:
+                c.anchor, c.stack, c.xs, c.us = self.anchor, self.stack, self.xs, self.us
+            chunks = np.array_split(np.arange(n), self.workers)
+            parts = self._pool.map(lambda a: [a[0].linearize(X[i], U[i], k0 + i) for i in a[1]],
+                                   zip(self._clones, chunks))
+            pairs = [p for chunk in parts for p in chunk]
         return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+
+    def _clone(self) -> "MujocoBody":
+        import copy
+        import mujoco
+
+        twin = copy.copy(self)
+        twin.data = mujoco.MjData(self.mj)
+        twin.workers, twin._pool = 1, None
+        return twin

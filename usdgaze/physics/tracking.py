@@ -32,10 +32,11 @@ class Weights:
 
 def resample(qpos: np.ndarray, seconds: np.ndarray, h: float, dyn: MujocoBody) -> np.ndarray:
     """Reference ``qpos`` at steps of ``h`` from samples at ``seconds`` (linear, quaternions nlerped)."""
-    n = int(np.floor((seconds[-1] - seconds[0]) / h + 1e-9)) + 1
+    # Steps cover the whole clip: the last one may pass its end by under a step (holding the last pose).
+    n = int(np.ceil((seconds[-1] - seconds[0]) / h - 1e-6)) + 1
     t = seconds[0] + h * np.arange(n)
     i = np.clip(np.searchsorted(seconds, t, side="right") - 1, 0, len(seconds) - 2)
-    a = ((t - seconds[i]) / np.maximum(seconds[i + 1] - seconds[i], 1e-12))[:, None]
+    a = np.clip((t - seconds[i]) / np.maximum(seconds[i + 1] - seconds[i], 1e-12), 0.0, 1.0)[:, None]
     q0, q1 = qpos[i], qpos[i + 1].copy()
     quats = [3] + [int(j) for j in dyn._bq]
     for s in quats:  # same hemisphere before blending

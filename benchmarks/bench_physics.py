@@ -1,0 +1,105 @@
+"""Full-body MPC on MuJoCo (``usdgaze.physics``): output frames per second for each task, 1 and 2 cores.
+
+Tasks: ``track`` follows the CMU 131_01 walk (``--seconds``, default its whole 8.3 s), ``push``
+stands through a 150 N, 0.2 s push at the chest from the character's left (the first 1.5 s of the
+clip, push at 0.5 s). Each runs pinned to 1 core and to 2 cores (finite differences of the window
+split over 2 threads), one BLAS thread. Printed per run: wall time, simulated seconds per wall second,
+output frames per second at 30 fps and at the planner's 1/h, and the shot's measures (fall, lowest
+pelvis height against the reference, mean joint-angle error, deepest foot below the ground), against
+the paper's 1-6 frames/s on six cores and the goal of >= 6 frames/s on two.
+
+    python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
+        [--horizon 0.6] [--iterations 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from usdgaze.physics import build, mpc, retarget  # noqa: E402
+
+CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
+
+
+def _left(model, qpos0):
+    import mujoco
+
+    from usdgaze.physics.dynamics import MujocoBody
+
+    body = MujocoBody(model)
+    d = mujoco.MjData(body.mj)
+    d.qpos[:] = qpos0
+    mujoco.mj_kinematics(body.mj, d)
+    hips = [b for b, r in enumerate(model.role) if r == "thigh"]
+    side = sorted(hips, key=lambda b: model.names[b].lower().startswith("r"))  # left first
+    v = d.xpos[side[0] + 1] - d.xpos[side[1] + 1]
+    v[2] = 0.0
+    return v / np.linalg.norm(v)
+
+
+def run_task(task: str, seconds: float, opts: mpc.Options) -> dict:
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    qpos = retarget.to_qpos(model, ref)
+    end = seconds if task == "track" else 1.5
+    keep = clip.seconds <= end + 1e-9
+    pushes = ()
+    if task == "push":
+        chest = next(b for b, n in enumerate(model.names) if n.lower() in ("chest2", "spine2", "chest", "spine1"))
+        pushes = (mpc.Push(chest, 150.0 * _left(model, qpos[0]), 0.5, 0.2),)
+    start = time.perf_counter()
+    cpu0 = time.process_time()
+    r = mpc.simulate(model, qpos[keep], clip.seconds[keep], opts, pushes)
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu0
+    sim_s = float(r.seconds[-1] - r.seconds[0])
+    return {"task": task, "simulated_s": round(sim_s, 3), "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
+            "sim_s_per_wall_s": round(sim_s / wall, 4), "fps_at_30": round(30 * sim_s / wall, 2),
+            "fps_at_1_over_h": round(sim_s / opts.h / wall, 2), "fell_at_s": r.fell_at,
+            "min_pelvis_ratio": round(float(r.pelvis_ratio.min()), 3),
+            "mean_joint_error_deg": round(float(r.joint_error_deg.mean()), 2),
+            "max_foot_below_ground_m": round(float(r.foot_below_ground_m.max()), 4),
+            "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--tasks", default="track,push")
+    ap.add_argument("--seconds", type=float, default=8.3)
+    ap.add_argument("--cores", default="1,2")
+    ap.add_argument("--h", type=float, default=0.02)
+    ap.add_argument("--horizon", type=float, default=0.6)
+    ap.add_argument("--iterations", type=int, default=1)
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args()
+    from threadpoolctl import threadpool_limits
+
+    cpus = sorted(os.sched_getaffinity(0))
+    rows = []
+    for task in a.tasks.split(","):
+        for cores in (int(c) for c in a.cores.split(",")):
+            os.sched_setaffinity(0, cpus[:cores])
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores)
+            with threadpool_limits(1):
+                row = run_task(task, a.seconds, opts) | {"cores": cores}
+            rows.append(row)
+            print(json.dumps(row) if a.json else
+                  f"{task:6s} {cores} core(s): {row['simulated_s']:.2f} s simulated in {row['wall_s']:.1f} s wall "
+                  f"-> {row['fps_at_30']:.2f} frames/s at 30 fps ({row['fps_at_1_over_h']:.2f} at 1/h) "
+                  f"vs paper 1-6 on 6 cores, goal >= 6 on 2 | fell {row['fell_at_s']} | pelvis >= "
+                  f"{row['min_pelvis_ratio']:.2f} of ref | joint err {row['mean_joint_error_deg']:.1f} deg | "
+                  f"foot below ground {100 * row['max_foot_below_ground_m']:.1f} cm", flush=True)
+    os.sched_setaffinity(0, cpus)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,163 @@
+"""The physics pass on a short excerpt of the CMU walk's start, pushed from the side at the chest.
+
+Everything is measured on the composed stage (input + the written override) with UsdSkel's forward
+kinematics, against the same stage with the override muted (the reference): pelvis height, feet
+above the ground, the chest driven sideways by the push, joint-angle error from the layer's own
+local rotations, welded joints bit-identical, the input untouched.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdSkel
+
+from usdgaze.passes import physics as physics_pass
+from usdgaze.physics import build, mpc
+
+from . import measure
+
+ROOT = Path(__file__).resolve().parents[1]
+CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
+SKEL, ANIM, SKEL_ROOT = "/root/Body/BodySkel", "/root/Body/BodySkel/scaled_131_01", "/root/Body"
+SECONDS = 0.5
+PUSH = (0.1, 0.3, 150.0)  # start s, end s, newtons along the character's left
+
+
+def excerpt(path: Path, seconds: float, push=None, vector=None) -> Path:
+    """A copy of the CMU stage cut to its first ``seconds``, optionally with a push on the SkelRoot."""
+    layer = Sdf.Layer.FindOrOpen(str(CMU))
+    tcps = layer.timeCodesPerSecond
+    out = Sdf.Layer.CreateNew(str(path))
+    out.TransferContent(layer)
+    start = out.startTimeCode
+    end = start + seconds * tcps
+    for name in ("rotations", "translations", "scales"):
+        attr = Sdf.Path(f"{ANIM}.{name}")
+        for t in out.ListTimeSamplesForPath(attr):
+            if t > end:
+                out.EraseTimeSample(attr, t)
+    out.endTimeCode = end
+    if push is not None:
+        prim = out.GetPrimAtPath(SKEL_ROOT)
+        force = Sdf.AttributeSpec(prim, physics_pass.PUSH_FORCE, Sdf.ValueTypeNames.Float3)
+        joint = Sdf.AttributeSpec(prim, physics_pass.PUSH_JOINT, Sdf.ValueTypeNames.Token)
+        joint.default = "Chest2"
+        # The character's left in stage axes (Y up): from the rest hips, as the tests measure it.
+        posed = measure.posed(str(CMU), SKEL)
+        fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
+        left_skel = np.cross(np.array([0, 0, 1.0]), fwd)  # skeleton space is Z up here
+        left = posed.skel_to_world[:3, :3].T @ left_skel
+        left /= np.linalg.norm(left)
+        a, b, newtons = push
+        vec = newtons * left if vector is None else np.asarray(vector, dtype=float)
+        out.SetTimeSample(force.path, start + a * tcps, Gf.Vec3f(*vec))
+        out.SetTimeSample(force.path, start + b * tcps, Gf.Vec3f(0, 0, 0))
+    out.Save()
+    return path
+
+
+@pytest.fixture(scope="module")
+def shot(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("physics")
+    src = excerpt(tmp / "pushed.usda", SECONDS, PUSH)
+    before = measure.sha256(src)
+    out = tmp / "sim.usda"
+    reports = physics_pass.run(src, out, mpc.Options(h=0.02, horizon_s=0.6))
+    composed = tmp / "composed.usda"
+    root = Sdf.Layer.CreateNew(str(composed))
+    src_layer = Sdf.Layer.FindOrOpen(str(src))
+    root.timeCodesPerSecond, root.framesPerSecond = src_layer.timeCodesPerSecond, src_layer.framesPerSecond
+    root.startTimeCode, root.endTimeCode = src_layer.startTimeCode, src_layer.endTimeCode
+    root.subLayerPaths.append(str(out))
+    root.subLayerPaths.append(str(src))
+    root.Save()
+    return dict(src=src, out=out, composed=composed, reports=reports, before=before)
+
+
+def test_stays_up_with_the_feet_on_the_ground_and_tracks(shot):
+    sim = measure.posed(str(shot["composed"]), SKEL)
+    ref = measure.posed(str(shot["src"]), SKEL)
+    up = lambda p, leaf: p.position(leaf) @ p.up  # noqa: E731
+    ratio = up(sim, "Hips") / up(ref, "Hips")
+    assert ratio.min() >= 0.8
+    for toe in ("LeftToe", "RightToe"):  # the toe joint sits a sole's thickness above the ground
+        assert up(sim, toe).min() > -0.02
+    # The push moved the chest toward the character's left, beyond the reference's own sway.
+    fwd = measure.character_forward_skel(ref, "LeftHip", "RightHip")
+    left = ref.skel_to_world[:3, :3].T @ np.cross(np.array([0, 0, 1.0]), fwd)
+    drift = (sim.position("Chest2") - ref.position("Chest2")) @ (left / np.linalg.norm(left))
+    assert drift.max() > 0.01
+    report = shot["reports"][0]
+    assert not report.fell and report.pushes == 1 and report.frames == len(sim.times)
+
+
+def _locals(path):
+    stage = Usd.Stage.Open(str(path))
+    anim = UsdSkel.Animation(stage.GetPrimAtPath(ANIM))
+    times = anim.GetRotationsAttr().GetTimeSamples()
+    return [str(j) for j in anim.GetJointsAttr().Get()], np.array([np.array(anim.GetRotationsAttr().Get(t)) for t in times])
+
+
+def test_joint_angles_follow_the_reference_and_welded_joints_are_untouched(shot):
+    joints, sim = _locals(shot["composed"])
+    _, ref = _locals(shot["src"])
+    # Quaternion angle between simulated and reference local rotations (xyzw float arrays from USD).
+    dot = np.abs(np.sum(sim.astype(float) * ref.astype(float), axis=-1)).clip(0, 1)
+    err = np.degrees(2 * np.arccos(dot))
+    moving = err.max(axis=0) > 0
+    assert err[:, moving].mean() <= 10.0
+    # CMU's hip and collar joints never move in the reference: the model welds them, bit for bit.
+    for leaf in ("LHipJoint", "RHipJoint", "LeftCollar", "RightCollar"):
+        j = next(i for i, n in enumerate(joints) if n.endswith(leaf))
+        assert np.array_equal(sim[:, j], ref[:, j])
+
+
+def test_input_untouched_and_the_layer_reports_per_frame_terms(shot):
+    assert measure.sha256(shot["src"]) == shot["before"]
+    layer = Sdf.Layer.FindOrOpen(str(shot["out"]))
+    data = layer.customLayerData["usdgaze:physics"][SKEL]
+    frames = data["frames"]
+    assert len(frames["pelvisRatio"]) == len(frames["seconds"]) == round(SECONDS / 0.02) + 1
+    assert list(data["problems"]) == ["none"]
+    # Muting the override gives back the input exactly.
+    stage = Usd.Stage.Open(str(shot["composed"]))
+    stage.MuteLayer(layer.identifier)
+    muted = UsdSkel.Animation(stage.GetPrimAtPath(ANIM)).GetRotationsAttr()
+    source = Usd.Stage.Open(str(shot["src"]))
+    original = UsdSkel.Animation(source.GetPrimAtPath(ANIM)).GetRotationsAttr()
+    assert muted.GetTimeSamples() == original.GetTimeSamples()
+    for t in original.GetTimeSamples():
+        assert np.array_equal(np.array(muted.Get(t)), np.array(original.Get(t)))
+
+
+def test_each_solve_decreases_the_cost(tmp_path):
+    clip = build.load_clip(excerpt(tmp_path / "short.usda", 0.12))
+    model, ref = build.body_model(clip)
+    from usdgaze.physics import retarget
+
+    result = mpc.simulate(model, retarget.to_qpos(model, ref), clip.seconds, mpc.Options(h=0.02, horizon_s=0.3))
+    assert len(result.solve_costs) == 6
+    for costs in result.solve_costs:
+        assert all(b <= a for a, b in zip(costs, costs[1:]))
+    assert result.solve_costs[0][-1] < 0.9 * result.solve_costs[0][0]
+
+
+def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
+    from usdgaze.console.main import main
+
+    # 5 kN straight down on the chest (stage Y up): no controller keeps the pelvis up.
+    src = excerpt(tmp_path / "crushed.usda", 0.2, (0.0, 0.2, 0.0), vector=(0.0, -5000.0, 0.0))
+    out = tmp_path / "sim.usda"
+    assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3", "--discard-failed"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "fell at" in err[0] and "nothing written" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["crushed.usda"]
+    assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3"]) == 0
+    printed = capsys.readouterr().out
+    assert "fell at" in printed and out.is_file()
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    assert "fell at" in list(layer.customLayerData["usdgaze:physics"][SKEL]["problems"])[0]

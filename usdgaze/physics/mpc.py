@@ -1,0 +1,190 @@
+"""Receding-horizon full-body control on MuJoCo: the planner (``usdgaze.planning.ddp``) tracking a
+reference while the true simulation may be pushed, with the per-step measures a shot report needs.
+
+Two processes, as in the paper: the planner's internal model (``plan``, no knowledge of external
+forces or of what the eyes will see) and the simulation it drives (``sim``, with the push). Each
+control step solves a window of ``horizon_s`` warm-started from the previous solution shifted by one
+step, its new last control the reference's inverse-dynamics torques, then applies the first control.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usdgaze.physics.dynamics import MujocoBody
+from usdgaze.physics.model import BodyModel
+from usdgaze.physics.tracking import BodyTracking, Weights, resample, velocities
+
+FALL_RATIO = 0.8  # the issue's bar: pelvis below 80% of the reference's height is a fall
+
+
+@dataclass
+class Push:
+    """An external force (N, model world) on one body over ``[start_s, start_s + duration_s)``."""
+
+    body: int
+    force: np.ndarray
+    start_s: float
+    duration_s: float
+
+
+@dataclass
+class Options:
+    h: float = 0.02
+    horizon_s: float = 0.6
+    iterations: int = 1
+    first_iterations: int = 5
+    workers: int = 1  # threads for the window's finite differences
+    stop_after_fall_s: float = 0.2  # simulation ends this long after the pelvis first stays below the bar
+    weights: Weights = field(default_factory=Weights)
+
+
+@dataclass
+class Result:
+    """One simulated shot, per control step ``k`` (time ``seconds[k]``)."""
+
+    seconds: np.ndarray
+    qpos: np.ndarray  # (K, nq) simulated
+    ref_qpos: np.ndarray  # (K, nq)
+    ctrl: np.ndarray  # (K - 1, nu)
+    pelvis_ratio: np.ndarray  # (K,) simulated / reference base height
+    joint_error_deg: np.ndarray  # (K,) mean over simulated joints
+    foot_below_ground_m: np.ndarray  # (K,) deepest foot point below z = 0 (0 if none)
+    solve_costs: list[list[float]]
+    fell_at: float | None  # seconds of the first frame below FALL_RATIO
+
+    @property
+    def fell(self) -> bool:
+        return self.fell_at is not None
+
+
+def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: float) -> np.ndarray:
+    """Controls ``(K, nu)`` whose torques realize the reference's accelerations (root residual dropped)."""
+    import mujoco
+
+    d = mujoco.MjData(plan.mj)
+    gear = np.abs(plan.mj.actuator_gear[:, :3]).max(axis=1)
+    out = np.zeros((len(qpos), plan.nu))
+    for k in range(len(qpos)):
+        d.qpos[:], d.qvel[:] = qpos[k], qvel[k]
+        d.qacc[:] = (qvel[min(k + 1, len(qvel) - 1)] - qvel[k]) / h
+        mujoco.mj_inverse(plan.mj, d)
+        out[k] = d.qfrc_inverse[6:] / gear
+    return out
+
+
+def joint_errors_deg(model: BodyModel, qpos: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Mean joint-angle error per frame over the ball and hinge joints, degrees."""
+    from usdgaze.physics.retarget import _xyzw
+    from usdgaze.core import rotations as rot
+
+    qadr, _ = model.layout()
+    errs = []
+    for b, kind in enumerate(model.kind):
+        a = qadr[b]
+        if kind == "ball":
+            errs.append(rot.angle(rot.relative(_xyzw(qpos[:, a:a + 4]), _xyzw(ref[:, a:a + 4]))))
+        elif kind == "hinge":
+            errs.append(np.abs(qpos[:, a] - ref[:, a]))
+    return np.degrees(np.mean(errs, axis=0))
+
+
+def _foot_depth(mj, d, geoms: np.ndarray) -> float:
+    """How far the lowest point of the given capsule geoms is below the ground (0 if above)."""
+    low = np.inf
+    for g in geoms:
+        axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
+        half = mj.geom_size[g, 1] if mj.geom_type[g] == 3 else 0.0
+        low = min(low, d.geom_xpos[g, 2] - abs(axis[2]) * half - mj.geom_size[g, 0])
+    return max(0.0, -low)
+
+
+def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options = Options(),
+             pushes: tuple[Push, ...] = (), progress=None) -> Result:
+    """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length."""
+    import mujoco
+    from threadpoolctl import threadpool_limits
+
+    from usdgaze.planning import ddp
+
+    h = options.h
+    plan = MujocoBody(model, h=h, workers=options.workers)
+    sim = MujocoBody(model, h=h, forces=_schedule(model, pushes, h, plan.mj.nbody))
+    ref_q = resample(ref_qpos_frames, ref_seconds, h, plan)
+    ref_v = velocities(ref_q, h, plan.mj)
+    head = _head_body(model)
+    cost = BodyTracking(plan, ref_q, ref_v, head, options.weights)
+    n = max(2, int(round(options.horizon_s / h)))
+    steps = len(ref_q) - 1
+    tail = _inverse_dynamics(plan, ref_q, ref_v, h)
+    pad = lambda k: tail[min(k, steps)]  # noqa: E731
+    solver: dict = {}
+    mpc = ddp.RecedingHorizon(n, plan.nu, ddp.Options(max_iter=options.first_iterations, **solver),
+                              U_init=np.array([pad(i) for i in range(n)]))
+    qpos = np.zeros((steps + 1, plan.nq))
+    qpos[0] = ref_q[0]
+    qvel = ref_v[0].copy()
+    ctrl, costs = np.zeros((steps, plan.nu)), []
+    feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(model)])
+    depth = np.zeros(steps + 1)
+    d = mujoco.MjData(plan.mj)
+    down = 0
+    with threadpool_limits(1):  # small dense matrices: BLAS threads only contend
+        for k in range(steps):
+            plan.set_anchor(ref_q[k, 3:7])
+            sim.set_anchor(ref_q[k, 3:7])
+            x = plan.to_state(qpos[k], qvel)
+            mpc.U[-1] = pad(k + n - 1)
+            u, sol = mpc.step(plan, cost, x, k)
+            mpc.options = ddp.Options(max_iter=options.iterations, **solver)
+            costs.append([float(c) for c in sol.costs])
+            xn = sim.step(x, u, k)
+            if not np.all(np.isfinite(xn)):
+                qpos = qpos[: k + 1]
+                break
+            qpos[k + 1], qvel = sim.to_mujoco(xn)
+            ctrl[k] = u
+            down = down + 1 if qpos[k + 1, 2] < FALL_RATIO * ref_q[k + 1, 2] else 0
+            if down * h >= options.stop_after_fall_s:  # on the ground: nothing left to control
+                qpos = qpos[: k + 2]
+                break
+            d.qpos[:] = qpos[k + 1]
+            mujoco.mj_kinematics(plan.mj, d)
+            depth[k + 1] = _foot_depth(plan.mj, d, feet)
+            if progress:
+                progress(k + 1, steps)
+    kk = len(qpos)
+    ratio = qpos[:, 2] / np.maximum(ref_q[:kk, 2], 1e-6)
+    low = np.flatnonzero(ratio < FALL_RATIO)
+    seconds = ref_seconds[0] + h * np.arange(kk)
+    fell = float(seconds[low[0]]) if len(low) else (None if kk == steps + 1 else float(seconds[-1]))
+    depth = depth[:kk]
+    return Result(seconds=seconds, qpos=qpos, ref_qpos=ref_q[:kk], ctrl=ctrl[: kk - 1], pelvis_ratio=ratio,
+                  joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth,
+                  solve_costs=costs, fell_at=fell)
+
+
+def _schedule(model: BodyModel, pushes, h: float, nbody: int):
+    if not pushes:
+        return None
+
+    def forces(k: int) -> np.ndarray:
+        out = np.zeros((nbody, 6))
+        t = k * h
+        for p in pushes:
+            if p.start_s <= t + 1e-9 < p.start_s + p.duration_s:
+                out[p.body + 1, :3] += p.force
+        return out
+
+    return forces
+
+
+def _head_body(model: BodyModel) -> int:
+    heads = [b for b, r in enumerate(model.role) if r == "head" and model.kind[b] != "weld"]
+    return (heads[-1] if heads else len(model.bodies) - 1) + 1
+
+
+def _foot_bodies(model: BodyModel) -> set[int]:
+    return {b for b, r in enumerate(model.role) if r == "foot"}
