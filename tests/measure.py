@@ -110,17 +110,27 @@ def wrap(a: np.ndarray) -> np.ndarray:
 
 
 def sight_line(p: Posed, left_eye: str, right_eye: str, eye_axis_l, eye_axis_r) -> np.ndarray:
-    """Line of sight: from the eyes' midpoint to the midpoint of the two gaze rays' closest approach."""
+    """Line of sight: from the eyes' midpoint to the midpoint of the two gaze rays' closest approach.
+
+    Parallel rays have no closest approach (every pair of points is the perpendicular distance apart):
+    they meet at infinity, so the line of sight there is their common direction (none, NaN, when
+    they point opposite ways).
+    """
     pl, pr = p.position(left_eye), p.position(right_eye)
     dl, dr = p.axis(left_eye, eye_axis_l), p.axis(right_eye, eye_axis_r)
     w0 = pl - pr
     a, b, c = (dl * dl).sum(-1), (dl * dr).sum(-1), (dr * dr).sum(-1)
     d, e = (dl * w0).sum(-1), (dr * w0).sum(-1)
-    den = a * c - b * b
-    s = (b * e - c * d) / den
-    t = (a * e - b * d) / den
+    den = a * c - b * b  # |dl x dr|^2: sin^2 of the angle between the rays, times a * c
+    parallel = den <= 1e-12 * a * c
+    safe = np.where(parallel, 1.0, den)
+    s = (b * e - c * d) / safe
+    t = (a * e - b * d) / safe
     point = 0.5 * (pl + s[:, None] * dl + pr + t[:, None] * dr)
     v = point - 0.5 * (pl + pr)
+    common = dl / np.sqrt(a)[:, None] + dr / np.sqrt(c)[:, None]
+    # Opposite directions (b < 0) look nowhere in common: no line of sight.
+    v = np.where(parallel[:, None], np.where(b[:, None] > 0, common, np.nan), v)
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 

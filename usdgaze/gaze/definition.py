@@ -136,13 +136,8 @@ def check_unit_quaternions(q: np.ndarray, where: str) -> None:
         raise GazeMapError(f"{where}: example {i} is {shown}, expected a unit quaternion (within {UNIT_TOLERANCE:g})")
 
 
-def validate(definition: GazeMapDefinition, source: str) -> None:
-    """Raise :class:`GazeMapError` at the first malformed value of a gaze map.
-
-    ``source`` names where the map comes from, ``FILE:PRIMPATH`` for a stored map; messages read
-    ``SOURCE.ATTRIBUTE: problem`` so that an in-memory map and a stored one report alike.
-    """
-    params = definition.params
+def _validate_params(params: np.ndarray, source: str) -> None:
+    """At least one example, (yaw, pitch) in range, no two examples at the same gaze change."""
     if len(params) == 0:
         raise GazeMapError(f"{source}.{YAW_ATTR}: no examples, expected at least one")
     for column, attr, limit in ((0, YAW_ATTR, 180.0), (1, PITCH_ATTR, 90.0)):
@@ -161,11 +156,14 @@ def validate(definition: GazeMapDefinition, source: str) -> None:
             f"({params[a, 0]:g}, {params[a, 1]:g}); each example must be a different gaze change"
         )
 
-    offsets = definition.motions.offsets
+
+def _validate_motions(motions: GazeMotions, source: str) -> None:
+    """Unit quaternion offsets and every timing float inside its field's range."""
+    offsets = motions.offsets
     for j, attr in enumerate(OFFSET_ATTRS):
         check_unit_quaternions(offsets[:, j, :], f"{source}.{attr}")
 
-    timing = definition.motions.timing
+    timing = motions.timing
     for c, (name, attr) in enumerate(zip(TIMING_FIELDS, TIMING_ATTRS)):
         low, low_in, high, high_in, unit = _TIMING_RANGES[name]
         i = _first_bad(_check_range(timing[:, c], low, low_in, high, high_in))
@@ -174,7 +172,10 @@ def validate(definition: GazeMapDefinition, source: str) -> None:
                 f"{source}.{attr}: example {i} is {timing[i, c]:g}{unit}, expected {_range_text(low, low_in, high, high_in)}"
             )
 
-    for role, joints in definition.bindings.items():
+
+def _validate_bindings(bindings: dict, source: str) -> None:
+    """Known roles, each bound to a sequence of non-empty joint paths."""
+    for role, joints in bindings.items():
         if role not in BINDING_ATTRS:
             raise GazeMapError(f"{source}: unknown joint role {role!r}, expected one of {', '.join(ROLES)}")
         attr = BINDING_ATTRS[role]
@@ -184,15 +185,20 @@ def validate(definition: GazeMapDefinition, source: str) -> None:
             if not isinstance(joint, str) or not joint.strip():
                 raise GazeMapError(f"{source}.{attr}: entry {k} is {joint!r}, expected a joint path")
 
-    if definition.forward is not None:
-        forward = np.asarray(definition.forward, dtype=float)
+
+def _validate_forward(forward, source: str) -> None:
+    """An unset forward, or a finite non-zero 3-vector."""
+    if forward is not None:
+        forward = np.asarray(forward, dtype=float)
         if forward.shape != (3,) or not np.isfinite(forward).all() or not forward.any():
             raise GazeMapError(
                 f"{source}.{FORWARD_ATTR}: {tuple(forward.ravel().tolist())} is not a direction "
                 f"(leave it unset to work forward out from the rest pose)"
             )
 
-    settings = definition.settings
+
+def _validate_settings(settings: SynthesisSettings, source: str) -> None:
+    """Integer settings within their bounds and a neck share in [0, 1]."""
     for name, attr in SETTING_ATTRS.items():
         value = getattr(settings, name)
         if name == "neck_share":
@@ -204,3 +210,16 @@ def validate(definition: GazeMapDefinition, source: str) -> None:
             raise GazeMapError(f"{source}.{attr}: {value}, expected >= {_SETTING_MINIMA[name]}")
         elif name in _SETTING_MAXIMA and value > _SETTING_MAXIMA[name]:
             raise GazeMapError(f"{source}.{attr}: {value}, expected <= {_SETTING_MAXIMA[name]}")
+
+
+def validate(definition: GazeMapDefinition, source: str) -> None:
+    """Raise :class:`GazeMapError` at the first malformed value of a gaze map.
+
+    ``source`` names where the map comes from, ``FILE:PRIMPATH`` for a stored map; messages read
+    ``SOURCE.ATTRIBUTE: problem`` so that an in-memory map and a stored one report alike.
+    """
+    _validate_params(definition.params, source)
+    _validate_motions(definition.motions, source)
+    _validate_bindings(definition.bindings, source)
+    _validate_forward(definition.forward, source)
+    _validate_settings(definition.settings, source)

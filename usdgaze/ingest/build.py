@@ -174,9 +174,8 @@ def _session_rate(rates: list[float], tolerance: float) -> float:
     return best[0]
 
 
-def build(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path | None = None,
-          settings: BuildSettings = BuildSettings(), synthesis: SynthesisSettings = SynthesisSettings()) -> BuildResult:
-    """Build a gaze map definition from a session; never raises for one bad trial."""
+def _session_inputs(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path | None):
+    """The loaded sheet and marker set, and the skeleton binding that wins (the sheet's over the set's)."""
     if not isinstance(sheet, Sheet):
         sheet = load_sheet(sheet)
     if markerset is None and sheet.markers is not None:
@@ -190,7 +189,12 @@ def build(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path | None = 
 
     if markerset is not None and any(not t.is_skeletal for t in sheet.trials):
         markerset.require_complete()
+    return sheet, markerset, binding
 
+
+def _load_trials(sheet: Sheet, markerset: MarkerSet | None,
+                 binding: SkeletonBinding) -> tuple[list[TrialReport], dict[str, TrialSeries]]:
+    """One report per trial, and the series of each trial that loaded (a failure goes in its report)."""
     reports: list[TrialReport] = []
     loaded: dict[str, TrialSeries] = {}
     for trial in sheet.trials:
@@ -204,8 +208,50 @@ def build(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path | None = 
             continue
         loaded[trial.name] = series
         report.rate, report.units, report.filled_samples = series.rate, series.units, series.filled
+    return reports, loaded
 
-    rate = _session_rate([s.rate for s in loaded.values()], settings.rate_tolerance) if loaded else None
+
+def _check_fits_session(trial: Trial, series: TrialSeries, rate: float, targets: dict[tuple[float, float], str],
+                        settings: BuildSettings, where: str) -> tuple[float, float]:
+    """The trial's target key, once its rate matches the session's and no earlier trial has its target."""
+    if abs(series.rate - rate) > settings.rate_tolerance * rate:
+        raise TrialError(f"{where}: frame rate {series.rate:g} Hz differs from the session's {rate:g} Hz")
+    key = (trial.yaw, trial.pitch)
+    if key in targets:
+        raise TrialError(f"{where}: same target ({trial.yaw:g}, {trial.pitch:g}) as trial {targets[key]}; a map holds one example per target")
+    return key
+
+
+def _stored_timing(ex: Extraction) -> np.ndarray:
+    """The extraction's timing clipped to the ranges a map stores (a clipped overshoot is warned about)."""
+    timing_row = ex.timing.copy()
+    span = ex.frames - 1
+    # Stored ranges: starts in [0, 1), t_beta in (0, 1], overshoot in [0, 1].
+    timing_row[1:5] = np.minimum(timing_row[1:5], (span - 1) / span)
+    timing_row[5] = np.clip(timing_row[5], 1.0 / span, 1.0)
+    if timing_row[6] > 1.0:
+        ex.warnings.append(f"overshoot {timing_row[6]:.2f} clipped to 1")
+        timing_row[6] = 1.0
+    return timing_row
+
+
+def _cropped(series: TrialSeries, crop: tuple[int, int]) -> TrialSeries:
+    """The series restricted to the crop's frames (inclusive), frame indices counted from the crop."""
+    return TrialSeries(
+        source=series.source,
+        orientations=series.orientations[crop[0] : crop[1] + 1],
+        points=series.points[crop[0] : crop[1] + 1],
+        frame_at=(lambda i, f=series.frame_at, c=crop[0]: f(i + c)),
+        rate=series.rate,
+        units=series.units,
+        mm_per_unit=series.mm_per_unit,
+        filled=series.filled,
+    )
+
+
+def _extract_trials(sheet: Sheet, reports: list[TrialReport], loaded: dict[str, TrialSeries],
+                    rate: float | None, settings: BuildSettings):
+    """Offsets, stored timing and target of every trial that extracts, and its cropped series by name."""
     offsets, timing, params, kept = [], [], [], {}
     targets: dict[tuple[float, float], str] = {}
     for trial, report in zip(sheet.trials, reports):
@@ -214,39 +260,29 @@ def build(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path | None = 
             continue
         where = f"trial {trial.name} ({trial.file.name})"
         try:
-            if abs(series.rate - rate) > settings.rate_tolerance * rate:
-                raise TrialError(f"{where}: frame rate {series.rate:g} Hz differs from the session's {rate:g} Hz")
-            key = (trial.yaw, trial.pitch)
-            if key in targets:
-                raise TrialError(f"{where}: same target ({trial.yaw:g}, {trial.pitch:g}) as trial {targets[key]}; a map holds one example per target")
+            key = _check_fits_session(trial, series, rate, targets, settings, where)
             ex, crop, source = process(trial, series, settings, where)
         except UsdGazeError as exc:
             report.error = str(exc)
             continue
         targets[key] = trial.name
-        timing_row = ex.timing.copy()
-        span = ex.frames - 1
-        # Stored ranges: starts in [0, 1), t_beta in (0, 1], overshoot in [0, 1].
-        timing_row[1:5] = np.minimum(timing_row[1:5], (span - 1) / span)
-        timing_row[5] = np.clip(timing_row[5], 1.0 / span, 1.0)
-        if timing_row[6] > 1.0:
-            ex.warnings.append(f"overshoot {timing_row[6]:.2f} clipped to 1")
-            timing_row[6] = 1.0
+        timing_row = _stored_timing(ex)
         report.status, report.extraction, report.crop, report.crop_source = "ok", ex, crop, source
         report.warnings.extend(ex.warnings)
         offsets.append(ex.offsets)
         timing.append(timing_row)
         params.append(key)
-        kept[trial.name] = TrialSeries(
-            source=series.source,
-            orientations=series.orientations[crop[0] : crop[1] + 1],
-            points=series.points[crop[0] : crop[1] + 1],
-            frame_at=(lambda i, f=series.frame_at, c=crop[0]: f(i + c)),
-            rate=series.rate,
-            units=series.units,
-            mm_per_unit=series.mm_per_unit,
-            filled=series.filled,
-        )
+        kept[trial.name] = _cropped(series, crop)
+    return offsets, timing, params, kept
+
+
+def build(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path | None = None,
+          settings: BuildSettings = BuildSettings(), synthesis: SynthesisSettings = SynthesisSettings()) -> BuildResult:
+    """Build a gaze map definition from a session; never raises for one bad trial."""
+    sheet, markerset, binding = _session_inputs(sheet, markerset)
+    reports, loaded = _load_trials(sheet, markerset, binding)
+    rate = _session_rate([s.rate for s in loaded.values()], settings.rate_tolerance) if loaded else None
+    offsets, timing, params, kept = _extract_trials(sheet, reports, loaded, rate, settings)
 
     definition = None
     if len(offsets) >= settings.min_trials:

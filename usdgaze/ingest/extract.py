@@ -241,46 +241,47 @@ def start_angles(local: np.ndarray, first: np.ndarray, detected: np.ndarray,
     return theta, peak.astype(float), np.degrees(amplitude)
 
 
-def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, rate: float, yaw: float,
-            pitch: float, settings: BuildSettings = BuildSettings()) -> Extraction:
-    """Gaze displacement motion of one example.
-
-    ``orientations`` ``(F, 4, 4)``: global orientations of the pelvis, lower-spine, upper-spine and head
-    landmarks on every frame of the trial; ``crop``: first and last kept frame (inclusive);
-    ``frame``: the canonical character frame in the same space. Velocities are differenced on the
-    whole trial (the frames around the crop are real neighbours), then read inside the crop.
-    """
-    orientations = rot.normalize(np.asarray(orientations, dtype=float))
-    start, end = crop
-    if not 0 <= start < end < len(orientations):
-        raise ExtractionError(f"crop {start}-{end} is not inside frames 0-{len(orientations) - 1} with at least 2 frames")
-    frames = end - start + 1
-    span = frames - 1
-    k, m = settings.velocity_k, settings.peak_window_m
-    warnings: list[str] = []
-
+def _end_poses(orientations: np.ndarray, start: int, end: int, rate: float,
+               settings: BuildSettings) -> tuple[np.ndarray, np.ndarray]:
+    """First and last poses ``(4, 4)``: each the mean of the still frames ending at the crop's ends."""
     # The crop starts at the end of the first rest and ends at the end of the second: the pose is
     # still over the few frames that end there, so their mean keeps marker jitter out of P+.
     n = max(int(round(settings.pose_window_s * rate)), 1)
     first = mean_pose(orientations[max(start - n + 1, 0) : start + 1])
     last = mean_pose(orientations[max(end - n + 1, start) : end + 1])
-    offsets = pose_offsets(first, last, frame, yaw, pitch)
-    net_angles = np.degrees(rot.angle(rot.multiply(last, rot.conjugate(first))))
+    return first, last
+
+
+def _pose_warnings(offsets: np.ndarray, net_angles: np.ndarray, yaw: float) -> list[str]:
+    """Warnings about the displacement itself: an ambiguous near-180 deg turn, a head turning away."""
+    warnings = []
     if net_angles.max() > 170.0:
         warnings.append(f"a landmark turned {net_angles.max():.0f} deg: displacements near 180 deg are ambiguous")
     body = motion.chain_rotation(offsets[:4])
     body_yaw = float(rot.direction_to_yaw_pitch(rot.rotate(body, rot.FORWARD), 0.0)[0])
     if abs(yaw) >= 20.0 and abs(body_yaw) >= 10.0 and np.sign(body_yaw) != np.sign(yaw):
         warnings.append(f"the head turned {body_yaw:+.0f} deg, the other way from the target yaw {yaw:+g}")
+    return warnings
 
-    local = local_orientations(orientations)
+
+def _detect_starts(local: np.ndarray, start: int, end: int, rate: float,
+                   settings: BuildSettings) -> tuple[np.ndarray, list[str]]:
+    """Crop-relative frame where each segment's local speed first holds above the threshold (-1: never)."""
+    k = settings.velocity_k
     speeds = np.stack([angular_speed(local[:, j], k, rate) for j in range(local.shape[1])])[:, start : end + 1]
     hold = max(int(round(settings.start_hold_s * rate)), 1)
     detected = np.array([first_above(s, settings.start_speed_deg_s, hold) for s in speeds])
     slow = [name for name, s in zip(CHAIN, detected) if s < 0]
-    if slow:
-        warnings.append(f"start 0 (never above {settings.start_speed_deg_s:g} deg/s): {', '.join(slow)}")
+    warnings = [f"start 0 (never above {settings.start_speed_deg_s:g} deg/s): {', '.join(slow)}"] if slow else []
+    return detected, warnings
 
+
+def _overshoot(orientations: np.ndarray, first: np.ndarray, last: np.ndarray, start: int, end: int,
+               rate: float, settings: BuildSettings) -> tuple[float | None, float, float, float, float, list[str]]:
+    """The head's overshoot: peak frame (or None), peak and final angles (rad), beta, t_beta, warnings."""
+    k, m = settings.velocity_k, settings.peak_window_m
+    span = end - start
+    warnings = []
     head = orientations[:, 3]
     net = rot.to_rotvec(rot.multiply(last[3], rot.conjugate(first[3])))
     final = float(np.linalg.norm(net))
@@ -299,6 +300,12 @@ def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, 
             t_peak = peak / span
     if peak is None:
         warnings.append("no overshoot peak (t_beta = 1, beta = 0)")
+    return peak, peak_angle, final, beta, t_peak, warnings
+
+
+def _model_starts(local: np.ndarray, first: np.ndarray, start: int, end: int, detected: np.ndarray,
+                  settings: BuildSettings) -> np.ndarray:
+    """Start frames of the model: the detections, moved back to the fitted t_j with ``start_refine``."""
     # The threshold crossing comes after the model's t_j (the ease-in leaves it at zero speed): fit
     # each detected segment's rise to move its start back to t_j.
     starts = detected.astype(float)
@@ -306,14 +313,46 @@ def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, 
         first_local = local_orientations(first[None])[0]
         theta, peaks, amplitude = start_angles(local[start : end + 1], first_local, detected)
         starts = onset_fit(theta, detected, peaks, amplitude, settings.start_fit_fraction)
+    return starts
+
+
+def _timing(span: int, rate: float, starts: np.ndarray, t_peak: float, beta: float) -> np.ndarray:
+    """The seven timing floats in :data:`usdgaze.gaze.motion.TIMING_FIELDS` order."""
     timing = np.zeros(len(motion.TIMING_FIELDS))
     timing[motion.DURATION] = span / rate
     timing[motion.START_SLICE] = np.maximum(starts, 0) / span
     timing[motion.PEAK] = t_peak
     timing[motion.BETA] = beta
+    return timing
+
+
+def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, rate: float, yaw: float,
+            pitch: float, settings: BuildSettings = BuildSettings()) -> Extraction:
+    """Gaze displacement motion of one example.
+
+    ``orientations`` ``(F, 4, 4)``: global orientations of the pelvis, lower-spine, upper-spine and head
+    landmarks on every frame of the trial; ``crop``: first and last kept frame (inclusive);
+    ``frame``: the canonical character frame in the same space. Velocities are differenced on the
+    whole trial (the frames around the crop are real neighbours), then read inside the crop.
+    """
+    orientations = rot.normalize(np.asarray(orientations, dtype=float))
+    start, end = crop
+    if not 0 <= start < end < len(orientations):
+        raise ExtractionError(f"crop {start}-{end} is not inside frames 0-{len(orientations) - 1} with at least 2 frames")
+    frames = end - start + 1
+    span = frames - 1
+
+    first, last = _end_poses(orientations, start, end, rate, settings)
+    offsets = pose_offsets(first, last, frame, yaw, pitch)
+    net_angles = np.degrees(rot.angle(rot.multiply(last, rot.conjugate(first))))
+    warnings = _pose_warnings(offsets, net_angles, yaw)
+    local = local_orientations(orientations)
+    detected, slow = _detect_starts(local, start, end, rate, settings)
+    peak, peak_angle, final, beta, t_peak, missed = _overshoot(orientations, first, last, start, end, rate, settings)
+    starts = _model_starts(local, first, start, end, detected, settings)
     return Extraction(
         offsets=offsets,
-        timing=timing,
+        timing=_timing(span, rate, starts, t_peak, beta),
         start_frames=starts,
         detected_frames=detected,
         peak_frame=peak,
@@ -321,5 +360,5 @@ def extract(orientations: np.ndarray, crop: tuple[int, int], frame: np.ndarray, 
         head_angle_deg=float(np.degrees(final)),
         peak_angle_deg=float(np.degrees(peak_angle)),
         frames=frames,
-        warnings=warnings,
+        warnings=warnings + slow + missed,
     )

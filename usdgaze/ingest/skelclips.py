@@ -74,13 +74,8 @@ def _resolve(binding: SkeletonBinding, joints: list[str], where: str) -> dict[st
     return out
 
 
-def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBinding(), skeleton: str | None = None,
-                         where: str | None = None) -> TrialSeries:
-    """Read a UsdSkel clip into a :class:`TrialSeries` (skeleton space)."""
-    path = Path(path)
-    where = where or str(path)
-    stage = _open(path, where)
-    skel = _skeleton(stage, skeleton or binding.skeleton, where)
+def _skel_query(skel: UsdSkel.Skeleton, where: str) -> tuple[UsdSkel.SkeletonQuery, list[float]]:
+    """The skeleton's query (through its SkelRoot where it has one) and its animation's time samples."""
     root = UsdSkel.Root.Find(skel.GetPrim())
     cache = UsdSkel.Cache()
     if root:
@@ -92,14 +87,22 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     times = list(anim.GetJointTransformTimeSamples()) if anim else []
     if len(times) < 2:
         raise SkeletonClipError(f"{where}: {skel.GetPath()} has no animation (fewer than 2 time samples)")
+    return query, times
+
+
+def _bound_chain(query: UsdSkel.SkeletonQuery, binding: SkeletonBinding, where: str):
+    """The skeleton's joints and its bound chain, with a hint for build-map when binding fails."""
     joints = [str(j) for j in query.GetJointOrder()]
     parents = np.array(query.GetTopology().GetParentIndices(), dtype=int)
     try:
         chain = bind_chain(joints, parents, _resolve(binding, joints, where), where)
     except RigError as exc:
         raise SkeletonClipError(f"{exc} (for build-map: name the joints in a [skeleton] table of the marker set or TOML sheet)") from None
-    landmarks = [chain.roles["pelvis"][-1], chain.roles["lowerSpine"][-1], chain.roles["upperSpine"][-1], chain.head]
+    return joints, chain
 
+
+def _frame_times(stage: Usd.Stage, times: list[float], where: str) -> tuple[list[float], float]:
+    """Times to sample (sub-frame samples as they are, else every time code) and their rate in Hz."""
     rate = float(stage.GetTimeCodesPerSecond())
     step = float(np.min(np.diff(times)))
     if step < 1.0 - 1e-6:
@@ -110,6 +113,40 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     else:
         # One sample per time code; keys further apart (keyframed clips) are interpolated by UsdSkel.
         times = list(np.arange(times[0], times[-1] + 1e-9, 1.0))
+    return times, rate
+
+
+def _virtual_markers(world: np.ndarray, chain_world: np.ndarray, pelvis: int, meters: float) -> np.ndarray:
+    """Three points out along each chain joint's axes ``(F, 12, 3)``, relative to the pelvis joint."""
+    reach = VIRTUAL_MARKER_MM / (meters * 1000.0)
+    axes = chain_world[..., :3, :3] / np.linalg.norm(chain_world[..., :3, :3], axis=-2, keepdims=True)
+    points = chain_world[..., None, :3, 3] + reach * np.swapaxes(axes, -1, -2)  # (F, 4, 3 axes, xyz)
+    return points.reshape(len(world), -1, 3) - world[:, pelvis, :3, 3][:, None, :]
+
+
+def _skeleton_up(stage: Usd.Stage, skel: UsdSkel.Skeleton, binding: SkeletonBinding, time: float,
+                 where: str) -> np.ndarray:
+    """Up in skeleton space: the binding's, else the stage's up axis through the Skeleton's transform."""
+    if binding.up_axis:
+        return parse_axis(binding.up_axis, where)  # given in skeleton space
+    # The stage's up axis carried into skeleton space (a rig may sit under a rotating Xform).
+    to_world = rot.matrices_from_usd(np.array(
+        UsdGeom.Xformable(skel.GetPrim()).ComputeLocalToWorldTransform(Usd.TimeCode(float(time))), dtype=float))
+    up = np.linalg.solve(to_world[:3, :3], parse_axis(str(UsdGeom.GetStageUpAxis(stage)), where))
+    return up / np.linalg.norm(up)
+
+
+def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBinding(), skeleton: str | None = None,
+                         where: str | None = None) -> TrialSeries:
+    """Read a UsdSkel clip into a :class:`TrialSeries` (skeleton space)."""
+    path = Path(path)
+    where = where or str(path)
+    stage = _open(path, where)
+    skel = _skeleton(stage, skeleton or binding.skeleton, where)
+    query, times = _skel_query(skel, where)
+    joints, chain = _bound_chain(query, binding, where)
+    landmarks = [chain.roles["pelvis"][-1], chain.roles["lowerSpine"][-1], chain.roles["upperSpine"][-1], chain.head]
+    times, rate = _frame_times(stage, times, where)
 
     # One USD call per sample; everything after is vectorized over frames.
     world = rot.matrices_from_usd(
@@ -118,19 +155,8 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     chain_world = world[:, landmarks]
     orientations = rot.from_matrix(chain_world[..., :3, :3])
     meters = float(UsdGeom.GetStageMetersPerUnit(stage))
-    reach = VIRTUAL_MARKER_MM / (meters * 1000.0)
-    axes = chain_world[..., :3, :3] / np.linalg.norm(chain_world[..., :3, :3], axis=-2, keepdims=True)
-    points = chain_world[..., None, :3, 3] + reach * np.swapaxes(axes, -1, -2)  # (F, 4, 3 axes, xyz)
-    points = points.reshape(len(times), -1, 3) - world[:, chain.pelvis, :3, 3][:, None, :]
-
-    if binding.up_axis:
-        up = parse_axis(binding.up_axis, where)  # given in skeleton space
-    else:
-        # The stage's up axis carried into skeleton space (a rig may sit under a rotating Xform).
-        to_world = rot.matrices_from_usd(np.array(
-            UsdGeom.Xformable(skel.GetPrim()).ComputeLocalToWorldTransform(Usd.TimeCode(float(times[0]))), dtype=float))
-        up = np.linalg.solve(to_world[:3, :3], parse_axis(str(UsdGeom.GetStageUpAxis(stage)), where))
-        up = up / np.linalg.norm(up)
+    points = _virtual_markers(world, chain_world, chain.pelvis, meters)
+    up = _skeleton_up(stage, skel, binding, times[0], where)
     forward = None if binding.forward is None else np.asarray(binding.forward, dtype=float)
     return TrialSeries(
         source=where,

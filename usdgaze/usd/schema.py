@@ -64,13 +64,8 @@ def has_map(prim: Usd.Prim) -> bool:
     return bool(prim) and prim.HasAPI(API_NAME)
 
 
-def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
-    """The gaze map on ``prim``, from composed values; ``source`` names the file in errors.
-
-    Unauthored synthesis settings fall back to the schema's (= :class:`SynthesisSettings`)
-    defaults; unauthored or empty bindings are left out (found by name later).
-    """
-    where = _where(prim, source)
+def _check_map_prim(prim: Usd.Prim, where: str) -> None:
+    """Raise unless ``prim`` exists, has ``GazeMapAPI`` and is a SkelRoot (and the schema is registered)."""
     _require_schema(where)
     if not prim:
         raise GazeMapError(f"{where}: no such prim")
@@ -79,6 +74,9 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
     if not prim.IsA(UsdSkel.Root):
         raise GazeMapError(f"{where}: {API_NAME} is applied to a prim of type {_type_name(prim)}; it applies only to SkelRoot")
 
+
+def _example_arrays(prim: Usd.Prim, where: str) -> dict[str, np.ndarray]:
+    """Every per-example array, checked to hold one entry per example and unit offsets."""
     arrays = {name: np.asarray(_get(prim, name, where, required=True)) for name in EXAMPLE_ATTRS}
     lengths = np.array([len(a) for a in arrays.values()])
     # Blame the odd ones out: the length most arrays agree on is the example count.
@@ -91,11 +89,11 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
             raise GazeMapError(f"{where}.{name}: {len(array)} entries, expected {count} (one per example)")
     for name in OFFSET_ATTRS:
         check_unit_quaternions(arrays[name], f"{where}.{name}")
+    return arrays
 
-    params = np.stack([arrays[YAW_ATTR], arrays[PITCH_ATTR]], axis=-1).astype(float)
-    offsets = np.stack([arrays[name] for name in OFFSET_ATTRS], axis=1).astype(float)
-    timing = np.stack([arrays[name] for name in TIMING_ATTRS], axis=-1).astype(float)
 
+def _read_bindings(prim: Usd.Prim, where: str) -> dict[str, tuple[str, ...]]:
+    """Role -> joint paths for every role bound to a non-empty list of valid paths."""
     bindings: dict[str, tuple[str, ...]] = {}
     for role, name in BINDING_ATTRS.items():
         value = _get(prim, name, where)
@@ -105,23 +103,49 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
                 raise GazeMapError(f"{where}.{name}: entry {k} is {joint!r}, expected a joint path")
         if joints:
             bindings[role] = joints
+    return bindings
 
+
+def _read_forward(prim: Usd.Prim, where: str) -> tuple[float, float, float] | None:
+    """The authored non-zero forward, or None."""
     forward_value = _get(prim, FORWARD_ATTR, where)
     forward = None
     if forward_value is not None and any(c != 0.0 for c in forward_value):
         forward = tuple(_shortest(c) for c in forward_value)
+    return forward
 
+
+def _read_settings(prim: Usd.Prim, where: str) -> SynthesisSettings:
+    """The synthesis settings, dataclass defaults where an attribute resolves to nothing."""
     settings = {}
     for field, name in SETTING_ATTRS.items():
         value = _get(prim, name, where)
         if value is None:  # schema not consulted (no fallback): keep the dataclass default
             value = getattr(_SETTING_DEFAULTS, field)
         settings[field] = int(value) if field in _INT_SETTINGS else _shortest(value)
+    return SynthesisSettings(**settings)
+
+
+def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
+    """The gaze map on ``prim``, from composed values; ``source`` names the file in errors.
+
+    Unauthored synthesis settings fall back to the schema's (= :class:`SynthesisSettings`)
+    defaults; unauthored or empty bindings are left out (found by name later).
+    """
+    where = _where(prim, source)
+    _check_map_prim(prim, where)
+    arrays = _example_arrays(prim, where)
+    params = np.stack([arrays[YAW_ATTR], arrays[PITCH_ATTR]], axis=-1).astype(float)
+    offsets = np.stack([arrays[name] for name in OFFSET_ATTRS], axis=1).astype(float)
+    timing = np.stack([arrays[name] for name in TIMING_ATTRS], axis=-1).astype(float)
+    bindings = _read_bindings(prim, where)
+    forward = _read_forward(prim, where)
+    settings = _read_settings(prim, where)
 
     definition = GazeMapDefinition(
         params=params,
         motions=GazeMotions(offsets, timing),
-        settings=SynthesisSettings(**settings),
+        settings=settings,
         bindings=bindings,
         forward=forward,
     )

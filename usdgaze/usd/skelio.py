@@ -177,25 +177,27 @@ def _skel_to_world(skel: Usd.Prim, times: np.ndarray) -> np.ndarray:
     return rot.matrices_from_usd(np.stack(mats))
 
 
-def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> SkelClip:
-    """Read a Skeleton, its rest/bind pose and its bound animation's samples into a :class:`SkelClip`."""
-    skeleton = UsdSkel.Skeleton(skel)
-    where_skel = f"{source}:{skel.GetPath()}"
-    checks.check_stage(stage, source)
-    checks.check_not_instanced(skel, where_skel)
-    checks.check_types(skel, checks.SKELETON_TYPES, where_skel)
+def _skeleton_joints(skeleton: UsdSkel.Skeleton, where_skel: str) -> tuple[list[str], np.ndarray]:
+    """The skeleton's joint paths and each joint's parent index (-1 for a root)."""
     joints = [str(j) for j in (skeleton.GetJointsAttr().Get() or [])]
     if not joints:
         raise UsdGazeError(f"{where_skel}.joints: the skeleton has no joints")
-    parents = _joint_parents(joints, where_skel)
+    return joints, _joint_parents(joints, where_skel)
+
+
+def _bound_animation(skel: Usd.Prim, where_skel: str, source: str) -> tuple[Usd.Prim, str]:
+    """The SkelAnimation bound to ``skel`` (checked like the skeleton) and its location for messages."""
     anim_prim = _animation_of(skel)
     if anim_prim is None:
         raise UsdGazeError(f"{where_skel}: no skel:animationSource bound to a SkelAnimation; nothing to add gaze to")
-    anim = UsdSkel.Animation(anim_prim)
     where_anim = f"{source}:{anim_prim.GetPath()}"
     checks.check_not_instanced(anim_prim, where_anim)
     checks.check_types(anim_prim, checks.ANIMATION_TYPES, where_anim)
+    return anim_prim, where_anim
 
+
+def _poses(skeleton: UsdSkel.Skeleton, joints: list[str], parents: np.ndarray, where_skel: str):
+    """Rest (local), bind (world) and neutral (world) poses, and which authored pose the neutral came from."""
     rest_local = _matrices(skeleton.GetRestTransformsAttr())
     bind_authored = _matrices(skeleton.GetBindTransformsAttr())
     # Broken numbers are refused (the file needs fixing); a bind pose that is merely unusable as the
@@ -220,7 +222,11 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     neutral_source = f"restTransforms ({problem})" if problem else "bindTransforms"
     # Written back (extended) when eyes are added: the input's own values where they fit the joints.
     bind_world = bind_authored if bind_authored is not None and len(bind_authored) == len(joints) else rest_world
+    return rest_local, bind_world, neutral_world, neutral_source
 
+
+def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim, where_anim: str):
+    """The animation's joint list and, for each of its joints, the index of that joint in the skeleton."""
     anim_joints = [str(j) for j in (anim.GetJointsAttr().Get() or [])]
     if not anim_joints:
         raise UsdGazeError(f"{where_anim}.joints: the animation names no joints")
@@ -228,22 +234,44 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     missing = [j for j in anim_joints if j not in index]
     if missing:
         raise UsdGazeError(f"{where_anim}.joints: '{missing[0]}' is not a joint of {skel.GetPath()}")
-    anim_to_skel = np.array([index[j] for j in anim_joints], dtype=int)
+    return anim_joints, np.array([index[j] for j in anim_joints], dtype=int)
 
+
+def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
+    """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation."""
     attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
     times = sorted({t for a in attrs if a for t in a.GetTimeSamples()})
     if not times:
         raise UsdGazeError(f"{where_anim}: no time samples on rotations, translations or scales; nothing is animated")
     times = np.array(times, dtype=float)
-    n = len(anim_joints)
     rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
     translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
     _check_values(rotations, translations, where_anim)
     checks.check_scales(scales, f"{where_anim}.scales")
+    return times, rotations, translations, scales
 
+
+def _joint_names(skeleton: UsdSkel.Skeleton) -> list[str] | None:
+    """The skeleton's authored jointNames, or None."""
     names_attr = skeleton.GetJointNamesAttr()
-    joint_names = [str(j) for j in names_attr.Get()] if names_attr and names_attr.HasAuthoredValue() else None
+    return [str(j) for j in names_attr.Get()] if names_attr and names_attr.HasAuthoredValue() else None
+
+
+def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> SkelClip:
+    """Read a Skeleton, its rest/bind pose and its bound animation's samples into a :class:`SkelClip`."""
+    skeleton = UsdSkel.Skeleton(skel)
+    where_skel = f"{source}:{skel.GetPath()}"
+    checks.check_stage(stage, source)
+    checks.check_not_instanced(skel, where_skel)
+    checks.check_types(skel, checks.SKELETON_TYPES, where_skel)
+    joints, parents = _skeleton_joints(skeleton, where_skel)
+    anim_prim, where_anim = _bound_animation(skel, where_skel, source)
+    anim = UsdSkel.Animation(anim_prim)
+    rest_local, bind_world, neutral_world, neutral_source = _poses(skeleton, joints, parents, where_skel)
+    anim_joints, anim_to_skel = _animated_joints(anim, joints, skel, where_anim)
+    times, rotations, translations, scales = _animation_samples(anim, len(anim_joints), where_anim)
+    joint_names = _joint_names(skeleton)
     return SkelClip(
         source=source,
         skel_root=str(root.GetPath()),
