@@ -211,7 +211,10 @@ def test_target_error_panel_draws_each_target_at_its_error(tmp_path):
     plt.close(fig)
 
 
-def test_target_error_plot_of_a_scheduled_look_matches_usdskel(tmp_path):
+@pytest.mark.parametrize("how", ["schedule", "flags"])
+def test_target_error_plot_of_a_look_matches_usdskel(tmp_path, how):
+    """The look the pass was given: the SkelRoot's schedule (no flags), or --look-at, which the
+    layer records (the schedule is then not what ran)."""
     from pxr import Gf, UsdGeom
 
     from usdgaze.passes.requests import DirectiveRequest
@@ -224,8 +227,14 @@ def test_target_error_plot_of_a_scheduled_look_matches_usdskel(tmp_path):
     write_schedule(stage.GetPrimAtPath("/root/Body"), [DirectiveRequest("look", 241.0, target="/Ball")])
     root.Export(str(shot))
     layer = tmp_path / "g.usdc"
-    api.apply(shot, ["2s:60:0"], layer)
+    if how == "schedule":
+        api.apply(shot, [], layer)
+    else:
+        write_schedule(stage.GetPrimAtPath("/root/Body"), [DirectiveRequest("look", 1.0, target="/Ball")])
+        root.Export(str(shot))  # a schedule that must not be plotted: the flags win
+        api.apply(shot, [], layer, look_at=["/Ball@241"])
     assert main(["plot", str(shot), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    assert [look.label for look in read_review(shot, layer).characters[0].looks] == ["/Ball from 2.00 s"]
     png = tmp_path / "p" / "Body_targets.png"
     fig = plotting.figures(read_review(shot, layer))["Body_targets"]
     fig.canvas.draw()
@@ -242,7 +251,10 @@ def test_target_error_plot_of_a_scheduled_look_matches_usdskel(tmp_path):
     error = measure.angle_between(sight, to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
     seconds = (p.times - p.times[0]) / Usd.Stage.Open(str(shot)).GetTimeCodesPerSecond()
     mask = _mask(png, plotting.JOINT_COLOURS[0], 20)
-    for row in (300, 600, 900):
+    # Rows while the eyes travel to the ball (an error near zero would lie on the axis line).
+    travelling = np.flatnonzero((seconds >= 2.0) & (error > 2.0))
+    assert len(travelling) >= 3, error[seconds >= 2.0][:40]
+    for row in travelling[[0, len(travelling) // 2, -1]]:
         x, y = ax.transData.transform((seconds[row], error[row]))
         x, y = int(round(x)), int(round(height - y))
         assert mask[y - 2:y + 3, x].any(), (row, error[row])

@@ -214,7 +214,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),
                 meters_per_unit=gaze_clip.meters_per_unit,
             ))
-            review.characters[-1].looks = _looks(stage, root, gaze_clip, source)
+            review.characters[-1].looks = _looks(stage, root, gaze_clip, source, record, layer_file)
             if not review.shifts and record.get("shifts"):
                 review.shifts = _shifts(record["shifts"], gaze_clip, layer_file)
     review.attention = read_attention(stage, source)
@@ -267,26 +267,51 @@ def read_attention(stage, source: str) -> list[Attention]:
     return out
 
 
-def _looks(stage, root, clip, source: str) -> list[Look]:
-    """Look directives of the SkelRoot's schedule, each until the next directive (or the clip's end)."""
+def _looks(stage, root, clip, source: str, record: dict, layer_file: str) -> list[Look]:
+    """Look directives the pass was given (the layer's record), else the SkelRoot's schedule; each
+    holds until the next directive (or the clip's end)."""
     from usdgaze.usd import schedule
     from usdgaze.usd.targets import sample_target
 
-    if not schedule.has_schedule(root):
-        return []
-    directives = schedule.read_schedule(root, source)
-    tc = lambda t: (t - clip.start_time) / clip.time_codes_per_second  # noqa: E731
+    directives = _recorded_directives(record, str(root.GetPath()), layer_file)
+    if directives is None:
+        if not schedule.has_schedule(root):
+            return []
+        directives = schedule.read_schedule(root, source)
+    tc = lambda d: d.time_s(clip.start_time, clip.time_codes_per_second)  # noqa: E731
+    directives = sorted(directives, key=tc)
     out = []
     for k, d in enumerate(directives):
         if d.kind != "look":
             continue
-        end = tc(directives[k + 1].time) if k + 1 < len(directives) else float(clip.seconds[-1])
+        end = tc(directives[k + 1]) if k + 1 < len(directives) else float(clip.seconds[-1])
         if d.target is not None:
             positions, label = sample_target(stage, d.target, clip.times, source), d.target
         else:
             positions = np.broadcast_to(np.asarray(d.point, dtype=float), (len(clip.times), 3)).copy()
             label = "point (" + ", ".join(f"{v:g}" for v in d.point) + ")"
-        out.append(Look(f"{label} from {tc(d.time):.2f} s", tc(d.time), end, positions))
+        out.append(Look(f"{label} from {tc(d):.2f} s", tc(d), end, positions))
+    return out
+
+
+def _recorded_directives(record: dict, root: str, layer_file: str):
+    """The directive flags ``apply`` recorded for ``root`` (customLayerData usdgaze.directives), parsed;
+    None where the layer records none for it."""
+    from usdgaze.passes.requests import parse_look, parse_release, parse_shift
+
+    texts = (record.get("directives") or {}).get(root)
+    if not texts:
+        return None
+    parsers = {"--shift": parse_shift, "--look-at": parse_look, "--release": parse_release}
+    out = []
+    for text in texts:
+        flag, _, value = str(text).partition(" ")
+        if flag not in parsers:
+            raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.directives: '{text}' is no directive")
+        try:
+            out.append(parsers[flag](value))
+        except UsdGazeError as exc:
+            raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.directives: {exc}") from None
     return out
 
 
