@@ -204,6 +204,13 @@ def b_build_map_out_is_a_trial_file(d):
     return ["build-map", str(d / "sheet.csv"), "--out", str(d / "t2.usda")]
 
 
+def b_build_map_out_is_a_layer_a_trial_composes(d):
+    rig(d, "t1.usda")
+    (d / "t2.usda").write_text('#usda 1.0\n(\n    subLayers = [@./t1.usda@]\n)\n')
+    (d / "sheet.csv").write_text("trial,file,yaw,pitch\na,t2.usda,0,0\nb,t2.usda,30,0\n")
+    return ["build-map", str(d / "sheet.csv"), "--out", str(d / "t1.usda")]
+
+
 def b_build_map_report_is_the_sheet(d):
     return ["build-map", str(sheet(d)), "--out", str(d / "map.usda"), "--report", str(d / "sheet.csv")]
 

@@ -108,6 +108,11 @@ def _reads(tx: Outputs, parsed, sheet, markers) -> None:
     for trial in parsed.trials:
         if trial.file.exists():
             tx.read(trial.file, f"trial file of '{trial.name}'")
+            if trial.is_skeletal:
+                from usdgaze.usd.stage import layer_dependencies
+
+                for path in layer_dependencies(trial.file):
+                    tx.read(path, f"layer composed by the trial '{trial.name}'")
 
 
 __all__ = ["build_map", "UsdGazeError"]

@@ -30,6 +30,18 @@ def open_stage(path: str | os.PathLike, where: str | None = None,
     return stage
 
 
+def layer_dependencies(path: str | os.PathLike) -> list[str]:
+    """Files a layer on disk brings in (sublayers, references, payloads, clips), without opening a stage."""
+    from pxr import UsdUtils
+
+    try:
+        layers, assets, _unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(os.fspath(path)))
+    except Exception:  # unreadable: the command that reads it says so in its own words
+        return []
+    files = [layer.realPath for layer in layers if layer is not None and not layer.anonymous and layer.realPath]
+    return files + [str(a) for a in assets if a and os.path.isfile(str(a))]
+
+
 def composed_files(stage: Usd.Stage) -> list[str]:
     """Every file on disk the stage composes: root layer, sublayers, references, payloads, value clips."""
     from pxr import UsdUtils
