@@ -58,7 +58,7 @@ class Stages:
     WRAP = {
         "read": [(skelio, "open_stage"), (skelio, "read_clip")],
         "map build": [(gazemap.ParametricGazeMap, "__init__")],
-        "model": [(api, "apply_gaze"), (api, "bind")],
+        "model": [(api, "apply_look"), (api, "apply_gaze"), (api, "bind")],
         "write": [(api, "build_override"), (api, "atomic_export"), (layers, "build_override"),
                   (layers, "atomic_export")],
     }
@@ -72,6 +72,8 @@ class Stages:
         saved = []
         for stage, targets in self.WRAP.items():
             for owner, name in targets:
+                if not hasattr(owner, name):  # the pass this version of the API runs
+                    continue
                 original = getattr(owner, name)
                 saved.append((owner, name, original))
                 setattr(owner, name, self._wrap(stage, original))
