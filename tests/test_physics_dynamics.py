@@ -84,3 +84,20 @@ def test_state_round_trips_and_step_is_mujocos_semi_implicit_euler(body):
     mujoco.mj_integratePos(dyn.mj, expect, vn, 0.02)
     assert np.abs(qn - expect).max() < 1e-9
     assert not np.allclose(vn, qv)
+
+
+def test_head_pose_jacobian_matches_central_differences(body):
+    """What the eye and belief parts read from the body: the eyes' midpoint and head axes."""
+    dyn, qpos = body
+    q = qpos[300].copy()
+    turn = Rotation.from_euler("z", 120, degrees=True) * Rotation.from_quat(np.roll(q[3:7], -1))
+    q[3:7] = np.roll(turn.as_quat(), 1)
+    x = dyn.to_state(q)
+    p, R = dyn.head_pose(x, 0)
+    assert np.allclose(R.T @ R, np.eye(3), atol=1e-9) and np.linalg.det(R) > 0
+    assert abs(R[2, 2]) > 0.8  # the head's up is near the world's up in a walk
+    dp, dR = dyn.head_pose_jacobian(x, 0)
+    num_p = _central(lambda z: dyn.head_pose(z, 0)[0], x)
+    num_R = _central(lambda z: dyn.head_pose(z, 0)[1].ravel(), x)
+    assert np.linalg.norm(dp - num_p) / np.linalg.norm(num_p) < 1e-5
+    assert np.linalg.norm(dR.reshape(9, -1) - num_R) / np.linalg.norm(num_R) < 1e-5

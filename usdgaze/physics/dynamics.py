@@ -142,6 +142,73 @@ class MujocoBody:
         r = xb[self._rot[:, None] + np.arange(3)]
         return _jr(r, inverse=not inverse)
 
+    # -- what the vision parts need: the head pose and its Jacobian (``compose.BodyPart``) ---------
+    def _head_setup(self) -> None:
+        """Head body, the eyes' midpoint in its frame and its forward/left/up axes in its frame (rest)."""
+        m = self.model
+        heads = [b for b, r in enumerate(m.role) if r == "head" and m.kind[b] != "weld"]
+        hb = heads[-1] if heads else len(m.bodies) - 1
+        eyes = [b for b, n in enumerate(m.names) if "eye" in n.lower()]
+        r_h = m.rest_rot[hb]
+        fwd = m.forward if m.forward is not None else np.array([1.0, 0.0, 0.0])
+        up = np.array([0.0, 0.0, 1.0])
+        axes = np.column_stack([fwd, np.cross(up, fwd), up])
+        if eyes:
+            mid = m.rest_pos[eyes].mean(axis=0)
+        else:  # no eye joints: a typical eye height and depth for the head's size
+            mid = m.rest_pos[hb] + m.height * (0.04 * up + 0.05 * fwd)
+        self._head = (hb + 1, r_h.T @ (mid - m.rest_pos[hb]), r_h.T @ axes)
+
+    def head_pose_batch(self, X: np.ndarray, k0: int):
+        """Eyes' midpoint ``(N, 3)`` and head axes ``(N, 3, 3)`` (columns forward, left, up)."""
+        import mujoco
+
+        if not hasattr(self, "_head"):
+            self._head_setup()
+        body, offset, axes = self._head
+        d = self.data
+        p, R = np.zeros((len(X), 3)), np.zeros((len(X), 3, 3))
+        for i, x in enumerate(X):
+            d.qpos[:], _ = self.to_mujoco(x[self.xs])
+            mujoco.mj_kinematics(self.mj, d)
+            xm = d.xmat[body].reshape(3, 3)
+            p[i], R[i] = d.xpos[body] + xm @ offset, xm @ axes
+        return p, R
+
+    def head_jacobian_batch(self, X: np.ndarray, k0: int):
+        """dp ``(N, 3, NX)`` and dR ``(N, 3, 3, NX)`` w.r.t. the full state (positions only)."""
+        import mujoco
+
+        p, R = self.head_pose_batch(X, k0)
+        body = self._head[0]
+        nx = self.stack.nx if self.stack is not None else self.nx
+        dp, dR = np.zeros((len(X), 3, nx)), np.zeros((len(X), 3, 3, nx))
+        d = self.data
+        rot = self._rot[:, None] + np.arange(3)
+        for i, x in enumerate(X):
+            xb = x[self.xs]
+            d.qpos[:], _ = self.to_mujoco(xb)
+            mujoco.mj_kinematics(self.mj, d)
+            mujoco.mj_comPos(self.mj, d)
+            jp, jr = np.zeros((3, self.nv)), np.zeros((3, self.nv))
+            mujoco.mj_jac(self.mj, d, jp, jr, p[i], body)
+            maps = _jr(xb[rot], inverse=False)  # d tangent / d x per rotation block
+            for b in range(len(rot)):
+                jp[:, rot[b]] = jp[:, rot[b]] @ maps[b]
+                jr[:, rot[b]] = jr[:, rot[b]] @ maps[b]
+            s = self.xs.start
+            dp[i, :, s:s + self.nv] = jp
+            dR[i, :, :, s:s + self.nv] = np.einsum("ijn,jk->ikn", _skew(jr.T).transpose(1, 2, 0), R[i])
+        return dp, dR
+
+    def head_pose(self, x, k):
+        p, R = self.head_pose_batch(x[None], k)
+        return p[0], R[0]
+
+    def head_pose_jacobian(self, x, k):
+        dp, dR = self.head_jacobian_batch(x[None], k)
+        return dp[0], dR[0]
+
     # -- dynamics ---------------------------------------------------------------------------------
     def _load(self, xb: np.ndarray, ub: np.ndarray, k: int) -> None:
         d = self.data

@@ -71,6 +71,9 @@ class BodyModel:
     height: float
     lift: float  # metres the rest pose is raised in the MJCF so that it stands on the ground
     feet: list[int] = field(default_factory=list)  # body indices of the topmost foot bodies
+    forward: np.ndarray | None = None  # character forward at rest, model world (None: no left/right names)
+    rest_pos: np.ndarray | None = None  # (B, 3) body origins at rest, model world (before the lift)
+    rest_rot: np.ndarray | None = None  # (B, 3, 3) body frames at rest, model world
 
     @property
     def dof_bodies(self) -> np.ndarray:
@@ -199,7 +202,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         names=_safe_names(joints, idx), offset=offset, rel_quat=rel, base_pos=pos[0], base_quat=orient[0],
         axis=axis, range_deg=range_deg, mass=mass, com=com, inertia=inertia, inertia_quat=iquat,
         radius=radius, geoms=geoms, strength=strength, to_model=to_model, total_mass=float(total_mass),
-        height=height, lift=-lowest, feet=feet)
+        height=height, lift=-lowest, feet=feet, forward=forward, rest_pos=pos, rest_rot=rmat)
 
 
 def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -> bool:
