@@ -6,6 +6,7 @@ one command: ``usdgaze`` arguments (``["batch", MANIFEST, ...]`` for ``usdgaze b
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import dataclasses
 import io
@@ -30,6 +31,7 @@ CLI = [sys.executable, "-m", "usdgaze"]
 BATCH = ROOT / "pipeline" / "batch.py"
 SHIFT = ["--shift", "0.5s:30:0"]
 _CACHE = Path(tempfile.mkdtemp(prefix="usdgaze-bad-rigs-"))
+atexit.register(shutil.rmtree, _CACHE, True)
 _RIGS: dict[tuple, syn.Rig] = {}
 
 
