@@ -6,6 +6,7 @@ one command: ``usdgaze`` arguments (``["batch", MANIFEST, ...]`` for ``usdgaze b
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import dataclasses
 import io
@@ -30,6 +31,7 @@ CLI = [sys.executable, "-m", "usdgaze"]
 BATCH = ROOT / "pipeline" / "batch.py"
 SHIFT = ["--shift", "0.5s:30:0"]
 _CACHE = Path(tempfile.mkdtemp(prefix="usdgaze-bad-rigs-"))
+atexit.register(shutil.rmtree, _CACHE, True)
 _RIGS: dict[tuple, syn.Rig] = {}
 
 
@@ -198,6 +200,21 @@ def can_mount() -> bool:
 
 
 MOUNTS: list[Path] = []
+_PRIVATE: list[bool] = []
+
+
+def _private_mount_namespace() -> None:
+    """Move this test process into its own mount namespace (once), so that its small tmpfs mounts
+    vanish with it even if it is killed, and no other process on the machine sees them."""
+    if _PRIVATE:
+        return
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    ok = libc.unshare(0x00020000) == 0  # CLONE_NEWNS
+    if ok:  # MS_REC | MS_PRIVATE: nothing mounted here propagates back to the machine's namespace
+        ok = libc.mount(b"none", b"/", None, 16384 | 262144, None) == 0
+    _PRIVATE.append(ok)
 
 
 def fill(folder: Path) -> None:
@@ -210,6 +227,7 @@ def fill(folder: Path) -> None:
 
 def tmpfs(path: Path, size: str = "16k", read_only: bool = False) -> Path:
     """A small tmpfs at ``path`` (unmounted at the end of the session)."""
+    _private_mount_namespace()
     path.mkdir(parents=True, exist_ok=True)
     subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size},mode=0755", "tmpfs", str(path)], check=True)
     MOUNTS.append(path)
