@@ -6,6 +6,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -13,6 +14,9 @@ from usdgaze import __version__
 from usdgaze.errors import UsdGazeError
 from usdgaze.vision import loop
 from usdgaze.vision.costs import Weights
+
+if TYPE_CHECKING:
+    from usdgaze.core.hints import BindHints
 
 
 @dataclass
@@ -28,6 +32,7 @@ class AttendSettings:
     max_tracked: int = 4
     iterations: int = 3
     realize: str = "direct"  # "direct": the planner's eyes and chain; "map": its fixations through the gaze map
+    binding: BindHints | None = None  # --bind/--forward: win over the SkelRoot's GazeMapAPI bindings, as in apply
 
     def check(self) -> None:
         if not np.isfinite(self.alpha) or self.alpha < 0:
@@ -85,6 +90,7 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
 def _attend(stage, source, out_path, objects, settings, skel_root, progress):
     from usdgaze.api import bind, select_roots
     from usdgaze.passes.attend import apply_attend
+    from usdgaze.usd import schema
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
     from usdgaze.usd.objects import object_prims, read_objects
@@ -101,7 +107,8 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
         clip = read_clip(stage, skels[0], root, source)
-        chain, frame = bind(clip, None)
+        own = schema.read_map(root, source) if schema.has_map(root) else None
+        chain, frame = bind(clip, own, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
         h = settings.h
         t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)
         codes = clip.start_time + t_plan * clip.time_codes_per_second

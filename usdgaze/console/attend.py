@@ -22,20 +22,27 @@ import click
               help="direct: write the planner's eyes, neck and spine; map: turn its fixations into look-at "
                    "directives realized through the gaze map (cascade, overshoot, saccades).")
 @click.option("--skel-root", default=None, help="SkelRoot prim path (default: the only one).")
+@click.option("--bind", "bind", multiple=True, metavar="ROLE=JOINT[+JOINT...]",
+              help="Bind a gaze role (pelvis, lowerSpine, upperSpine, neck, head, leftEye, rightEye) to joints, "
+                   "by path or name, where names do not say it. Repeatable; wins over the map's bindings.")
+@click.option("--forward", default=None, metavar="X,Y,Z",
+              help="The character's forward in skeleton space, where no left/right joint names tell it.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--physics", is_flag=True,
               help="Simulate the whole body on MuJoCo under the full-body MPC, tracking the base motion (root "
                    "included; pushes authored on the SkelRoot act on it). The eyes are not driven in this mode yet.")
 @click.option("--discard-failed", is_flag=True, help="With --physics: when a shot falls, write nothing and exit 2.")
-def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, as_json, physics,
-           discard_failed) -> None:
+def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
+           physics, discard_failed) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     if physics:
         return _physics(input_path, out, window_s, skel_root, discard_failed, as_json)
     from usdgaze.attend import AttendSettings, attend as run
+    from usdgaze.core.hints import parse_hints
 
     paths = [p.strip() for p in objects.split(",") if p.strip()] if objects else None
-    settings = AttendSettings(alpha=alpha, cost=cost, window_s=window_s, seed=seed, realize=realize)
+    settings = AttendSettings(alpha=alpha, cost=cost, window_s=window_s, seed=seed, realize=realize,
+                              binding=parse_hints(bind, forward))
     report = run(input_path, out, paths, settings, skel_root=skel_root)
     summary = {"output": report.output, "characters": report.characters, "objects": report.objects,
                "planner": report.planner, "warnings": report.warnings}
