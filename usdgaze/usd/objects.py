@@ -2,6 +2,12 @@
 
 An object's true state is the translation of its local-to-world transform, sampled at the planner's
 times; positions come back in metres (the stage's metersPerUnit applied).
+
+Reading: where an object's transform is one translate op whose value resolves to time samples of one
+layer (any layer offset applied) under ancestors that do not move, its samples are read once at the Sdf
+level and interpolated over all times with numpy, as USD does (linear, or held where the stage says
+so). Anything else (several ops, animated parents, value clips, resetXformStack) is read per time
+with ``UsdGeom.XformCache``, the general path; both give the same positions (tests/test_attend_objects.py).
 """
 
 from __future__ import annotations
@@ -40,10 +46,70 @@ def _importance(prim: Usd.Prim, time_codes: np.ndarray, where: str) -> np.ndarra
     attr = prim.GetAttribute("gaze:object:importance")
     if not attr or not attr.HasAuthoredValue():
         return np.ones(len(time_codes))
+    fast = sampled(attr, time_codes)
+    if fast is not None:
+        return fast.astype(float).reshape(len(time_codes))
     values = [attr.Get(Usd.TimeCode(float(t))) for t in time_codes]
     if any(v is None for v in values):
         raise UsdGazeError(f"{where}.gaze:object:importance: has no value")
     return np.array(values, dtype=float)
+
+
+def sampled(attr: Usd.Attribute, time_codes: np.ndarray) -> np.ndarray | None:
+    """``attr`` at every time code from its strongest layer's time samples, or None where USD must resolve
+    it per time (value clips, splines, no samples). Sample times go through the layer offset to the stage."""
+    source = attr.GetResolveInfo().GetSource()
+    if source == Usd.ResolveInfoSourceDefault:
+        value = np.asarray(attr.Get(), float).reshape(1, -1)
+        return np.repeat(value, len(time_codes), 0)
+    if source != Usd.ResolveInfoSourceTimeSamples:
+        return None
+    spec = offset = None
+    for s, off in attr.GetPropertyStackWithLayerOffsets():
+        if s.HasInfo("timeSamples") and s.layer.GetNumTimeSamplesForPath(s.path):
+            spec, offset = s, off
+            break
+        if s.HasDefaultValue():
+            return None  # a stronger default over weaker samples: let USD say what wins
+    if spec is None:
+        return None
+    layer_times = spec.layer.ListTimeSamplesForPath(spec.path)
+    values = np.array([np.asarray(spec.layer.QueryTimeSample(spec.path, t), float) for t in layer_times])
+    times = np.array([offset * t for t in layer_times], float)
+    order = np.argsort(times)  # a negative scale reverses them
+    times, values = times[order], values[order].reshape(len(times), -1)
+    t = np.asarray(time_codes, float)
+    if attr.GetStage().GetInterpolationType() == Usd.InterpolationTypeHeld:
+        return values[np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1)]
+    return np.stack([np.interp(t, times, values[:, i]) for i in range(values.shape[1])], -1)
+
+
+def _fast_positions(prim: Usd.Prim, time_codes: np.ndarray) -> np.ndarray | None:
+    """World translations from one translate op's time samples under still ancestors, or None."""
+    xf = UsdGeom.Xformable(prim)
+    ops = xf.GetOrderedXformOps()
+    if xf.GetResetXformStack() or len(ops) != 1 or ops[0].GetOpType() != UsdGeom.XformOp.TypeTranslate \
+            or ops[0].IsInverseOp():
+        return None
+    parent = prim.GetParent()
+    while parent and not parent.IsPseudoRoot():
+        if parent.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(parent).TransformMightBeTimeVarying():
+            return None
+        parent = parent.GetParent()
+    local = sampled(ops[0].GetAttr(), time_codes)
+    if local is None:
+        return None
+    to_world = np.array(UsdGeom.XformCache(Usd.TimeCode(float(time_codes[0]))).GetParentToWorldTransform(prim))
+    return local @ to_world[:3, :3] + to_world[3, :3]  # row vectors, as USD's matrices
+
+
+def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches) -> np.ndarray:
+    fast = _fast_positions(prim, time_codes)
+    if fast is not None:
+        return fast
+    if not caches:
+        caches.extend(UsdGeom.XformCache(Usd.TimeCode(float(t))) for t in time_codes)
+    return np.array([np.array(c.GetLocalToWorldTransform(prim))[3, :3] for c in caches])
 
 
 def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list[Usd.Prim]:
@@ -72,7 +138,7 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
                  meters_per_unit: float) -> list[StageObject]:
     """World positions of every object at ``time_codes`` plus its GazeObjectAPI attributes."""
     out = []
-    caches = [UsdGeom.XformCache(Usd.TimeCode(float(t))) for t in time_codes]
+    caches: list = []  # per-time caches, made only for an object the fast path cannot read
     for prim in prims:
         where = f"{source}:{prim.GetPath()}"
         importance = _importance(prim, time_codes, where)
@@ -85,7 +151,7 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
             raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g} must be >= 0")
         if kind not in KINDS:
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
-        pos = np.array([np.array(c.GetLocalToWorldTransform(prim))[3, :3] for c in caches]) * meters_per_unit
+        pos = _positions(prim, time_codes, caches) * meters_per_unit
         if not np.all(np.isfinite(pos)):
             raise UsdGazeError(f"{where}: its world transform is not finite at some time")
         out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind))

@@ -1,0 +1,79 @@
+"""Object positions read from the translate op's time samples at the Sdf level equal USD's own
+per-time answer (UsdGeom ComputeLocalToWorldTransform), through layer offsets, still parents, held
+interpolation and times between and beyond the samples; other transforms take the per-time path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom
+
+from usdgaze.usd import objects
+
+
+def _usd_positions(stage, path, codes):
+    xf = UsdGeom.Xformable(stage.GetPrimAtPath(path))
+    return np.array([np.array(xf.ComputeLocalToWorldTransform(Usd.TimeCode(float(t))))[3, :3] for t in codes])
+
+
+def _stage(tmp, animated_parent=False, two_ops=False, held=False):
+    inner = Sdf.Layer.CreateNew(str(tmp / "inner.usda"))
+    for path, type_name in (("/World", "Xform"), ("/World/Ball", "Sphere"), ("/World/Still", "Sphere")):
+        spec = Sdf.CreatePrimInLayer(inner, path)
+        spec.specifier, spec.typeName = Sdf.SpecifierDef, type_name
+    ball = inner.GetPrimAtPath("/World/Ball")
+    tr = Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Float3)
+    for i, t in enumerate((0.0, 3.0, 4.0, 10.0)):
+        inner.SetTimeSample(tr.path, t, Gf.Vec3f(i * 1.5, np.sin(i), -i * i))
+    order = ["xformOp:translate"]
+    if two_ops:
+        Sdf.AttributeSpec(ball, "xformOp:rotateY", Sdf.ValueTypeNames.Float).default = 30.0
+        order.append("xformOp:rotateY")
+    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = order
+    imp = Sdf.AttributeSpec(ball, "gaze:object:importance", Sdf.ValueTypeNames.Double)
+    inner.SetTimeSample(imp.path, 2.0, 1.0)
+    inner.SetTimeSample(imp.path, 6.0, 3.0)
+    still = inner.GetPrimAtPath("/World/Still")
+    Sdf.AttributeSpec(still, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(1, 2, 3)
+    Sdf.AttributeSpec(still, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    inner.Save()
+    root = Sdf.Layer.CreateNew(str(tmp / "root.usda"))
+    root.subLayerPaths.append(inner.identifier)
+    root.subLayerOffsets[0] = Sdf.LayerOffset(offset=5.0, scale=2.0)
+    world = Sdf.CreatePrimInLayer(root, "/World")
+    world.specifier = Sdf.SpecifierOver
+    rot = Sdf.AttributeSpec(world, "xformOp:rotateXYZ", Sdf.ValueTypeNames.Float3)
+    if animated_parent:
+        root.SetTimeSample(rot.path, 5.0, Gf.Vec3f(0, 0, 0))
+        root.SetTimeSample(rot.path, 25.0, Gf.Vec3f(0, 90, 0))
+    else:
+        rot.default = Gf.Vec3f(10, 40, -20)
+    Sdf.AttributeSpec(world, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(0.5, 1, -2)
+    Sdf.AttributeSpec(world, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate", "xformOp:rotateXYZ"]
+    root.Save()
+    stage = Usd.Stage.Open(root.identifier)
+    if held:
+        stage.SetInterpolationType(Usd.InterpolationTypeHeld)
+    return stage
+
+
+CODES = np.arange(0.0, 30.0, 0.37)  # before, between, on and after the (offset) samples 5, 11, 13, 25
+
+
+@pytest.mark.parametrize("case", ["fast", "held", "animated_parent", "two_ops"])
+def test_positions_equal_usds_own_answer(tmp_path, case):
+    stage = _stage(tmp_path, animated_parent=case == "animated_parent", two_ops=case == "two_ops", held=case == "held")
+    prims = [stage.GetPrimAtPath(p) for p in ("/World/Ball", "/World/Still")]
+    fast = objects._fast_positions(prims[0], CODES)
+    assert (fast is not None) == (case in ("fast", "held"))
+    got = objects.read_objects(stage, "x.usda", prims, CODES, 0.01)
+    for obj, path in zip(got, ("/World/Ball", "/World/Still")):
+        want = _usd_positions(stage, path, CODES) * 0.01
+        assert np.abs(obj.positions - want).max() < 1e-6, (case, path)
+    attr = prims[0].GetAttribute("gaze:object:importance")
+    want = np.array([attr.Get(Usd.TimeCode(float(t))) for t in CODES])
+    assert np.abs(got[0].importance - want).max() < 1e-12
+    assert np.ptp(got[0].positions, 0).min() > 0.005 # the ball moves on every axis: the check can fail
