@@ -221,11 +221,20 @@ class Outputs:
         while not probe.exists() and probe != probe.parent:
             missing.append(probe)
             probe = probe.parent
+        made = []
         try:
-            folder.mkdir(parents=True)
+            for level in reversed(missing):  # shallowest first
+                try:
+                    level.mkdir()
+                except FileExistsError:
+                    if not level.is_dir():
+                        raise
+                    continue  # a parallel shot made it just now: not ours to remove on failure
+                made.append(level)
         except OSError as exc:
             raise UsdGazeError(f"{folder}: cannot create the folder ({os_reason(exc)})") from None
-        self._made.extend(missing)
+        finally:
+            self._made.extend(reversed(made))  # deepest first
 
     def stage_text(self, path: str | os.PathLike, text: str) -> None:
         def write(temp: str) -> None:
