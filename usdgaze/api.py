@@ -18,7 +18,7 @@ from usdgaze.errors import UsdGazeError
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes.look import Directive, LookOptions, apply_look, to_skel
 from usdgaze.passes.requests import DirectiveRequest, check_directives
-from usdgaze.passes.shift import PassOptions, PassResult
+from usdgaze.passes.options import PassOptions, PassResult
 from usdgaze.values import ShiftRequest, check_pass_options, cli_label
 from usdgaze.files.transaction import Outputs
 from usdgaze.usd.layers import (

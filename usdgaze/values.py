@@ -57,7 +57,7 @@ class ShiftRequest:
         return shift
 
     def to_shift(self, clip):
-        from usdgaze.passes.shift import Shift
+        from usdgaze.passes.options import Shift
 
         seconds = self.time if self.seconds else (self.time - clip.start_time) / clip.time_codes_per_second
         return Shift(seconds, self.yaw, self.pitch)
@@ -87,7 +87,7 @@ def check_fixation(value: object, label: Label) -> float:
 
 
 def check_pass_options(options, label: Label) -> None:
-    """Every number of a :class:`usdgaze.passes.shift.PassOptions` finite; distances positive."""
+    """Every number of a :class:`usdgaze.passes.options.PassOptions` finite; distances positive."""
     check_fixation(options.fixation_m, lambda key, value: label("fixation", value))
     for f in dataclasses.fields(options):
         value = getattr(options, f.name)

@@ -54,7 +54,7 @@ def apply(input_path, shifts, look_at, release, eye_timing, no_guides, out, skel
     from usdgaze.api import apply as run
     from usdgaze.core.hints import parse_hints
     from usdgaze.passes.look import LookOptions
-    from usdgaze.passes.shift import PassOptions
+    from usdgaze.passes.options import PassOptions
 
     report = run(input_path, list(shifts), out, skel_root=skel_root, map_spec=map_spec,
                  sublayer_into=sublayer_into, preview=preview, plot=plot, no_clobber=no_clobber,

@@ -11,8 +11,8 @@ import numpy as np
 from usdgaze.core import rotations as rot
 from usdgaze.gaze import motion
 from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes import shift as sp
-from usdgaze.passes.shift import Shift
+from usdgaze.passes.options import EyeRange, Shift
+from usdgaze.passes.schedule import schedule
 
 
 class CachedMap:
@@ -52,7 +52,7 @@ class TargetPlanner:
     """
 
     def __init__(self, gaze_map: ParametricGazeMap, shifts: list[Shift], events: list, seconds: np.ndarray,
-                 rel: np.ndarray, base_ae: np.ndarray, limits: sp.EyeRange, opts) -> None:
+                 rel: np.ndarray, base_ae: np.ndarray, limits: EyeRange, opts) -> None:
         self.map, self.shifts, self.events, self.seconds = gaze_map, shifts, events, seconds
         self.rel, self.base_ae, self.limits, self.opts = rel, base_ae, limits, opts
         self.reach = np.array([opts.reach_yaw_deg, opts.reach_pitch_deg])
@@ -83,7 +83,7 @@ class TargetPlanner:
         s, opts, lim, rel = self.seconds, self.opts, self.limits, self.rel
         window = (np.arange(len(s)) >= cursor) & (np.arange(len(s)) < self.end)
         near = rot.unwrap_near(rel[:, 0], self.current[0])
-        plan = sp.schedule(self.map, self.shifts, s)
+        plan = schedule(self.map, self.shifts, s)
         head = motion.achieved_gaze(body_only(plan.displacement), float(self.current[0]))
         # Let a shift get well under way before the next one takes over from it.
         wait = max(opts.replan_interval_s, 0.5 * plan.timing[-1]["duration"]) if plan.timing else 0.0
@@ -147,7 +147,7 @@ class TargetPlanner:
         """A body shift at frame j, never faster per segment than the pace allows from where the
         body is then (a shift in progress included)."""
         if disp is None:
-            disp = sp.schedule(self.map, self.shifts, self.seconds).displacement
+            disp = schedule(self.map, self.shifts, self.seconds).displacement
         change = timing if timing is not None else tuple(new - self.current)
         self.shifts.append(Shift(float(self.seconds[j]), *new, timing_change=timing,
                                  min_duration_s=min_duration(self.map, disp[j], new, change, self.opts.body_pace_deg_s)))
@@ -183,7 +183,7 @@ def min_duration(gaze_map: ParametricGazeMap, start: np.ndarray, b: np.ndarray, 
     return float(np.max(1.875 * turn * scale / (np.maximum(window, 0.05) * pace)))
 
 
-def body_request(gaze_map: ParametricGazeMap, want: np.ndarray, reach: np.ndarray, limits: sp.EyeRange,
+def body_request(gaze_map: ParametricGazeMap, want: np.ndarray, reach: np.ndarray, limits: EyeRange,
                   comfort: float) -> np.ndarray:
     """The map request toward line-of-sight change ``want``: the map's own head-eye split, unless that
     leaves the eyes beyond ``comfort`` of their range; then enough more body to bring them back."""

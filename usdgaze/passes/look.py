@@ -35,8 +35,12 @@ from usdgaze.gaze import motion, saccade
 from usdgaze.passes import eyes as eyes_mod
 from usdgaze.passes.body import CachedMap, TargetPlanner
 from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes import shift as sp
-from usdgaze.passes.shift import PassOptions, PassResult, Shift
+from usdgaze.passes.aim import reach_warnings
+from usdgaze.passes.assemble import finish
+from usdgaze.passes.chain import move_body, prepare
+from usdgaze.passes.options import EyeRange, PassOptions, PassResult, Shift
+from usdgaze.passes.schedule import Schedule, schedule
+from usdgaze.passes.sight import azimuth_elevation, direction_from
 
 KINDS = ("shift", "look", "release")
 EYE_TIMINGS = ("saccade", "model")
@@ -115,7 +119,7 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray) -> np.ndarray:
     """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped."""
-    ae = sp.azimuth_elevation(points - eye, up) - base_ae
+    ae = azimuth_elevation(points - eye, up) - base_ae
     ae[:, 0] = (ae[:, 0] + 180.0) % 360.0 - 180.0
     return ae
 
@@ -134,7 +138,7 @@ def _weights(directives: list[Directive], seconds: np.ndarray) -> np.ndarray:
 
 
 def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[int, np.ndarray],
-          base_ae: np.ndarray, limits: sp.EyeRange, opts: LookOptions) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
+          base_ae: np.ndarray, limits: EyeRange, opts: LookOptions) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
     """Body shifts, eye epochs and weight keys for the directives (sorted by time)."""
     shifts: list[Shift] = []
     epochs: list[_Epoch] = []
@@ -207,11 +211,11 @@ def _check_distance(clip: SkelClip, directives: list[Directive], targets, eye: n
 def _model_progress(gaze_map, seconds: np.ndarray, eye: np.ndarray, up: np.ndarray):
     """Gaze progress of a lone map shift of the same change, for ``eye_timing model``."""
     def progress(i0: int, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
-        a = sp.azimuth_elevation(start - eye[i0], up)
-        b = sp.azimuth_elevation(goal[i0] - eye[i0], up)
+        a = azimuth_elevation(start - eye[i0], up)
+        b = azimuth_elevation(goal[i0] - eye[i0], up)
         change = b - a
         change[0] = (change[0] + 180.0) % 360.0 - 180.0
-        plan = sp.schedule(gaze_map, [Shift(float(seconds[i0]), *change)], seconds)
+        plan = schedule(gaze_map, [Shift(float(seconds[i0]), *change)], seconds)
         return np.where(plan.settled, 1.0, plan.progress)[i0:]
     return progress
 
@@ -227,7 +231,7 @@ def _goals(epochs: list[_Epoch], targets, scene: eyes_mod.Scene, base_ae: np.nda
             elif kind == "direction":
                 ae = base_ae + [d.yaw, d.pitch]
                 ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
-                points = scene.eye + fixation * sp.direction_from(ae, up)
+                points = scene.eye + fixation * direction_from(ae, up)
             else:
                 points = scene.base_point
             events.append((frame, eyes_mod.Goal(kind, points, cut)))
@@ -243,7 +247,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     directives = sorted(directives, key=lambda d: d.time_s)
     _check(clip, directives, targets, look)
     seconds = clip.seconds
-    base = sp.prepare(clip, chain, frame, options)
+    base = prepare(clip, chain, frame, options)
     rig, up = base.rig, base.up
     eye_b = to_world(clip, 0.5 * (base.pose.position[rig.eyes[0]] + base.pose.position[rig.eyes[1]]))
     _check_distance(clip, directives, targets, eye_b, target_names)
@@ -251,11 +255,11 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
     shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look)
-    plan = sp.schedule(gaze_map, shifts, seconds)
+    plan = schedule(gaze_map, shifts, seconds)
     weight = _weights(keys, seconds)
     full = weight >= 1.0
     disp = np.where(full[:, None, None], plan.displacement, rot.power(plan.displacement, weight[:, None]))
-    body = sp.move_body(base, chain, frame, disp)
+    body = move_body(base, chain, frame, disp)
     eye_m = to_world(clip, body.eye_centre(rig))
     fixation = options.fixation_m / clip.meters_per_unit
     scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight)
@@ -264,7 +268,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     if legacy:  # the paper's eyes: the wanted line of sight follows the map's gaze progress
         ae = base.ae + plan.requested
         ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
-        sight = eyes_mod.Sight(eye_m + fixation * sp.direction_from(ae, up), ~plan.settled, [])
+        sight = eyes_mod.Sight(eye_m + fixation * direction_from(ae, up), ~plan.settled, [])
     else:
         model = _model_progress(gaze_map, seconds, eye_m, up) if look.eye_timing == "model" else None
         sight = eyes_mod.point_of_sight(scene, _goals(epochs, targets, scene, base.ae, up, fixation), look, model)
@@ -275,7 +279,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     inv = np.where(full, 1.0 / np.maximum(distance, 1e-12),
                    (1.0 - weight) / fixation + weight / np.maximum(distance, 1e-12))
     wanted_point = eye_m + direction / inv[:, None]
-    result = sp.finish(clip, chain, frame, base, body, plan, to_skel(clip, wanted_point), options,
+    result = finish(clip, chain, frame, base, body, plan, to_skel(clip, wanted_point), options,
                        saccading=sight.saccading)
     result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [])
     return result
@@ -286,8 +290,8 @@ def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[_Epoch],
     """Shifts that miss their request once settled; targets that went out of reach."""
     ends = [d.time_s for d in directives[1:]] + [np.inf]
     shifts = [(Shift(d.time_s, d.yaw, d.pitch), end) for d, end in zip(directives, ends) if d.kind == "shift"]
-    plan = sp.Schedule(np.empty(0), result.requested, result.settled, [])
-    out = sp.reach_warnings(clip, [s for s, _ in shifts], plan, base_ae, result.achieved, result.eye_angles,
+    plan = Schedule(np.empty(0), result.requested, result.settled, [])
+    out = reach_warnings(clip, [s for s, _ in shifts], plan, base_ae, result.achieved, result.eye_angles,
                             options, ends=[e for _, e in shifts])
     seconds = clip.seconds
     for epoch in epochs:

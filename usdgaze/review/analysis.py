@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.core import rotations as rot
-from usdgaze.passes.shift import azimuth_elevation, line_of_sight
+from usdgaze.passes.sight import azimuth_elevation, line_of_sight
 
 MAIN_SEQUENCE_VMAX = 500.0
 """deg/s: peak velocity a large saccade saturates at (several hundred deg/s)."""

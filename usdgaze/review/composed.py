@@ -335,7 +335,7 @@ def _shifts(texts, clip, where: str) -> list[tuple[float, float, float]]:
 
 
 def _eye_range(record: dict) -> tuple[dict[str, float], bool]:
-    from usdgaze.passes.shift import EyeRange
+    from usdgaze.passes.options import EyeRange
 
     default = EyeRange()
     recorded = record.get(EYE_RANGE_KEY)

@@ -1,0 +1,80 @@
+"""The eye step of the gaze passes: aim each eye at a point of sight within the eye range, and say
+where a request was not reached (pure numpy)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.core.clip import SkelClip
+from usdgaze.core.kinematics import Pose
+from usdgaze.core.rig import CharacterFrame
+from usdgaze.passes.chain import Rig
+from usdgaze.passes.schedule import Schedule
+from usdgaze.passes.options import EyeRange, PassOptions, Shift
+
+
+@dataclass
+class EyeAim:
+    rotations: dict[int, np.ndarray]
+    angles: np.ndarray
+    """Eye-in-head (yaw, pitch) per frame and eye ``(F, 2, 2)``, after the range clamp."""
+    positions: list[np.ndarray]
+    directions: list[np.ndarray]
+
+
+def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange) -> EyeAim:
+    """Point each eye at the point of sight (Listing's law: no torsion), within the eye range."""
+    f = len(sight_point)
+    out = EyeAim({}, np.zeros((f, 2, 2)), [], [])
+    for i, e in enumerate(rig.eyes):
+        p = int(rig.parents[e])
+        to_head = rot.conjugate(rig.rest_q[p])
+        fwd_h, left_h, up_h = (rot.rotate(to_head, v) for v in (frame.forward, frame.left, frame.up))
+        pos = moved.place(p, rig.local(e)[0])
+        u_h = rot.rotate(rot.conjugate(moved.rotation[p]), rot.normalize(sight_point - pos))
+        yaw = np.clip(np.degrees(np.arctan2(u_h @ left_h, u_h @ fwd_h)), -limits.yaw, limits.yaw)
+        pitch = np.clip(np.degrees(np.arcsin(np.clip(u_h @ up_h, -1.0, 1.0))), -limits.down, limits.up)
+        y, pc = np.radians(yaw), np.radians(pitch)
+        u_h = ((np.cos(pc) * np.sin(y))[:, None] * left_h + (np.cos(pc) * np.cos(y))[:, None] * fwd_h
+               + np.sin(pc)[:, None] * up_h)
+        out.angles[:, i] = np.column_stack([yaw, pitch])
+        rest_eye = rot.multiply(to_head, rig.rest_q[e])  # the eye in its parent, looking ahead
+        out.rotations[e] = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h, u_h), rest_eye))
+        out.positions.append(pos)
+        out.directions.append(rot.rotate(moved.rotation[p], u_h))
+    return out
+
+
+def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae: np.ndarray,
+                    achieved: np.ndarray, eye_angles: np.ndarray, options: PassOptions,
+                    ends: list[float] | None = None) -> list[str]:
+    """One line per shift whose hold (until the next shift, or ``ends[k]``) misses the request by
+    more than the tolerance, saying why."""
+    limits = options.eye_range
+    seconds = clip.seconds
+    warnings = []
+    for k, sh in enumerate(shifts):
+        end = ends[k] if ends is not None else shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
+        hold = plan.settled & (seconds >= sh.time_s) & (seconds < end)
+        if not np.any(hold) or np.abs(achieved[hold] - plan.requested[hold]).max() <= options.tolerance_deg:
+            continue
+        reach = achieved[hold].mean(axis=0)
+        angles = eye_angles[hold]
+        at_limit = np.any(np.abs(angles[..., 0]) >= limits.yaw - 1e-6) or np.any(
+            (angles[..., 1] >= limits.up - 1e-6) | (angles[..., 1] <= -limits.down + 1e-6))
+        if np.any(np.abs(base_ae[hold, 1] + plan.requested[hold, 1]) > 89.0):
+            way = "down" if base_ae[hold, 1].mean() < 0 else "up"
+            why = (f"the base line of sight already points {np.abs(base_ae[hold, 1]).max():.0f} deg {way}, "
+                   f"and the gaze cannot pass straight {way}")
+        elif at_limit:
+            why = f"the eyes reach their range (yaw +-{limits.yaw:g}, up {limits.up:g}, down {limits.down:g} deg)"
+        else:
+            why = "the chain cannot turn that far"
+        warnings.append(
+            f"{clip.where()}: shift at {sh.time_s:g} s asks for yaw {sh.yaw:g}, pitch {sh.pitch:g} deg; "
+            f"reached about yaw {reach[0]:.1f}, pitch {reach[1]:.1f} ({why})"
+        )
+    return warnings

@@ -1,0 +1,193 @@
+"""The body step of the gaze passes: the rig with its eyes, the base motion's pose and line of sight,
+and the chain driven by per-frame segment offsets with the legs counter-rotated (pure numpy).
+
+P+ offsets are parent-relative rotations in the character frame; on the rig each one is applied in its
+joint's parent frame as that frame sits in the neutral (bind) pose, spread evenly over the joints sharing
+a role (neck and head share the neck segment). The pelvis turns in its heading frame. The leg roots
+under the pelvis counter-rotate so the legs keep their base world pose.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.core.clip import SkelClip
+from usdgaze.core.kinematics import Pose, forward, with_ancestors
+from usdgaze.core.rig import CharacterFrame, Chain
+from usdgaze.passes.sight import azimuth_elevation, directions_to_world
+from usdgaze.passes.options import PassOptions
+
+NECK_SEGMENT = 3
+SEGMENT_OF_ROLE = {"pelvis": 0, "lowerSpine": 1, "upperSpine": 2, "neck": NECK_SEGMENT, "head": NECK_SEGMENT}
+
+
+@dataclass
+class Rig:
+    """The skeleton as the pass sees it: the clip's joints plus added eyes, and per-joint locals."""
+
+    clip: SkelClip
+    joints: list[str]
+    parents: np.ndarray
+    rest_local: np.ndarray
+    rest_q: np.ndarray
+    """Neutral-pose (bind pose) skeleton-space rotations per joint: where each joint looks ahead."""
+    eyes: tuple[int, int]
+    added: list[str]
+    added_t: dict[int, np.ndarray]
+
+    def __post_init__(self) -> None:
+        # Each joint's columns are read and converted once, however many steps look at them.
+        self.local = functools.lru_cache(maxsize=None)(self._local)
+
+    def _local(self, j: int):
+        f = len(self.clip.times)
+        if j < len(self.clip.joints):
+            return self.clip.local_trs(j)
+        return np.tile(self.added_t[j], (f, 1)), np.tile(rot.IDENTITY, (f, 1)), np.ones((f, 3))
+
+
+def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Rig:
+    """The rig with its eye joints: existing ones, or a left and a right added under the head."""
+    rest_world = clip.neutral()
+    rest_q = rot.from_matrix(rest_world[:, :3, :3])
+    if chain.eyes is not None:
+        return Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {})
+    head = chain.head
+    # Eye placement scales with the character: the head joint (skull base) of an adult stands ~1.5 m up.
+    height = (rest_world[head, :3, 3] - rest_world[:, :3, 3]) @ frame.up
+    units_per_m = max(float(height.max()), 1e-9) / 1.5
+    joints, added, locals_ = list(clip.joints), [], []
+    for side, name in ((1.0, "LeftEye"), (-1.0, "RightEye")):
+        offset = units_per_m * (options.eye_above_head_m * frame.up + options.eye_ahead_of_head_m * frame.forward
+                                + side * 0.5 * options.interocular_m * frame.left)
+        m = np.eye(4)
+        m[:3, 3] = np.linalg.solve(rest_world[head, :3, :3], offset)
+        locals_.append(m)
+        joints.append(f"{clip.joints[head]}/{name}")
+        added.append(joints[-1])
+    eyes = (len(joints) - 2, len(joints) - 1)
+    return Rig(
+        clip, joints,
+        parents=np.concatenate([clip.parents, [head, head]]),
+        rest_local=np.concatenate([clip.rest_local, np.stack(locals_)]),
+        rest_q=np.concatenate([rest_q, rest_q[[head, head]]]),  # added eyes start aligned with the head
+        eyes=eyes, added=added,
+        added_t={e: m[:3, 3] for e, m in zip(eyes, locals_)},
+    )
+
+
+def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray, base: Pose
+                 ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+    """New local rotations along the chain (parents first) and their new world rotations."""
+    f = len(disp)
+    canon = frame.rotation  # canonical -> skeleton space
+    counts = np.zeros(4, dtype=int)
+    for role, seg in SEGMENT_OF_ROLE.items():
+        counts[seg] += len(chain.roles[role])
+    role_of = {j: role for role in SEGMENT_OF_ROLE for j in chain.roles[role]}
+    new_rot: dict[int, np.ndarray] = {}
+    new_world: dict[int, np.ndarray] = {}
+    for j in chain.path:
+        _, q_j, _ = rig.local(j)
+        p = int(rig.parents[j])
+        parent_world = new_world.get(p, base.rotation.get(p)) if p >= 0 else np.tile(rot.IDENTITY, (f, 1))
+        role = role_of.get(j)
+        if role is None:
+            q_new = q_j
+        else:
+            seg = SEGMENT_OF_ROLE[role]
+            q = rot.power(disp[:, seg], 1.0 / counts[seg])  # a role's rotation spread over its joints
+            if role == "pelvis":
+                # Heading frame: the character frame turned about up to where the pelvis faces now.
+                facing = rot.rotate(rot.multiply(base.rotation[j], rot.conjugate(rig.rest_q[j])), frame.forward)
+                flat = facing - np.outer(facing @ frame.up, frame.up)
+                heading = np.arctan2(np.cross(frame.forward, flat) @ frame.up, flat @ frame.forward)
+                q_world = rot.conjugate_into(rot.multiply(rot.from_axis_angle(frame.up, heading), canon), q)
+                q_new = rot.multiply(rot.conjugate_into(rot.conjugate(parent_world), q_world), q_j)
+            else:
+                # In the parent's frame as it sits at rest, as the paper's dress-pose offsets are.
+                k = rot.multiply(rot.conjugate(rig.rest_q[p]), canon) if p >= 0 else canon
+                q_new = rot.multiply(rot.conjugate_into(k, q), q_j)
+        new_rot[j] = rot.normalize(q_new)
+        new_world[j] = rot.normalize(rot.multiply(parent_world, new_rot[j]))
+    return new_rot, new_world
+
+
+def _counter_rotate_legs(rig: Rig, chain: Chain, base: Pose, new_world: dict[int, np.ndarray]
+                         ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+    """Leg roots keep their world transform: undo the pelvis's change in the pelvis frame."""
+    pelvis = chain.pelvis
+    undo = rot.multiply(rot.conjugate(new_world[pelvis]), base.rotation[pelvis])
+    rotations, translations = {}, {}
+    for j in chain.leg_roots:
+        t_j, q_j, _ = rig.local(j)
+        rotations[j] = rot.normalize(rot.multiply(undo, q_j))
+        translations[j] = rot.rotate(undo, t_j)
+    return rotations, translations
+
+
+
+@dataclass
+class Base:
+    """The base motion as a pass sees it: the rig with its eyes, FK of what the pass reads, the
+    base line of sight."""
+
+    rig: Rig
+    pose: Pose
+    skel_to_world: np.ndarray
+    """Per-frame 3x3 linear part of skeleton -> world ``(F, 3, 3)``."""
+    up: np.ndarray
+    """World up."""
+    line_of_sight: np.ndarray
+    """World direction the base head looks along ``(F, 3)``."""
+    ae: np.ndarray
+    """Its (azimuth, elevation) in degrees ``(F, 2)``."""
+
+
+def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
+    """The rig with eyes (added if missing), base FK of the chain, leg roots and eyes, and the base
+    line of sight (where the head looks)."""
+    rig = with_eyes(clip, chain, frame, options)
+    pose = forward(with_ancestors(list(chain.path) + list(chain.leg_roots) + list(rig.eyes), rig.parents),
+                   rig.parents, rig.local)
+    skel_to_world = clip.skel_to_world[:, :3, :3]
+    up_w = clip.world_up
+    head_axis = rot.rotate(rot.conjugate(rig.rest_q[chain.head]), frame.forward)
+    sight = directions_to_world(skel_to_world, rot.rotate(pose.rotation[chain.head], head_axis))
+    return Base(rig, pose, skel_to_world, up_w, sight, azimuth_elevation(sight, up_w))
+
+
+@dataclass
+class Body:
+    """The chain driven by a displacement: new local rotations/translations and the moved eye parents."""
+
+    rotations: dict[int, np.ndarray]
+    translations: dict[int, np.ndarray]
+    moved: Pose
+
+    def eye_position(self, rig: Rig, e: int) -> np.ndarray:
+        return self.moved.place(int(rig.parents[e]), rig.local(e)[0])
+
+    def eye_centre(self, rig: Rig) -> np.ndarray:
+        """Skeleton-space midpoint of the eyes ``(F, 3)``."""
+        return 0.5 * sum(self.eye_position(rig, e) for e in rig.eyes)
+
+
+def move_body(base: Base, chain: Chain, frame: CharacterFrame, displacement: np.ndarray) -> Body:
+    """Drive the chain with per-frame segment offsets; legs keep their world pose; FK to the eyes."""
+    rig = base.rig
+    new_rot, new_world = _drive_chain(rig, chain, frame, displacement, base.pose)
+    leg_rot, new_trans = _counter_rotate_legs(rig, chain, base.pose, new_world)
+    new_rot.update(leg_rot)
+
+    def new_local(j: int):
+        t, q, s = rig.local(j)
+        return new_trans.get(j, t), new_rot.get(j, q), s
+
+    eye_parents = sorted({int(rig.parents[e]) for e in rig.eyes})
+    moved = forward(with_ancestors(eye_parents, rig.parents), rig.parents, new_local)
+    return Body(new_rot, new_trans, moved)
