@@ -3,24 +3,23 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from usdgaze import __version__
-from usdgaze.core import rotations as rot
-from usdgaze.usd import schema
+from usdgaze.apply_types import ApplyReport, ApplyRequest, CharacterReport
+from usdgaze.characters import bind, built_map, clip_directives, root_directives, select_roots
 from usdgaze.core.clip import SkelClip
-from usdgaze.gaze.defaults import default_definition
-from usdgaze.gaze.definition import GazeMapDefinition
+from usdgaze.core.hints import to_record as hints_record
+from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.errors import UsdGazeError
-from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes.look import Directive, LookOptions, apply_look, to_skel
-from usdgaze.passes.requests import DirectiveRequest, check_directives
-from usdgaze.passes.options import PassOptions, PassResult
-from usdgaze.values import ShiftRequest, check_pass_options, cli_label
 from usdgaze.files.transaction import Outputs
+from usdgaze.gaze.defaults import default_definition
+from usdgaze.passes.look import LookOptions, apply_look, to_skel
+from usdgaze.passes.options import PassOptions, PassResult
+from usdgaze.passes.requests import DirectiveRequest, check_directives
+from usdgaze.usd import schema
 from usdgaze.usd.layers import (
     AnimOverride,
     LayerInfo,
@@ -32,145 +31,11 @@ from usdgaze.usd.layers import (
     reload_if_open,
     write_preview,
 )
-from usdgaze.core.hints import BindHints
-from usdgaze.core.hints import to_record as hints_record
-from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
+from usdgaze.values import ShiftRequest, check_pass_options, cli_label
 
-@dataclass
-class ApplyRequest:
-    """Everything one ``apply`` is asked to do. New options are new fields (``apply`` passes keywords on)."""
-
-    input_path: str | os.PathLike
-    shifts: list[ShiftRequest | str]
-    out: str | os.PathLike
-    skel_root: str | None = None
-    map_spec: str | None = None
-    sublayer_into: str | os.PathLike | None = None
-    preview: str | os.PathLike | None = None
-    plot: str | os.PathLike | None = None
-    no_clobber: bool = False
-    make_folders: bool = False
-    """Create missing output folders (removed again if the command fails); the batch's default."""
-    options: PassOptions = field(default_factory=PassOptions)
-    progress: object = None
-    record: dict = field(default_factory=dict)
-    """Extra entries for the override's ``customLayerData["usdgaze"]`` (the batch's resume key)."""
-    look_at: list[DirectiveRequest | str] = field(default_factory=list)
-    """``TARGET@TIME[:weight=W][:blend=B]`` directives (see :mod:`usdgaze.passes.requests`)."""
-    release: list[DirectiveRequest | str] = field(default_factory=list)
-    """``TIME[:blend=B]`` directives."""
-    look: LookOptions = field(default_factory=LookOptions)
-    """Eye timing, pursuit and reach of the look pass."""
-    guides: bool = True
-    """Author guide-purpose lines of sight and the point of sight for review."""
-
-    @property
-    def source(self) -> str:
-        return os.fspath(self.input_path)
-
-
-@dataclass
-class CharacterReport:
-    """What the pass did to one skeleton."""
-
-    skel_root: str
-    skeleton: str
-    animation: str
-    map_source: str
-    chain: dict[str, list[str]]
-    forward: list[float]
-    frames: int
-    added_joints: list[str]
-    result: PassResult
-    guide: tuple | None = None
-    """(times, eye positions (2, F, 3) and point of sight (F, 3) in skeleton space, point of sight in
-    world space, line width), when guides are written."""
-
-
-@dataclass
-class ApplyReport:
-    output: str
-    input: str | None = None
-    characters: list[CharacterReport] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-    preview: str | None = None
-    plot: str | None = None
-    sublayered_into: str | None = None
-    directives: dict[str, list[str]] = field(default_factory=dict)
-    """Per SkelRoot, the directives applied, as flags (from the command or the SkelRoot's schedule)."""
-
-
-def select_roots(stage, source: str, skel_root: str | None):
-    """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
-    from pxr import Sdf, UsdSkel
-
-    from usdgaze.usd.skelio import skel_roots
-
-    if skel_root:
-        if not Sdf.Path.IsValidPathString(skel_root) or not (Sdf.Path(skel_root).IsAbsolutePath()
-                                                               and Sdf.Path(skel_root).IsPrimPath()):
-            raise UsdGazeError(f"{source}: --skel-root '{skel_root}' is not an absolute prim path such as /Character")
-        prim = stage.GetPrimAtPath(skel_root)
-        if not prim or not prim.IsValid():
-            raise UsdGazeError(f"{source}:{skel_root}: no such prim")
-        if not prim.IsA(UsdSkel.Root):
-            raise UsdGazeError(f"{source}:{skel_root}: is a {prim.GetTypeName() or 'typeless prim'}, not a SkelRoot")
-        return [prim]
-    roots = skel_roots(stage)
-    if not roots:
-        raise UsdGazeError(f"{source}: no SkelRoot on the stage")
-    with_map = [r for r in roots if schema.has_map(r)]
-    if with_map:
-        return with_map
-    if len(roots) > 1:
-        listed = ", ".join(str(r.GetPath()) for r in roots[:6])
-        raise UsdGazeError(f"{source}: {len(roots)} SkelRoots and none has a GazeMapAPI; pick one with --skel-root ({listed})")
-    return roots
-
-
-def _map_key(definition: GazeMapDefinition) -> bytes:
-    """Content key: characters sharing one map (by composition) build it once."""
-    m = definition.motions
-    return b"|".join([definition.params.tobytes(), m.offsets.tobytes(), m.timing.tobytes(),
-                      repr(definition.settings).encode()])
-
-
-_MAPS: dict[bytes, ParametricGazeMap] = {}
-_MAPS_KEPT = 8
-
-
-def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
-    """The built map of a definition, built once per process: shots (and characters) sharing a map
-    by content reuse it."""
-    key = _map_key(definition)
-    gaze_map = _MAPS.pop(key, None)
-    if gaze_map is None:
-        gaze_map = ParametricGazeMap(definition)
-    _MAPS[key] = gaze_map  # most recently used last
-    while len(_MAPS) > _MAPS_KEPT:
-        _MAPS.pop(next(iter(_MAPS)))
-    return gaze_map
-
-
-def _character_frame(clip: SkelClip, forward, label: str) -> CharacterFrame:
-    sw = clip.skel_to_world[0, :3, :3]
-    up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
-    return character_frame(clip.joints, clip.neutral(), up_s, forward, where=f"{clip.source}:{clip.skeleton}",
-                           forward_label=label)
-
-
-def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints | None = None
-         ) -> tuple[Chain, CharacterFrame]:
-    """Chain and character frame of a clip: the user's hints first, then the map's bindings, then names."""
-    hints = hints or BindHints()
-    bindings = dict(definition.bindings) if definition else {}
-    labels = {role: f"gaze:binding:{role}" for role in bindings}
-    for role, joints in hints.bindings:
-        bindings[role], labels[role] = joints, f"{hints.bind_label} {role}={'+'.join(joints)}"
-    forward, label = (hints.forward, hints.forward_label) if hints.forward is not None else (
-        definition.forward if definition else None, "gaze:binding:forward")
-    chain = bind_chain(clip.joints, clip.parents, bindings, where=f"{clip.source}:{clip.skeleton}", labels=labels)
-    return chain, _character_frame(clip, forward, label)
+# The Python API: these names are imported from here (usdgaze.api.bind, select_roots, ApplyRequest, ...).
+__all__ = ["ApplyReport", "ApplyRequest", "CharacterReport", "ShiftRequest", "apply", "bind", "built_map",
+           "check_request", "run", "select_roots"]
 
 
 def apply(input_path: str | os.PathLike, shifts: list[ShiftRequest | str], out: str | os.PathLike,
@@ -258,7 +123,7 @@ def _run_pass(stage, roots, forced, requests, req):
     overrides: list[AnimOverride] = []
     seen_anims: dict[str, str] = {}
     for root in roots:
-        root_requests = _root_directives(root, source, requests)
+        root_requests = root_directives(root, source, requests)
         report.directives[str(root.GetPath())] = [r.flag for r in root_requests]
         own = schema.read_map(root, source) if schema.has_map(root) else None
         definition = forced or own or default_definition()
@@ -279,7 +144,7 @@ def _run_pass(stage, roots, forced, requests, req):
             chain, frame = bind(clip, own, req.options.binding)
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
                 report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")
-            directives, targets, names = _directives(stage, clip, root_requests)
+            directives, targets, names = clip_directives(stage, clip, root_requests)
             result = apply_look(clip, chain, frame, gaze_map, directives, targets, req.options, req.look, names)
             report.warnings.extend(result.warnings)
             overrides.append(_override(clip, chain, result))
@@ -300,51 +165,6 @@ def _layer_info(stage) -> LayerInfo:
     return LayerInfo(float(stage.GetTimeCodesPerSecond()), float(stage.GetFramesPerSecond()),
                      float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode()),
                      str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)))
-
-
-def _root_directives(root, source: str, requests: list[DirectiveRequest]) -> list[DirectiveRequest]:
-    """The command's directives, or without any the SkelRoot's own schedule."""
-    from usdgaze.usd import schedule
-
-    if requests:  # in time order, as a schedule holds them: the same directives record the same text
-        return sorted(requests, key=lambda r: (r.seconds, r.time))
-    if not schedule.has_schedule(root):
-        raise UsdGazeError(f"{source}:{root.GetPath()}: no --shift, --look-at or --release given and no "
-                           f"{schedule.API_NAME} on this SkelRoot; nothing to do")
-    return schedule.read_schedule(root, source)
-
-
-def _directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
-                ) -> tuple[list[Directive], list[np.ndarray], list[str]]:
-    """Pass directives for one clip, and the world positions per frame of what its looks look at."""
-    from usdgaze.usd.targets import sample_target
-
-    tcps = clip.time_codes_per_second
-    first, last = clip.seconds[0], clip.seconds[-1]
-    index_of: dict = {}
-    targets: list[np.ndarray] = []
-    names: list[str] = []
-    directives = []
-    for r in requests:
-        t = r.time_s(clip.start_time, tcps)
-        if not first - 1e-9 <= t <= last + 1e-9:
-            raise UsdGazeError(
-                f"{clip.where()}: {r.flag} lies outside the animation (time codes {clip.times[0]:g} to "
-                f"{clip.times[-1]:g}, {first:g} to {last:g} s)")
-        index = -1
-        if r.kind == "look":
-            key = r.target if r.target is not None else r.point
-            if key not in index_of:
-                index_of[key] = len(targets)
-                if r.target is not None:
-                    targets.append(sample_target(stage, r.target, clip.times, clip.source))
-                    names.append(r.target)
-                else:
-                    targets.append(np.tile(np.asarray(r.point, dtype=float), (len(clip.times), 1)))
-                    names.append(",".join(f"{v:g}" for v in r.point))
-            index = index_of[key]
-        directives.append(Directive(t, r.kind, r.yaw, r.pitch, index, r.weight, r.blend_s(tcps)))
-    return directives, targets, names
 
 
 def _override(clip: SkelClip, chain: Chain, result: PassResult) -> AnimOverride:

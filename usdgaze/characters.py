@@ -1,0 +1,135 @@
+"""The characters of a stage as ``apply`` sees them: SkelRoots, their gaze map (built once per
+process), chain and character frame, and the directives each one's clip is given."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.core.clip import SkelClip
+from usdgaze.core.hints import BindHints
+from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
+from usdgaze.errors import UsdGazeError
+from usdgaze.gaze.definition import GazeMapDefinition
+from usdgaze.gaze.gazemap import ParametricGazeMap
+from usdgaze.passes.look import Directive
+from usdgaze.passes.requests import DirectiveRequest
+from usdgaze.usd import schema
+
+
+def select_roots(stage, source: str, skel_root: str | None):
+    """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
+    from pxr import Sdf, UsdSkel
+
+    from usdgaze.usd.skelio import skel_roots
+
+    if skel_root:
+        if not Sdf.Path.IsValidPathString(skel_root) or not (Sdf.Path(skel_root).IsAbsolutePath()
+                                                               and Sdf.Path(skel_root).IsPrimPath()):
+            raise UsdGazeError(f"{source}: --skel-root '{skel_root}' is not an absolute prim path such as /Character")
+        prim = stage.GetPrimAtPath(skel_root)
+        if not prim or not prim.IsValid():
+            raise UsdGazeError(f"{source}:{skel_root}: no such prim")
+        if not prim.IsA(UsdSkel.Root):
+            raise UsdGazeError(f"{source}:{skel_root}: is a {prim.GetTypeName() or 'typeless prim'}, not a SkelRoot")
+        return [prim]
+    roots = skel_roots(stage)
+    if not roots:
+        raise UsdGazeError(f"{source}: no SkelRoot on the stage")
+    with_map = [r for r in roots if schema.has_map(r)]
+    if with_map:
+        return with_map
+    if len(roots) > 1:
+        listed = ", ".join(str(r.GetPath()) for r in roots[:6])
+        raise UsdGazeError(f"{source}: {len(roots)} SkelRoots and none has a GazeMapAPI; pick one with --skel-root ({listed})")
+    return roots
+
+
+def _map_key(definition: GazeMapDefinition) -> bytes:
+    """Content key: characters sharing one map (by composition) build it once."""
+    m = definition.motions
+    return b"|".join([definition.params.tobytes(), m.offsets.tobytes(), m.timing.tobytes(),
+                      repr(definition.settings).encode()])
+
+
+_MAPS: dict[bytes, ParametricGazeMap] = {}
+_MAPS_KEPT = 8
+
+
+def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
+    """The built map of a definition, built once per process: shots (and characters) sharing a map
+    by content reuse it."""
+    key = _map_key(definition)
+    gaze_map = _MAPS.pop(key, None)
+    if gaze_map is None:
+        gaze_map = ParametricGazeMap(definition)
+    _MAPS[key] = gaze_map  # most recently used last
+    while len(_MAPS) > _MAPS_KEPT:
+        _MAPS.pop(next(iter(_MAPS)))
+    return gaze_map
+
+
+def _character_frame(clip: SkelClip, forward, label: str) -> CharacterFrame:
+    sw = clip.skel_to_world[0, :3, :3]
+    up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
+    return character_frame(clip.joints, clip.neutral(), up_s, forward, where=f"{clip.source}:{clip.skeleton}",
+                           forward_label=label)
+
+
+def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints | None = None
+         ) -> tuple[Chain, CharacterFrame]:
+    """Chain and character frame of a clip: the user's hints first, then the map's bindings, then names."""
+    hints = hints or BindHints()
+    bindings = dict(definition.bindings) if definition else {}
+    labels = {role: f"gaze:binding:{role}" for role in bindings}
+    for role, joints in hints.bindings:
+        bindings[role], labels[role] = joints, f"{hints.bind_label} {role}={'+'.join(joints)}"
+    forward, label = (hints.forward, hints.forward_label) if hints.forward is not None else (
+        definition.forward if definition else None, "gaze:binding:forward")
+    chain = bind_chain(clip.joints, clip.parents, bindings, where=f"{clip.source}:{clip.skeleton}", labels=labels)
+    return chain, _character_frame(clip, forward, label)
+
+
+def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list[DirectiveRequest]:
+    """The command's directives, or without any the SkelRoot's own schedule."""
+    from usdgaze.usd import schedule
+
+    if requests:  # in time order, as a schedule holds them: the same directives record the same text
+        return sorted(requests, key=lambda r: (r.seconds, r.time))
+    if not schedule.has_schedule(root):
+        raise UsdGazeError(f"{source}:{root.GetPath()}: no --shift, --look-at or --release given and no "
+                           f"{schedule.API_NAME} on this SkelRoot; nothing to do")
+    return schedule.read_schedule(root, source)
+
+
+def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
+                ) -> tuple[list[Directive], list[np.ndarray], list[str]]:
+    """Pass directives for one clip, and the world positions per frame of what its looks look at."""
+    from usdgaze.usd.targets import sample_target
+
+    tcps = clip.time_codes_per_second
+    first, last = clip.seconds[0], clip.seconds[-1]
+    index_of: dict = {}
+    targets: list[np.ndarray] = []
+    names: list[str] = []
+    directives = []
+    for r in requests:
+        t = r.time_s(clip.start_time, tcps)
+        if not first - 1e-9 <= t <= last + 1e-9:
+            raise UsdGazeError(
+                f"{clip.where()}: {r.flag} lies outside the animation (time codes {clip.times[0]:g} to "
+                f"{clip.times[-1]:g}, {first:g} to {last:g} s)")
+        index = -1
+        if r.kind == "look":
+            key = r.target if r.target is not None else r.point
+            if key not in index_of:
+                index_of[key] = len(targets)
+                if r.target is not None:
+                    targets.append(sample_target(stage, r.target, clip.times, clip.source))
+                    names.append(r.target)
+                else:
+                    targets.append(np.tile(np.asarray(r.point, dtype=float), (len(clip.times), 1)))
+                    names.append(",".join(f"{v:g}" for v in r.point))
+            index = index_of[key]
+        directives.append(Directive(t, r.kind, r.yaw, r.pitch, index, r.weight, r.blend_s(tcps)))
+    return directives, targets, names
