@@ -12,7 +12,7 @@ from usdgaze.core import rotations as rot
 from usdgaze.gaze import motion
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes.options import EyeRange, Shift
-from usdgaze.passes.schedule import schedule
+from usdgaze.passes.schedule import Scheduler
 
 
 class CachedMap:
@@ -52,8 +52,10 @@ class TargetPlanner:
     """
 
     def __init__(self, gaze_map: ParametricGazeMap, shifts: list[Shift], events: list, seconds: np.ndarray,
-                 rel: np.ndarray, base_ae: np.ndarray, limits: EyeRange, opts) -> None:
+                 rel: np.ndarray, base_ae: np.ndarray, limits: EyeRange, opts, scheduler: Scheduler | None = None
+                 ) -> None:
         self.map, self.shifts, self.events, self.seconds = gaze_map, shifts, events, seconds
+        self.scheduler = scheduler or Scheduler(gaze_map, seconds)  # re-plans evaluate only the new shift
         self.rel, self.base_ae, self.limits, self.opts = rel, base_ae, limits, opts
         self.reach = np.array([opts.reach_yaw_deg, opts.reach_pitch_deg])
         # The line of sight reaches as far as the head turns for a shift at the reach, plus the eyes.
@@ -83,7 +85,7 @@ class TargetPlanner:
         s, opts, lim, rel = self.seconds, self.opts, self.limits, self.rel
         window = (np.arange(len(s)) >= cursor) & (np.arange(len(s)) < self.end)
         near = rot.unwrap_near(rel[:, 0], self.current[0])
-        plan = schedule(self.map, self.shifts, s)
+        plan = self.scheduler.plan(self.shifts)
         head = motion.achieved_gaze(body_only(plan.displacement), float(self.current[0]))
         # Let a shift get well under way before the next one takes over from it.
         wait = max(opts.replan_interval_s, 0.5 * plan.timing[-1]["duration"]) if plan.timing else 0.0
@@ -147,7 +149,7 @@ class TargetPlanner:
         """A body shift at frame j, never faster per segment than the pace allows from where the
         body is then (a shift in progress included)."""
         if disp is None:
-            disp = schedule(self.map, self.shifts, self.seconds).displacement
+            disp = self.scheduler.plan(self.shifts).displacement
         change = timing if timing is not None else tuple(new - self.current)
         self.shifts.append(Shift(float(self.seconds[j]), *new, timing_change=timing,
                                  min_duration_s=min_duration(self.map, disp[j], new, change, self.opts.body_pace_deg_s)))

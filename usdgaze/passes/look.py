@@ -39,7 +39,7 @@ from usdgaze.passes.aim import reach_warnings
 from usdgaze.passes.assemble import finish
 from usdgaze.passes.chain import move_body, prepare
 from usdgaze.passes.options import EyeRange, PassOptions, PassResult, Shift
-from usdgaze.passes.schedule import Schedule, schedule
+from usdgaze.passes.schedule import Schedule, Scheduler, schedule
 from usdgaze.passes.sight import azimuth_elevation, direction_from
 
 KINDS = ("shift", "look", "release")
@@ -138,8 +138,10 @@ def _weights(directives: list[Directive], seconds: np.ndarray) -> np.ndarray:
 
 
 def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[int, np.ndarray],
-          base_ae: np.ndarray, limits: EyeRange, opts: LookOptions) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
-    """Body shifts, eye epochs and weight keys for the directives (sorted by time)."""
+          base_ae: np.ndarray, limits: EyeRange, opts: LookOptions, scheduler: Scheduler
+          ) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
+    """Body shifts, eye epochs and weight keys for the directives (sorted by time); ``scheduler``
+    schedules the shifts as the planners add them."""
     shifts: list[Shift] = []
     epochs: list[_Epoch] = []
     keys: list[Directive] = []
@@ -162,7 +164,8 @@ def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[
         if a >= len(seconds):
             continue
         if d.kind == "look":
-            TargetPlanner(gaze_map, shifts, epoch.events, seconds, rel[d.target], base_ae, limits, opts).run(epoch.start, end)
+            TargetPlanner(gaze_map, shifts, epoch.events, seconds, rel[d.target], base_ae, limits, opts,
+                          scheduler).run(epoch.start, end)
             continue
         yaw, pitch = (d.yaw, d.pitch) if d.kind == "shift" else (0.0, 0.0)
         shifts.append(Shift(float(t), yaw, pitch, cut=cut))
@@ -254,8 +257,9 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up) for d in directives if d.kind == "look"}
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
-    shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look)
-    plan = schedule(gaze_map, shifts, seconds)
+    scheduler = Scheduler(gaze_map, seconds)
+    shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look, scheduler)
+    plan = scheduler.plan(shifts)
     weight = _weights(keys, seconds)
     full = weight >= 1.0
     disp = np.where(full[:, None, None], plan.displacement, rot.power(plan.displacement, weight[:, None]))

@@ -73,22 +73,52 @@ class _Segment:
 
 def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarray) -> Schedule:
     """Per-frame displacement and wanted gaze change for a list of shifts (sorted by time)."""
-    f = len(seconds)
-    disp = np.broadcast_to(rot.IDENTITY, (f, 5, 4)).copy()
-    wanted = np.zeros((f, 2))
-    settled = np.ones(f, dtype=bool)
-    progress = np.ones(f)
-    if not shifts:
-        return Schedule(disp, wanted, settled, [], progress)
-    times = np.array([s.time_s for s in shifts])
-    requests = np.array([[s.yaw, s.pitch] for s in shifts], dtype=float)
-    targets = gaze_map.query(requests[:, 0], requests[:, 1]).offsets
-    targets[np.all(requests == 0.0, axis=1)] = rot.IDENTITY
+    return Scheduler(gaze_map, seconds).plan(shifts)
 
-    info = []
-    previous: _Segment | None = None
-    for k, (t0, request, target) in enumerate(zip(times, requests, targets)):
-        t1 = times[k + 1] if k + 1 < len(times) else np.inf
+
+class Scheduler:
+    """:func:`schedule` for a list of shifts that grows at its end, as a planner's does.
+
+    Each frame takes the last shift that starts at or before it, so an appended shift is evaluated on
+    its own frames only; any other change of the list schedules it afresh. Every call asks the map for all
+    requests at once, as one :func:`schedule` does (a :class:`~usdgaze.passes.body.CachedMap` answers
+    the known ones from its rows).
+    """
+
+    def __init__(self, gaze_map: ParametricGazeMap, seconds: np.ndarray) -> None:
+        self.map, self.seconds = gaze_map, seconds
+        self._reset()
+
+    def _reset(self) -> None:
+        f = len(self.seconds)
+        self.disp = np.broadcast_to(rot.IDENTITY, (f, 5, 4)).copy()
+        self.wanted = np.zeros((f, 2))
+        self.settled = np.ones(f, dtype=bool)
+        self.progress = np.ones(f)
+        self.shifts: list[Shift] = []
+        self.info: list[dict] = []
+        self.last: _Segment | None = None
+
+    def plan(self, shifts: list[Shift]) -> Schedule:
+        """The schedule of ``shifts`` (a copy: later calls do not change it)."""
+        n = len(self.shifts)
+        if shifts[:n] != self.shifts:
+            self._reset()
+            n = 0
+        if len(shifts) > n:
+            requests = np.array([[s.yaw, s.pitch] for s in shifts], dtype=float)
+            targets = self.map.query(requests[:, 0], requests[:, 1]).offsets
+            targets[np.all(requests == 0.0, axis=1)] = rot.IDENTITY
+            for k in range(n, len(shifts)):
+                self._append(shifts[k], requests[k], targets[k])
+        return Schedule(self.disp.copy(), self.wanted.copy(), self.settled.copy(), list(self.info),
+                        self.progress.copy())
+
+    def _append(self, shift: Shift, request: np.ndarray, target: np.ndarray) -> None:
+        seconds, previous = self.seconds, self.last
+        t0 = np.float64(shift.time_s)
+        if self.info:  # the previous shift now ends where this one starts
+            self.info[-1] = {**self.info[-1], "interrupted": bool(t0 < self.info[-1]["time_s"] + self.info[-1]["duration"])}
         inherit = previous is not None and t0 < previous.start_s + previous.motion.duration
         if previous is None:
             start_delta = np.zeros(2)
@@ -96,22 +126,22 @@ def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarr
             start_delta = previous.evaluate(np.array([t0]))[1][0]
         else:
             start_delta = previous.request
-        change = request - start_delta if shifts[k].timing_change is None else np.asarray(shifts[k].timing_change)
+        change = request - start_delta if shift.timing_change is None else np.asarray(shift.timing_change)
         # Timing only: the uncorrected blend is enough, and much cheaper.
-        timing = gaze_map.query_full(change[0], change[1], correct=False).motions.timing
-        if shifts[k].cut or timing[motion.DURATION] < shifts[k].min_duration_s:
+        timing = self.map.query_full(change[0], change[1], correct=False).motions.timing
+        if shift.cut or timing[motion.DURATION] < shift.min_duration_s:
             timing = np.array(timing, dtype=float)
-            timing[motion.DURATION] = 0.0 if shifts[k].cut else shifts[k].min_duration_s
+            timing[motion.DURATION] = 0.0 if shift.cut else shift.min_duration_s
         segment = _Segment(float(t0), request, target, motion.GazeMotions(target, timing), previous, bool(inherit))
-        rows = np.flatnonzero((seconds >= t0) & (seconds < t1))
+        rows = np.flatnonzero(seconds >= t0)
         if len(rows):
             d, w, tau, sigma = segment.evaluate(seconds[rows])
-            disp[rows], wanted[rows], progress[rows] = d, w, sigma
-            settled[rows] = tau >= 1.0
-        info.append({
+            self.disp[rows], self.wanted[rows], self.progress[rows] = d, w, sigma
+            self.settled[rows] = tau >= 1.0
+        self.info.append({
             "time_s": float(t0), "yaw": float(request[0]), "pitch": float(request[1]),
             **{name: float(v) for name, v in zip(motion.TIMING_FIELDS, timing)},
-            "interrupted": bool(np.isfinite(t1) and t1 < t0 + timing[0]),
+            "interrupted": False,
         })
-        previous = segment
-    return Schedule(disp, wanted, settled, info, progress)
+        self.shifts.append(shift)
+        self.last = segment
