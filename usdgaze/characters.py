@@ -12,7 +12,7 @@ from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 from usdgaze.errors import UsdGazeError
 from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes.look import Directive
+from usdgaze.passes.directives import Directive
 from usdgaze.passes.requests import DirectiveRequest
 from usdgaze.usd import schema
 

@@ -18,7 +18,8 @@ Two controllers share the work, as in people:
 
 A target beyond reach (more than ``reach_yaw_deg`` of body turn plus the eye range from the base line
 of sight, i.e. behind the character) is let go: a gaze shift back to the base motion's gaze, and a new
-shift toward the target once it is within reach again (on either side). See docs/look-at.md.
+shift toward the target once it is within reach again (on either side). See docs/look-at.md; the
+directives become body shifts, eye epochs and weight keys in :mod:`usdgaze.passes.directives`.
 """
 
 from __future__ import annotations
@@ -31,36 +32,19 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.rig import CharacterFrame, Chain
 from usdgaze.errors import UsdGazeError
-from usdgaze.gaze import motion, saccade
+from usdgaze.gaze import saccade
 from usdgaze.passes import eyes as eyes_mod
-from usdgaze.passes.body import CachedMap, TargetPlanner
+from usdgaze.passes.body import CachedMap
+from usdgaze.passes.directives import KINDS, Directive, Epoch, gaze_weights, plan_directives
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes.aim import reach_warnings
 from usdgaze.passes.assemble import finish
 from usdgaze.passes.chain import move_body, prepare
-from usdgaze.passes.options import EyeRange, PassOptions, PassResult, Shift
+from usdgaze.passes.options import PassOptions, PassResult, Shift
 from usdgaze.passes.schedule import Schedule, Scheduler, schedule
 from usdgaze.passes.sight import azimuth_elevation, direction_from
 
-KINDS = ("shift", "look", "release")
 EYE_TIMINGS = ("saccade", "model")
-
-
-@dataclass(frozen=True)
-class Directive:
-    """From ``time_s`` on: change the gaze by (yaw, pitch) (shift), look at target ``target`` (look),
-    or return to the base motion's gaze (release); the gaze weight eases to ``weight`` over ``blend_s``.
-
-    A release with ``blend_s > 0`` fades the weight to 0 instead of making a gaze shift.
-    """
-
-    time_s: float
-    kind: str
-    yaw: float = 0.0
-    pitch: float = 0.0
-    target: int = -1
-    weight: float = 1.0
-    blend_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -89,14 +73,6 @@ class LookOptions:
     body turns further, to bring them back to it."""
 
 
-@dataclass
-class _Epoch:
-    """A stretch of frames under one directive, and what the eyes do in it."""
-
-    start: int
-    directive: Directive
-    events: list  # (frame, "target" | "direction" | "base", cut)
-
 
 # -- geometry ----------------------------------------------------------------------------------------
 
@@ -122,55 +98,6 @@ def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.n
     ae = azimuth_elevation(points - eye, up) - base_ae
     ae[:, 0] = (ae[:, 0] + 180.0) % 360.0 - 180.0
     return ae
-
-
-def _weights(directives: list[Directive], seconds: np.ndarray) -> np.ndarray:
-    """Gaze weight per frame: each key eases from the weight at its time to its own over its blend."""
-    w = np.ones(len(seconds))
-    for d in directives:
-        rows = seconds >= d.time_s
-        if not np.any(rows):
-            continue
-        w0 = w[np.argmax(rows)]
-        s = motion.ease((seconds[rows] - d.time_s) / d.blend_s) if d.blend_s > 0 else np.ones(int(rows.sum()))
-        w[rows] = w0 + (d.weight - w0) * s
-    return w
-
-
-def _plan(gaze_map, directives: list[Directive], seconds: np.ndarray, rel: dict[int, np.ndarray],
-          base_ae: np.ndarray, limits: EyeRange, opts: LookOptions, scheduler: Scheduler
-          ) -> tuple[list[Shift], list[_Epoch], list[Directive]]:
-    """Body shifts, eye epochs and weight keys for the directives (sorted by time); ``scheduler``
-    schedules the shifts as the planners add them."""
-    shifts: list[Shift] = []
-    epochs: list[_Epoch] = []
-    keys: list[Directive] = []
-    # A fading release keeps the previous behaviour while the weight falls, then cuts to the base.
-    timeline = []
-    for d in directives:
-        if d.kind == "release" and d.blend_s > 0:
-            keys.append(Directive(d.time_s, "release", weight=0.0, blend_s=d.blend_s))
-            keys.append(Directive(d.time_s + d.blend_s, "release", weight=1.0))
-            timeline.append((d.time_s + d.blend_s, d, True))
-        else:
-            keys.append(d)
-            timeline.append((d.time_s, d, False))
-    timeline.sort(key=lambda e: e[0])
-    starts = [int(np.searchsorted(seconds, t)) for t, _, _ in timeline]
-    for k, ((t, d, cut), a) in enumerate(zip(timeline, starts)):
-        end = starts[k + 1] if k + 1 < len(starts) else len(seconds)
-        epoch = _Epoch(a, d, [])
-        epochs.append(epoch)
-        if a >= len(seconds):
-            continue
-        if d.kind == "look":
-            TargetPlanner(gaze_map, shifts, epoch.events, seconds, rel[d.target], base_ae, limits, opts,
-                          scheduler).run(epoch.start, end)
-            continue
-        yaw, pitch = (d.yaw, d.pitch) if d.kind == "shift" else (0.0, 0.0)
-        shifts.append(Shift(float(t), yaw, pitch, cut=cut))
-        epoch.events.append((a, "direction" if d.kind == "shift" else "base", cut))
-    return shifts, epochs, keys
 
 
 # -- the pass ----------------------------------------------------------------------------------------
@@ -223,7 +150,7 @@ def _model_progress(gaze_map, seconds: np.ndarray, eye: np.ndarray, up: np.ndarr
     return progress
 
 
-def _goals(epochs: list[_Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndarray, up: np.ndarray,
+def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndarray, up: np.ndarray,
            fixation: float) -> list[tuple[int, eyes_mod.Goal]]:
     events = []
     for epoch in epochs:
@@ -258,9 +185,9 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
     scheduler = Scheduler(gaze_map, seconds)
-    shifts, epochs, keys = _plan(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look, scheduler)
+    shifts, epochs, keys = plan_directives(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look, scheduler)
     plan = scheduler.plan(shifts)
-    weight = _weights(keys, seconds)
+    weight = gaze_weights(keys, seconds)
     full = weight >= 1.0
     disp = np.where(full[:, None, None], plan.displacement, rot.power(plan.displacement, weight[:, None]))
     body = move_body(base, chain, frame, disp)
@@ -289,7 +216,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     return result
 
 
-def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[_Epoch], result: PassResult,
+def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], result: PassResult,
               base_ae: np.ndarray, options: PassOptions, names: list[str]) -> list[str]:
     """Shifts that miss their request once settled; targets that went out of reach."""
     ends = [d.time_s for d in directives[1:]] + [np.inf]
