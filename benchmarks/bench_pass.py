@@ -37,6 +37,7 @@ from pxr import Sdf, Vt
 from usdgaze import api
 from usdgaze.gaze import gazemap
 from usdgaze.usd import layers, skelio
+from usdgaze.usd.stage import open_stage
 
 ROOT = Path(__file__).resolve().parents[1]
 CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc"
@@ -155,7 +156,7 @@ def sdf_copy(src: Path, out: Path, attrs: dict[str, set[str]]) -> None:
 
 def shifts_for(src: Path) -> list[str]:
     """Four shifts spread over the clip, in seconds from the stage start."""
-    stage = skelio.open_stage(str(src))
+    stage = open_stage(str(src))
     length = (stage.GetEndTimeCode() - stage.GetStartTimeCode()) / stage.GetTimeCodesPerSecond()
     return [f"{length * f:.3f}s:{yaw}:{pitch}" for f, yaw, pitch in
             ((0.1, 60, 0), (0.35, -120, 10), (0.6, 0, 0), (0.85, 30, -20))]
@@ -196,7 +197,7 @@ def bench(label: str, src: Path, work: Path, runs: int, profile: bool) -> dict:
 
 
 def _first_clip(src: Path):
-    stage = skelio.open_stage(str(src))
+    stage = open_stage(str(src))
     root = api.select_roots(stage, str(src), None)[0]
     return stage, skelio.skeletons_under(root)[0], root, str(src)
 

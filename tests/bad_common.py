@@ -11,7 +11,6 @@ import contextlib
 import dataclasses
 import io
 import os
-import runpy
 import shutil
 import subprocess
 import sys

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from pxr import Usd, UsdGeom
 
 from usdgaze.core import rotations as rot

@@ -8,7 +8,6 @@ local rotations, welded joints bit-identical, the input untouched.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np

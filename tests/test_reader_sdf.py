@@ -11,6 +11,7 @@ import pytest
 from pxr import Usd, UsdSkel
 
 from usdgaze.usd import skelio
+from usdgaze.usd.stage import open_stage
 
 CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 ANIM = "/root/Body/BodySkel/scaled_131_01"
@@ -25,7 +26,7 @@ def _usd_reference(path: Path, times: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def _read(path: Path):
-    stage = skelio.open_stage(str(path))
+    stage = open_stage(str(path))
     root = stage.GetPrimAtPath("/root/Body")
     return skelio.read_clip(stage, stage.GetPrimAtPath("/root/Body/BodySkel"), root, str(path))
 

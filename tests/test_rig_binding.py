@@ -258,7 +258,7 @@ def test_bind_and_forward_on_the_command_line_and_in_a_manifest_give_the_api_lay
     manifest.write_text(
         f'[[job]]\nname = "good"\ninput = "in.usda"\nout = "batch.usdc"\nshifts = {SHIFTS!r}\n'.replace("'", '"')
         + f'bind = {{ {table}, neck = ["{leaf["neck"]}", "{leaf["neck_b"]}"] }}\nforward = {list(map(float, rig.forward))}\n'
-        + f'\n[[job]]\nname = "absent"\ninput = "in.usda"\nout = "absent.usdc"\nshifts = ["0.3s:40:0"]\n'
+        + '\n[[job]]\nname = "absent"\ninput = "in.usda"\nout = "absent.usdc"\nshifts = ["0.3s:40:0"]\n'
         + 'bind = ["head=j99"]\nforward = "0,0,1"\n')
     p = subprocess.run([*CLI, "batch", str(manifest)], capture_output=True, text=True, timeout=120)
     assert p.returncode == 2, p.stderr  # the second job names an absent joint

@@ -147,7 +147,7 @@ def _run_pass(stage, roots, forced, requests, req):
             directives, targets, names = clip_directives(stage, clip, root_requests)
             result = apply_look(clip, chain, frame, gaze_map, directives, targets, req.options, req.look, names)
             report.warnings.extend(result.warnings)
-            overrides.append(_override(clip, chain, result))
+            overrides.append(AnimOverride.of(clip, result, move_roots=bool(chain.leg_roots)))
             report.characters.append(_character_report(clip, chain, frame, map_source, result))
             if req.guides:
                 report.characters[-1].guide = (
@@ -165,28 +165,6 @@ def _layer_info(stage) -> LayerInfo:
     return LayerInfo(float(stage.GetTimeCodesPerSecond()), float(stage.GetFramesPerSecond()),
                      float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode()),
                      str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)))
-
-
-def _override(clip: SkelClip, chain: Chain, result: PassResult) -> AnimOverride:
-    """The arrays the override layer holds for one animation (and its skeleton, if eyes were added)."""
-    grew = len(result.anim_joints) > len(clip.anim_joints)
-    override = AnimOverride(
-        animation=clip.animation,
-        times=clip.times,
-        joints=result.anim_joints,
-        rotations=result.rotations,
-        translations=result.translations if (chain.leg_roots or result.added_joints or grew) else None,
-        scales=result.scales if grew else None,
-        write_joints=grew,
-    )
-    if result.added_joints:
-        override.skeleton = clip.skeleton
-        override.skeleton_joints = clip.joints + result.added_joints
-        override.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
-        override.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
-        if clip.joint_names is not None:
-            override.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
-    return override
 
 
 def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_source: str,

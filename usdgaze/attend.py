@@ -120,7 +120,8 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         written = result
         if settings.realize == "map":
             written = _realize_map(stage, source, root, clip, chain, frame, prims, result, settings.h)
-        overrides.append(_override(clip, written, AnimOverride))
+        # A realized map moves the pelvis like apply does: its leg roots' translations come with it.
+        overrides.append(AnimOverride.of(clip, written, move_roots=settings.realize == "map" and bool(chain.leg_roots)))
         inspections.append((clip.skel_root, clip.times, result, [o.path for o in objs]))
         report.results.append(result)
         report.characters.append({"skel_root": clip.skel_root, "animation": clip.animation, "frames": len(clip.times),
@@ -167,21 +168,6 @@ def _realize_map(stage, source, root, clip, chain, frame, prims, result, h):
         directives = [Directive(0.0, "release")]
     return apply_look(clip, chain, frame, ParametricGazeMap(definition), directives, targets,
                       target_names=[str(p.GetPath()) for p in prims])
-
-
-def _override(clip, result, AnimOverride):
-    grew = len(result.anim_joints) > len(clip.anim_joints)
-    o = AnimOverride(animation=clip.animation, times=clip.times, joints=result.anim_joints,
-                     rotations=result.rotations, translations=result.translations if grew else None,
-                     scales=result.scales if grew else None, write_joints=grew)
-    if result.added_joints:
-        o.skeleton = clip.skeleton
-        o.skeleton_joints = clip.joints + result.added_joints
-        o.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
-        o.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
-        if clip.joint_names is not None:
-            o.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
-    return o
 
 
 def _object_summary(path: str, result, j: int) -> dict:

@@ -54,7 +54,7 @@ def _deadline(manifest: Path, count: int, name: str) -> dict[str, str]:
         "ShellExecute=False",
         "",
     ])
-    submit = f"#!/bin/sh\n# Submit the usdgaze job to Deadline: sh submit.sh\nexec deadlinecommand \"$(dirname \"$0\")/job_info.job\" \"$(dirname \"$0\")/plugin_info.job\"\n"
+    submit = "#!/bin/sh\n# Submit the usdgaze job to Deadline: sh submit.sh\nexec deadlinecommand \"$(dirname \"$0\")/job_info.job\" \"$(dirname \"$0\")/plugin_info.job\"\n"
     return {"job_info.job": job_info, "plugin_info.job": plugin_info, "submit.sh": submit}
 
 

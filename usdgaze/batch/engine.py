@@ -14,7 +14,6 @@ import time
 import traceback
 import uuid
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from pathlib import Path
 from typing import Callable, Iterator
 
 from usdgaze.batch.manifest import Shot, apply_kwargs

@@ -17,7 +17,10 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import Pose, forward, with_ancestors
 from usdgaze.core.rig import Chain, CharacterFrame
-from usdgaze.passes.shift import EyeRange, PassOptions, _aim_eyes, _assemble, _with_eyes
+from usdgaze.passes.aim import aim_eyes
+from usdgaze.passes.assemble import assemble
+from usdgaze.passes.chain import with_eyes
+from usdgaze.passes.options import EyeRange, PassOptions
 from usdgaze.planning.kinbody import BaseChain
 from usdgaze.vision import eye as eyemod
 from usdgaze.vision import loop
@@ -89,7 +92,7 @@ def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: P
 def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: list[loop.Thing],
                  options: loop.LoopOptions, progress=None) -> AttendResult:
     """Run the visuomotor loop on one clip and turn its result into animation arrays."""
-    rig = _with_eyes(clip, chain, frame, PassOptions())
+    rig = with_eyes(clip, chain, frame, PassOptions())
     spine, neck = _spine_neck(chain)
     base = forward(with_ancestors(list(chain.path) + list(rig.eyes), rig.parents), rig.parents, rig.local)
     bc, t_plan = base_chain(clip, chain, frame, rig, base, options.h)
@@ -120,9 +123,9 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
     dist = eyemod.distance(e[:, 2])[0] / mpu / scale
     sight_skel = mid + dist[:, None] * direction
     sight_units = _world(clip.skel_to_world, sight_skel)
-    eyes = _aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP)
+    eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP)
     new_rot.update(eyes.rotations)
-    anim_joints, rotations, translations, scales = _assemble(rig, new_rot, {})
+    anim_joints, rotations, translations, scales = assemble(rig, new_rot, {})
     est = _interp(seconds, t_plan, res.estimate) / mpu
     unc = _interp(seconds, t_plan, res.sigma_p)
     eye_pose = _interp(seconds, t_plan, res.eye) * [180 / np.pi, 180 / np.pi, 1.0]

@@ -60,9 +60,9 @@ class LookOptions:
     replan_fraction: float = 0.7
     """A new body shift starts when the eyes would need this fraction of their range."""
     replan_interval_s: float = 0.2
+    """Least time between two body shifts toward one moving target."""
     anticipation_s: float = 0.4
     """A new body shift starts this much before the eyes would need it (the base motion is known)."""
-    """Least time between two body shifts toward one moving target."""
     reach_yaw_deg: float = 150.0
     """Largest body turn (line-of-sight change before the eyes) toward a target."""
     reach_pitch_deg: float = 80.0

@@ -33,18 +33,14 @@ from usdgaze.core.clip import SkelClip
 from usdgaze.core.rig import CharacterFrame, Chain
 from usdgaze.errors import UsdGazeError
 from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes.aim import aim_eyes, reach_warnings
-from usdgaze.passes.assemble import assemble, finish
-from usdgaze.passes.chain import move_body, prepare, with_eyes
+from usdgaze.passes.aim import reach_warnings
+from usdgaze.passes.assemble import finish
+from usdgaze.passes.chain import move_body, prepare
 from usdgaze.passes.schedule import schedule
 from usdgaze.passes.sight import direction_from, directions_to_world
 from usdgaze.passes.options import EyeRange, PassOptions, PassResult, Shift
 
 __all__ = ["EyeRange", "PassOptions", "PassResult", "Shift", "apply_gaze"]
-
-# The step helpers under their old names, for usdgaze.passes.attend (whose owner moves it on).
-_aim_eyes, _assemble, _with_eyes = aim_eyes, assemble, with_eyes
-
 
 def apply_gaze(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: ParametricGazeMap,
                shifts: list[Shift], options: PassOptions = PassOptions()) -> PassResult:

@@ -17,7 +17,8 @@ def inspect_stage(path: str, hints=None) -> dict:
     from usdgaze import api
     from usdgaze.usd import schema
     from usdgaze.usd.checks import check_stage
-    from usdgaze.usd.skelio import open_stage, read_clip, skel_roots, skeletons_under
+    from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
+    from usdgaze.usd.stage import open_stage
 
     if not Path(path).is_file():
         raise UsdGazeError(f"{path}: no such file")

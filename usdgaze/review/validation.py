@@ -12,7 +12,7 @@ _SEVERITY = {"Error": "error", "Warn": "warning", "Info": "info"}
 
 def _open(stage_path: str, layer: str | None):
     from usdgaze.review.composed import composed_stage
-    from usdgaze.usd.skelio import open_stage
+    from usdgaze.usd.stage import open_stage
 
     if not Path(stage_path).is_file():
         raise UsdGazeError(f"{stage_path}: no such file")

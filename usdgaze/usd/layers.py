@@ -66,6 +66,30 @@ class AnimOverride:
     bind_transforms: np.ndarray | None = None
     joint_names: list[str] | None = None
 
+    @classmethod
+    def of(cls, clip, result, move_roots: bool = False) -> "AnimOverride":
+        """The arrays a pass result overrides for ``clip``'s animation (and its skeleton, if eyes
+        were added). Translations are written where the joint set grew or ``move_roots`` (the
+        pass moved the leg roots); otherwise the input's stay."""
+        grew = len(result.anim_joints) > len(clip.anim_joints)
+        override = cls(
+            animation=clip.animation,
+            times=clip.times,
+            joints=result.anim_joints,
+            rotations=result.rotations,
+            translations=result.translations if (move_roots or result.added_joints or grew) else None,
+            scales=result.scales if grew else None,
+            write_joints=grew,
+        )
+        if result.added_joints:
+            override.skeleton = clip.skeleton
+            override.skeleton_joints = clip.joints + result.added_joints
+            override.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
+            override.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
+            if clip.joint_names is not None:
+                override.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
+        return override
+
 
 @dataclass
 class LayerInfo:

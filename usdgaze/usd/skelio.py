@@ -10,7 +10,6 @@ from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd import checks
-from usdgaze.usd.stage import open_stage  # noqa: F401  (the one opener; kept importable from here)
 
 
 def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:

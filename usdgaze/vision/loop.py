@@ -30,7 +30,7 @@ from usdgaze.planning import ddp
 from usdgaze.planning.compose import Stacked
 from usdgaze.planning.kinbody import BaseChain, KinematicBody
 from usdgaze.vision import eye as eyemod
-from usdgaze.vision.belief import GRAVITY, SLOT, Belief, VisionParams, in_view, kalman_update, noise
+from usdgaze.vision.belief import GRAVITY, Belief, VisionParams, in_view, kalman_update, noise
 from usdgaze.vision.costs import AttendCost, Weights
 
 MODES = ("uncertainty", "distance", "sequential")
