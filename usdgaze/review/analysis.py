@@ -109,18 +109,24 @@ class ShiftCurves:
     """Degrees turned since the shift began ``(n, joints)``."""
 
 
+def _shift_windows(seconds: np.ndarray, shifts):
+    """Each shift's index (in time order), the shift and the frame rows it holds for, until the next
+    one; shifts that hold for fewer than two frames are left out."""
+    shifts = sorted(shifts)
+    for k, shift in enumerate(shifts):
+        t1 = shifts[k + 1][0] if k + 1 < len(shifts) else np.inf
+        rows = np.flatnonzero((seconds >= shift[0]) & (seconds < t1))
+        if len(rows) >= 2:
+            yield k, shift, rows
+
+
 def shift_cascade(c, shifts) -> list[ShiftCurves]:
     """Per shift (until the next one), each chain joint's rotation away from where the shift found it."""
     joints = chain_joints(c)
     idx = [j for _, j in joints]
     disp = rot.multiply(c.gaze.local_q[:, idx], rot.conjugate(c.base.local_q[:, idx]))
-    shifts = sorted(shifts)
     out = []
-    for k, (t0, yaw, pitch) in enumerate(shifts):
-        t1 = shifts[k + 1][0] if k + 1 < len(shifts) else np.inf
-        rows = np.flatnonzero((c.seconds >= t0) & (c.seconds < t1))
-        if len(rows) < 2:
-            continue
+    for k, (t0, yaw, pitch), rows in _shift_windows(c.seconds, shifts):
         start = disp[rows[0]]
         turned = np.degrees(rot.angle(rot.multiply(disp[rows], rot.conjugate(start)[None])))
         out.append(ShiftCurves(k, float(t0), float(yaw), float(pitch), c.seconds[rows] - c.seconds[rows[0]],
@@ -178,13 +184,8 @@ def peak_speeds(c, shifts, speed: np.ndarray | None = None) -> np.ndarray:
     deg/s; the amplitude is how far the change moved by the next shift (or the clip's end)."""
     speed = change_speed(c) if speed is None else speed
     change = achieved_change(c)
-    shifts = sorted(shifts)
     out = []
-    for k, (t0, _, _) in enumerate(shifts):
-        t1 = shifts[k + 1][0] if k + 1 < len(shifts) else np.inf
-        rows = np.flatnonzero((c.seconds >= t0) & (c.seconds < t1))
-        if len(rows) < 2:
-            continue
+    for _, _, rows in _shift_windows(c.seconds, shifts):
         out.append((np.linalg.norm(change[rows[-1]] - change[rows[0]]), speed[rows].max()))
     return np.array(out).reshape(-1, 2)
 
