@@ -59,8 +59,9 @@ def author_guides(layer: Sdf.Layer, skeleton: str, times: np.ndarray, eyes_skel:
         _set_arrays(layer, points.path, codes, lines)
         _set_arrays(layer, extent.path, codes, bounds)
     set_sample, path = layer.SetTimeSample, pos_attr.path
-    for t, point in zip(codes, np.asarray(sight_world, dtype=np.float64).tolist()):
-        set_sample(path, t, tuple(point))
+    # Gf.Vec3d values straight from one Vt array: a tuple per frame would be cast by Sdf, 3x slower.
+    for t, point in zip(codes, Vt.Vec3dArray.FromNumpy(np.ascontiguousarray(sight_world, dtype=np.float64))):
+        set_sample(path, t, point)
 
 
 def _set_arrays(layer: Sdf.Layer, path: Sdf.Path, times: list[float], values: np.ndarray) -> None:
