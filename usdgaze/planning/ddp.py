@@ -136,38 +136,51 @@ def expand_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0):
 
 def _backward(fx, fu, running, terminal, mu: float, state_reg: bool = False):
     """Feedforward k, gains K and the predicted decrease terms; None if Quu + mu I is not PD."""
+    from scipy.linalg.lapack import dpotrf, dpotrs  # raw LAPACK: np.linalg's checks cost more than tiny solves
+
     lx, lu, lxx, luu, lux = running
     vx, vxx = terminal
     n, nu = lu.shape
+    nx = fx.shape[1]
     kff = np.empty((n, nu))
-    K = np.empty((n, nu, fx.shape[1]))
+    K = np.empty((n, nu, nx))
+    rhs = np.empty((nu, 1 + nx))
     d1 = d2 = 0.0
-    eye = np.eye(nu)
+    # One Cholesky factor serves as the positive-definiteness test and the solve of Quu_reg [k K] = -[qu qux].
+    fuT = fu.transpose(0, 2, 1)
+    fxT = fx.transpose(0, 2, 1)
+    if state_reg:  # mu I on V_xx (Tassa et al. 2012): the same push in every control's own units
+        reg_uu = mu * (fuT @ fu)
+        reg_ux = mu * (fuT @ fx)
     for i in range(n - 1, -1, -1):
-        A, B = fx[i], fu[i]
+        A, B, At, Bt = fx[i], fu[i], fxT[i], fuT[i]
         vxx_b = vxx @ B
-        qx = lx[i] + A.T @ vx
-        qu = lu[i] + B.T @ vx
-        qxx = lxx[i] + A.T @ vxx @ A
-        quu = luu[i] + B.T @ vxx_b
+        qx = lx[i] + At @ vx
+        qu = lu[i] + Bt @ vx
+        qxx = lxx[i] + At @ vxx @ A
+        quu = luu[i] + Bt @ vxx_b
         qux = lux[i] + vxx_b.T @ A
-        if state_reg:  # mu I on V_xx (Tassa et al. 2012): the same push in every control's own units
-            quu_reg = quu + mu * (B.T @ B)
-            qux_r = qux + mu * (B.T @ A)
+        if state_reg:
+            quu_reg = quu + reg_uu[i]
+            qux_r = qux + reg_ux[i]
         else:
-            quu_reg = quu + mu * eye
+            quu_reg = quu.copy()
+            quu_reg.flat[:: nu + 1] += mu
             qux_r = qux
-        try:
-            np.linalg.cholesky(quu_reg)  # the positive-definiteness test
-        except np.linalg.LinAlgError:
+        c, info = dpotrf(quu_reg, lower=1, clean=0, overwrite_a=1)
+        if info != 0:
             return None
-        sol = np.linalg.solve(quu_reg, np.column_stack([qu, qux_r]))
+        rhs[:, 0] = qu
+        rhs[:, 1:] = qux_r
+        sol, _ = dpotrs(c, rhs, lower=1)
         k_i, K_i = -sol[:, 0], -sol[:, 1:]
         kff[i], K[i] = k_i, K_i
+        KtQ = K_i.T @ quu
         d1 += k_i @ qu
         d2 += 0.5 * k_i @ quu @ k_i
-        vx = qx + K_i.T @ quu @ k_i + K_i.T @ qu + qux.T @ k_i
-        vxx = qxx + K_i.T @ quu @ K_i + K_i.T @ qux + qux.T @ K_i
+        vx = qx + KtQ @ k_i + K_i.T @ qu + qux.T @ k_i
+        M = K_i.T @ qux
+        vxx = qxx + KtQ @ K_i + M + M.T
         vxx = 0.5 * (vxx + vxx.T)
     return kff, K, d1, d2
 
