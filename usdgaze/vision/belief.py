@@ -159,19 +159,21 @@ class Belief(Part):
         r = noise(pps[:, None], mp, self.params.eta)[0]
         vis = visibility(mp, p[:, None], R[:, None, :, 0])[0]
         r = r + (1 - vis) * R_OUT
-        S = np.empty((N, n, 3))
-        S[0] = B0[:, 6:9]
-        sp_, sv_, spv_ = S[0, :, 0].copy(), S[0, :, 1].copy(), S[0, :, 2].copy()
-        h2 = h * h
-        for k in range(N - 1):
-            pb = sp_ + 2 * h * spv_ + h2 * sv_ + a
-            vb = sv_ + a
-            cb = spv_ + h * sv_
-            rk = r[k]
-            den = pb + rk
-            sp_, sv_, spv_ = pb * rk / den, vb - cb * cb / den, cb * rk / den
-            S[k + 1, :, 0], S[k + 1, :, 1], S[k + 1, :, 2] = sp_, sv_, spv_
-        return np.concatenate([mp, mv, S], -1).reshape(N, -1)
+        # The covariance recursion is sequential and each object's is a few scalars: plain Python floats
+        # do the same IEEE operations in the same order as numpy would, without a ufunc call per operation.
+        S = np.empty((n, N, 3))
+        h2, h_2 = h * h, 2 * h
+        for j, (rj, s0) in enumerate(zip(r.T.tolist(), B0[:, 6:9].tolist())):
+            sp_, sv_, spv_ = s0
+            rows = [s0]
+            for rk in rj[: N - 1]:
+                pb = sp_ + h_2 * spv_ + h2 * sv_ + a
+                cb = spv_ + h * sv_
+                den = pb + rk
+                sp_, sv_, spv_ = pb * rk / den, sv_ + a - cb * cb / den, cb * rk / den
+                rows.append((sp_, sv_, spv_))
+            S[j] = rows
+        return np.concatenate([mp, mv, S.transpose(1, 0, 2)], -1).reshape(N, -1)
 
     def step(self, x, u, k):
         h, a = self.params.h, self.params.alpha
