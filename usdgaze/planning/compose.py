@@ -108,12 +108,13 @@ class Stacked:
             rows = [p.linear_rows() for p in active]
             A = np.vstack([r[0] for r in rows])[:, cols]
             B = np.vstack([r[1] for r in rows])
-            xa = Xn[0, cols].copy()
+            out = np.empty_like(Xa)  # rows written into Xn once, after the loop: no fancy indexing per step
+            xa = out[0] = Xn[0, cols]
             for i in range(len(U)):
                 u = base[i] + Ka[i] @ (xa - Xa[i])
                 Un[i] = u
-                xa = A @ xa + B @ u
-                Xn[i + 1, cols] = xa
+                xa = out[i + 1] = A @ xa + B @ u
+            Xn[:, cols] = out
         else:
             for i in range(len(U)):
                 Un[i] = base[i] + Ka[i] @ (Xn[i, cols] - Xa[i])
