@@ -145,7 +145,8 @@ def _backward(fx, fu, running, terminal, mu: float, state_reg: bool = False):
     kff = np.empty((n, nu))
     K = np.empty((n, nu, nx))
     rhs = np.empty((nu, 1 + nx))
-    d1 = d2 = 0.0
+    QU = np.empty((n, nu))  # kept for the predicted decrease, summed once after the pass
+    QUU = np.empty((n, nu, nu))
     # One Cholesky factor serves as the positive-definiteness test and the solve of Quu_reg [k K] = -[qu qux].
     fuT = fu.transpose(0, 2, 1)
     fxT = fx.transpose(0, 2, 1)
@@ -170,18 +171,18 @@ def _backward(fx, fu, running, terminal, mu: float, state_reg: bool = False):
         c, info = dpotrf(quu_reg, lower=1, clean=0, overwrite_a=1)
         if info != 0:
             return None
-        rhs[:, 0] = qu
-        rhs[:, 1:] = qux_r
+        np.negative(qu, out=rhs[:, 0])  # solving for -[qu qux] gives [k K] with no negation afterwards
+        np.negative(qux_r, out=rhs[:, 1:])
         sol, _ = dpotrs(c, rhs, lower=1)
-        k_i, K_i = -sol[:, 0], -sol[:, 1:]
-        kff[i], K[i] = k_i, K_i
+        k_i, K_i = sol[:, 0], sol[:, 1:]
+        kff[i], K[i], QU[i], QUU[i] = k_i, K_i, qu, quu
         KtQ = K_i.T @ quu
-        d1 += k_i @ qu
-        d2 += 0.5 * k_i @ quu @ k_i
         vx = qx + KtQ @ k_i + K_i.T @ qu + qux.T @ k_i
         M = K_i.T @ qux
         vxx = qxx + KtQ @ K_i + M + M.T
         vxx = 0.5 * (vxx + vxx.T)
+    d1 = float(np.einsum("ni,ni->", kff, QU))
+    d2 = 0.5 * float(np.einsum("ni,nij,nj->", kff, QUU, kff))
     return kff, K, d1, d2
 
 
