@@ -104,7 +104,7 @@ class Stacked:
         Ka = K[:, :, cols]
         Xa = X[:, cols]
         base = U + alpha * kff
-        if all(hasattr(p, "linear_rows") for p in active):  # x' = A x + B u: fused, no per-part calls
+        if all(isinstance(p, LinearPart) for p in active):  # x' = A x + B u: fused, no per-part calls
             rows = [p.linear_rows() for p in active]
             A = np.vstack([r[0] for r in rows])[:, cols]
             B = np.vstack([r[1] for r in rows])
@@ -125,7 +125,23 @@ class Stacked:
         return Xn, Un
 
 
-class SecondOrder(Part):
+class LinearPart(Part):
+    """A part whose step is linear and the same at every k: x' = A x + B u. Subclasses give
+    ``linear_rows()`` (their rows of A and B over the whole stack); ``Stacked`` fuses such parts."""
+
+    def linear_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def linearize(self, x, u, k):
+        return self.linear_rows()
+
+    def linearize_batch(self, X, U, k0):
+        fx, fu = self.linear_rows()
+        n = len(U)
+        return np.broadcast_to(fx, (n,) + fx.shape), np.broadcast_to(fu, (n,) + fu.shape)
+
+
+class SecondOrder(LinearPart):
     """A double integrator (semi-implicit Euler): state [q, qd], control qdd.
 
     qd' = qd + h qdd,  q' = q + h qd'. Used for the kinematic gaze-chain offsets.
@@ -140,7 +156,7 @@ class SecondOrder(Part):
         qd_n = qd + self.h * u[self.us]
         return np.concatenate([q + self.h * qd_n, qd_n])
 
-    def _rows(self):
+    def linear_rows(self):
         st, n, h = self.stack, self.n, self.h
         fx = np.zeros((self.nx, st.nx))
         fu = np.zeros((self.nx, st.nu))
@@ -152,15 +168,3 @@ class SecondOrder(Part):
         fu[:n, j0:j0 + n] = h * h * eye
         fu[n:, j0:j0 + n] = h * eye
         return fx, fu
-
-    def linear_rows(self):
-        """(df/dx, df/du) rows: the step is linear and the same at every k."""
-        return self._rows()
-
-    def linearize(self, x, u, k):
-        return self._rows()
-
-    def linearize_batch(self, X, U, k0):
-        fx, fu = self._rows()
-        n = len(U)
-        return np.broadcast_to(fx, (n,) + fx.shape), np.broadcast_to(fu, (n,) + fu.shape)

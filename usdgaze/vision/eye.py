@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from usdgaze.planning.compose import Part
+from usdgaze.planning.compose import LinearPart
 
 THETA = np.radians(44.2)
 PSI_LO, PSI_HI = np.radians(-47.1), np.radians(27.7)
@@ -81,7 +81,7 @@ def angles_for(direction_head: np.ndarray) -> np.ndarray:
     return np.stack([np.arctan2(v[..., 1], v[..., 0]), np.arcsin(np.clip(v[..., 2], -1, 1))], -1)
 
 
-class Eye(Part):
+class Eye(LinearPart):
     """State e (3), control e' (3): e_{k+1} = e_k + h e'_k (the paper's eye update)."""
 
     name = "eye"
@@ -93,22 +93,12 @@ class Eye(Part):
     def step(self, x, u, k):
         return x[self.xs] + self.h * u[self.us]
 
-    def _rows(self):
+    def linear_rows(self):
         fx = np.zeros((3, self.stack.nx))
         fu = np.zeros((3, self.stack.nu))
         fx[:, self.xs] = np.eye(3)
         fu[:, self.us] = self.h * np.eye(3)
         return fx, fu
-
-    def linear_rows(self):
-        return self._rows()
-
-    def linearize(self, x, u, k):
-        return self._rows()
-
-    def linearize_batch(self, X, U, k0):
-        fx, fu = self._rows()
-        return np.broadcast_to(fx, (len(U),) + fx.shape), np.broadcast_to(fu, (len(U),) + fu.shape)
 
 
 class Sight:
