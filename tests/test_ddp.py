@@ -7,7 +7,7 @@ import pytest
 from scipy.linalg import solve_discrete_are
 
 from usdgaze.planning import ddp
-from usdgaze.planning.compose import SecondOrder, Stacked
+from usdgaze.planning.compose import CostSum, SecondOrder, Stacked
 from usdgaze.planning.kinbody import BaseChain, KinematicBody
 
 
@@ -59,6 +59,30 @@ def test_lqr_matches_riccati_solution():
         assert np.allclose(sol.K[i], -K_lqr, atol=1e-8)
         x = A @ x + B @ u
     assert sol.cost == pytest.approx(x0 @ P @ x0, rel=1e-9)
+
+
+def test_a_sum_of_costs_solves_as_the_summed_problem():
+    """Q split over two costs (one batched, one per step) gives the LQR answer of the summed Q."""
+    A, B, Q, R = _double_integrator()
+    P = solve_discrete_are(A, B, Q, R)
+    K_lqr = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
+    first = LinearQuadratic(A, B, 0.25 * Q, 0.5 * R, 0.5 * P)
+
+    class Batched(LinearQuadratic):
+        def cost_batch(self, X, U, k0):
+            return np.einsum("ni,ij,nj->n", X, self.Q, X) + np.einsum("ni,ij,nj->n", U, self.R, U)
+
+        def derivs_batch(self, X, U, k0):
+            n = len(U)
+            return (2 * X @ self.Q, 2 * U @ self.R, np.broadcast_to(2 * self.Q, (n, 2, 2)),
+                    np.broadcast_to(2 * self.R, (n, 1, 1)), np.zeros((n, 1, 2)))
+
+    second = Batched(A, B, 0.75 * Q, 0.5 * R, 0.5 * P)
+    x0 = np.array([1.0, -0.5])
+    sol = ddp.solve(first, CostSum([first, second]), x0, np.zeros((40, 1)),
+                    options=ddp.Options(mu_init=0.0, mu_min=0.0))
+    assert sol.cost == pytest.approx(x0 @ P @ x0, rel=1e-9)
+    assert np.allclose(sol.K[0], -K_lqr, atol=1e-8)
 
 
 class Pendulum:

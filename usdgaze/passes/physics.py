@@ -119,6 +119,7 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
                         wall_s=wall, problems=problems)
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist()}
+    terms.update({key: [None if np.isnan(v) else float(v) for v in values] for key, values in result.task_terms.items()})
     return report, override, terms
 
 

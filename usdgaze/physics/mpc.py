@@ -10,6 +10,7 @@ step, its new last control the reference's inverse-dynamics torques, then applie
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
@@ -28,6 +29,22 @@ class Push:
     force: np.ndarray
     start_s: float
     duration_s: float
+
+
+class Task(Protocol):
+    """A task term of the paper's cost (catch, stones, obstacles): a ``ddp.Cost`` over the planner's
+    state, summed with the tracking cost, plus what it measures on the simulated body after each step
+    (``data``: a ``mujoco.MjData`` at the new state, kinematics done) for the shot's report."""
+
+    name: str
+
+    def l(self, x: np.ndarray, u: np.ndarray, k: int) -> float: ...
+
+    def measure(self, k: int, data) -> dict[str, float]: ...
+
+
+# A task is made once the planner's body exists: ``factory(plan, ref_qpos_at_h)``.
+TaskFactory = Callable[[MujocoBody, np.ndarray], Task]
 
 
 @dataclass
@@ -54,6 +71,7 @@ class Result:
     foot_below_ground_m: np.ndarray  # (K,) deepest foot point below z = 0 (0 if none)
     solve_costs: list[list[float]]
     fell_at: float | None  # seconds of the first frame below FALL_RATIO
+    task_terms: dict[str, np.ndarray] = field(default_factory=dict)  # "task.measure" -> (K,), NaN at k = 0
 
     @property
     def fell(self) -> bool:
@@ -102,12 +120,13 @@ def _foot_depth(mj, d, geoms: np.ndarray) -> float:
 
 
 def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options = Options(),
-             pushes: tuple[Push, ...] = (), progress=None) -> Result:
-    """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length."""
+             pushes: tuple[Push, ...] = (), progress=None, tasks: Sequence[TaskFactory] = ()) -> Result:
+    """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length, plus tasks."""
     import mujoco
     from threadpoolctl import threadpool_limits
 
     from usdgaze.planning import ddp
+    from usdgaze.planning.compose import CostSum
 
     h = options.h
     plan = MujocoBody(model, h=h, workers=options.workers)
@@ -116,6 +135,10 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
     ref_v = velocities(ref_q, h, plan.mj)
     head = _head_body(model)
     cost = BodyTracking(plan, ref_q, ref_v, head, options.weights)
+    made = [factory(plan, ref_q) for factory in tasks]
+    if made:
+        cost = CostSum([cost, *made])
+    measured: dict[str, list[float]] = {}
     n = max(2, int(round(options.horizon_s / h)))
     steps = len(ref_q) - 1
     tail = _inverse_dynamics(plan, ref_q, ref_v, h)
@@ -153,6 +176,9 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
             d.qpos[:] = qpos[k + 1]
             mujoco.mj_kinematics(plan.mj, d)
             depth[k + 1] = _foot_depth(plan.mj, d, feet)
+            for task in made:
+                for key, value in task.measure(k + 1, d).items():
+                    measured.setdefault(f"{task.name}.{key}", [np.nan] * (k + 1)).append(float(value))
             if progress:
                 progress(k + 1, steps)
     kk = len(qpos)
@@ -163,7 +189,8 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
     depth = depth[:kk]
     return Result(seconds=seconds, qpos=qpos, ref_qpos=ref_q[:kk], ctrl=ctrl[: kk - 1], pelvis_ratio=ratio,
                   joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth,
-                  solve_costs=costs, fell_at=fell)
+                  solve_costs=costs, fell_at=fell,
+                  task_terms={key: np.array(v + [np.nan] * (kk - len(v)))[:kk] for key, v in measured.items()})
 
 
 def _schedule(model: BodyModel, pushes, h: float, nbody: int):

@@ -168,3 +168,45 @@ class SecondOrder(LinearPart):
         fu[:n, j0:j0 + n] = h * h * eye
         fu[n:, j0:j0 + n] = h * eye
         return fx, fu
+
+
+class CostSum:
+    """Several costs over the same stacked state and controls, summed: itself a ``ddp.Cost``.
+
+    Batched methods are used per member when it has them, so a vectorized cost stays vectorized.
+    """
+
+    def __init__(self, costs: Sequence) -> None:
+        self.costs = tuple(costs)
+
+    def l(self, x, u, k):
+        return sum(float(c.l(x, u, k)) for c in self.costs)
+
+    def derivs(self, x, u, k):
+        parts = [c.derivs(x, u, k) for c in self.costs]
+        return tuple(sum(p[j] for p in parts) for j in range(5))
+
+    def terminal(self, x, k):
+        return sum(float(c.terminal(x, k)) for c in self.costs)
+
+    def terminal_derivs(self, x, k):
+        parts = [c.terminal_derivs(x, k) for c in self.costs]
+        return parts[0][0] + sum(p[0] for p in parts[1:]), parts[0][1] + sum(p[1] for p in parts[1:])
+
+    def cost_batch(self, X, U, k0):
+        out = np.zeros(len(U))
+        for c in self.costs:
+            out += c.cost_batch(X, U, k0) if hasattr(c, "cost_batch") else \
+                [c.l(X[i], U[i], k0 + i) for i in range(len(U))]
+        return out
+
+    def derivs_batch(self, X, U, k0):
+        total = None
+        for c in self.costs:
+            if hasattr(c, "derivs_batch"):
+                part = c.derivs_batch(X, U, k0)
+            else:
+                got = [c.derivs(X[i], U[i], k0 + i) for i in range(len(U))]
+                part = tuple(np.stack([g[j] for g in got]) for j in range(5))
+            total = part if total is None else tuple(a + b for a, b in zip(total, part))
+        return total
