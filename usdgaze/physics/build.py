@@ -28,14 +28,16 @@ def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outpu
     return read_clip(stage, skels[0], roots[0], source)
 
 
-def body_model(clip, total_mass: float = 75.0):
-    """The body model of a clip's skeleton, hinge axes and ranges fitted to its animation."""
+def body_model(clip, total_mass: float = 75.0, weld_still: bool = True):
+    """The body model of a clip's skeleton, hinge axes and ranges fitted to its animation (``weld_still``:
+    see :func:`usdgaze.physics.model.build`)."""
     from usdgaze.physics.model import build
     from usdgaze.physics.retarget import Reference
 
     ref = Reference.from_clip(clip)
     model = build(clip.joints, clip.parents, clip.rest_local, clip.skel_to_world, clip.up_axis,
-                  clip.meters_per_unit, total_mass=total_mass, reference=ref.rotations, where=clip.where())
+                  clip.meters_per_unit, total_mass=total_mass, reference=ref.rotations, where=clip.where(),
+                  weld_still=weld_still)
     return model, ref
 
 

@@ -125,9 +125,10 @@ def _safe_names(joints: list[str], idx: np.ndarray) -> list[str]:
 
 def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_to_world: np.ndarray,
           up_axis: str, meters_per_unit: float, total_mass: float = 75.0,
-          reference: np.ndarray | None = None, where: str = "skeleton") -> BodyModel:
+          reference: np.ndarray | None = None, where: str = "skeleton", weld_still: bool = True) -> BodyModel:
     """The body model of a skeleton; ``reference`` (``(F, J, 4)`` local xyzw rotations) fits hinge axes
-    and widens joint ranges to what the motion uses."""
+    and widens joint ranges to what the motion uses. ``weld_still``: weld the joints the reference holds
+    at rest throughout (off where a task must move what the reference does not, e.g. arms to catch)."""
     parents = np.asarray(parents, dtype=int)
     if total_mass <= 0:
         raise UsdGazeError(f"{where}: total mass must be positive, got {total_mass}")
@@ -187,7 +188,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
                 axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
                 range_deg[b] = (-5.0, 150.0)
     if reference is not None:
-        _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg)
+        _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, weld_still)
 
     com, inertia, iquat = _inertials(roles, seg_vec, mass)
     radius = np.clip(np.sqrt(mass / (1000.0 * np.pi * np.maximum(lengths, 0.05))), 0.015, 0.14) * (
@@ -215,7 +216,8 @@ def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) 
     return roles[b] == "hand" and roles[bparent[b]] == "hand"
 
 
-def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray) -> None:
+def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray,
+                      weld_still: bool = True) -> None:
     """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses."""
     for b in range(1, len(kind)):
         if kind[b] not in ("ball", "hinge"):
@@ -223,7 +225,7 @@ def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: n
         q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
         rv = rot.to_rotvec(q)
         ang = np.degrees(np.linalg.norm(rv, axis=1))
-        if ang.max() < _STILL_DEG:
+        if ang.max() < _STILL_DEG and weld_still:
             # A joint the motion holds at rest throughout (CMU's hip and collar joints) is welded:
             # no degrees of freedom the controller would have to hold still.
             kind[b] = "weld"

@@ -42,6 +42,9 @@ class Weights:
     rate: float = 1.0  # relative weight of offset rates in c_trk
     gamma: float = 1.0
     u_scale: np.ndarray = field(default_factory=lambda: np.ones(0))
+    # c_uct weighs [sigma_p, sigma_v, sigma_pv] by these before squaring; (1, h^2, h) reads velocities
+    # per planner step, so the three entries share one unit (the coupled physics loop, physics.visuomotor)
+    sigma_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
 
 
 def smax(y: np.ndarray, gamma: float):
@@ -54,8 +57,11 @@ class AttendCost:
     """The cost over a stacked [eye, body, belief] state; ``t0`` is the time (s) of step 0."""
 
     def __init__(self, stack, sight, importance: np.ndarray, weights: Weights | None = None,
-                 mode: str = "uncertainty", target: int = 0, t0: float = 0.0) -> None:
+                 mode: str = "uncertainty", target: int = 0, t0: float = 0.0, track_body: bool = True) -> None:
+        """``track_body=False``: leave out the kinematic body's terms (its offsets, their bounds and the head
+        displacement), for a body whose tracking is its own cost (the MuJoCo body's ``BodyTracking``)."""
         self.stack, self.sight, self.w = stack, sight, weights or Weights()
+        self.track_body = track_body
         self.eye, self.body, self.belief = stack["eye"], stack["body"], stack["belief"]
         self.imp = np.asarray(importance, float)
         self.mode, self.target, self.t0 = mode, target, t0
@@ -65,12 +71,38 @@ class AttendCost:
     def _state_terms(self, X, k0, derivs: bool):
         """Cost of the state part per row; with derivs also lx (N,NX) and lxx (N,NX,NX)."""
         w, N, nx = self.w, len(X), self.stack.nx
-        bx, ex = self.body.xs, self.eye.xs
+        ex = self.eye.xs
+        lx = np.zeros((N, nx)) if derivs else None
+        lxx = np.zeros((N, nx, nx)) if derivs else None
+        J = pps = None
+        if self.track_body:
+            c, J, pps = self._body_terms(X, k0, derivs, lx, lxx)
+        else:
+            c = np.zeros(N)
+        if pps is None and (derivs and self.mode != "uncertainty"):
+            pps, _, _, J, _, _ = self.sight.jacobian(X, k0)
+        elif pps is None and self.mode != "uncertainty":
+            pps = self.sight.points(X, k0)[0]
+        # soft eye-range bounds (degrees for the angles, mm for zeta)
+        e = X[:, ex]
+        scale = np.array([DEG, DEG, 1.0])
+        for sign, edge in ((1.0, eyemod.HI), (-1.0, eyemod.LO)):
+            v, d1, d2 = smax(sign * (e - edge) * scale, w.gamma)
+            c = c + w.bnd * v.sum(1)
+            if derivs:
+                lx[:, ex] += w.bnd * d1 * sign * scale
+                ii = np.arange(ex.start, ex.stop)
+                lxx[:, ii, ii] += w.bnd * d2 * scale**2
+        c = c + self._attention(X, derivs, lx, lxx, J, pps, k0)
+        return c, lx, lxx
+
+    def _body_terms(self, X, k0, derivs, lx, lxx):
+        """The kinematic body's tracking (offsets, rates, head displacement) and its soft bounds."""
+        w, N = self.w, len(X)
+        bx = self.body.xs
         nq = self.body.n
         qb = X[:, bx]
         c = w.trk * w.offsets * (np.sum(qb[:, :nq] ** 2, 1) + w.rate * np.sum(qb[:, nq:] ** 2, 1))
-        lx = np.zeros((N, nx)) if derivs else None
-        lxx = np.zeros((N, nx, nx)) if derivs else None
         if derivs:
             wv = np.r_[np.ones(nq), np.full(nq, w.rate)] * w.trk * w.offsets
             lx[:, bx] = 2 * wv * qb
@@ -98,31 +130,22 @@ class AttendCost:
                     lx[:, bx.start:bx.start + nq] += w.bnd * d1 * sign * DEG
                     ii = np.arange(bx.start, bx.start + nq)
                     lxx[:, ii, ii] += w.bnd * d2 * DEG**2
-        # soft eye-range bounds (degrees for the angles, mm for zeta)
-        e = X[:, ex]
-        scale = np.array([DEG, DEG, 1.0])
-        for sign, edge in ((1.0, eyemod.HI), (-1.0, eyemod.LO)):
-            v, d1, d2 = smax(sign * (e - edge) * scale, w.gamma)
-            c = c + w.bnd * v.sum(1)
-            if derivs:
-                lx[:, ex] += w.bnd * d1 * sign * scale
-                ii = np.arange(ex.start, ex.stop)
-                lxx[:, ii, ii] += w.bnd * d2 * scale**2
-        c = c + self._attention(X, derivs, lx, lxx, J, pps, k0)
-        return c, lx, lxx
+        return c, J, pps
 
     def _attention(self, X, derivs, lx, lxx, J, pps, k0):
         w, n = self.w, self.belief.n
         Bx = X[:, self.belief.xs].reshape(len(X), n, SLOT)
         if self.mode == "uncertainty":
             s = Bx[..., 6:9]
-            c = w.uct * np.einsum("s,nsi->n", self.imp, s * s)
+            sc = np.asarray(w.sigma_scale, float)
+            scaled = s * sc
+            c = w.uct * np.einsum("s,nsi->n", self.imp, scaled * scaled)
             if derivs:
                 for j in range(n):
                     cols = slice(self.belief.xs.start + SLOT * j + 6, self.belief.xs.start + SLOT * j + 9)
-                    lx[:, cols] += 2 * w.uct * self.imp[j] * s[:, j]
+                    lx[:, cols] += 2 * w.uct * self.imp[j] * scaled[:, j] * sc
                     ii = np.arange(cols.start, cols.stop)
-                    lxx[:, ii, ii] += 2 * w.uct * self.imp[j]
+                    lxx[:, ii, ii] += 2 * w.uct * self.imp[j] * sc * sc
             return c
         sel = np.ones((len(X), n))
         if self.mode == "sequential":

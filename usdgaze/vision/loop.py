@@ -90,7 +90,7 @@ class LoopResult:
     solves: list[list[float]] = field(default_factory=list)  # cost per iteration, per step
 
 
-class _Filters:
+class Filters:
     """Known objects' beliefs (mu 6, sigma 3), keyed by object index."""
 
     def __init__(self, things: list[Thing], opts: LoopOptions) -> None:
@@ -127,7 +127,7 @@ class _Filters:
         return ranked[: self.opts.max_tracked]
 
 
-def _arrival_order_target(filters: _Filters, slots: list[int], eyes: np.ndarray, done: set[int],
+def _arrival_order_target(filters: Filters, slots: list[int], eyes: np.ndarray, done: set[int],
                           locked: list[int]) -> int:
     """Sequential tracking: the slot of the object expected to arrive first (closest approach soonest),
     kept until it arrives (``locked`` holds the object being followed)."""
@@ -175,7 +175,7 @@ def _look_at_controls(stack, X: np.ndarray, U: np.ndarray, k0: int, target: np.n
     return out
 
 
-def _seed(stack, cost, x: np.ndarray, U: np.ndarray, k: int, targets: list[np.ndarray]) -> np.ndarray:
+def seed_controls(stack, cost, x: np.ndarray, U: np.ndarray, k: int, targets: list[np.ndarray]) -> np.ndarray:
     """The cheapest start among the warm start and one look-at proposal per target (same cost)."""
     best_U = U
     X = ddp.rollout(stack, x, U, k)
@@ -196,7 +196,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
     h, n_obj = opts.h, len(things)
     body = KinematicBody(base, h)
     eye = eyemod.Eye(h)
-    filters = _Filters(things, opts)
+    filters = Filters(things, opts)
     mpc = ddp.RecedingHorizon(horizon, eye.nu + body.nu, ddp.Options(max_iter=opts.iterations, tol=1e-3, mu_init=1.0, mu_min=1e-2,
                                                                           alphas=(1.0, 0.3, 0.1, 0.03)))
     e = np.array([0.0, 0.0, float(eyemod.zeta_for(opts.start_distance_m))])
@@ -232,7 +232,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         ts = h * np.arange(n_h)[:, None]
         targets = [filters.mu[j][:3] + ts * filters.mu[j][3:] + 0.5 * ts**2 * things[j].accel for j in slots]
         if k % PROPOSE_EVERY == 0 or slots != last_slots:
-            mpc.U = _seed(stack, cost, x, mpc.U, k, targets)
+            mpc.U = seed_controls(stack, cost, x, mpc.U, k, targets)
         last_slots = slots
         u, sol = mpc.step(stack, cost, x, k)
         out.solves.append(sol.costs)
