@@ -30,13 +30,15 @@ import click
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--physics", is_flag=True,
               help="Simulate the whole body on MuJoCo under the full-body MPC, tracking the base motion (root "
-                   "included; pushes authored on the SkelRoot act on it). The eyes are not driven in this mode yet.")
+                   "included; pushes authored on the SkelRoot act on it). With objects in the stage the eyes and "
+                   "belief are simulated with the body, and balls the SkelRoot's usdgaze:physics:catch names are "
+                   "caught.")
 @click.option("--discard-failed", is_flag=True, help="With --physics: when a shot falls, write nothing and exit 2.")
 def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
            physics, discard_failed) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     if physics:
-        return _physics(input_path, out, window_s, skel_root, discard_failed, as_json)
+        return _physics(input_path, out, window_s, skel_root, discard_failed, as_json, seed)
     from usdgaze.attend import AttendSettings, attend as run
     from usdgaze.core.hints import parse_hints
 
@@ -60,14 +62,15 @@ def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_
     click.echo(f"wrote {report.output}")
 
 
-def _physics(input_path, out, window_s, skel_root, discard_failed, as_json) -> None:
+def _physics(input_path, out, window_s, skel_root, discard_failed, as_json, seed) -> None:
     """``--physics``: the physics pass (usdgaze.passes.physics); one line per shot, a fall said plainly."""
     from dataclasses import asdict
 
     from usdgaze.passes.physics import run
     from usdgaze.physics.mpc import Options
 
-    reports = run(input_path, out, Options(horizon_s=window_s), skel_root=skel_root, keep_failed=not discard_failed)
+    reports = run(input_path, out, Options(horizon_s=window_s), skel_root=skel_root, keep_failed=not discard_failed,
+                  seed=seed)
     if as_json:
         click.echo(json.dumps({"output": str(out), "shots": [asdict(r) for r in reports]}, indent=2))
         return

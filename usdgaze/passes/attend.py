@@ -108,23 +108,12 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
         t_, q_, s_ = rig.local(j)
         return t_, new_rot.get(j, q_), s_
 
-    head = chain.head
-    moved = forward(with_ancestors([head], rig.parents), rig.parents, new_local)
-    mpu = clip.meters_per_unit
     # The point of sight at the frames, from the interpolated eye pose on the moved head (not the
     # planner's points interpolated in space, which would bend a saccade's path and speed).
     e = _interp(seconds, t_plan, res.eye)
-    to_rest = rot.multiply(moved.rotation[head], rot.conjugate(rig.rest_q[head]))
-    f, l, u = (rot.rotate(to_rest, np.broadcast_to(v, (len(seconds), 3))) for v in (frame.forward, frame.left, frame.up))
-    ct, st, cp, sp = np.cos(e[:, 0]), np.sin(e[:, 0]), np.cos(e[:, 1]), np.sin(e[:, 1])
-    direction = (cp * ct)[:, None] * f + (cp * st)[:, None] * l + sp[:, None] * u
-    mid = 0.5 * sum(moved.place(int(rig.parents[j]), rig.local(j)[0]) for j in rig.eyes)
-    scale = np.cbrt(np.abs(np.linalg.det(clip.skel_to_world[:, :3, :3])))
-    dist = eyemod.distance(e[:, 2])[0] / mpu / scale
-    sight_skel = mid + dist[:, None] * direction
-    sight_units = _world(clip.skel_to_world, sight_skel)
-    eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP)
-    new_rot.update(eyes.rotations)
+    eye_rot, sight_units = eyes_on(clip, chain, frame, rig, new_local, e)
+    new_rot.update(eye_rot)
+    mpu = clip.meters_per_unit
     anim_joints, rotations, translations, scales = assemble(rig, new_rot, {})
     est = _interp(seconds, t_plan, res.estimate) / mpu
     unc = _interp(seconds, t_plan, res.sigma_p)
@@ -135,6 +124,25 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
         out.added_rest_local = rig.rest_local[-2:]
         out.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
     return out
+
+
+def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local, e: np.ndarray
+            ) -> tuple[dict[int, np.ndarray], np.ndarray]:
+    """Both eyes' local rotations aiming at the point of sight of eye pose ``e`` (F, 3: theta, psi rad,
+    zeta mm) on the head that ``new_local(j)`` -> (t, q, s) poses; and that point (world, stage units)."""
+    head = chain.head
+    moved = forward(with_ancestors([head], rig.parents), rig.parents, new_local)
+    n = len(e)
+    to_rest = rot.multiply(moved.rotation[head], rot.conjugate(rig.rest_q[head]))
+    f, l, u = (rot.rotate(to_rest, np.broadcast_to(v, (n, 3))) for v in (frame.forward, frame.left, frame.up))
+    ct, st, cp, sp = np.cos(e[:, 0]), np.sin(e[:, 0]), np.cos(e[:, 1]), np.sin(e[:, 1])
+    direction = (cp * ct)[:, None] * f + (cp * st)[:, None] * l + sp[:, None] * u
+    mid = 0.5 * sum(moved.place(int(rig.parents[j]), rig.local(j)[0]) for j in rig.eyes)
+    scale = np.cbrt(np.abs(np.linalg.det(clip.skel_to_world[:, :3, :3])))
+    dist = eyemod.distance(e[:, 2])[0] / clip.meters_per_unit / scale
+    sight_skel = mid + dist[:, None] * direction
+    eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP)
+    return eyes.rotations, _world(clip.skel_to_world, sight_skel)
 
 
 def _drive(clip: SkelClip, rig, base: Pose, spine: int, neck: int, q: np.ndarray, left_w: np.ndarray

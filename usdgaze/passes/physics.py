@@ -108,19 +108,25 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     override = AnimOverride(animation=clip.animation, times=clip.times[:n], joints=clip.anim_joints,
                             rotations=rotations[:, cols].astype(np.float32),
                             translations=translations[:, cols].astype(np.float32))
+    report, terms = shot_summary(clip, result, n, len(pushes), wall)
+    return report, override, terms
+
+
+def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float) -> tuple[ShotReport, dict]:
+    """The shot's report (a fall said plainly) and its per-step measures for the layer."""
     problems = []
     if result.fell:
         problems.append(f"fell at {result.fell_at:.2f} s (pelvis below {mpc.FALL_RATIO:.0%} of the reference)")
-    report = ShotReport(skeleton=clip.skeleton, animation=clip.animation, frames=n,
+    report = ShotReport(skeleton=clip.skeleton, animation=clip.animation, frames=frames,
                         simulated_s=float(result.seconds[-1] - result.seconds[0]), fell=result.fell,
                         fell_at_s=result.fell_at, min_pelvis_ratio=float(result.pelvis_ratio.min()),
                         mean_joint_error_deg=float(result.joint_error_deg.mean()),
-                        max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=len(pushes),
+                        max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
                         wall_s=wall, problems=problems)
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist()}
-    terms.update({key: [None if np.isnan(v) else float(v) for v in values] for key, values in result.task_terms.items()})
-    return report, override, terms
+    terms.update({key: [float(v) for v in values] for key, values in result.task_terms.items()})  # NaN: no value
+    return report, terms
 
 
 def _head(ref, n: int):
@@ -132,7 +138,7 @@ def _head(ref, n: int):
 
 def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Options = mpc.Options(),
         skel_root: str | None = None, keep_failed: bool = True, total_mass: float = 75.0,
-        progress=None) -> list[ShotReport]:
+        progress=None, seed: int = 0) -> list[ShotReport]:
     """Simulate every skeleton of ``input_path`` (or under ``skel_root``) and write ``out``."""
     from usdgaze.api import _layer_info, select_roots
     from usdgaze.usd.layers import atomic_export, build_override, check_output_path
@@ -147,12 +153,20 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         raise UsdGazeError(f"{out}: --out would overwrite the input")
     if not (np.isfinite(options.horizon_s) and 2 * options.h - 1e-9 <= options.horizon_s <= 5.0):
         raise UsdGazeError(f"--window {options.horizon_s:g} s: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
+    from usdgaze.passes import visuomotor
+
     stage = open_stage(source)
-    reports, overrides, terms = [], [], {}
+    reports, overrides, terms, inspections = [], [], {}, []
     for root in select_roots(stage, source, skel_root):
         for skel in skeletons_under(root):
             clip = read_clip(stage, skel, root, source)
-            report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress)
+            prims, paths, catches = visuomotor.read_scene(root, clip, source, options.h)
+            if prims:  # something to look at: eyes, belief and body in one loop
+                report, override, shot_terms, inspection = visuomotor.simulate_clip(
+                    clip, root, options, prims, paths, catches, total_mass, progress, seed)
+                inspections.append(inspection)
+            else:
+                report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress)
             reports.append(report)
             overrides.append(override)
             terms[clip.skeleton] = {"report": {k: v for k, v in asdict(report).items() if v is not None and k != "problems"},
@@ -164,5 +178,10 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         raise UsdGazeError(f"{source}:{failed[0].skeleton}: {failed[0].problems[0]}; nothing written")
     info = _layer_info(stage)
     info.custom = {"usdgaze:physics": terms}
-    atomic_export(build_override(overrides, info), out)
+    layer = build_override(overrides, info)
+    from usdgaze.usd.attendio import add_inspection
+
+    for character, times, sight, eye_pose, paths, estimates, uncertainty in inspections:
+        add_inspection(layer, character, times, sight, eye_pose, paths, estimates, uncertainty)
+    atomic_export(layer, out)
     return reports

@@ -1,0 +1,170 @@
+"""The coupled loop (eyes + belief + MuJoCo body) and the ball-catch task, on short standing shots.
+
+Derivatives of the new cost terms are compared with central differences; the shots are measured on
+the written layer composed over the input, by UsdSkel FK (eye axes from the bind pose, palms midway
+between wrist and hand joints) against the ball's true positions read from the stage.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Sdf
+
+from usdgaze.passes import physics as physics_pass
+from usdgaze.physics import build, mpc, retarget, visuomotor
+from usdgaze.physics.catch import CatchTask
+from usdgaze.physics.dynamics import MujocoBody
+from usdgaze.physics.tracking import BodyTracking, velocities
+from usdgaze.planning.compose import Stacked
+from usdgaze.vision import eye as eyemod
+from usdgaze.vision import loop
+
+from . import catch_stages as cs
+from . import measure
+
+H = 0.03
+
+
+def _central(f, x, eps=1e-6):
+    return np.array([(f(x + e) - f(x - e)) / (2 * eps) for e in np.eye(len(x)) * eps])
+
+
+def _gaze(posed):
+    """Per frame: the line of sight (unit, world) from the eyes' midpoint, by FK of the eye joints."""
+    fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
+    axes = [measure.local_forward(posed, e, fwd) for e in ("LeftEye", "RightEye")]
+    return 0.5 * (posed.position("LeftEye") + posed.position("RightEye")), \
+        measure.sight_line(posed, "LeftEye", "RightEye", *axes)
+
+
+@pytest.fixture(scope="module")
+def problem(tmp_path_factory):
+    """A coupled window's stack at a standing pose with a ball in view, and the catch task proactive."""
+    tmp = tmp_path_factory.mktemp("catch_derivs")
+    start, arrival, flight = cs.seeded_throw(1, (0.7, 0.8))
+    clip = build.load_clip(cs.throw_stage(tmp / "t.usda", start, arrival, flight, 0.2))
+    model, ref = build.body_model(clip, weld_still=False)
+    q = retarget.to_qpos(model, ref)
+    plan = MujocoBody(model, h=H)
+    eye = eyemod.Eye(H)
+    Stacked([eye, plan])
+    ball = loop.Thing("ball", np.array([[0.5, 2.0, 1.2]]), kind="ballistic")
+    filters = loop.Filters([ball], loop.LoopOptions(h=H, sigma_v0=1e4))
+    filters.mu[0], filters.sig[0] = np.array([1.5, 0.2, 1.4, -4.0, -0.5, 1.0]), np.array([0.3, 40.0, 2.0])
+    tracking = BodyTracking(plan, q, velocities(q, H, plan.mj), mpc._head_body(model))
+    task = CatchTask(plan, 0, seed=3)
+    task.arrival, task.hand = (0.3, np.array([0.45, 0.1, 1.1])), "right"
+    prob = visuomotor._Problem(eye, plan, filters, [0], 0, tracking, [task], loop.LoopOptions(sigma_v0=1e4))
+    rng = np.random.default_rng(0)
+    xb = plan.to_state(q[0], rng.normal(0, 0.2, plan.nv))
+    xb[6:plan.nv] += rng.normal(0, 0.2, plan.nv - 6)  # joints off the reference: no zero residuals
+    x = prob.state(np.array([0.2, -0.1, 9.0]), xb, filters)
+    return prob, task, x, rng.normal(0, 0.3, prob.stack.nu)
+
+
+def test_catch_term_gradient_and_gauss_newton_hessian_match_central_differences(problem):
+    prob, task, x, u = problem
+    assert task.weight(0, H) == task.o.w_proactive
+    lx, _, lxx, _, _ = task.derivs(x, u, 0)
+    num = _central(lambda z: task.l(z, u, 0), x)
+    assert np.linalg.norm(num) > 1.0 and np.linalg.norm(lx - num) / np.linalg.norm(num) < 1e-4
+    xs = task.dyn.xs
+    J = _central(lambda z: task._residual(z[xs], False)[0], x).T  # residual Jacobian
+    assert np.linalg.norm(lxx - 2 * task.weight(0, H) * J.T @ J) / np.linalg.norm(lxx) < 1e-4
+    # The lateral term is live beyond the free band: move the feet 40 cm off the arrival's side.
+    task.arrival = (0.3, task.arrival[1] + 0.7 * task.left)
+    lx2 = task.derivs(x, u, 0)[0]
+    num2 = _central(lambda z: task.l(z, u, 0), x)
+    assert abs(task._residual(x[xs], False)[0][3]) > 1.0
+    assert np.linalg.norm(lx2 - num2) / np.linalg.norm(num2) < 1e-4
+    task.arrival = (0.3, task.arrival[1] - 0.7 * task.left)
+
+
+def test_coupled_cost_gradient_matches_central_differences(problem):
+    """AttendCost without the kinematic body's terms, sigma read per step, summed with tracking and task."""
+    prob, _, x, u = problem
+    cost = prob.cost
+    lx, lu = cost.derivs(x, u, 0)[:2]
+    num = _central(lambda z: cost.l(z, u, 0), x)
+    assert np.linalg.norm(lx - num) / np.linalg.norm(num) < 1e-4
+    num_u = _central(lambda v: cost.l(x, v, 0), u)
+    assert np.linalg.norm(lu - num_u) / np.linalg.norm(num_u) < 1e-4
+    b0 = prob.stack["belief"].xs.start
+    assert abs(lx[b0 + 7]) > 0  # the velocity variance is in the cost (scaled by h^2)
+
+
+def test_each_coupled_solve_decreases_the_cost(tmp_path):
+    start, arrival, flight = cs.seeded_throw(2, (0.7, 0.8))
+    src = cs.throw_stage(tmp_path / "t.usda", start, arrival, flight, 0.15)
+    clip = build.load_clip(src)
+    model, ref = build.body_model(clip, weld_still=False)
+    secs = np.arange(0, 0.2, H)
+    ball = cs.flight(start, arrival, flight, secs) @ (model.to_model / np.linalg.norm(model.to_model[:, 0])).T
+    res = visuomotor.simulate(model, retarget.to_qpos(model, ref), clip.seconds,
+                              [loop.Thing("ball", ball, kind="ballistic")],
+                              visuomotor.Options(mpc.Options(h=H, horizon_s=0.3)))
+    assert len(res.body.solve_costs) == len(res.body.seconds) - 1 >= 4
+    for costs in res.body.solve_costs:
+        assert all(b <= a for a, b in zip(costs, costs[1:]))
+    assert res.body.solve_costs[0][-1] < res.body.solve_costs[0][0]
+    assert res.vision.visible[:, 0].all() and not np.isnan(res.vision.sigma_p).any()
+
+
+def _shot(tmp, throw, seconds):
+    start, arrival, flight = throw
+    src = cs.throw_stage(tmp / "throw.usda", start, arrival, flight, seconds)
+    before = measure.sha256(src)
+    out = tmp / "sim.usda"
+    reports = physics_pass.run(src, out, mpc.Options(h=H, horizon_s=0.6))
+    m = cs.catch_measures(src, out, tmp, flight)
+    assert measure.sha256(src) == before
+    return src, out, reports[0], m
+
+
+def test_a_ball_from_the_front_is_watched_and_the_hand_goes_to_it(tmp_path):
+    throw = cs.seeded_throw(1, (0.7, 0.8))
+    src, out, report, m = _shot(tmp_path, throw, throw[2] + 0.1)
+    assert not report.fell
+    posed, ball = m["posed"], m["ball"]
+    eyes, sight = _gaze(posed)
+    to_ball = ball - eyes
+    off = measure.angle_between(sight, to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
+    fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
+    head_off = measure.angle_between(posed.axis("Head", measure.local_forward(posed, "Head", fwd)),
+                                     to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
+    flying = m["secs"] < throw[2]
+    # The eyes follow the ball (the head alone, looking ahead, is tens of degrees off it).
+    assert np.median(off[flying]) < 10.0 and np.median(off[flying]) < 0.5 * np.median(head_off[flying])
+    ref = cs.catch_measures(src, src, tmp_path, throw[2])  # the reference itself: arms down
+    assert m["at_arrival"] < 0.10 < 0.3 < ref["at_arrival"]  # the reference keeps its arms down
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    frames = layer.customLayerData["usdgaze:physics"][cs.SKEL]["frames"]
+    assert max(v for v in frames["catch.weight"] if v == v) == 0.1  # the proactive phase ran
+    est = [p for p in layer.GetPrimAtPath("/UsdGazeAttend").nameChildren[0].nameChildren][0]
+    assert est.attributes["gaze:attend:object"].default == cs.BALL
+
+
+def test_a_ball_from_behind_is_neither_looked_at_nor_reached_for_before_it_is_in_view(tmp_path):
+    throw = cs.behind_throw()
+    src, out, report, m = _shot(tmp_path, throw, throw[2] + 0.1)
+    posed, ball = m["posed"], m["ball"]
+    fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
+    head_fwd = posed.axis("Head", measure.local_forward(posed, "Head", fwd))
+    eyes, sight = _gaze(posed)
+    to_ball = ball - eyes
+    to_ball /= np.linalg.norm(to_ball, axis=1, keepdims=True)
+    in_view = measure.angle_between(head_fwd, to_ball) <= 60.0
+    assert not in_view[0] and in_view.any()
+    before = np.arange(len(in_view)) < np.argmax(in_view)
+    assert measure.angle_between(sight, to_ball)[before].min() > 30.0
+    # Not reached for: neither palm comes nearer the ball's arrival point (the physics alone sways them
+    # by a few cm: the standing reference's arms are not held exactly).
+    arrival = m["ball"][-1]
+    posed = m["posed"]
+    for side in ("Left", "Right"):
+        palm = 0.5 * (posed.position(f"{side}Wrist") + posed.position(f"{side[0].lower()}hand"))
+        d = np.linalg.norm(palm - arrival, axis=1)
+        assert (d[0] - d[before]).max() < 0.02

@@ -1,0 +1,133 @@
+"""The coupled physics pass: body, eyes and belief simulated together (``usdgaze.physics.visuomotor``)
+for a clip whose stage has objects to look at, written as the physics pass's body plus the attend
+pass's eyes and inspection prims (point of sight, eye pose, per-object estimate and uncertainty).
+
+Read at this edge, then plain arrays: the stage's ``GazeObjectAPI`` prims (as ``usdgaze attend``), in
+the model's world; and the balls to catch, named by the SkelRoot's relationship
+``usdgaze:physics:catch`` (each target must be one of those objects):
+
+```
+over "Body" {
+    rel usdgaze:physics:catch = </Objects/Ball>
+}
+```
+
+A shot with a ball to catch simulates every joint the model has (``weld_still=False``: the standing
+reference holds the arms still, the catch must not). Frames after a fall's last simulated one hold it.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from usdgaze.errors import UsdGazeError
+from usdgaze.physics import mpc
+from usdgaze.vision import loop
+
+CATCH = "usdgaze:physics:catch"
+
+
+def read_scene(root, clip, source: str, h: float):
+    """(object prims, their paths, catch indices) of the stage, or ([], [], []) where it has none."""
+    from usdgaze.usd.objects import API_NAME, object_prims
+
+    stage = root.GetStage()
+    if not any(p.HasAPI(API_NAME) for p in stage.Traverse()):
+        return [], [], []
+    prims = object_prims(stage, source, None)
+    paths = [str(p.GetPath()) for p in prims]
+    rel = root.GetRelationship(CATCH)
+    catches = []
+    for target in (rel.GetTargets() if rel else []):
+        if str(target) not in paths:
+            raise UsdGazeError(f"{source}:{root.GetPath()}.{CATCH}: <{target}> is not an object "
+                               f"(a prim with {API_NAME}) of the stage")
+        catches.append(paths.index(str(target)))
+    return prims, paths, catches
+
+
+def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop.Thing]:
+    from usdgaze.usd.objects import read_objects
+
+    codes = clip.start_time + h * np.arange(steps) * clip.time_codes_per_second
+    objs = read_objects(root.GetStage(), source, prims, codes, clip.meters_per_unit)
+    rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # stage axes -> model axes (metres kept)
+    return [loop.Thing(o.path, o.positions @ rot.T, o.importance, o.radius, o.kind) for o in objs]
+
+
+def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,
+                  progress=None, seed: int = 0):
+    """Simulate one clip with its eyes; (ShotReport, AnimOverride, per-frame terms, inspection)."""
+    from usdgaze.api import bind
+    from usdgaze.passes import physics as body_pass
+    from usdgaze.passes.attend import AttendResult, eyes_on
+    from usdgaze.passes.chain import with_eyes
+    from usdgaze.passes.options import PassOptions
+    from usdgaze.physics import build, retarget, visuomotor
+    from usdgaze.physics.catch import CatchTask
+    from usdgaze.usd import schema
+    from usdgaze.usd.layers import AnimOverride
+
+    source = clip.source
+    model, ref = build.body_model(clip, total_mass, weld_still=not catches)
+    pushes = body_pass.read_pushes(root, clip, model, f"{source}:{root.GetPath()}")
+    ref_qpos = retarget.to_qpos(model, ref)
+    h = options.h
+    steps = int(np.ceil((clip.seconds[-1] - clip.seconds[0]) / h - 1e-6)) + 1
+    things = _things(root, clip, source, prims, model, steps, h)
+    tasks = [(lambda j: lambda plan, ref_q: CatchTask(plan, j, seed + j, truth=things[j].positions))(j) for j in catches]
+    opts = visuomotor.Options(options)
+    opts.vision.seed = seed
+    start = time.perf_counter()
+    res = visuomotor.simulate(model, ref_qpos, clip.seconds, things, opts, pushes, tasks, progress)
+    wall = time.perf_counter() - start
+    result = res.body
+    qadr, _ = model.layout()
+    quats = [3] + [int(qadr[b]) for b, k in enumerate(model.kind) if k == "ball"]
+    qpos, n = body_pass._frames_from_steps(result, clip.seconds, quats)
+    qpos = np.concatenate([qpos, np.repeat(qpos[-1:], len(clip.seconds) - n, 0)])  # a fall: hold the last
+    rotations, translations = retarget.from_qpos(model, qpos, ref)
+    own = schema.read_map(root, source) if schema.has_map(root) else None
+    chain, frame = bind(clip, own, None)
+    rig = with_eyes(clip, chain, frame, PassOptions())
+    t_rel = clip.seconds - clip.seconds[0]
+    t_sim = result.seconds - result.seconds[0]
+    eye = _at(t_rel, t_sim, res.vision.eye)
+    new_local = lambda j: (translations[:, j], rotations[:, j], ref.scales[:, j])  # noqa: E731
+    eye_rot, sight = eyes_on(clip, chain, frame, rig, new_local, eye)
+    new_rot = {j: rotations[:, j] for j in range(len(clip.joints))}
+    new_rot.update(eye_rot)
+    new_trans = {j: translations[:, j] for j in range(len(clip.joints))}
+    from usdgaze.passes.assemble import assemble
+
+    anim_joints, rot_a, trans_a, scales_a = assemble(rig, new_rot, new_trans)
+    back = np.linalg.inv(model.to_model)  # model -> stage units
+    est = np.einsum("ij,foj->foi", back, _at(t_rel, t_sim, res.vision.estimate))
+    eye_deg = eye * [180 / np.pi, 180 / np.pi, 1.0]
+    written = AttendResult(anim_joints, rot_a, trans_a, scales_a, rig.added, None, None, [], sight, est,
+                           _at(t_rel, t_sim, res.vision.sigma_p), eye_deg)
+    if rig.added:
+        written.added_rest_local = rig.rest_local[-2:]
+        written.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
+    override = AnimOverride.of(clip, written, move_roots=True)
+    report, terms = body_pass.shot_summary(clip, result, n, len(pushes), wall)
+    for j in catches:
+        miss = result.task_terms.get("catch.handToBallM")
+        if miss is not None and np.all(np.isnan(miss) | (miss > 0.1)):
+            near = np.nanmin(miss) if np.any(~np.isnan(miss)) else np.nan
+            report.problems.append(f"catch {paths[j]}: the hand came no nearer than {100 * near:.0f} cm to the ball")
+    inspection = (clip.skel_root, clip.times, sight, eye_deg, paths, est, written.uncertainty)
+    return report, override, terms, inspection
+
+
+def _at(t_new: np.ndarray, t: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Per-step values at frame times (linear; NaN where either neighbour is NaN; held past the end)."""
+    flat = v.reshape(len(t), -1)
+    i = np.clip(np.searchsorted(t, t_new, side="right") - 1, 0, max(len(t) - 2, 0))
+    if len(t) < 2:
+        return np.repeat(v[:1], len(t_new), 0)
+    a = np.clip((t_new - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)[:, None]
+    out = (1 - a) * flat[i] + a * flat[i + 1]
+    return out.reshape((len(t_new),) + v.shape[1:])
