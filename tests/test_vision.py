@@ -68,9 +68,11 @@ def test_cost_derivatives(mode):
     assert _rel_err(tx, _fd(lambda y: np.array(c.terminal(y, 9)), x)) <= 1e-4
 
 
-def test_kalman_update_matches_the_matrix_filter():
-    """The 3-vector covariance update equals the full 6x6 Kalman filter of appendix A."""
-    p = VisionParams(alpha=0.2, eta=0.3, h=H)
+@pytest.mark.parametrize("per_second", [True, False])
+def test_kalman_update_matches_the_matrix_filter(per_second):
+    """The 3-vector covariance update equals the full 6x6 Kalman filter of appendix A, with the
+    process noise alpha per second (Q = alpha h I a step) or, literally, alpha I a step."""
+    p = VisionParams(alpha=0.2, eta=0.3, h=H, per_second=per_second)
     rng = np.random.default_rng(1)
     mu, s = rng.normal(0, 1, 6), np.array([0.4, 0.9, 0.2])
     z, r, a = rng.normal(0, 1, 3), 0.3, np.array([0, 0, -9.81])
@@ -78,7 +80,7 @@ def test_kalman_update_matches_the_matrix_filter():
     F = np.block([[I3, H * I3], [0 * I3, I3]])
     Sig = np.block([[s[0] * I3, s[2] * I3], [s[2] * I3, s[1] * I3]])
     Hm = np.hstack([I3, 0 * I3])
-    Sb = F @ Sig @ F.T + p.alpha * np.eye(6)
+    Sb = F @ Sig @ F.T + (0.2 * H if per_second else 0.2) * np.eye(6)
     K = Sb @ Hm.T @ np.linalg.inv(Hm @ Sb @ Hm.T + r * I3)
     mb = F @ mu + np.r_[np.zeros(3), H * a]
     mu_ref = mb + K @ (z - Hm @ mb)

@@ -46,6 +46,12 @@ class VisionParams:
     eta: float = 0.3  # fovea constant, metres
     h: float = 0.025
     unit_m: float = 0.1  # the length unit of the belief's covariance numbers (see the module docstring)
+    per_second: bool = True  # alpha is the process noise per second: Q = alpha h I a step (module docstring)
+
+    @property
+    def q(self) -> float:
+        """The process noise added to each covariance block per step."""
+        return self.alpha * self.h if self.per_second else self.alpha
 
 
 def predict_cov(s: np.ndarray, alpha: float, h: float) -> np.ndarray:
@@ -104,7 +110,7 @@ def kalman_update(mu: np.ndarray, s: np.ndarray, z: np.ndarray | None, r: float,
     h = params.h
     mp = mu[:3] + h * mu[3:]
     mv = mu[3:] + h * accel
-    sb = predict_cov(s, params.alpha, h)
+    sb = predict_cov(s, params.q, h)
     if z is None:
         return np.concatenate([mp, mv]), sb
     S = sb[0] + r
@@ -149,7 +155,7 @@ class Belief(Part):
 
     def rollout(self, X: np.ndarray, k0: int) -> np.ndarray:
         """Belief states along a window whose other parts are already in X (row 0: the start)."""
-        h, a, n = self.params.h, self.params.alpha, self.n
+        h, a, n = self.params.h, self.params.q, self.n
         N = len(X)
         B0 = X[0, self.xs].reshape(n, SLOT)
         i = np.arange(N)[:, None, None]
@@ -176,7 +182,7 @@ class Belief(Part):
         return np.concatenate([mp, mv, S.transpose(1, 0, 2)], -1).reshape(N, -1)
 
     def step(self, x, u, k):
-        h, a = self.params.h, self.params.alpha
+        h, a = self.params.h, self.params.q
         B = x[self.xs].reshape(self.n, SLOT)
         mp, mv, s = B[:, :3], B[:, 3:6], B[:, 6:9]
         pps, p, R = self.sight.point(x, k)
@@ -200,7 +206,7 @@ class Belief(Part):
         h = self.params.h
         mp, mv, _ = self._split(X)
         s, r = self._r(X, k0, with_jac=False)
-        s_new, _, _ = update_cov(predict_cov(s, self.params.alpha, h), r)
+        s_new, _, _ = update_cov(predict_cov(s, self.params.q, h), r)
         out = np.concatenate([mp + h * mv, mv + h * self.accel, s_new], -1)
         return out.reshape(len(X), -1)
 
@@ -211,7 +217,7 @@ class Belief(Part):
     def linearize_batch(self, X, U, k0):
         h, N = self.params.h, len(X)
         s, r, dr = self._r(X, k0, with_jac=True)
-        sb = predict_cov(s, self.params.alpha, h)
+        sb = predict_cov(s, self.params.q, h)
         _, d_sb, d_r = update_cov(sb, r)
         fx = np.zeros((N, self.n, SLOT, self.stack.nx))
         M = predict_jac(h)
