@@ -123,7 +123,8 @@ def test_uncertainty_cost_switches_back_and_forth_then_dwells(two_balls, run):
     half = 0.5 * np.linalg.norm(b1 - b2, axis=1)[whole]
     assert np.median(mid / half) > 0.8  # at a ball, a half separation from the midpoint (measured 1.0)
     # near the arrival it dwells: the last fixation before the balls arrive lasts >= 0.2 s (measured
-    # 0.77 s on BallLeft and 0.27 s on BallRight: which ball is not decided by this model, see docs)
+    # 0.74 s on BallLeft with seed 0, 0.24 s on BallRight with seed 1: which ball, this model does not
+    # decide; see docs/attend.md)
     runs = _runs(_on_ball(g, b1, b2)[g.seconds <= ARRIVAL_S[1]], max_gap=2)
     assert runs[-1][2] - runs[-1][1] >= _min_frames(g, 0.2)
 
@@ -161,7 +162,7 @@ def test_alpha_zero_glances_once_alpha_positive_tracks(one_ball):
 def test_alpha_04_estimate_follows_the_noisy_observations_more(one_ball):
     """The paper: a larger alpha gives a larger gain, so the estimate relies more on the noisy
     observation. Measured as the frame-to-frame roughness (second difference) of the written estimate
-    while fixated: 0.0215 m at 0.4 against 0.0175 m at 0.2 (seed 0)."""
+    while fixated: 19.4 mm at 0.4 against 17.4 mm at 0.2 (seed 0; 18.2 against 15.8 mm with seed 1)."""
     rough = {}
     for alpha in ("0.2", "0.4"):
         _, g, ball = one_ball[alpha]
@@ -169,7 +170,7 @@ def test_alpha_04_estimate_follows_the_noisy_observations_more(one_ball):
         d2 = np.linalg.norm(est[2:] - 2 * est[1:-1] + est[:-2], axis=1)
         fixated = (_flight(g) & (angle_to(g, ball) < FIX_DEG))[1:-1]
         rough[alpha] = np.median(d2[fixated])
-    assert rough["0.4"] > 1.1 * rough["0.2"]
+    assert rough["0.4"] > 1.05 * rough["0.2"]
 
 
 def test_estimate_converges_while_fixated(one_ball):

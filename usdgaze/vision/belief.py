@@ -1,9 +1,16 @@
 """The belief over objects (Eom et al. 4.3, appendix A): one Kalman filter per object.
 
 Object state x = [p, v]; process x' = F x + y + delta, F = [[I, hI], [0, I]], y = [0, h a] with a
-the gravity for ballistic objects (0 for others), delta ~ N(0, alpha I). Observation z = p + rho,
+the gravity for ballistic objects (0 for others), delta ~ N(0, Q). Observation z = p + rho,
 rho ~ N(0, r I). Every covariance block stays a multiple of I, so each filter keeps the paper's
 3-vector sigma = [sigma_p, sigma_v, sigma_pv] and the update is scalar per object.
+
+Process noise. The paper writes Q = alpha I with alpha = 0.2 and h = 0.02-0.03 s. We read alpha as
+the noise *per second* of a continuous process, Q = alpha h I a step (``VisionParams.q``), so that its
+behaviour does not change with h. Read literally, as alpha I added every step, with r < 1 an unwatched
+object's sigma_p reaches its fixed point in about three steps (0.17, 0.29, 0.34, 0.36 at alpha 0.2):
+its uncertainty never keeps growing, switching between objects buys nothing, and the paper's
+Figure 4c cannot arise (``per_second=False`` keeps that reading; docs/attend.md has the numbers).
 
 Observation noise r grows with the distance D from the point of sight to the object:
 r = r0 + 1 - exp(-D / eta), with D smoothed at 0 (sqrt(D^2 + eps^2) - eps) so it is twice
@@ -11,12 +18,12 @@ differentiable and r0 keeping the gain finite; the paper's formula is partly gar
 is its legible part: 0 at the fovea, rising to 1 far from it, eta the fovea constant. Outside the +-60 deg field of view there is no observation: the simulation skips the
 update, the planner adds ``R_OUT`` smoothly, (1 - vis) R_OUT with vis a logistic of the angle.
 
-Units. The paper gives r in [0, 1) and alpha = 0.2 as bare numbers. Covariances here are kept in
-units of ``unit_m`` squared (0.1 m: r = 1 is an observation error of 10 cm standard deviation, and
-alpha = 0.2 adds (4.5 cm)^2 a step): the recursions for sigma and the gain K = sp/(sp + r) do not
-depend on the unit, only the drawn observation z = p + unit_m sqrt(r) N(0, I) does, so the paper's
-numbers keep their meaning relative to each other. Read in metres, r would be a 1 m error, which
-keeps a fixating eye from ever settling on a ball.
+Units. The paper gives r in [0, 1) and alpha as bare numbers. Covariances here are kept in units of
+``unit_m`` squared (0.1 m: r = 1 is an observation error of 10 cm standard deviation): the
+recursions for sigma and the gain K = sp/(sp + r) do not depend on the unit, only the drawn
+observation z = p + unit_m sqrt(r) N(0, I) does, so the paper's numbers keep their meaning relative
+to each other. Read in metres, r would be a 1 m error, which keeps a fixating eye from ever settling
+on a ball.
 
 Planning uses the expected mean mu' = F mu + y (deterministic); simulation draws z with a seeded
 generator and applies the full update (``kalman_update``).
