@@ -1,7 +1,7 @@
 """Planner speed of ``usdgaze attend``: output frames per second on one core, 1 and 4 objects.
 
 Runs the visuomotor loop (``usdgaze.vision.loop.run``: sensing, belief updates, one DDP solve per
-planner step, acting) on a standing character's gaze chain with balls thrown at it, with BLAS held
+planner step, acting) on a standing character's gaze chain with balls flying at it from the first step, with BLAS held
 to one thread. Prints planner steps per CPU second and what that is in output frames per second at
 24 and 30 fps (frames/s = steps/s * h * fps; h = 0.025 s), against the paper's 1-6 frames/s
 (Eom et al. 2019: full-body physics, 6-core 3.5 GHz i7) and the goal of >= 30 frames/s with 4 objects.
@@ -44,7 +44,7 @@ def scene(n: int, h: float, K: int) -> list[Thing]:
     out = []
     for i in range(n):
         side = (i - (n - 1) / 2) * 1.2
-        out.append(Thing(f"ball{i}", ball([7.0, side, 1.4], [0.4, 0.1 * side, 1.2], 1.3 + 0.05 * i, 0.2, h, K),
+        out.append(Thing(f"ball{i}", ball([7.0, side, 1.4], [0.4, 0.1 * side, 1.2], 1.3 + 0.05 * i, 0.0, h, K),
                          kind="ballistic"))
     return out
 

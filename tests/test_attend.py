@@ -23,19 +23,31 @@ def _run(tmp_path, stage, *args, name="out.usdc"):
     return out, gaze(compose(tmp_path, stage, out, name + ".usda"))
 
 
+def _api_run(tmp, stage, name, **settings):
+    """A run through the Python API, for settings the command line does not expose."""
+    from usdgaze.attend import AttendSettings, attend
+
+    out = tmp / name
+    attend(stage, out, settings=AttendSettings(window_s=0.6, **settings))
+    return gaze(compose(tmp, stage, out, name + ".usda"))
+
+
 @pytest.fixture(scope="module")
 def two_balls(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("two")
     runs = {}
-    for cost in ("uncertainty", "distance", "sequential"):
-        _, g = _run(tmp, ATTEND / "two_balls.usda", "--cost", cost, name=f"{cost}.usdc")
-        b1 = positions(g.stage, "/Objects/BallLeft", g.times)
-        b2 = positions(g.stage, "/Objects/BallRight", g.times)
-        runs[cost] = (g, b1, b2)
+    stage = ATTEND / "two_balls.usda"
+    for key, args in (("uncertainty", ()), ("uncertainty seed 1", ("--seed", "1")),
+                      ("distance", ("--cost", "distance")), ("sequential", ("--cost", "sequential"))):
+        runs[key] = _run(tmp, stage, *args, name=f"{key.replace(' ', '_')}.usdc")[1]
+    runs["per step"] = _api_run(tmp, stage, "per_step.usdc", alpha_per_second=False)
+    for key, g in runs.items():
+        runs[key] = (g, positions(g.stage, "/Objects/BallLeft", g.times), positions(g.stage, "/Objects/BallRight", g.times))
     return runs
 
 
 INPUTS = [ATTEND / "ball_throw.usda", ATTEND / "standing.usdc", ATTEND.parent / "cmu" / "cmu_131_01.usdc"]
+ARRIVAL_S = (1.3, 1.4)  # BallLeft, BallRight (make_stages.py); the single ball arrives at 1.4 s
 
 
 def _fingerprints():
@@ -59,58 +71,106 @@ def _flight(g, until_s=1.2):
     return (g.seconds >= 0.1) & (g.seconds <= until_s)
 
 
+def _on_ball(g, b1, b2):
+    """Per frame: 0 on BallLeft, 1 on BallRight, -1 on neither (the nearer in angle when on both)."""
+    a1, a2 = angle_to(g, b1), angle_to(g, b2)
+    return np.where(np.minimum(a1, a2) < FIX_DEG, np.where(a1 <= a2, 0, 1), -1)
+
+
+def _switches(on):
+    seq = on[on >= 0]
+    return int(np.sum(seq[1:] != seq[:-1]))
+
+
+def _min_frames(g, seconds):
+    return int(round(seconds / np.median(np.diff(g.seconds))))
+
+
+def _runs(on, max_gap):
+    """(ball, start, end) fixation runs; a gap of up to ``max_gap`` frames between two stretches
+    on the same ball (pursuit falling behind for a frame) does not end the run."""
+    out = []
+    for k in np.flatnonzero(on >= 0):
+        j = int(on[k])
+        if out and out[-1][0] == j and k - out[-1][2] <= max_gap:
+            out[-1][2] = k + 1
+        else:
+            out.append([j, k, k + 1])
+    return [tuple(r) for r in out]
+
+
 def test_distance_cost_keeps_the_point_of_sight_between_the_balls(two_balls):
     g, b1, b2 = two_balls["distance"]
     f = _flight(g)
     mid = np.linalg.norm(g.sight - 0.5 * (b1 + b2), axis=1)[f]
+    half = 0.5 * np.linalg.norm(b1 - b2, axis=1)[f]  # 1.5 m at the start, 0.25 m at the arrival
     near = np.minimum(np.linalg.norm(g.sight - b1, axis=1), np.linalg.norm(g.sight - b2, axis=1))[f]
-    assert np.median(mid) < 0.6 and np.median(near) > 1.0
-    assert np.mean((angle_to(g, b1) < FIX_DEG) | (angle_to(g, b2) < FIX_DEG)) < 0.1
+    assert np.median(mid) < 0.15 and np.median(near / half) > 0.8  # measured 0.07 m and 0.99
+    assert np.mean(_on_ball(g, b1, b2)[f] >= 0) < 0.1
 
 
-def test_uncertainty_cost_fixates_the_balls_and_switches(two_balls):
-    g, b1, b2 = two_balls["uncertainty"]
-    f = _flight(g)
-    on1, on2 = (angle_to(g, b1) < FIX_DEG)[f], (angle_to(g, b2) < FIX_DEG)[f]
-    assert np.mean(on1 | on2) > 0.8  # on a ball, not between them
-    # The paper's Figure 4c switches back and forth; here the first ball seen gets a glance and the
-    # other is then held to its arrival: one switch (see docs/attend.md).
-    whole = g.seconds <= 1.2
-    o1, o2 = angle_to(g, b1)[whole] < FIX_DEG, angle_to(g, b2)[whole] < FIX_DEG
-    seq = [t for t in np.where(o1, 1, np.where(o2, 2, 0)) if t]
-    assert sum(a != b for a, b in zip(seq, seq[1:])) >= 1
-    mid = np.linalg.norm(g.sight - 0.5 * (b1 + b2), axis=1)[f]
-    assert np.median(mid) > 1.0
+@pytest.mark.parametrize("run", ["uncertainty", "uncertainty seed 1"])
+def test_uncertainty_cost_switches_back_and_forth_then_dwells(two_balls, run):
+    """Figure 4c: on a ball (not between them) nearly all the flight, both balls watched in turns,
+    several switches, and a dwell on one ball as they arrive (the other's noise no longer grows fast)."""
+    g, b1, b2 = two_balls[run]
+    whole = g.seconds <= ARRIVAL_S[0]
+    on = _on_ball(g, b1, b2)[whole]
+    assert np.mean(on >= 0) > 0.8  # measured 0.93 and 0.88 (seed 0, 1)
+    assert min(np.mean(on == 0), np.mean(on == 1)) > 0.1  # each ball its share: 0.15 and 0.28 for the less watched
+    assert _switches(on) >= 3  # measured 3 and 4
+    mid = np.linalg.norm(g.sight - 0.5 * (b1 + b2), axis=1)[whole]
+    half = 0.5 * np.linalg.norm(b1 - b2, axis=1)[whole]
+    assert np.median(mid / half) > 0.8  # at a ball, a half separation from the midpoint (measured 1.0)
+    # near the arrival it dwells: the last fixation before the balls arrive lasts >= 0.2 s (measured
+    # 0.74 s on BallLeft with seed 0, 0.24 s on BallRight with seed 1: which ball, this model does not
+    # decide; see docs/attend.md)
+    runs = _runs(_on_ball(g, b1, b2)[g.seconds <= ARRIVAL_S[1]], max_gap=2)
+    assert runs[-1][2] - runs[-1][1] >= _min_frames(g, 0.2)
+
+
+def test_the_literal_per_step_process_noise_holds_one_ball(two_balls):
+    """The paper's alpha read as a variance added every step (not per second): the unwatched ball's
+    noise saturates in ~3 steps, so switching buys nothing and the planner holds one ball (docs/attend.md)."""
+    g, b1, b2 = two_balls["per step"]
+    on = _on_ball(g, b1, b2)[g.seconds <= ARRIVAL_S[0]]
+    counts = [int(np.sum(on == j)) for j in (0, 1)]
+    assert _switches(on) <= 1 and max(counts) > 0.8 * len(on) and min(counts) < 0.1 * len(on)
 
 
 def test_sequential_tracks_one_ball_then_the_other(two_balls):
     g, b1, b2 = two_balls["sequential"]
     f = (g.seconds >= 0.3) & (g.seconds <= 1.2)
-    on1, on2 = (angle_to(g, b1) < FIX_DEG)[f], (angle_to(g, b2) < FIX_DEG)[f]
-    assert np.mean(on1) > 0.8 and not on2.any()  # the first ball all the way to its arrival
+    on = _on_ball(g, b1, b2)[f]
+    assert np.mean(on == 0) > 0.8 and not (on == 1).any()  # the first ball all the way to its arrival
+
+
+def _fixation_episodes(g, ball, until_s=ARRIVAL_S[1]):
+    """Fixations of at least 0.1 s before the ball arrives, as (start s, end s)."""
+    on = (angle_to(g, ball) < FIX_DEG) & (g.seconds <= until_s)
+    return [(g.seconds[a], g.seconds[b - 1]) for a, b in episodes(on) if b - a >= _min_frames(g, 0.1)]
 
 
 def test_alpha_zero_glances_once_alpha_positive_tracks(one_ball):
-    share = {}
-    for alpha in ("0", "0.2", "0.4"):
-        _, g, ball = one_ball[alpha]
-        f = _flight(g, 1.3)
-        on = angle_to(g, ball)[f] < FIX_DEG
-        share[alpha] = on.mean()
-        if alpha == "0":
-            eps = episodes(on)
-            assert len(eps) >= 1 and eps[0][1] - eps[0][0] < 0.5 * on.size  # one glance, then it lets go
-    assert share["0"] < 0.4 and share["0.2"] > 0.8 and share["0.4"] > 0.8
+    """0: one glance, then it lets go long before the arrival; 0.2 and 0.4: one fixation to the arrival."""
+    eps = {alpha: _fixation_episodes(one_ball[alpha][1], one_ball[alpha][2]) for alpha in ("0", "0.2", "0.4")}
+    assert len(eps["0"]) == 1 and eps["0"][0][0] < 0.2 and eps["0"][0][1] < 0.8  # measured 0.03-0.63 s
+    for alpha in ("0.2", "0.4"):
+        assert len(eps[alpha]) == 1 and eps[alpha][0][0] < 0.2 and eps[alpha][0][1] > 1.25  # 0.03-1.30/1.37 s
 
 
-def test_alpha_04_tracks_with_more_uncertainty_than_02(one_ball):
-    """The paper: at 0.4 the character tracks steadily but its uncertainty grows too fast to catch."""
-    unc = {}
+def test_alpha_04_estimate_follows_the_noisy_observations_more(one_ball):
+    """The paper: a larger alpha gives a larger gain, so the estimate relies more on the noisy
+    observation. Measured as the frame-to-frame roughness (second difference) of the written estimate
+    while fixated: 19.4 mm at 0.4 against 17.4 mm at 0.2 (seed 0; 18.2 against 15.8 mm with seed 1)."""
+    rough = {}
     for alpha in ("0.2", "0.4"):
         _, g, ball = one_ball[alpha]
-        f = _flight(g, 1.2) & (angle_to(g, ball) < FIX_DEG)
-        unc[alpha] = inspection(g.stage, "/Objects/Ball", "uncertainty", g.times)[f].mean()
-    assert unc["0.4"] > unc["0.2"]
+        est = inspection(g.stage, "/Objects/Ball", "estimate", g.times)
+        d2 = np.linalg.norm(est[2:] - 2 * est[1:-1] + est[:-2], axis=1)
+        fixated = (_flight(g) & (angle_to(g, ball) < FIX_DEG))[1:-1]
+        rough[alpha] = np.median(d2[fixated])
+    assert rough["0.4"] > 1.05 * rough["0.2"]
 
 
 def test_estimate_converges_while_fixated(one_ball):
@@ -124,18 +184,25 @@ def test_estimate_converges_while_fixated(one_ball):
 
 
 def test_uncertainty_grows_while_not_looked_at(two_balls):
+    """Every time a ball is left for at least 0.1 s after being fixated, its written sigma_p rises
+    during the neglect to at least 1.3 x its value when it was left."""
     g, b1, b2 = two_balls["uncertainty"]
-    for obj, ball in (("/Objects/BallLeft", b1), ("/Objects/BallRight", b2)):
+    on = _on_ball(g, b1, b2)
+    checked = 0
+    for obj, j in (("/Objects/BallLeft", 0), ("/Objects/BallRight", 1)):
         unc = inspection(g.stage, obj, "uncertainty", g.times)
-        on = angle_to(g, ball) < FIX_DEG
-        for a, b in episodes(~on & (g.seconds > 0.05) & (g.seconds < 1.2)):
-            if b - a >= 4 and a > 0 and on[a - 1]:  # looked at, then not: it grows
-                assert unc[b - 1] > 2 * unc[a - 1]
-                break
-        else:
-            continue
-        return
-    raise AssertionError("no ball was left after being looked at")
+        for a, b in episodes((on != j) & (g.seconds < ARRIVAL_S[0])):
+            if b - a >= _min_frames(g, 0.1) and a > 0 and on[a - 1] == j:
+                assert unc[a:b].max() > 1.3 * unc[a - 1], (obj, g.seconds[a])
+                checked += 1
+    assert checked >= 2
+    # and while fixated it falls: the watched ball's sigma_p at the end of each fixation of >= 0.2 s is
+    # below its value when the fixation began
+    for obj, j in (("/Objects/BallLeft", 0), ("/Objects/BallRight", 1)):
+        unc = inspection(g.stage, obj, "uncertainty", g.times)
+        for a, b in episodes(on == j):
+            if b - a >= _min_frames(g, 0.2) and a > 0:
+                assert unc[b - 1] < unc[a - 1]
 
 
 def test_eye_range_and_speed_limits(one_ball, two_balls):

@@ -24,6 +24,7 @@ class AttendSettings:
     """What ``usdgaze attend`` takes besides its files (see docs/attend.md)."""
 
     alpha: float = 0.2
+    alpha_per_second: bool = True  # Q = alpha h I a step; False: the literal alpha I a step (docs/attend.md)
     cost: str = "uncertainty"
     window_s: float = 0.8
     h: float = 0.025
@@ -49,7 +50,7 @@ class AttendSettings:
             raise UsdGazeError(f"--window {self.window_s:g} s: longer than 5 s (the paper uses 0.6-1.2 s)")
 
     def loop_options(self) -> loop.LoopOptions:
-        return loop.LoopOptions(alpha=self.alpha, eta=self.eta, h=self.h, window_s=self.window_s, mode=self.cost,
+        return loop.LoopOptions(alpha=self.alpha, alpha_per_second=self.alpha_per_second, eta=self.eta, h=self.h, window_s=self.window_s, mode=self.cost,
                                 seed=self.seed, max_tracked=self.max_tracked, iterations=self.iterations,
                                 weights=Weights())
 

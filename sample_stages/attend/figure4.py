@@ -1,13 +1,15 @@
 """Reproduce the comparisons of Eom et al. 2019 (Figure 4 and the alpha study) with ``usdgaze attend``.
 
-    python sample_stages/attend/figure4.py OUT_FOLDER [--window 0.8]
+    python sample_stages/attend/figure4.py OUT_FOLDER [--window 0.6] [--seed 0]
 
-Runs ``usdgaze attend`` on two_balls.usda with the distance-sum, sequential and uncertainty costs,
-and on ball_throw.usda with alpha 0, 0.2 and 0.4; reads back each written layer's point of sight
-(``gaze:attend:pointOfSight``) and the balls' true positions, prints per run the share of frames the
-line of sight is within 5 deg of each ball, the number of switches between balls, and the median
-distance of the point of sight from the balls' midpoint; and draws figure4.png (top view of the
-point-of-sight paths, as in the paper's figure, plus the angle to each ball over time).
+Runs ``usdgaze attend`` on two_balls.usda with the distance-sum, sequential and uncertainty costs
+(and the uncertainty cost with the paper's alpha read literally as a variance per step), and on
+ball_throw.usda with alpha 0, 0.2 and 0.4; reads back each written layer's point of sight
+(``gaze:attend:pointOfSight``), estimates, and the balls' true positions, prints per run the share of
+frames the line of sight is within 5 deg of each ball, the switches between balls, the fixation
+runs, the median distance of the point of sight from the balls' midpoint over half their separation,
+and for one ball the roughness of the estimate; and draws figure4.png (top view of the point-of-sight
+paths, as in the paper's figure, plus the angle to each ball over time).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from pxr import Usd, UsdGeom  # noqa: E402
 from usdgaze.attend import AttendSettings, attend  # noqa: E402
 
 FIX_DEG = 5.0
+ARRIVAL_S = 1.4  # the last ball's arrival (make_stages.py)
 
 
 def _track(stage: Usd.Stage, prim: str, times) -> np.ndarray:
@@ -42,7 +45,9 @@ def _read(out: Path, stage_path: Path, balls: list[str]):
     stage = Usd.Stage.Open(str(stage_path))
     tracks = [_track(stage, b, times) for b in balls]
     secs = (np.array(times) - stage.GetStartTimeCode()) / stage.GetTimeCodesPerSecond()
-    return secs, pos, tracks
+    est = next(p for p in layer_stage.Traverse() if p.GetAttribute("gaze:attend:estimate")).GetAttribute(
+        "gaze:attend:estimate")
+    return secs, pos, tracks, np.array([est.Get(t) for t in times], dtype=float)
 
 
 def _angles(pos, track, origin):
@@ -51,35 +56,56 @@ def _angles(pos, track, origin):
     return np.degrees(np.arccos(np.clip(c, -1, 1)))
 
 
-def _summary(name, secs, pos, tracks, origin):
-    on = [(_angles(pos, t, origin) < FIX_DEG) for t in tracks]
-    seq = [i + 1 for row in zip(*on) for i, v in enumerate(row) if v]
-    switches = sum(a != b for a, b in zip(seq, seq[1:]))
-    mid = np.median(np.linalg.norm(pos - np.mean(tracks, axis=0), axis=1)) if len(tracks) > 1 else float("nan")
-    shares = ", ".join(f"ball {i + 1} {100 * o.mean():4.0f}%" for i, o in enumerate(on))
-    print(f"{name:28s} {shares}; switches {switches}; median distance to the midpoint {mid:5.2f} m")
+def _summary(name, secs, pos, tracks, origin, est):
+    """One line of measured numbers over the flight (to the last ball's arrival at 1.4 s)."""
+    f = secs <= ARRIVAL_S
+    ang = np.stack([_angles(pos, t, origin) for t in tracks], 1)[f]
+    on = np.where(ang.min(1) < FIX_DEG, ang.argmin(1), -1)
+    seq = on[on >= 0]
+    switches = int(np.sum(seq[1:] != seq[:-1]))
+    runs = []  # fixation runs [ball, first frame, last frame]; a gap of up to two frames is bridged
+    for k in np.flatnonzero(on >= 0):
+        if runs and runs[-1][0] == on[k] and k - runs[-1][2] <= 3:
+            runs[-1][2] = k
+        else:
+            runs.append([on[k], k, k])
+    runs = [f"{j + 1}:{secs[a]:.2f}-{secs[b]:.2f}" for j, a, b in runs if b - a >= 2]
+    shares = ", ".join(f"ball {i + 1} {100 * np.mean(on == i):3.0f}%" for i in range(len(tracks)))
+    line = f"{name:30s} {shares}; switches {switches}; fixations {' '.join(runs) or 'none'}"
+    if len(tracks) > 1:
+        mid = np.linalg.norm(pos - 0.5 * (tracks[0] + tracks[1]), axis=1)[f]
+        half = 0.5 * np.linalg.norm(tracks[0] - tracks[1], axis=1)[f]
+        line += f"; sight from the midpoint {np.median(mid):.2f} m = {np.median(mid / half):.2f} x half the separation"
+    else:
+        d2 = np.linalg.norm(est[2:] - 2 * est[1:-1] + est[:-2], axis=1)  # second difference per frame
+        fixated = (secs >= 0.1) & (secs <= 1.2) & (_angles(pos, tracks[0], origin) < FIX_DEG)
+        line += f"; estimate roughness while fixated {1000 * np.median(d2[fixated[1:-1]]):.1f} mm"
+    print(line)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
-    ap.add_argument("--window", type=float, default=0.8)
+    ap.add_argument("--window", type=float, default=0.6)
+    ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     runs = []
     two = HERE / "two_balls.usda"
-    for cost in ("distance", "sequential", "uncertainty"):
-        out = args.out / f"two_balls_{cost}.usdc"
-        attend(two, out, settings=AttendSettings(cost=cost, window_s=args.window))
-        runs.append((f"two balls, {cost}", *_read(out, two, ["/Objects/BallLeft", "/Objects/BallRight"])))
+    for cost, per_s in (("distance", True), ("sequential", True), ("uncertainty", True), ("uncertainty", False)):
+        tag = cost if per_s else f"{cost}, alpha per step"
+        out = args.out / f"two_balls_{tag.replace(', ', '_').replace(' ', '_')}.usdc"
+        attend(two, out, settings=AttendSettings(cost=cost, window_s=args.window, seed=args.seed,
+                                                 alpha_per_second=per_s))
+        runs.append((f"two balls, {tag}", *_read(out, two, ["/Objects/BallLeft", "/Objects/BallRight"])))
     one = HERE / "ball_throw.usda"
     for alpha in (0.0, 0.2, 0.4):
         out = args.out / f"ball_throw_alpha{alpha:g}.usdc"
-        attend(one, out, settings=AttendSettings(alpha=alpha, window_s=args.window))
+        attend(one, out, settings=AttendSettings(alpha=alpha, window_s=args.window, seed=args.seed))
         runs.append((f"one ball, alpha {alpha:g}", *_read(out, one, ["/Objects/Ball"])))
     origin = _eyes()
-    for name, secs, pos, tracks in runs:
-        _summary(name, secs, pos, tracks, origin)
+    for name, secs, pos, tracks, est in runs:
+        _summary(name, secs, pos, tracks, origin, est)
     _draw(runs, args.out / "figure4.png")
     print(f"wrote {args.out / 'figure4.png'}")
 
@@ -107,12 +133,12 @@ def _draw(runs, path: Path) -> None:
 
     fig, axes = plt.subplots(2, len(runs), figsize=(4 * len(runs), 7))
     origin = _eyes()
-    for col, (name, secs, pos, tracks) in enumerate(runs):
+    for col, (name, secs, pos, tracks, _) in enumerate(runs):
         ax = axes[0, col]
         for t in tracks:
             ax.plot(t[:, 0], t[:, 2], "k:", lw=1)
         ax.plot(pos[:, 0], pos[:, 2], "r-", lw=1.5)
-        ax.set_title(name, fontsize=9)
+        ax.set_title(name.replace(", alpha per step", ",\nalpha per step (literal)"), fontsize=9)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("z (m)")

@@ -13,7 +13,7 @@ import click
 @click.option("--objects", default=None, metavar="PATH,...",
               help="Prims to look at (default: every prim with GazeObjectAPI).")
 @click.option("--alpha", default=0.2, show_default=True, type=float,
-              help="Process noise of the vision system's belief (0: glance once; 0.2: steady tracking).")
+              help="Process noise of the vision system's belief, per second (0: glance once; 0.2: steady tracking).")
 @click.option("--cost", default="uncertainty", show_default=True, type=click.Choice(["uncertainty", "distance", "sequential"]),
               help="Attention cost: the paper's uncertainty, the distance-sum baseline, or one object after another.")
 @click.option("--window", "window_s", default=0.8, show_default=True, type=float, help="Planner window, seconds.")

@@ -116,7 +116,7 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
     mpu = clip.meters_per_unit
     anim_joints, rotations, translations, scales = assemble(rig, new_rot, {})
     est = _interp(seconds, t_plan, res.estimate) / mpu
-    unc = _interp(seconds, t_plan, res.sigma_p)
+    unc = _interp(seconds, t_plan, res.sigma_p) * options.unit_m**2  # the belief's unit to m^2
     eye_pose = _interp(seconds, t_plan, res.eye) * [180 / np.pi, 180 / np.pi, 1.0]
     out = AttendResult(anim_joints, rotations, translations, scales, rig.added, None, None,
                        [rig.joints[j] for j in sorted(new_rot)], sight_units, est, unc, eye_pose, res, t_plan)

@@ -1,9 +1,16 @@
 """The belief over objects (Eom et al. 4.3, appendix A): one Kalman filter per object.
 
 Object state x = [p, v]; process x' = F x + y + delta, F = [[I, hI], [0, I]], y = [0, h a] with a
-the gravity for ballistic objects (0 for others), delta ~ N(0, alpha I). Observation z = p + rho,
+the gravity for ballistic objects (0 for others), delta ~ N(0, Q). Observation z = p + rho,
 rho ~ N(0, r I). Every covariance block stays a multiple of I, so each filter keeps the paper's
 3-vector sigma = [sigma_p, sigma_v, sigma_pv] and the update is scalar per object.
+
+Process noise. The paper writes Q = alpha I with alpha = 0.2 and h = 0.02-0.03 s. We read alpha as
+the noise *per second* of a continuous process, Q = alpha h I a step (``VisionParams.q``), so that its
+behaviour does not change with h. Read literally, as alpha I added every step, with r < 1 an unwatched
+object's sigma_p reaches its fixed point in about three steps (0.17, 0.29, 0.34, 0.36 at alpha 0.2):
+its uncertainty never keeps growing, switching between objects buys nothing, and the paper's
+Figure 4c cannot arise (``per_second=False`` keeps that reading; docs/attend.md has the numbers).
 
 Observation noise r grows with the distance D from the point of sight to the object:
 r = r0 + 1 - exp(-D / eta), with D smoothed at 0 (sqrt(D^2 + eps^2) - eps) so it is twice
@@ -11,12 +18,12 @@ differentiable and r0 keeping the gain finite; the paper's formula is partly gar
 is its legible part: 0 at the fovea, rising to 1 far from it, eta the fovea constant. Outside the +-60 deg field of view there is no observation: the simulation skips the
 update, the planner adds ``R_OUT`` smoothly, (1 - vis) R_OUT with vis a logistic of the angle.
 
-Units. The paper gives r in [0, 1) and alpha = 0.2 as bare numbers. Covariances here are kept in
-units of ``unit_m`` squared (0.1 m: r = 1 is an observation error of 10 cm standard deviation, and
-alpha = 0.2 adds (4.5 cm)^2 a step): the recursions for sigma and the gain K = sp/(sp + r) do not
-depend on the unit, only the drawn observation z = p + unit_m sqrt(r) N(0, I) does, so the paper's
-numbers keep their meaning relative to each other. Read in metres, r would be a 1 m error, which
-keeps a fixating eye from ever settling on a ball.
+Units. The paper gives r in [0, 1) and alpha as bare numbers. Covariances here are kept in units of
+``unit_m`` squared (0.1 m: r = 1 is an observation error of 10 cm standard deviation): the
+recursions for sigma and the gain K = sp/(sp + r) do not depend on the unit, only the drawn
+observation z = p + unit_m sqrt(r) N(0, I) does, so the paper's numbers keep their meaning relative
+to each other. Read in metres, r would be a 1 m error, which keeps a fixating eye from ever settling
+on a ball.
 
 Planning uses the expected mean mu' = F mu + y (deterministic); simulation draws z with a seeded
 generator and applies the full update (``kalman_update``).
@@ -46,6 +53,12 @@ class VisionParams:
     eta: float = 0.3  # fovea constant, metres
     h: float = 0.025
     unit_m: float = 0.1  # the length unit of the belief's covariance numbers (see the module docstring)
+    per_second: bool = True  # alpha is the process noise per second: Q = alpha h I a step (module docstring)
+
+    @property
+    def q(self) -> float:
+        """The process noise added to each covariance block per step."""
+        return self.alpha * self.h if self.per_second else self.alpha
 
 
 def predict_cov(s: np.ndarray, alpha: float, h: float) -> np.ndarray:
@@ -104,7 +117,7 @@ def kalman_update(mu: np.ndarray, s: np.ndarray, z: np.ndarray | None, r: float,
     h = params.h
     mp = mu[:3] + h * mu[3:]
     mv = mu[3:] + h * accel
-    sb = predict_cov(s, params.alpha, h)
+    sb = predict_cov(s, params.q, h)
     if z is None:
         return np.concatenate([mp, mv]), sb
     S = sb[0] + r
@@ -149,7 +162,7 @@ class Belief(Part):
 
     def rollout(self, X: np.ndarray, k0: int) -> np.ndarray:
         """Belief states along a window whose other parts are already in X (row 0: the start)."""
-        h, a, n = self.params.h, self.params.alpha, self.n
+        h, a, n = self.params.h, self.params.q, self.n
         N = len(X)
         B0 = X[0, self.xs].reshape(n, SLOT)
         i = np.arange(N)[:, None, None]
@@ -176,7 +189,7 @@ class Belief(Part):
         return np.concatenate([mp, mv, S.transpose(1, 0, 2)], -1).reshape(N, -1)
 
     def step(self, x, u, k):
-        h, a = self.params.h, self.params.alpha
+        h, a = self.params.h, self.params.q
         B = x[self.xs].reshape(self.n, SLOT)
         mp, mv, s = B[:, :3], B[:, 3:6], B[:, 6:9]
         pps, p, R = self.sight.point(x, k)
@@ -200,7 +213,7 @@ class Belief(Part):
         h = self.params.h
         mp, mv, _ = self._split(X)
         s, r = self._r(X, k0, with_jac=False)
-        s_new, _, _ = update_cov(predict_cov(s, self.params.alpha, h), r)
+        s_new, _, _ = update_cov(predict_cov(s, self.params.q, h), r)
         out = np.concatenate([mp + h * mv, mv + h * self.accel, s_new], -1)
         return out.reshape(len(X), -1)
 
@@ -211,7 +224,7 @@ class Belief(Part):
     def linearize_batch(self, X, U, k0):
         h, N = self.params.h, len(X)
         s, r, dr = self._r(X, k0, with_jac=True)
-        sb = predict_cov(s, self.params.alpha, h)
+        sb = predict_cov(s, self.params.q, h)
         _, d_sb, d_r = update_cov(sb, r)
         fx = np.zeros((N, self.n, SLOT, self.stack.nx))
         M = predict_jac(h)

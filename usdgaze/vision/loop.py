@@ -63,6 +63,7 @@ class Thing:
 @dataclass
 class LoopOptions:
     alpha: float = 0.2
+    alpha_per_second: bool = True  # Q = alpha h I a step; False: the literal alpha I a step
     eta: float = 0.3
     h: float = 0.025
     window_s: float = 0.8
@@ -70,7 +71,7 @@ class LoopOptions:
     seed: int = 0
     max_tracked: int = 4
     drop_sigma: float = 4.0  # sigma_p above which a track is dropped (unit_m^2: 20 cm standard deviation)
-    sigma_v0: float = 100.0  # velocity variance of a new track, in unit_m^2 / s^2 (1 (m/s)^2)
+    sigma_v0: float = 10000.0  # velocity variance of a new track, in unit_m^2 / s^2: (10 m/s)^2, i.e. unknown
     unit_m: float = 0.1
     iterations: int = 3
     start_distance_m: float = 2.0
@@ -95,7 +96,7 @@ class Filters:
 
     def __init__(self, things: list[Thing], opts: LoopOptions) -> None:
         self.things, self.opts = things, opts
-        self.params = VisionParams(opts.alpha, opts.eta, opts.h, opts.unit_m)
+        self.params = VisionParams(opts.alpha, opts.eta, opts.h, opts.unit_m, opts.alpha_per_second)
         self.mu: dict[int, np.ndarray] = {}
         self.sig: dict[int, np.ndarray] = {}
         self.rng = np.random.default_rng(opts.seed)
