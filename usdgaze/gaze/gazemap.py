@@ -23,9 +23,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from usdgaze.gaze import motion
+from usdgaze.gaze.neighbors import nearest, squared_distances
+from usdgaze.gaze.triangulation import example_geometry
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.gaze.motion import GazeMotions
@@ -54,10 +55,8 @@ def _random_blends(params: np.ndarray, count: int, blend_size: int, rng: np.rand
     if count <= 0 or n < 2:
         weights[:, 0] = 1.0  # one example: every blend is that example
         return weights
-    try:
-        triangles = Delaunay(params).simplices
-    except (QhullError, ValueError):
-        triangles = np.zeros((0, 3), dtype=int)
+    k = int(min(max(blend_size, 2), n))
+    triangles, near = example_geometry(params, k)
     a, b, c = (params[triangles[:, i]] for i in range(3))
     area = 0.5 * np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
     n_tri = (2 * count) // 3 if len(triangles) and area.sum() > 0 else 0
@@ -67,8 +66,6 @@ def _random_blends(params: np.ndarray, count: int, blend_size: int, rng: np.rand
         bary = np.column_stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2])
         rows = np.repeat(np.arange(n_tri), 3)
         np.add.at(weights, (rows, triangles[pick].ravel()), bary.ravel())
-    k = int(min(max(blend_size, 2), n))
-    _, near = cKDTree(params).query(params, k=k)
     n_pair = count - n_tri
     first = rng.integers(0, n, size=n_pair)
     second = near[first, rng.integers(1, k, size=n_pair)]
@@ -97,8 +94,6 @@ class ParametricGazeMap:
         weights = np.concatenate([np.eye(len(self.params)), weights])
         self.sample_weights = weights
         self.sample_params = self._measure(weights)
-        self._tree = cKDTree(self.sample_params)
-        self._example_tree = cKDTree(self.params)
         self.k = int(min(max(s.neighbors, 1), len(weights)))
         self.low = self.sample_params.min(axis=0)
         self.high = self.sample_params.max(axis=0)
@@ -114,9 +109,7 @@ class ParametricGazeMap:
     def _interpolate(self, points: np.ndarray) -> np.ndarray:
         """Kovar & Gleicher k-NN interpolation of sample blend weights at ``points (Q, 2)``."""
         k = self.k
-        dist, idx = self._tree.query(points, k=k + 1 if k + 1 <= len(self.sample_params) else k)
-        dist = dist.reshape(len(points), -1)
-        idx = idx.reshape(len(points), -1)
+        dist, idx = nearest(self.sample_params, points, k + 1)
         if dist.shape[1] > k:
             cutoff = dist[:, k:k + 1]
             dist, idx = dist[:, :k], idx[:, :k]
@@ -143,10 +136,7 @@ class ParametricGazeMap:
         q, n = weights.shape
         c = min(n, _CANDIDATES)
         eps = 1e-4
-        dist, nearest = self._example_tree.query(target, k=n)
-        dist, nearest = dist.reshape(q, n), nearest.reshape(q, n)  # k=1 gives 1-D arrays
-        order = np.argsort(nearest, axis=1)
-        dist_by_example = np.take_along_axis(dist, order, axis=1)
+        dist_by_example = np.sqrt(squared_distances(self.params, target))  # (Q, E), example order
         score = np.where(weights > 1e-9, -1.0, dist_by_example)
         cand = np.argsort(score, axis=1, kind="stable")[:, :c]  # (Q, C) example indices
         rows = np.arange(q)[:, None]
