@@ -46,15 +46,15 @@ def _jr(r: np.ndarray, inverse: bool) -> np.ndarray:
 
 def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     """Rotation vectors of MuJoCo (w, x, y, z) quaternions ``(n, 4)``."""
-    q = np.where(q[:, :1] < 0, -q, q)
+    q = q * np.where(q[:, :1] < 0, -1.0, 1.0)
     v = q[:, 1:]
-    s = np.linalg.norm(v, axis=1, keepdims=True)
+    s = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
     ang = 2.0 * np.arctan2(s, q[:, :1])
     return v * np.divide(ang, s, out=np.full_like(s, 2.0), where=s > 1e-12)
 
 
 def _rotvec_to_quat(r: np.ndarray) -> np.ndarray:
-    ang = np.linalg.norm(r, axis=1, keepdims=True)
+    ang = np.sqrt(np.einsum("ij,ij->i", r, r))[:, None]
     k = np.divide(np.sin(0.5 * ang), ang, out=np.full_like(ang, 0.5), where=ang > 1e-12)
     return np.concatenate([np.cos(0.5 * ang), r * k], axis=1)
 
@@ -75,7 +75,7 @@ class MujocoBody:
     name = "body"
 
     def __init__(self, model: BodyModel, h: float = 0.02, forces: Callable[[int], np.ndarray] | None = None,
-                 centered: bool = False, eps: float = 1e-6, workers: int = 1) -> None:
+                 centered: bool = False, eps: float = 1e-6, workers: int = 1, stride: int = 1) -> None:
         import mujoco
 
         from usdgaze.physics import mjcf
@@ -93,14 +93,19 @@ class MujocoBody:
         self.stack = None
         self.forces = forces
         self.workers, self._pool, self._clones = int(workers), None, []
+        self.stride = int(stride)
         self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
         qadr, dadr = model.layout()
         balls = [b for b, k in enumerate(model.kind) if k == "ball"]
         hinges = [b for b, k in enumerate(model.kind) if k == "hinge"]
         self._bq, self._bd = qadr[balls], dadr[balls]
         self._hq, self._hd = qadr[hinges], dadr[hinges]
-        # Rotation blocks of the position tangent: base orientation first, then the balls.
+        # Rotation blocks of the position tangent: base orientation first, then the balls; as index
+        # arrays into qpos (4 per block) and into the state (3 per block), so conversions are one gather.
         self._rot = np.concatenate([[3], self._bd])
+        self._rot_x = self._rot[:, None] + np.arange(3)
+        self._rot_q = np.concatenate([[3], self._bq])[:, None] + np.arange(4)
+        self._set_anchor_maps()
 
     # -- coordinates ------------------------------------------------------------------------------
     def bind(self, stack, xs: slice, us: slice) -> None:
@@ -108,34 +113,38 @@ class MujocoBody:
 
     def set_anchor(self, quat_wxyz: np.ndarray) -> None:
         self.anchor = np.asarray(quat_wxyz, dtype=float) / np.linalg.norm(quat_wxyz)
+        self._set_anchor_maps()
+
+    def _set_anchor_maps(self) -> None:
+        # Left multiplication by the anchor (and by its conjugate) as 4x4 matrices on wxyz quaternions.
+        w, x, y, z = self.anchor
+        self._left = np.array([[w, -x, -y, -z], [x, w, -z, y], [y, z, w, -x], [z, -y, x, w]])
+        self._left_conj = self._left.T.copy()
 
     def to_state(self, qpos: np.ndarray, qvel: np.ndarray | None = None) -> np.ndarray:
         """Body states ``(..., 2 nv)`` from ``qpos`` ``(..., nq)`` (and ``qvel``, default zero)."""
         single = np.ndim(qpos) == 1
         qpos = np.atleast_2d(qpos)
         n = len(qpos)
-        pos = np.zeros((n, self.nv))
-        pos[:, 0:3] = qpos[:, 0:3]
-        conj = self.anchor * np.array([1, -1, -1, -1])
-        pos[:, 3:6] = _quat_to_rotvec(_qmul(np.broadcast_to(conj, (n, 4)), qpos[:, 3:7]))
-        if len(self._bq):
-            q = qpos[:, self._bq[:, None] + np.arange(4)].reshape(-1, 4)
-            pos[:, self._bd[:, None] + np.arange(3)] = _quat_to_rotvec(q).reshape(n, -1, 3)
-        pos[:, self._hd] = qpos[:, self._hq]
-        vel = np.zeros((n, self.nv)) if qvel is None else np.atleast_2d(qvel)
-        out = np.concatenate([pos, vel], axis=1)
+        out = np.zeros((n, 2 * self.nv))
+        out[:, 0:3] = qpos[:, 0:3]
+        q = qpos[:, self._rot_q]  # (n, blocks, 4): base orientation first
+        q[:, 0] = q[:, 0] @ self._left_conj.T  # relative to the anchor
+        out[:, self._rot_x] = _quat_to_rotvec(q.reshape(-1, 4)).reshape(n, -1, 3)
+        out[:, self._hd] = qpos[:, self._hq]
+        if qvel is not None:
+            out[:, self.nv:] = np.atleast_2d(qvel)
         return out[0] if single else out
 
     def to_mujoco(self, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``qpos``, ``qvel`` of one body state."""
-        pos, vel = xb[: self.nv], xb[self.nv:]
-        qpos = np.zeros(self.nq)
-        qpos[0:3] = pos[0:3]
-        qpos[3:7] = _qmul(self.anchor, _rotvec_to_quat(pos[None, 3:6])[0])
-        if len(self._bq):
-            qpos[self._bq[:, None] + np.arange(4)] = _rotvec_to_quat(pos[self._bd[:, None] + np.arange(3)])
-        qpos[self._hq] = pos[self._hd]
-        return qpos, vel.copy()
+        qpos = np.empty(self.nq)
+        qpos[0:3] = xb[0:3]
+        q = _rotvec_to_quat(xb[self._rot_x])
+        q[0] = self._left @ q[0]
+        qpos[self._rot_q] = q
+        qpos[self._hq] = xb[self._hd]
+        return qpos, xb[self.nv:2 * self.nv].copy()
 
     def _tangent_map(self, xb: np.ndarray, inverse: bool) -> np.ndarray:
         """Per rotation block, ``dx/dtangent`` (``inverse=False`` gives Jr^-1) or its inverse."""
@@ -245,15 +254,13 @@ class MujocoBody:
         # Tangent -> minimal coordinates: rows by Jr^-1 at the next state, columns by Jr at this one.
         self._load(xb, ub, k)
         mujoco.mj_step(self.mj, self.data)
-        xn = self.to_state(self.data.qpos, self.data.qvel)
-        out_map = self._tangent_map(xn, inverse=False)  # Jr^-1(r')
+        xn = self.to_state(self.data.qpos)
+        out_map = self._tangent_map(xn, inverse=False)  # Jr^-1(r'), (blocks, 3, 3)
         in_map = self._tangent_map(xb, inverse=True)  # Jr(r)
-        idx = self._rot[:, None] + np.arange(3)
-        for blk in range(len(self._rot)):
-            rows = idx[blk]
-            A[rows, :] = out_map[blk] @ A[rows, :]
-            B[rows, :] = out_map[blk] @ B[rows, :]
-            A[:, rows] = A[:, rows] @ in_map[blk]
+        idx = self._rot_x
+        A[idx] = np.einsum("bij,bjn->bin", out_map, A[idx])
+        B[idx] = np.einsum("bij,bjn->bin", out_map, B[idx])
+        A[:, idx] = np.einsum("nbi,bij->nbj", A[:, idx], in_map)
         return A, B
 
     def linearize(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -267,11 +274,15 @@ class MujocoBody:
         return fx, fu
 
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
-        """The window's linearizations; with ``workers > 1`` steps are split over threads, each with its
-        own copy of the part (MuJoCo releases the GIL inside its functions)."""
+        """The window's linearizations. With ``stride > 1`` MuJoCo's finite differences are taken at
+        every ``stride``-th step and the last, and linearly interpolated in between (the derivative
+        interpolation of Han et al. 2016, which the paper's solver uses). With ``workers > 1`` the
+        steps are split over threads, each with its own copy of the part (MuJoCo releases the GIL
+        inside its functions)."""
         n = len(U)
-        if self.workers <= 1 or n < 2:
-            pairs = [self.linearize(X[i], U[i], k0 + i) for i in range(n)]
+        at = np.unique(np.r_[np.arange(0, n, max(1, self.stride)), n - 1]) if n else np.zeros(0, int)
+        if self.workers <= 1 or len(at) < 2:
+            pairs = [self.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in at]
         else:
             from concurrent.futures import ThreadPoolExecutor
 
@@ -279,12 +290,26 @@ class MujocoBody:
                 self._pool = ThreadPoolExecutor(self.workers)
                 self._clones = [self._clone() for _ in range(self.workers)]
             for c in self._clones:
-                c.anchor, c.stack, c.xs, c.us = self.anchor, self.stack, self.xs, self.us
-            chunks = np.array_split(np.arange(n), self.workers)
-            parts = self._pool.map(lambda a: [a[0].linearize(X[i], U[i], k0 + i) for i in a[1]],
+                c.set_anchor(self.anchor)
+                c.forces = self.forces
+            chunks = np.array_split(at, self.workers)
+            parts = self._pool.map(lambda a: [a[0].linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in a[1]],
                                    zip(self._clones, chunks))
             pairs = [p for chunk in parts for p in chunk]
-        return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+        A = np.stack([p[0] for p in pairs])
+        B = np.stack([p[1] for p in pairs])
+        if len(at) < n:  # interpolate between the differentiated steps
+            j = np.clip(np.searchsorted(at, np.arange(n), side="right") - 1, 0, len(at) - 2)
+            w = ((np.arange(n) - at[j]) / (at[j + 1] - at[j]))[:, None, None]
+            A = (1 - w) * A[j] + w * A[j + 1]
+            B = (1 - w) * B[j] + w * B[j + 1]
+        if self.stack is None:
+            return A, B
+        fx = np.zeros((n, self.nx, self.stack.nx))
+        fu = np.zeros((n, self.nx, self.stack.nu))
+        fx[:, :, self.xs] = A
+        fu[:, :, self.us] = B
+        return fx, fu
 
     def _clone(self) -> "MujocoBody":
         import copy
@@ -292,5 +317,5 @@ class MujocoBody:
 
         twin = copy.copy(self)
         twin.data = mujoco.MjData(self.mj)
-        twin.workers, twin._pool = 1, None
+        twin.workers, twin._pool, twin._clones = 1, None, []
         return twin

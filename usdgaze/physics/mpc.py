@@ -79,7 +79,14 @@ class Result:
 
 
 def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: float) -> np.ndarray:
-    """Controls ``(K, nu)`` whose torques realize the reference's accelerations (root residual dropped)."""
+    """Controls ``(K, nu)`` whose torques realize the reference's accelerations (root residual dropped),
+    clipped to the motors' strengths (``|u| <= 1``, the gear being a human peak torque).
+
+    The clip matters where the reference is not feasible for the model: where it puts a thigh or a
+    toe several centimetres into the ground (CMU 131_01's lunge at 3.2 s), soft contacts turn that
+    penetration into kilonewtons and the unclipped torques (up to 17 times a peak) would start the
+    window's last step from a blow-up the solver cannot recover from.
+    """
     import mujoco
 
     d = mujoco.MjData(plan.mj)
@@ -90,7 +97,7 @@ def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: f
         d.qacc[:] = (qvel[min(k + 1, len(qvel) - 1)] - qvel[k]) / h
         mujoco.mj_inverse(plan.mj, d)
         out[k] = d.qfrc_inverse[6:] / gear
-    return out
+    return np.clip(out, -1.0, 1.0)
 
 
 def joint_errors_deg(model: BodyModel, qpos: np.ndarray, ref: np.ndarray) -> np.ndarray:
@@ -162,6 +169,10 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
             mpc.U[-1] = pad(k + n - 1)
             u, sol = mpc.step(plan, cost, x, k)
             mpc.options = ddp.Options(max_iter=options.iterations, **solver)
+            if mpc.mu >= mpc.options.mu_max:
+                # A solve that ended at the regularization's ceiling took no step; the next window is
+                # another problem (a new state, one more reference step), so it starts afresh.
+                mpc.mu = mpc.options.mu_init
             costs.append([float(c) for c in sol.costs])
             xn = sim.step(x, u, k)
             if not np.all(np.isfinite(xn)):

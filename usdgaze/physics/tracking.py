@@ -153,3 +153,69 @@ class BodyTracking:
         lxx = np.zeros((len(x), len(x)))
         lx[self.dyn.xs], lxx[self.dyn.xs, self.dyn.xs] = lxb, lxxb
         return lx, lxx
+
+    # -- batched over a window (the solver uses these when present) ------------------------------
+    def _window(self, X: np.ndarray, k0: int, jac: bool):
+        """State errors ``(n, 2nv)``, head-vector errors ``(n, 3)`` and their Jacobians in the state's
+        coordinates ``(n, 3, nv)`` (None unless ``jac``) of the body states ``X[:, xs]``."""
+        import mujoco
+
+        dyn, d = self.dyn, self.data
+        Xb = X[:, dyn.xs]
+        n = len(Xb)
+        ref = np.stack([self.ref_state(k0 + i) for i in range(n)])
+        last = len(self.ref_o) - 1
+        ref_o = self.ref_o[np.clip(k0 + np.arange(n), 0, last)]
+        o = np.empty((n, 3))
+        J = np.zeros((n, 3, dyn.nv)) if jac else None
+        jr = np.zeros((3, dyn.nv))
+        for i in range(n):
+            d.qpos[:], _ = dyn.to_mujoco(Xb[i])
+            mujoco.mj_kinematics(dyn.mj, d)
+            o[i] = d.xpos[self.head] - d.xpos[1]
+            if jac:
+                mujoco.mj_comPos(dyn.mj, d)
+                mujoco.mj_jacBody(dyn.mj, d, J[i], None, self.head)
+                mujoco.mj_jacBody(dyn.mj, d, jr, None, 1)
+                J[i] -= jr
+        if jac:  # d(tangent)/dx = Jr(r) per rotation block
+            rot = dyn._rot_x
+            maps = _jr(Xb[:, rot].reshape(-1, 3), inverse=False).reshape(n, len(rot), 3, 3)
+            J[:, :, rot] = np.einsum("nkbi,nbij->nkbj", J[:, :, rot], maps)
+        return Xb - ref, o - ref_o, J
+
+    def _state_cost(self, E: np.ndarray, Eo: np.ndarray) -> np.ndarray:
+        return np.einsum("nj,j,nj->n", E, self.wx, E) + self.w.w_trk * self.w.head * np.einsum("nj,nj->n", Eo, Eo)
+
+    def cost_batch(self, X, U, k0):
+        E, Eo, _ = self._window(X, k0, jac=False)
+        Ub = U[:, self.dyn.us]
+        return self._state_cost(E, Eo) + np.einsum("nj,j,nj->n", Ub, self.wu, Ub)
+
+    def total_batch(self, X, U, k0):
+        """Running costs of ``X[:-1]``, ``U`` plus the terminal cost of ``X[-1]``, in one pass."""
+        E, Eo, _ = self._window(X, k0, jac=False)
+        c = self._state_cost(E, Eo)
+        Ub = U[:, self.dyn.us]
+        return float(np.sum(c[:-1]) + np.einsum("nj,j,nj->", Ub, self.wu, Ub) + self.w.terminal * c[-1])
+
+    def derivs_batch(self, X, U, k0):
+        dyn = self.dyn
+        n, nx, nu, nv = len(U), X.shape[1], U.shape[1], dyn.nv
+        E, Eo, J = self._window(X[:n], k0, jac=True)
+        wo = self.w.w_trk * self.w.head
+        xs, us = dyn.xs, dyn.us
+        lx = np.zeros((n, nx))
+        lx[:, xs] = 2 * self.wx * E
+        lx[:, xs.start:xs.start + nv] += 2 * wo * np.einsum("nki,nk->ni", J, Eo)
+        lxx = np.zeros((n, nx, nx))
+        b = np.arange(xs.start, xs.stop)
+        lxx[:, b, b] = 2 * self.wx
+        top = slice(xs.start, xs.start + nv)
+        lxx[:, top, top] += 2 * wo * np.einsum("nki,nkj->nij", J, J)
+        lu = np.zeros((n, nu))
+        luu = np.zeros((n, nu, nu))
+        lu[:, us] = 2 * self.wu * U[:, us]
+        c = np.arange(us.start, us.stop)
+        luu[:, c, c] = 2 * self.wu
+        return lx, lu, lxx, luu, np.zeros((n, nu, nx))
