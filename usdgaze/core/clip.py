@@ -79,7 +79,16 @@ class SkelClip:
         hits = np.flatnonzero(self.anim_to_skel == joint)
         if len(hits):
             a = hits[0]
-            return (self.translations[:, a].astype(float), self.rotations[:, a].astype(float),
-                    self.scales[:, a].astype(float))
+            return (_column(self.translations[:, a]), self.rotations[:, a].astype(float),
+                    _column(self.scales[:, a]))
         t, q, s = rot.decompose_tr(self.rest_local[joint])
-        return np.tile(t, (f, 1)), np.tile(q, (f, 1)), np.tile(s, (f, 1))
+        return np.broadcast_to(t, (f, 3)), np.broadcast_to(q, (f, 4)), np.broadcast_to(s, (f, 3))
+
+
+def _column(values: np.ndarray) -> np.ndarray:
+    """One joint's samples ``(F, 3)`` as float64; a column whose every sample has the same bits (a bone
+    length, a unit scale) as a read-only broadcast of its first row instead of F copies of it."""
+    bits = values.view(np.dtype(f"u{values.dtype.itemsize}"))
+    if len(values) and np.array_equal(bits, np.broadcast_to(bits[0], bits.shape)):
+        return np.broadcast_to(values[0].astype(float), values.shape)
+    return values.astype(float)

@@ -105,9 +105,18 @@ def from_rotvec(r: np.ndarray) -> np.ndarray:
     return np.concatenate([r * k, np.cos(half)], axis=-1)
 
 
+_ROWS = 1 << 16  # quaternions per step where a whole-array computation would make large temporaries
+
+
 def angle(q: np.ndarray) -> np.ndarray:
-    """Rotation angle in radians, in [0, pi]."""
-    return np.linalg.norm(to_rotvec(q), axis=-1)
+    """Rotation angle in radians, in [0, pi]; computed in steps of rows, so a long clip's temporaries
+    stay small (each row's value is the same either way)."""
+    q = np.asarray(q, dtype=float)
+    flat = q.reshape(-1, 4)
+    out = np.empty(len(flat))
+    for lo in range(0, len(flat), _ROWS):
+        out[lo:lo + _ROWS] = np.linalg.norm(to_rotvec(flat[lo:lo + _ROWS]), axis=-1)
+    return out.reshape(q.shape[:-1])
 
 
 def power(q: np.ndarray, s: np.ndarray) -> np.ndarray:

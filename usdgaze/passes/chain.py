@@ -47,7 +47,7 @@ class Rig:
         f = len(self.clip.times)
         if j < len(self.clip.joints):
             return self.clip.local_trs(j)
-        return np.tile(self.added_t[j], (f, 1)), np.tile(rot.IDENTITY, (f, 1)), np.ones((f, 3))
+        return np.broadcast_to(self.added_t[j], (f, 3)), np.broadcast_to(rot.IDENTITY, (f, 4)), np.broadcast_to(1.0, (f, 3))
 
 
 def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Rig:

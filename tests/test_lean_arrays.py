@@ -1,0 +1,51 @@
+"""Memory-lean forms give the same numbers: constant joint columns as broadcasts, angles in steps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.usd import skelio
+from usdgaze.usd.stage import open_stage
+
+CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_02.usdc"
+
+
+def _clip():
+    stage = open_stage(str(CMU))
+    root = stage.GetPrimAtPath("/root/Body")
+    return skelio.read_clip(stage, stage.GetPrimAtPath("/root/Body/BodySkel"), root, str(CMU))
+
+
+def test_local_trs_values_are_the_samples_bit_for_bit():
+    clip = _clip()
+    broadcasts = 0
+    for j in range(len(clip.joints)):
+        t, q, s = clip.local_trs(j)
+        hits = np.flatnonzero(clip.anim_to_skel == j)
+        if not len(hits):
+            continue
+        a = hits[0]
+        for got, column in ((t, clip.translations[:, a]), (q, clip.rotations[:, a]), (s, clip.scales[:, a])):
+            want = column.astype(float)
+            assert got.shape == want.shape and np.array_equal(got.view(np.uint64), want.view(np.uint64))
+        broadcasts += s.strides[0] == 0
+    assert broadcasts == len(clip.joints)  # CMU's scales are constant: one row each, not F copies
+
+
+def test_a_column_with_signed_zeros_is_not_taken_for_constant():
+    clip = _clip()
+    a = 1
+    clip.translations = clip.translations.copy()
+    clip.translations[:, a] = 0.0
+    clip.translations[7, a, 0] = -0.0  # equal to 0.0, other bits: must come back as it is
+    t, _, _ = clip.local_trs(int(clip.anim_to_skel[a]))
+    assert t.strides[0] != 0 and np.signbit(t[7, 0]) and not np.signbit(t[6, 0])
+
+
+def test_angle_in_steps_equals_the_whole_array_computation():
+    q = np.random.default_rng(4).normal(size=(rot._ROWS + 123, 5, 4))
+    assert np.array_equal(rot.angle(q), np.linalg.norm(rot.to_rotvec(q), axis=-1))
+    assert rot.angle(q[0, 0]).shape == ()
