@@ -89,7 +89,11 @@ def test_batch_runs_every_shot_keeps_failures_to_their_shot_and_resumes(tmp_path
     manifest = _tree(tmp_path, THREE)
     hashes = {p.name: measure.sha256(p) for p in tmp_path.iterdir() if p.is_file()}
 
+    from pxr import Work
+
+    threads = Work.GetConcurrencyLimit()
     assert main(["batch", str(manifest)]) == 2  # one bad shot: bad-input exit code, the others ran
+    assert Work.GetConcurrencyLimit() == threads  # one thread while the shots ran in-process, as before after
     first = _summary(manifest)
     assert _status(first) == {"shot": "done", "walk2": "done", "bad": "bad input"}
     bad = next(r for r in first["shots"] if r["name"] == "bad")
@@ -171,6 +175,8 @@ def test_local_pool_runs_shots_in_two_worker_processes(tmp_path):
     assert summary["mode"] == "2 workers" and summary["counts"]["done"] == 3
     workers = {r["worker"] for r in summary["shots"]}
     assert 1 <= len(workers) <= 2 and all(not w.endswith(f":{os.getpid()}") for w in workers)
+    for r in summary["shots"]:  # one thread per worker: a shot's CPU time never exceeds its wall time
+        assert 0 < r["cpu_seconds"] <= r["seconds"] * 1.05 + 0.02, r
 
 
 def _deadline(folder: Path) -> tuple[dict, dict]:
