@@ -85,11 +85,43 @@ def _best_interleaved(cmds: dict[str, list[str]], runs: int, **kw) -> dict[str, 
 
 # -- start-up ----------------------------------------------------------------------------------------
 
+# The least any numpy tool does for the apply below, without usdgaze: import what a UsdSkel tool
+# imports, open the stage (USD builds its schema registry), and copy the animation the pass overrides
+# with Sdf through numpy (read every sample, write a new layer, export it).
+_TOOL_FLOOR = r"""
+import sys
+import numpy as np
+from pxr import Sdf, Usd, UsdGeom, UsdSkel, Vt
+src, out, prim_path = sys.argv[1:4]
+stage = Usd.Stage.Open(src)
+source = Sdf.Layer.OpenAsAnonymous(src)
+layer = Sdf.Layer.CreateAnonymous("floor.usdc")
+kinds = {"rotations": (Vt.QuatfArray, Sdf.ValueTypeNames.QuatfArray),
+         "translations": (Vt.Vec3fArray, Sdf.ValueTypeNames.Float3Array),
+         "scales": (Vt.Vec3hArray, Sdf.ValueTypeNames.Half3Array)}
+with Sdf.ChangeBlock():
+    prim = Sdf.CreatePrimInLayer(layer, prim_path)
+    prim.specifier = Sdf.SpecifierOver
+    for name, (vt, type_name) in kinds.items():
+        path = Sdf.Path(prim_path).AppendProperty(name)
+        times = source.ListTimeSamplesForPath(path)
+        if not times:
+            continue
+        values = np.stack([np.asarray(source.QueryTimeSample(path, t)) for t in times])
+        spec = Sdf.AttributeSpec(prim, name, type_name)
+        for t, row in zip(times, values):
+            layer.SetTimeSample(spec.path, t, vt.FromNumpy(row))
+layer.Export(out)
+"""
+
+
 def startup(work: Path, runs: int) -> dict:
     usdgaze = [PY, "-m", "usdgaze"]
     cmds = {
         "python -c 'from pxr import Usd'": [PY, "-c", "from pxr import Usd"],
         "+ UsdGeom, UsdSkel, numpy imported": [PY, "-c", "from pxr import Usd, UsdGeom, UsdSkel; import numpy"],
+        "+ stage opened, animation Sdf-copied": [PY, "-c", _TOOL_FLOOR, str(CMU), str(work / "floor.usdc"),
+                                                 "/root/Body/BodySkel/scaled_131_02"],
         "usdgaze --help": [*usdgaze, "--help"],
         "usdgaze apply cmu_131_02 (1 shift)": [*usdgaze, "apply", str(CMU), "--shift", "2s:60:0",
                                                "--out", str(work / "startup.usdc")],
@@ -99,7 +131,8 @@ def startup(work: Path, runs: int) -> dict:
     best = _best_interleaved(cmds, runs)
     floor = best["python -c 'from pxr import Usd'"]
     print(f"\n[start-up] whole processes, best of {runs}, interleaved, bytecode cached")
-    goals = ("", "(what any UsdSkel tool in numpy imports)", "(goal <= 1.3x)", "(goal <= 1.6x)")
+    goals = ("", "(what a UsdSkel tool in numpy imports)", "(the least such a tool does for this shot)",
+             "(goal <= 1.3x)", "(goal <= 1.6x)")
     for (name, t), goal in zip(best.items(), goals):
         print(f"  {name:38s} {t * 1e3:8.1f} ms   {t / floor:5.2f}x {goal}")
     return best
@@ -167,25 +200,28 @@ def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
         shifts = _shifts(frames / 60.0)
         out = work / f"walk_{frames}_gaze.usdc"
         api.apply(rig.path, shifts, out)  # warm-up
-        best = np.inf
+        best, cpu = np.inf, np.inf
         for _ in range(runs):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             api.apply(rig.path, shifts, out)
-            best = min(best, time.perf_counter() - t0)
+            best, cpu = min(best, time.perf_counter() - t0), min(cpu, time.process_time() - c0)
         n = len(rig.anim_joints) if hasattr(rig, "anim_joints") else joints
         arrays = frames * n * (16 + 12 + 6)
         mem = _memory(rig.path, work / "mem.usdc", shifts, trace=False)
         traced = _memory(rig.path, work / "mem.usdc", shifts, trace=True)
         floor = _memory(rig.path, work / "floor.usdc", shifts, trace=False, floor_of=out)
-        results[frames] = dict(seconds=best, per_jf=best / (frames * n), arrays=arrays, made=made, joints=n,
+        results[frames] = dict(seconds=best, per_jf=best / (frames * n), cpu_jf=cpu / (frames * n), arrays=arrays, made=made, joints=n,
                                rss=mem["peak_rss"] - mem["rss0"], anon=mem["anon"], traced=traced["peak_trace"],
                                floor_rss=floor["peak_rss"] - floor["rss0"], floor_anon=floor["anon"])
         os.unlink(rig.path)
     first = results[lengths[0]]["per_jf"]
     print(f"\n[scaling] gaze pass in-process (4 shifts, read + model + write), best of {runs}")
-    print("  frames     joints   pass (s)   ns/joint-frame   vs shortest")
+    first_cpu = results[lengths[0]]["cpu_jf"]
+    print("  (CPU = this process's user + sys, which other jobs' load changes least)")
+    print("  frames     joints   pass (s)   ns/joint-frame   vs shortest   CPU ns/joint-frame   vs shortest")
     for frames, r in results.items():
-        print(f"  {frames:8d} {r['joints']:8d} {r['seconds']:10.3f} {r['per_jf'] * 1e9:14.1f} {r['per_jf'] / first:12.2f}x")
+        print(f"  {frames:8d} {r['joints']:8d} {r['seconds']:10.3f} {r['per_jf'] * 1e9:14.1f} {r['per_jf'] / first:12.2f}x"
+              f" {r['cpu_jf'] * 1e9:18.1f} {r['cpu_jf'] / first_cpu:12.2f}x")
     print("\n[memory] fresh process per length, peaks above the state after imports (goal <= 2x the arrays)")
     print("  RSS counts the input file's pages USD maps in; anonymous RSS is heap only (arrays, USD layer data);")
     print("  tracemalloc counts numpy and Python allocations")
