@@ -111,6 +111,9 @@ def test_uncertainty_cost_switches_back_and_forth(two_balls):
         mid = np.linalg.norm(g.sight - 0.5 * (b1 + b2), axis=1)[whole]
         half = 0.5 * np.linalg.norm(b1 - b2, axis=1)[whole]
         assert np.median(mid / half) > 0.8, n  # at a ball, half their separation from the midpoint (1.0)
+        # and in depth too: the eyes' vergence point a median few cm from the ball they fixate
+        gap = np.stack([np.linalg.norm(g.sight - b1, axis=1), np.linalg.norm(g.sight - b2, axis=1)], 1)[whole]
+        assert np.median(gap[np.arange(len(on)), np.maximum(on, 0)][on >= 0]) < 0.15, n  # 0.02, 0.06 (seeds 0, 1)
         switches.append(_switches(on))
     assert min(switches) >= 2 and np.median(switches) >= 3, switches
 
