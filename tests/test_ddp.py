@@ -141,6 +141,20 @@ def test_receding_horizon_regulates_to_the_lqr_closed_loop():
         ddp.RecedingHorizon(horizon=1, nu=1)
 
 
+def test_a_receding_horizon_started_over_regularized_recovers():
+    """A window that ends 'converged' only because a huge mu made its steps negligible must not hand
+    that mu on for good: the driver then never takes a step again (it shrinks mu only after a step)."""
+    A, B, Q, R = _double_integrator()
+    prob = LinearQuadratic(A, B, Q, R, solve_discrete_are(A, B, Q, R))
+    mpc = ddp.RecedingHorizon(horizon=10, nu=1, options=ddp.Options(mu_init=1e9, mu_min=1e-6, tol=1e-3))
+    x, steps = np.array([1.0, 0.0]), []
+    for k in range(40):
+        u, sol = mpc.step(prob, prob, x, k)
+        steps.append(len(sol.costs) - 1)
+        x = prob.step(x, u, k)
+    assert steps[0] == 0 and sum(steps[20:]) > 0 and abs(x[0]) < 0.5
+
+
 def _fd(f, x, eps=1e-6):
     cols = [(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in np.eye(len(x))]
     return np.stack(cols, axis=-1)

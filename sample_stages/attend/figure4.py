@@ -3,7 +3,8 @@
     python sample_stages/attend/figure4.py OUT_FOLDER [--window 0.6] [--seed 0]
 
 Runs ``usdgaze attend`` on two_balls.usda with the distance-sum, sequential and uncertainty costs
-(and the uncertainty cost with the paper's alpha read literally as a variance per step), and on
+(and the uncertainty cost with the paper's alpha read literally as a variance per step, and with three
+more seeds of the observation noise), and on
 ball_throw.usda with alpha 0, 0.2 and 0.4; reads back each written layer's point of sight
 (``gaze:attend:pointOfSight``), estimates, and the balls' true positions, prints per run the share of
 frames the line of sight is within 5 deg of each ball, the switches between balls, the fixation
@@ -103,10 +104,15 @@ def main() -> None:
         out = args.out / f"ball_throw_alpha{alpha:g}.usdc"
         attend(one, out, settings=AttendSettings(alpha=alpha, window_s=args.window, seed=args.seed))
         runs.append((f"one ball, alpha {alpha:g}", *_read(out, one, ["/Objects/Ball"])))
+    extra = []  # the uncertainty cost under other observation-noise seeds (its switching is a close call)
+    for seed in range(args.seed + 1, args.seed + 4):
+        out = args.out / f"two_balls_uncertainty_seed{seed}.usdc"
+        attend(two, out, settings=AttendSettings(window_s=args.window, seed=seed))
+        extra.append((f"two balls, uncertainty, seed {seed}", *_read(out, two, ["/Objects/BallLeft", "/Objects/BallRight"])))
     origin = _eyes()
-    for name, secs, pos, tracks, est in runs:
+    for name, secs, pos, tracks, est in runs + extra:
         _summary(name, secs, pos, tracks, origin, est)
-    _draw(runs, args.out / "figure4.png")
+    _draw(runs[:3] + extra[:1] + runs[3:], args.out / "figure4.png")  # 4c under a second seed beside it
     print(f"wrote {args.out / 'figure4.png'}")
 
 

@@ -223,6 +223,9 @@ def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0
                 continue
             kff, K_new, d1, d2 = back
             if -(d1 + d2) < opt.tol * max(abs(J), 1e-12):  # nothing left to gain: converged
+                # ... at this regularization: relax it for the next solve, or a large mu that made the
+                # steps tiny would be kept by every later window (it shrinks only after a step)
+                mu = max(mu * opt.mu_shrink, opt.mu_min)
                 break
             for alpha in opt.alphas:
                 expected = -(alpha * d1 + alpha * alpha * d2)

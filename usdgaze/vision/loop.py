@@ -36,6 +36,8 @@ from usdgaze.vision.costs import AttendCost, Weights
 MODES = ("uncertainty", "distance", "sequential")
 LOCK_AFTER_STEPS = 8
 PROPOSE_EVERY = 4  # planner steps between look-at proposals (100 ms), and whenever the slots change
+PROPOSAL_MARGIN = np.array([np.radians(2.0), np.radians(2.0), 0.5])  # inside the eye range (rad, rad, mm)
+PROPOSAL_SPEED = 0.97  # of the speed bound
 
 
 @dataclass
@@ -161,13 +163,15 @@ def _look_at_controls(stack, X: np.ndarray, U: np.ndarray, k0: int, target: np.n
     p, R = sight._poses(X, k0)
     local = np.einsum("nji,nj->ni", R, target - p)
     want = np.column_stack([eyemod.angles_for(local), eyemod.zeta_for(np.linalg.norm(local, axis=1))])
-    want = np.clip(want, eyemod.LO, eyemod.HI)
+    # Just inside the range and the speed bound: the cost's soft bounds already charge the edge itself
+    # (smax(0) = gamma / 2), which would price a proposal that only touches them above the warm start.
+    want = np.clip(want, eyemod.LO + PROPOSAL_MARGIN, eyemod.HI - PROPOSAL_MARGIN)
     h = eye.h
     out = U.copy()
     e = X[0, eye.xs].copy()
     for i in range(len(U)):
         de = (want[i + 1] - e) / h
-        bound = float(eyemod.speed_bound((k0 + i) * h))
+        bound = PROPOSAL_SPEED * float(eyemod.speed_bound((k0 + i) * h))
         speed = np.hypot(de[0], de[1])
         if speed > bound:
             de[:2] *= bound / speed
