@@ -168,3 +168,18 @@ def test_a_ball_from_behind_is_neither_looked_at_nor_reached_for_before_it_is_in
         palm = 0.5 * (posed.position(f"{side}Wrist") + posed.position(f"{side[0].lower()}hand"))
         d = np.linalg.norm(palm - arrival, axis=1)
         assert (d[0] - d[before]).max() < 0.02
+
+
+def test_a_catch_naming_no_object_is_one_line_and_writes_nothing(tmp_path, capsys):
+    from usdgaze.console.main import main
+
+    start, arrival, flight = cs.seeded_throw(0)
+    src = cs.throw_stage(tmp_path / "t.usda", start, arrival, flight, 0.1)
+    layer = Sdf.Layer.FindOrOpen(str(src))
+    layer.GetRelationshipAtPath(f"{cs.SKEL_ROOT}.usdgaze:physics:catch").targetPathList.explicitItems = [
+        Sdf.Path("/Objects")]
+    layer.Save()
+    assert main(["attend", str(src), "--out", str(tmp_path / "o.usda"), "--physics"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "usdgaze:physics:catch" in err[0] and "</Objects> is not an object" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.usda"]
