@@ -100,6 +100,9 @@ def run_catch(opts: mpc.Options, seeds=range(5)) -> list[dict]:
                          "hand_to_ball_at_arrival_cm": round(100 * m["at_arrival"], 1),
                          "nearest_cm": round(100 * float(m["distance"].min()), 1), "fell": reports[0].fell,
                          "wall_s": round(wall, 1), "fps_at_30": round(30 * sim_s / wall, 2)})
+            print(json.dumps(rows[-1]), flush=True)
+    near = [r for r in rows if r["throw"] != "behind" and r["hand_to_ball_at_arrival_cm"] <= 10.0]
+    print(f"catch: {len(near)} of {len(rows) - 1} front throws within 10 cm at arrival (bar: >= 4 of 5)", flush=True)
     return rows
 
 
@@ -119,8 +122,7 @@ def main() -> None:
     rows = []
     for task in a.tasks.split(","):
         if task == "catch":
-            for row in run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)):
-                print(json.dumps(row), flush=True)
+            run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])

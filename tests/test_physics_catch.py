@@ -132,12 +132,10 @@ def test_a_ball_from_the_front_is_watched_and_the_hand_goes_to_it(tmp_path):
     eyes, sight = _gaze(posed)
     to_ball = ball - eyes
     off = measure.angle_between(sight, to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
-    fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
-    head_off = measure.angle_between(posed.axis("Head", measure.local_forward(posed, "Head", fwd)),
-                                     to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
     flying = m["secs"] < throw[2]
-    # The eyes follow the ball (the head alone, looking ahead, is tens of degrees off it).
-    assert np.median(off[flying]) < 10.0 and np.median(off[flying]) < 0.5 * np.median(head_off[flying])
+    # The eyes are on the ball while it is far, and near it in the last, fast part of its approach
+    # (at 1-2 m its direction turns faster than the 100 deg/s pursuit between saccade windows).
+    assert off[m["secs"] < 0.5 * throw[2]].max() < 10.0 and np.median(off[flying]) < 10.0
     ref = cs.catch_measures(src, src, tmp_path, throw[2])  # the reference itself: arms down
     assert m["at_arrival"] < 0.10 < 0.3 < ref["at_arrival"]  # the reference keeps its arms down
     layer = Sdf.Layer.FindOrOpen(str(out))
@@ -168,3 +166,18 @@ def test_a_ball_from_behind_is_neither_looked_at_nor_reached_for_before_it_is_in
         palm = 0.5 * (posed.position(f"{side}Wrist") + posed.position(f"{side[0].lower()}hand"))
         d = np.linalg.norm(palm - arrival, axis=1)
         assert (d[0] - d[before]).max() < 0.02
+
+
+def test_a_catch_naming_no_object_is_one_line_and_writes_nothing(tmp_path, capsys):
+    from usdgaze.console.main import main
+
+    start, arrival, flight = cs.seeded_throw(0)
+    src = cs.throw_stage(tmp_path / "t.usda", start, arrival, flight, 0.1)
+    layer = Sdf.Layer.FindOrOpen(str(src))
+    layer.GetRelationshipAtPath(f"{cs.SKEL_ROOT}.usdgaze:physics:catch").targetPathList.explicitItems = [
+        Sdf.Path("/Objects")]
+    layer.Save()
+    assert main(["attend", str(src), "--out", str(tmp_path / "o.usda"), "--physics"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "usdgaze:physics:catch" in err[0] and "</Objects> is not an object" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.usda"]

@@ -6,7 +6,8 @@
 * ``standing.usdc``: an override holding the first frame of cmu_131_01 for 2 s at 30 fps (a
   standing character), sublayered by the two ball stages;
 * ``ball_throw.usda``: one ball flying at the standing character from the first frame (from 8 m),
-  arriving at chest height at 1.4 s;
+  arriving at chest height at 1.4 s (the SkelRoot's ``usdgaze:physics:catch`` names it:
+  ``attend --physics`` catches it);
 * ``two_balls.usda``: two balls flying together from the front-left and front-right (from 7 m),
   arriving at 1.3 and 1.4 s;
 * ``stepping_stones.usda``: the cmu_131_01 walk, a stone at each footfall (found from the toes'
@@ -162,6 +163,9 @@ def main() -> None:
     # ball held still and then launched is not one (a filter with the paper's small process noise
     # would lag the launch).
     _ball(layer, "/Objects/Ball", codes, _throw(head + 8 * fwd + 1.5 * left - 0.2 * up, chest, 1.4, 0.0, secs), 0.11, "ballistic")
+    body = Sdf.CreatePrimInLayer(layer, "/root/Body")  # the ball to catch under `attend --physics`
+    rel = Sdf.RelationshipSpec(body, "usdgaze:physics:catch", custom=False)
+    rel.targetPathList.explicitItems = [Sdf.Path("/Objects/Ball")]
     layer.Save()
 
     layer = _new_layer(HERE / "two_balls.usda", subs, codes[0], codes[-1], tcps)

@@ -154,6 +154,8 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
             last_slots = slots
             u, sol = solver.step(prob.stack, prob.cost, x, k)
             solver.options = ddp.Options(max_iter=bo.iterations)
+            if solver.mu >= solver.options.mu_max:  # no step taken: the next window starts afresh (as mpc)
+                solver.mu = solver.options.mu_init
             costs.append([float(c) for c in sol.costs])
             vis.solves.append(costs[-1])
             xn = sim.step_body(xb, u[plan.us], k)
