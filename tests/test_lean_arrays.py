@@ -49,3 +49,19 @@ def test_angle_in_steps_equals_the_whole_array_computation():
     q = np.random.default_rng(4).normal(size=(rot._ROWS + 123, 5, 4))
     assert np.array_equal(rot.angle(q), np.linalg.norm(rot.to_rotvec(q), axis=-1))
     assert rot.angle(q[0, 0]).shape == ()
+
+
+def test_normalize_and_to_rotvec_match_their_masked_forms_bit_for_bit():
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(5000, 4))
+    q[:500] = [0.0, 0.0, 0.0, 1.0]  # identities: the small-angle branch
+    q[500:510, :3] = 1e-14
+    for batch in (q, np.concatenate([q, np.zeros((3, 4))])):  # with and without zero-length rows
+        n = np.sqrt(np.einsum("...i,...i->...", batch, batch))[..., None]
+        unit = np.divide(batch, n, out=np.zeros_like(batch), where=n > 0)
+        assert np.array_equal(rot.normalize(batch).view(np.uint64), unit.view(np.uint64))
+        u = np.where(unit[:, 3:] < 0.0, -unit, unit)
+        s = np.linalg.norm(u[:, :3], axis=-1, keepdims=True)
+        angle = 2.0 * np.arctan2(s, u[:, 3:])
+        want = u[:, :3] * np.divide(angle, s, out=np.full_like(s, 2.0), where=s > 1e-12)
+        assert np.array_equal(rot.to_rotvec(batch).view(np.uint64), want.view(np.uint64))

@@ -34,6 +34,8 @@ def normalize(q: np.ndarray) -> np.ndarray:
     """Unit quaternions (or unit vectors); zero-length inputs stay zero."""
     q = np.asarray(q, dtype=float)
     n = np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
+    if np.all(n > 0):  # the usual case: a plain division, the same values, without the masked one's cost
+        return q / n
     return np.divide(q, n, out=np.zeros_like(q), where=n > 0)
 
 
@@ -91,7 +93,9 @@ def to_rotvec(q: np.ndarray) -> np.ndarray:
     s = np.linalg.norm(v, axis=-1, keepdims=True)
     angle = 2.0 * np.arctan2(s, q[..., 3:4])
     # angle / sin(angle/2) -> 2 as the angle goes to zero
-    scale = np.divide(angle, s, out=np.full_like(s, 2.0), where=s > 1e-12)
+    small = s <= 1e-12
+    scale = angle / np.where(small, 1.0, s)
+    scale[small] = 2.0
     return v * scale
 
 
