@@ -62,15 +62,15 @@ def _summary(name, secs, pos, tracks, origin, est):
     f = secs <= ARRIVAL_S
     ang = np.stack([_angles(pos, t, origin) for t in tracks], 1)[f]
     on = np.where(ang.min(1) < FIX_DEG, ang.argmin(1), -1)
-    seq = on[on >= 0]
-    switches = int(np.sum(seq[1:] != seq[:-1]))
     runs = []  # fixation runs [ball, first frame, last frame]; a gap of up to two frames is bridged
     for k in np.flatnonzero(on >= 0):
         if runs and runs[-1][0] == on[k] and k - runs[-1][2] <= 3:
             runs[-1][2] = k
         else:
             runs.append([on[k], k, k])
-    runs = [f"{j + 1}:{secs[a]:.2f}-{secs[b]:.2f}" for j, a, b in runs if b - a >= 2]
+    runs = [r for r in runs if r[2] - r[1] >= 2]  # at least three frames (0.1 s)
+    switches = sum(x[0] != y[0] for x, y in zip(runs, runs[1:]))  # between those fixations, as the tests count
+    runs = [f"{j + 1}:{secs[a]:.2f}-{secs[b]:.2f}" for j, a, b in runs]
     shares = ", ".join(f"ball {i + 1} {100 * np.mean(on == i):3.0f}%" for i in range(len(tracks)))
     line = f"{name:30s} {shares}; switches {switches}; fixations {' '.join(runs) or 'none'}"
     if len(tracks) > 1:

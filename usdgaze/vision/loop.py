@@ -73,7 +73,7 @@ class LoopOptions:
     seed: int = 0
     max_tracked: int = 4
     drop_sigma: float = 4.0  # sigma_p above which a track is dropped (unit_m^2: 20 cm standard deviation)
-    sigma_v0: float = 10000.0  # velocity variance of a new track, in unit_m^2 / s^2: (10 m/s)^2, i.e. unknown
+    sigma_v0: float = 100.0  # velocity variance of a new track, in unit_m^2 / s^2 (1 (m/s)^2)
     unit_m: float = 0.1
     iterations: int = 3
     start_distance_m: float = 2.0
