@@ -13,9 +13,10 @@ Ours, where the paper leaves room (docs/physics.md):
   is the belief's mean.
 * Distances are taken in the ground plane: the root's height says nothing about whether a sphere
   at knee or head height meets the body, and the root cannot dodge vertically.
-* ``s_j`` is the obstacle's radius plus the body's own reach from the root in the ground plane
-  (``clearance``): with ``s_j`` the radius alone the cost is ~exp(-4) where a 25 cm sphere already
-  touches the arms, too little against the tracking of the root.
+* ``s_j`` is the obstacle's radius plus ``clearance`` (0.6 m: the arms reach ~0.35 m from the root
+  in the ground plane, plus a margin): with ``s_j`` the radius alone the cost is ~exp(-4) where a
+  25 cm sphere already touches the arms, too little against the tracking of the root. On the CMU
+  walk, 0.35 m left 5-16 cm overlaps with the arms where 0.6 m cleared every run (docs/physics.md).
 * "Four nearest" is the four largest terms (nearest relative to size), so the sum stays continuous
   when the set changes.
 
@@ -32,7 +33,7 @@ from usdgaze.physics.dynamics import MujocoBody
 W_TSK = 1.0
 NEAREST = 4
 LOOKAHEAD_S = 0.6
-CLEARANCE_M = 0.35
+CLEARANCE_M = 0.6
 
 
 class ObstacleTask:
