@@ -2,7 +2,11 @@
 
 Tasks: ``track`` follows the CMU 131_01 walk (``--seconds``, default its whole 8.3 s), ``push``
 stands through a 150 N, 0.2 s push at the chest from the character's left (the first 1.5 s of the
-clip, push at 0.5 s). Each runs pinned to 1 core and to 2 cores (finite differences of the window
+clip, push at 0.5 s); ``stones`` walks 1.0-2.5 s of it with a stone at each footfall, the right
+foot's swing stone displaced 15 cm in four directions (and, as ``stones10``, the left foot's shuffle
+stone 10 cm: four runs each), printing each toe landing's distance to its stone; ``obstacles`` walks
+1.0-2.2 s among two spheres crossing its path (``--seeds``, five by default), printing the deepest
+overlap of body and spheres with and without the controller. Each runs pinned to 1 core and to 2 cores (finite differences of the window
 split over 2 threads), one BLAS thread. Printed per run: wall time, simulated seconds per wall second,
 output frames per second at 30 fps and at the planner's 1/h, and the shot's measures (fall, lowest
 pelvis height against the reference, mean joint-angle error, deepest foot below the ground), against
@@ -51,6 +55,116 @@ def _left(model, qpos0):
     v = d.xpos[side[0] + 1] - d.xpos[side[1] + 1]
     v[2] = 0.0
     return v / np.linalg.norm(v)
+
+
+def _toes(model, qpos):
+    import mujoco
+
+    from usdgaze.physics.dynamics import MujocoBody
+    from usdgaze.physics.stones import feet
+
+    body = MujocoBody(model)
+    d = mujoco.MjData(body.mj)
+    out = []
+    for q in qpos:
+        d.qpos[:] = q
+        mujoco.mj_kinematics(body.mj, d)
+        out.append([d.xpos[toe].copy() for _, _, toe in feet(body)])
+    return np.array(out), [n for n, _, _ in feet(body)]  # (F, feet, 3)
+
+
+def _contacts(p: np.ndarray, secs: np.ndarray):
+    from usdgaze.physics.stones import contact_mask
+
+    speed = np.linalg.norm(np.gradient(p[:, :2], secs, axis=0), axis=1)
+    on = contact_mask(p[:, 2], speed, float(np.diff(secs).mean()))
+    edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
+    """One stepping-stone run: stones at the footfalls of 1.0-2.5 s, those first stood on 0.3 s after the
+    start and 0.3 s before the end displaced by ``shifts[foot]`` toward ``turn`` radians."""
+    from usdgaze.physics import stones
+
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    keep = (clip.seconds >= 1.0 - 1e-9) & (clip.seconds <= 2.5 + 1e-9)
+    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - 1.0
+    toes, names = _toes(model, qpos)
+    placed, moved = [], []
+    for f, name in enumerate(names):
+        places = []
+        for a, b in _contacts(toes[:, f], secs):
+            foot = toes[a:b, f].mean(axis=0) * [1, 1, 0]
+            near = [p for p in places if min(np.linalg.norm(foot - x) for x in p[1]) < 0.1]
+            near[0][1].append(foot) if near else places.append((secs[a], [foot]))
+        for first, feet_at in places:
+            size = shifts.get(name, 0.0) if 0.3 <= first <= secs[-1] - 0.3 else 0.0
+            placed.append(np.mean(feet_at, axis=0) + size * np.array([np.cos(turn), np.sin(turn), 0.0]))
+            moved.append(size > 0)
+    placed = np.array(placed)
+    start = time.perf_counter()
+    r = mpc.simulate(model, qpos, secs, opts, tasks=[stones.factory(placed, (qpos, secs - secs[0]))])
+    wall = time.perf_counter() - start
+    sim, _ = _toes(model, r.qpos)
+    landings = []
+    for f, name in enumerate(names):
+        for a, b in _contacts(sim[:, f], r.seconds):
+            foot = sim[a:min(b, a + 4), f].mean(axis=0)  # the first ~0.1 s on the ground
+            d = np.linalg.norm(placed[:, :2] - foot[:2], axis=1)
+            landings.append((name, round(float(r.seconds[a]), 2), bool(moved[d.argmin()]), round(float(d.min()), 3)))
+    sim_s = float(r.seconds[-1] - r.seconds[0])
+    return {"task": "stones", "fell_at_s": r.fell_at, "wall_s": round(wall, 1), "fps_at_30": round(30 * sim_s / wall, 2),
+            "landings": landings, "max_landing_m": max(x[3] for x in landings),
+            "max_on_moved_m": max([x[3] for x in landings if x[2]], default=None),
+            "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
+
+
+def run_obstacles(opts: mpc.Options, seed: int) -> dict:
+    """Two spheres (25 cm) crossing 1.0-2.2 s of the walk, each passing 0.45-0.6 m from the root at a
+    random time, direction, speed (0.6-1.4 m/s) and height (0.4-1.2 m): overlap with the body's
+    capsules with the controller and, for the reference, without."""
+    import mujoco
+
+    from usdgaze.physics import obstacles
+    from usdgaze.physics.dynamics import MujocoBody
+
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    keep = (clip.seconds >= 1.0 - 1e-9) & (clip.seconds <= 2.2 + 1e-9)
+    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - 1.0
+    rng = np.random.default_rng(seed)
+    paths = []
+    for _ in range(2):
+        tc = rng.uniform(0.4, secs[-1] - 0.2)
+        at = qpos[np.searchsorted(secs, tc), :3]
+        a = rng.uniform(0, 2 * np.pi)
+        flat = np.array([np.cos(a), np.sin(a), 0.0])
+        centre = at * [1, 1, 0] + np.array([-flat[1], flat[0], 0]) * rng.uniform(0.45, 0.6) * rng.choice([-1, 1])
+        centre[2] = rng.uniform(0.4, 1.2)
+        paths.append((centre, flat * rng.uniform(0.6, 1.4), tc))
+    radii = np.full(len(paths), 0.25)
+    at = lambda t: np.stack([c + np.outer(t - tc, v) for c, v, tc in paths], axis=1)  # noqa: E731
+    body = MujocoBody(model)
+    d = mujoco.MjData(body.mj)
+
+    def deepest(q, t):
+        out = np.inf
+        for qq, tt in zip(q, t):
+            d.qpos[:] = qq
+            mujoco.mj_kinematics(body.mj, d)
+            out = min(out, obstacles.clearance(body.mj, d, at(np.array([tt]))[0], radii))
+        return out
+
+    start = time.perf_counter()
+    r = mpc.simulate(model, qpos, secs, opts, tasks=[obstacles.factory(at, radii)])
+    wall = time.perf_counter() - start
+    sim_s = float(r.seconds[-1] - r.seconds[0])
+    return {"task": "obstacles", "seed": seed, "fell_at_s": r.fell_at, "wall_s": round(wall, 1),
+            "fps_at_30": round(30 * sim_s / wall, 2), "reference_gap_m": round(deepest(qpos, secs), 3),
+            "simulated_gap_m": round(deepest(r.qpos, r.seconds - r.seconds[0]), 3),
+            "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
 
 
 def run_task(task: str, seconds: float, opts: mpc.Options) -> dict:
@@ -114,6 +228,7 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.02)
     ap.add_argument("--horizon", type=float, default=0.6)
     ap.add_argument("--iterations", type=int, default=1)
+    ap.add_argument("--seeds", default="0,1,2,3,4")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
     from threadpoolctl import threadpool_limits
@@ -123,6 +238,14 @@ def main() -> None:
     for task in a.tasks.split(","):
         if task == "catch":
             run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))
+            continue
+        if task in ("stones", "stones10", "obstacles"):
+            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+            shifts = {"RightAnkle": 0.15} | ({"LeftAnkle": 0.10} if task == "stones10" else {})
+            runs = ([run_obstacles(opts, int(s_)) for s_ in a.seeds.split(",")] if task == "obstacles" else
+                    [run_stones(opts, shifts, turn) for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi)])
+            for row in runs:
+                print(json.dumps(row), flush=True)
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])

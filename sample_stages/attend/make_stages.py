@@ -14,8 +14,10 @@
   height and speed in the capture; each stone records ``userProperties:landing``, ``lift`` and
   ``swingStart``, the time code the foot stepping onto it leaves its previous contact); a stone's
   importance rises to 1 at the swing start before its own (the other foot leaving, in a walk) and
-  falls back to 0.05 when its foot lands (the task: see docs/attend.md);
-* ``obstacles.usda``: the cmu_131_02 walk among eight spheres crossing its path.
+  falls back to 0.05 when its foot lands (the task: see docs/attend.md); each stone is also a
+  stepping stone for the physics body (``usdgaze:physics:task = "stone"``);
+* ``obstacles.usda``: the cmu_131_02 walk among eight spheres crossing its path (``usdgaze:physics:task
+  = "obstacle"`` for the physics body).
 
 Object motion is authored as time-sampled translations at 30 fps.
 """
@@ -64,7 +66,7 @@ def _new_layer(path: Path, sublayers: list[str], start: float, end: float, tcps:
 
 
 def _ball(layer: Sdf.Layer, path: str, times: np.ndarray, pos: np.ndarray, radius: float, kind: str,
-          importance=None) -> None:
+          importance=None, task: str = "") -> None:
     group = Sdf.CreatePrimInLayer(layer, path.rsplit("/", 1)[0])
     group.specifier, group.typeName = Sdf.SpecifierDef, "Xform"
     prim = Sdf.CreatePrimInLayer(layer, path)
@@ -78,6 +80,8 @@ def _ball(layer: Sdf.Layer, path: str, times: np.ndarray, pos: np.ndarray, radiu
         Sdf.AttributeSpec(prim, "axis", Sdf.ValueTypeNames.Token).default = "Y"
     Sdf.AttributeSpec(prim, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = float(radius)
     Sdf.AttributeSpec(prim, "gaze:object:kind", Sdf.ValueTypeNames.Token).default = kind
+    if task:  # what the physics body does with it (`usdgaze attend --physics`, docs/physics.md)
+        Sdf.AttributeSpec(prim, "usdgaze:physics:task", Sdf.ValueTypeNames.Token).default = task
     imp = Sdf.AttributeSpec(prim, "gaze:object:importance", Sdf.ValueTypeNames.Float)
     if importance is None:
         imp.default = 1.0
@@ -184,7 +188,7 @@ def main() -> None:
         earlier = [w for w in swings if w < swing]
         rise = earlier[-1] if earlier else times[0]
         imp = np.where((imp_codes >= rise) & (imp_codes < land), 1.0, 0.05)
-        _ball(layer, f"/Stones/Stone{i:02d}", imp_codes, pos[None], 0.15, "static", imp)
+        _ball(layer, f"/Stones/Stone{i:02d}", imp_codes, pos[None], 0.15, "static", imp, task="stone")
         prim = layer.GetPrimAtPath(f"/Stones/Stone{i:02d}")
         for key, value in (("landing", land), ("lift", lift), ("swingStart", swing)):
             Sdf.AttributeSpec(prim, f"userProperties:{key}", Sdf.ValueTypeNames.Double).default = value
@@ -207,7 +211,7 @@ def main() -> None:
         speed = rng.uniform(0.6, 1.4) * (1 if i % 2 else -1)
         p = along + side[None] * (speed * (s2 - t_cross))[:, None]
         p[:, 1] = rng.uniform(0.4, 1.2)
-        _ball(layer, f"/Obstacles/Obstacle{i}", oc, p, 0.25, "moving")
+        _ball(layer, f"/Obstacles/Obstacle{i}", oc, p, 0.25, "moving", task="obstacle")
     layer.Save()
 
 

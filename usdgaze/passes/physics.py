@@ -11,6 +11,13 @@ Tasks authored in the stage (read at this edge, then plain arrays):
 Honest failure: when the pelvis drops below 80% of the reference's height the shot is reported as a
 fall (time of the first such frame); the layer still holds what was simulated unless ``keep_failed``
 is False, in which case nothing is written and the command fails.
+
+* stepping stones and moving obstacles: prims (GazeObjectAPI objects, so the eyes can see them) with
+  ``token usdgaze:physics:task = "stone"`` or ``"obstacle"``. A stone's position is its world
+  translation at the clip's start; an obstacle's is its animated world translation, its size the
+  object's ``gaze:object:radius`` (``usdgaze.physics.stones``, ``usdgaze.physics.obstacles``). A
+  reference contact whose toe ends up on average more than 5 cm from its stone, or a body geom
+  touching an obstacle, is reported as a problem of the shot.
 """
 
 from __future__ import annotations
@@ -27,6 +34,9 @@ from usdgaze.physics import mpc
 
 PUSH_FORCE = "usdgaze:physics:pushForce"
 PUSH_JOINT = "usdgaze:physics:pushJoint"
+TASK = "usdgaze:physics:task"
+TASKS = ("stone", "obstacle")
+STONE_TOLERANCE_M = 0.05
 
 
 @dataclass
@@ -70,6 +80,62 @@ def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
     return tuple(pushes)
 
 
+def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray) -> list:
+    """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
+    ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there)."""
+    from usdgaze.physics import obstacles, stones
+    from usdgaze.usd.objects import read_objects
+
+    prims = {kind: [] for kind in TASKS}
+    for prim in stage.Traverse():
+        attr = prim.GetAttribute(TASK)
+        if not attr or not attr.HasAuthoredValue():
+            continue
+        kind = str(attr.Get())
+        if kind not in TASKS:
+            raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: '{kind}' is not one of 'stone', 'obstacle'")
+        prims[kind].append(prim)
+    factories = []
+    rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # metres in, metres out
+    for kind, found in prims.items():
+        if not found:
+            continue
+        objs = read_objects(stage, source, found, clip.times, clip.meters_per_unit)
+        if kind == "stone":
+            frames = (ref_qpos, clip.seconds - clip.seconds[0])
+            factories.append(stones.factory(np.array([rot @ o.positions[0] for o in objs]), frames))
+            continue
+        paths = np.stack([o.positions @ rot.T for o in objs], axis=1)  # (F, J, 3)
+        secs = clip.seconds - clip.seconds[0]
+
+        def centres_at(t, paths=paths, secs=secs):
+            flat = paths.reshape(len(secs), -1)
+            return np.stack([np.interp(t, secs, flat[:, i]) for i in range(flat.shape[1])], -1).reshape(len(t), -1, 3)
+
+        factories.append(obstacles.factory(centres_at, np.array([o.radius for o in objs])))
+    return factories
+
+
+def task_problems(result: mpc.Result) -> list[str]:
+    """What a task failed to do, in words: stones missed (a contact's mean distance over 5 cm) and
+    obstacles touched (first time and the deepest overlap)."""
+    out = []
+    for key, values in result.task_terms.items():
+        if key.endswith(".stoneDistanceM"):
+            on = np.isfinite(values)
+            edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
+            for a, b in zip(edges[::2], edges[1::2]):
+                miss = float(np.mean(values[a:b]))
+                if miss > STONE_TOLERANCE_M:
+                    foot = key.split(".")[1]
+                    out.append(f"{foot} {miss * 100:.1f} cm from its stone over {result.seconds[a]:.2f}-{result.seconds[b - 1]:.2f} s")
+        if key.endswith(".clearanceM"):
+            hit = np.flatnonzero(np.nan_to_num(values, nan=np.inf) < 0)
+            if len(hit):
+                out.append(f"touched an obstacle at {result.seconds[hit[0]]:.2f} s (overlap up to {-np.nanmin(values) * 100:.1f} cm)")
+    return out
+
+
 def _frames_from_steps(result: mpc.Result, seconds: np.ndarray, dyn_quats: list[int]) -> tuple[np.ndarray, int]:
     """Simulated ``qpos`` at the clip's sample times inside the simulated span (nlerp between steps)."""
     inside = seconds <= result.seconds[-1] + 1e-9
@@ -97,8 +163,9 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     model, ref = build.body_model(clip, total_mass)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
     ref_qpos = retarget.to_qpos(model, ref)
+    tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos)
     start = time.perf_counter()
-    result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress)
+    result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress, tasks=tasks)
     wall = time.perf_counter() - start
     qadr, _ = model.layout()
     quats = [3] + [int(qadr[b]) for b, k in enumerate(model.kind) if k == "ball"]
@@ -117,6 +184,7 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
     problems = []
     if result.fell:
         problems.append(f"fell at {result.fell_at:.2f} s (pelvis below {mpc.FALL_RATIO:.0%} of the reference)")
+    problems += task_problems(result)
     report = ShotReport(skeleton=clip.skeleton, animation=clip.animation, frames=frames,
                         simulated_s=float(result.seconds[-1] - result.seconds[0]), fell=result.fell,
                         fell_at_s=result.fell_at, min_pelvis_ratio=float(result.pelvis_ratio.min()),

@@ -1,0 +1,179 @@
+"""Stepping stones (Eom et al. 2019, section 7): the contact foot to the nearest stone at contact frames.
+
+``c_tsk = |p_foot - p_cs|^2 + |W_foot - W_ref|_F^2`` at each step where the reference has that foot
+on the ground, ``w_tsk = 10`` (the paper's). ``p_foot`` is the toe joint (the foot body furthest
+down the leg: where the stones of ``sample_stages/attend`` were measured), ``W_foot`` the world frame
+of the foot's first body (the ankle) and ``W_ref`` the reference's at the same step.
+
+Ours, where the paper leaves room:
+
+* ``p_cs``: the paper takes the stone closest to the contact foot in the last optimal trajectory.
+  Re-choosing it inside the optimizer lets a lagging swing foot lock onto the stone the other foot
+  just left (seen on the CMU walk, whose feet cross); here each reference contact keeps one stone
+  for its whole span: the one closest, in the ground plane, to the reference's footfall (the toe's
+  mean position over the contact). With stones displaced less than half their spacing this is
+  the paper's choice, and the cost stays smooth.
+* Stones are flat marks on the ground (their height is not simulated), so the stone pulls the toe
+  in the ground plane and its height target is the reference's toe height at that step.
+
+Contact frames come from the reference: the toe within 6 cm of its lowest height over the clip and
+slower than 0.6 m/s, for at least 50 ms (the rule ``make_stages.py`` found the sample stones with).
+
+Derivatives: the gradient is exact; the Hessian is Gauss-Newton (``2 J'J`` of the residuals), which
+is what DDP wants of a least-squares term (positive semi-definite).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdgaze.physics.dynamics import MujocoBody
+from usdgaze.physics.points import Points, frame_jacobian
+
+W_TSK = 10.0
+CONTACT_HEIGHT_M = 0.06
+CONTACT_SPEED = 0.6  # m/s
+CONTACT_MIN_S = 0.05
+
+
+def feet(dyn: MujocoBody) -> list[tuple[str, int, int]]:
+    """(name, ankle MuJoCo body, toe MuJoCo body) per leg: the foot chain's first and last bodies."""
+    model = dyn.model
+    out = []
+    for top in model.feet:
+        chain = [top]
+        while True:
+            kids = [b for b in range(len(model.bodies)) if model.body_parent[b] == chain[-1] and model.role[b] == "foot"]
+            if not kids:
+                break
+            chain.append(kids[0])
+        out.append((model.names[top], top + 1, chain[-1] + 1))
+    return out
+
+
+def contact_mask(heights: np.ndarray, speeds: np.ndarray, h: float) -> np.ndarray:
+    """Steps with the foot on the ground: low and slow for at least ``CONTACT_MIN_S``."""
+    low = (heights < heights.min() + CONTACT_HEIGHT_M) & (speeds < CONTACT_SPEED)
+    edges = np.flatnonzero(np.diff(np.r_[0, low.astype(int), 0]))
+    out = np.zeros(len(low), dtype=bool)
+    for a, b in zip(edges[::2], edges[1::2]):
+        if (b - a) * h >= CONTACT_MIN_S - 1e-9:
+            out[a:b] = True
+    return out
+
+
+class StoneTask:
+    """The stepping-stone task term over the planner's state (a ``ddp.Cost`` plus ``measure``)."""
+
+    name = "stones"
+
+    def __init__(self, dyn: MujocoBody, ref_qpos: np.ndarray, stones: np.ndarray, weight: float = W_TSK,
+                 frames: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """``ref_qpos``: the reference at the planner's steps; ``frames``: the reference at its own
+        frames and their seconds from the start (contacts are found there: a shuffle's 80 ms lift is
+        two steps of the planner), else the steps themselves."""
+        self.dyn, self.w = dyn, float(weight)
+        self.stones = np.asarray(stones, dtype=float).reshape(-1, 3)
+        self.points = Points(dyn)
+        self.feet = feet(dyn)
+        xpos, xmat = self._poses(ref_qpos)
+        fq, fs = frames if frames is not None else (ref_qpos, dyn.h * np.arange(len(ref_qpos)))
+        fpos = xpos if frames is None else self._poses(fq)[0]
+        # each planner step takes the contact state of the reference frame nearest its time
+        step_s = dyn.h * np.arange(len(ref_qpos))
+        near = np.clip(np.searchsorted(fs, step_s), 0, len(fs) - 1)
+        near = np.where((near > 0) & (np.abs(fs[near - 1] - step_s) < np.abs(fs[near] - step_s)), near - 1, near)
+        self.ref_height, self.ref_frame = [], []
+        self.stone = np.full((len(self.feet), len(ref_qpos)), -1)  # the stone of each contact step
+        for f, (_, ankle, toe) in enumerate(self.feet):
+            p = fpos[:, toe]
+            speed = np.linalg.norm(np.gradient(p[:, :2], fs, axis=0), axis=1) if len(p) > 1 else np.zeros(1)
+            on = contact_mask(p[:, 2], speed, np.diff(fs).mean() if len(fs) > 1 else dyn.h)
+            span = np.zeros(len(fs), dtype=int) - 1
+            edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
+            for a, b in zip(edges[::2], edges[1::2]):
+                if len(self.stones):
+                    span[a:b] = self.nearest(p[a:b].mean(axis=0))
+            self.stone[f] = span[near]
+            self.ref_height.append(xpos[:, toe, 2])
+            self.ref_frame.append(xmat[:, ankle])
+
+    def _poses(self, qpos: np.ndarray):
+        poses = [self.points.pose(self.dyn.to_state(q)) for q in qpos]
+        return np.array([p[0] for p in poses]), np.array([p[1] for p in poses])
+
+    def _k(self, k: int) -> int:
+        return min(max(int(k), 0), self.stone.shape[1] - 1)
+
+    def nearest(self, p: np.ndarray) -> int:
+        return int(np.argmin(np.sum((self.stones[:, :2] - p[:2]) ** 2, axis=1)))
+
+    def _residuals(self, xb: np.ndarray, k: int, jac: bool):
+        """Per foot in contact at ``k``: (residual (12,), its Jacobian (12, nv) or None)."""
+        k = self._k(k)
+        on = [f for f in range(len(self.feet)) if self.stone[f, k] >= 0]
+        if not on:
+            return []
+        xpos, xmat = self.points.pose(xb)
+        out = []
+        for f in on:
+            _, ankle, toe = self.feet[f]
+            s = self.stones[self.stone[f, k]]
+            target = np.array([s[0], s[1], self.ref_height[f][k]])
+            r = np.concatenate([xpos[toe] - target, (xmat[ankle] - self.ref_frame[f][k]).ravel()])
+            J = None
+            if jac:
+                jp, _ = self.points.jacobian(xb, toe, xpos[toe])
+                _, jr = self.points.jacobian(xb, ankle, xpos[ankle])
+                J = np.vstack([jp, frame_jacobian(xmat[ankle], jr)])
+            out.append((r, J))
+        return out
+
+    def _value(self, xb, k):
+        return self.w * sum(float(r @ r) for r, _ in self._residuals(xb, k, False))
+
+    def _grad(self, xb, k):
+        nv = self.dyn.nv
+        g, H = np.zeros(2 * nv), np.zeros((2 * nv, 2 * nv))
+        for r, J in self._residuals(xb, k, True):
+            g[:nv] += 2 * self.w * J.T @ r
+            H[:nv, :nv] += 2 * self.w * J.T @ J
+        return g, H
+
+    # -- ddp.Cost --------------------------------------------------------------------------------
+    def l(self, x, u, k):
+        return self._value(x[self.dyn.xs], k)
+
+    def derivs(self, x, u, k):
+        g, H = self._grad(x[self.dyn.xs], k)
+        nx, nu = len(x), len(u)
+        lx, lxx = np.zeros(nx), np.zeros((nx, nx))
+        lx[self.dyn.xs], lxx[self.dyn.xs, self.dyn.xs] = g, H
+        return lx, np.zeros(nu), lxx, np.zeros((nu, nu)), np.zeros((nu, nx))
+
+    def terminal(self, x, k):
+        return self._value(x[self.dyn.xs], k)
+
+    def terminal_derivs(self, x, k):
+        lx, _, lxx, _, _ = self.derivs(x, np.zeros(0), k)
+        return lx, lxx
+
+    # -- per-step report -------------------------------------------------------------------------
+    def measure(self, k: int, data) -> dict[str, float]:
+        """Per foot: the toe's ground-plane distance to the stone of the reference's contact at this
+        step (NaN outside contacts)."""
+        k = self._k(k)
+        out = {}
+        for f, (name, _, toe) in enumerate(self.feet):
+            p = data.xpos[toe]
+            err = np.nan
+            if self.stone[f, k] >= 0:
+                err = float(np.linalg.norm(self.stones[self.stone[f, k], :2] - p[:2]))
+            out[f"{name}.stoneDistanceM"] = err
+        return out
+
+
+def factory(stones: np.ndarray, frames: tuple[np.ndarray, np.ndarray] | None = None, weight: float = W_TSK):
+    """A ``mpc.TaskFactory`` for stones at model-world positions ``(S, 3)``; ``frames`` as for
+    :class:`StoneTask` (the reference ``qpos`` at its frames, seconds from the start)."""
+    return lambda plan, ref_q: StoneTask(plan, ref_q, stones, weight, frames)
