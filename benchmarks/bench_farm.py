@@ -142,6 +142,8 @@ def startup(work: Path, runs: int) -> dict:
 
 _MEMORY = r"""
 import gc, json, resource, sys, threading, time, tracemalloc
+from usdgaze.process import tune_allocator
+tune_allocator()  # as the usdgaze command does
 import usdgaze.api as api
 from pxr import Sdf, Usd, UsdGeom, UsdSkel, UsdUtils  # everything the pass imports, before the baseline
 src, out, shifts, trace, floor_of = sys.argv[1], sys.argv[2], sys.argv[3].split(","), sys.argv[4] == "1", sys.argv[5]
@@ -189,33 +191,40 @@ def _memory(src: Path, out: Path, shifts: list[str], trace: bool, floor_of: Path
 
 def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
     from usdgaze import api
+    from usdgaze.process import tune_allocator
+
+    tune_allocator()  # the pass in this process runs as in a usdgaze command (see usdgaze.process)
 
     syn = _synthetic()
-    results = {}
+    rigs, results = {}, {}
     for frames in lengths:
-        t0 = time.perf_counter()
         rig = syn.make_rig(work / f"walk_{frames}.usdc", joints=joints, frames=frames, time_codes_per_second=60,
                            turn_deg_per_s=6, mesh=True)
-        made = time.perf_counter() - t0
-        shifts = _shifts(frames / 60.0)
-        out = work / f"walk_{frames}_gaze.usdc"
-        api.apply(rig.path, shifts, out)  # warm-up
-        best, cpu = np.inf, np.inf
-        for _ in range(runs):
+        rigs[frames] = (rig, _shifts(frames / 60.0), work / f"walk_{frames}_gaze.usdc")
+        api.apply(rig.path, rigs[frames][1], rigs[frames][2])  # warm-up
+    best = {f: [np.inf, np.inf] for f in lengths}
+    for i in range(runs):  # the lengths interleaved, so a change in the machine's load hits them alike
+        for frames in (lengths if i % 2 == 0 else lengths[::-1]):
+            rig, shifts, out = rigs[frames]
             t0, c0 = time.perf_counter(), time.process_time()
             api.apply(rig.path, shifts, out)
-            best, cpu = min(best, time.perf_counter() - t0), min(cpu, time.process_time() - c0)
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            best[frames] = [min(best[frames][0], wall), min(best[frames][1], cpu)]
+    for frames in lengths:
+        rig, shifts, out = rigs[frames]
         n = len(rig.anim_joints) if hasattr(rig, "anim_joints") else joints
         arrays = frames * n * (16 + 12 + 6)
         mem = _memory(rig.path, work / "mem.usdc", shifts, trace=False)
         traced = _memory(rig.path, work / "mem.usdc", shifts, trace=True)
         floor = _memory(rig.path, work / "floor.usdc", shifts, trace=False, floor_of=out)
-        results[frames] = dict(seconds=best, per_jf=best / (frames * n), cpu_jf=cpu / (frames * n), arrays=arrays, made=made, joints=n,
-                               rss=mem["peak_rss"] - mem["rss0"], anon=mem["anon"], traced=traced["peak_trace"],
-                               floor_rss=floor["peak_rss"] - floor["rss0"], floor_anon=floor["anon"])
+        wall, cpu = best[frames]
+        results[frames] = dict(seconds=wall, per_jf=wall / (frames * n), cpu_jf=cpu / (frames * n), arrays=arrays,
+                               joints=n, rss=mem["peak_rss"] - mem["rss0"], anon=mem["anon"],
+                               traced=traced["peak_trace"], floor_rss=floor["peak_rss"] - floor["rss0"],
+                               floor_anon=floor["anon"])
         os.unlink(rig.path)
     first = results[lengths[0]]["per_jf"]
-    print(f"\n[scaling] gaze pass in-process (4 shifts, read + model + write), best of {runs}")
+    print(f"\n[scaling] gaze pass in-process (4 shifts, read + model + write), best of {runs}, lengths interleaved")
     first_cpu = results[lengths[0]]["cpu_jf"]
     print("  (CPU = this process's user + sys, which other jobs' load changes least)")
     print("  frames     joints   pass (s)   ns/joint-frame   vs shortest   CPU ns/joint-frame   vs shortest")

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from usdgaze.core import rotations as rot
 from usdgaze.usd import skelio
@@ -65,3 +68,29 @@ def test_normalize_and_to_rotvec_match_their_masked_forms_bit_for_bit():
         angle = 2.0 * np.arctan2(s, u[:, 3:])
         want = u[:, :3] * np.divide(angle, s, out=np.full_like(s, 2.0), where=s > 1e-12)
         assert np.array_equal(rot.to_rotvec(batch).view(np.uint64), want.view(np.uint64))
+
+
+_FAULTS = """
+import resource, sys
+import numpy as np
+if sys.argv[1] == "tuned":
+    from usdgaze.process import tune_allocator
+    assert tune_allocator() and tune_allocator()
+def faults():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+np.ones(6_250_000).sum()  # 50 MB, freed at once
+before = faults()
+for _ in range(4):
+    np.ones(6_250_000).sum()  # the same size again: fresh pages, or the freed ones reused
+print(faults() - before)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's allocator only")
+def test_tuned_allocator_reuses_freed_memory_instead_of_faulting_in_fresh_pages():
+    def faults(mode):
+        return int(subprocess.run([sys.executable, "-c", _FAULTS, mode], capture_output=True, text=True,
+                                  check=True).stdout.split()[-1])
+    plain, tuned = faults("plain"), faults("tuned")
+    assert plain >= 100  # glibc maps each large array afresh (huge pages make fewer, larger faults)
+    assert tuned * 20 < plain

@@ -26,12 +26,16 @@ _limited = False
 
 
 def limit_threads() -> None:
-    """One BLAS thread and one USD work thread for this process (once)."""
+    """One BLAS thread and one USD work thread for this process (once); freed memory kept for reuse."""
     global _limited
     if _limited:
         return
     from threadpoolctl import threadpool_limits
     from pxr import Work
+
+    from usdgaze.process import tune_allocator
+
+    tune_allocator()  # a dask worker runs shot after shot: see usdgaze.process
 
     threadpool_limits(limits=1)  # stays in force: the returned context is never exited
     Work.SetConcurrencyLimit(1)

@@ -80,6 +80,9 @@ def cli() -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the CLI and map failures to exit codes (2 bad input, 1 internal)."""
+    from usdgaze.process import tune_allocator
+
+    tune_allocator()
     try:
         code = cli.main(args=argv, prog_name="usdgaze", standalone_mode=False)
     except UsdGazeError as exc:
