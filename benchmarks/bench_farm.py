@@ -177,7 +177,8 @@ else:
     api.apply(src, shifts, out)
 running[0] = False
 peak_trace = tracemalloc.get_traced_memory()[1] if trace else 0
-peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+# VmHWM, not ru_maxrss: Linux carries ru_maxrss over exec from the parent that forked this process
+peak_rss = next(int(line.split()[1]) * 1024 for line in open("/proc/self/status") if line.startswith("VmHWM:"))
 print(json.dumps({"rss0": rss0, "peak_rss": peak_rss, "peak_trace": peak_trace, "anon": peak_anon[0] - anon0}))
 """
 
