@@ -19,7 +19,7 @@ written layer by UsdSkel FK: the nearer palm's distance to the true ball at its 
 the field of view.
 
     python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
-        [--horizon 0.6] [--iterations 1]
+        [--horizon 0.6] [--iterations 1] [--stride 1]
 """
 
 from __future__ import annotations
@@ -229,6 +229,7 @@ def main() -> None:
     ap.add_argument("--horizon", type=float, default=0.6)
     ap.add_argument("--iterations", type=int, default=1)
     ap.add_argument("--seeds", default="0,1,2,3,4")
+    ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
     from threadpoolctl import threadpool_limits
@@ -249,7 +250,8 @@ def main() -> None:
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores)
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores,
+                               fd_stride=a.stride)
             with threadpool_limits(1):
                 row = run_task(task, a.seconds, opts) | {"cores": cores}
             rows.append(row)
