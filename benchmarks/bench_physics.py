@@ -19,7 +19,7 @@ written layer by UsdSkel FK: the nearer palm's distance to the true ball at its 
 the field of view.
 
     python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
-        [--horizon 0.6] [--iterations 1]
+        [--horizon 0.6] [--iterations 1] [--stride 1]
 """
 
 from __future__ import annotations
@@ -185,9 +185,13 @@ def run_task(task: str, seconds: float, opts: mpc.Options) -> dict:
     upto = r.seconds < r.fell_at if r.fell else np.ones(len(r.seconds), bool)  # measures until a fall
     return {"task": task, "simulated_s": round(sim_s, 3), "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
             "sim_s_per_wall_s": round(sim_s / wall, 4), "fps_at_30": round(30 * sim_s / wall, 2),
-            "fps_at_1_over_h": round(sim_s / opts.h / wall, 2), "fell_at_s": r.fell_at,
+            "fps_at_1_over_h": round(sim_s / opts.h / wall, 2),
+            # CPU seconds of all threads: on a shared machine the 1-core figure a free core would give
+            # (with 2 threads it sums both, so it understates a free 2-core machine's rate).
+            "cpu_fps_at_30": round(30 * sim_s / cpu, 2), "load": round(os.getloadavg()[0], 1), "fell_at_s": r.fell_at,
             "min_pelvis_ratio": round(float(r.pelvis_ratio[upto].min()), 3),
             "mean_joint_error_deg": round(float(r.joint_error_deg[upto].mean()), 2),
+            "max_joint_error_deg": round(float(r.joint_error_deg[upto].max()), 2),
             "max_foot_below_ground_m": round(float(r.foot_below_ground_m[upto].max()), 4),
             "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
 
@@ -229,6 +233,7 @@ def main() -> None:
     ap.add_argument("--horizon", type=float, default=0.6)
     ap.add_argument("--iterations", type=int, default=1)
     ap.add_argument("--seeds", default="0,1,2,3,4")
+    ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
     from threadpoolctl import threadpool_limits
@@ -249,13 +254,15 @@ def main() -> None:
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores)
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores,
+                               fd_stride=a.stride)
             with threadpool_limits(1):
                 row = run_task(task, a.seconds, opts) | {"cores": cores}
             rows.append(row)
             print(json.dumps(row) if a.json else
                   f"{task:6s} {cores} core(s): {row['simulated_s']:.2f} s simulated in {row['wall_s']:.1f} s wall "
-                  f"-> {row['fps_at_30']:.2f} frames/s at 30 fps ({row['fps_at_1_over_h']:.2f} at 1/h) "
+                  f"-> {row['fps_at_30']:.2f} frames/s at 30 fps ({row['fps_at_1_over_h']:.2f} at 1/h; "
+                  f"{row['cpu_fps_at_30']:.2f} per CPU second; load {row['load']}) "
                   f"vs paper 1-6 on 6 cores, goal >= 6 on 2 | fell {row['fell_at_s']} | (until then) pelvis >= "
                   f"{row['min_pelvis_ratio']:.2f} of ref | joint err {row['mean_joint_error_deg']:.1f} deg | "
                   f"foot below ground {100 * row['max_foot_below_ground_m']:.1f} cm", flush=True)

@@ -101,3 +101,60 @@ def test_head_pose_jacobian_matches_central_differences(body):
     num_R = _central(lambda z: dyn.head_pose(z, 0)[1].ravel(), x)
     assert np.linalg.norm(dp - num_p) / np.linalg.norm(num_p) < 1e-5
     assert np.linalg.norm(dR.reshape(9, -1) - num_R) / np.linalg.norm(num_R) < 1e-5
+
+
+def test_window_linearization_threads_and_interpolation(body):
+    """The window's batch: two threads give the serial numbers bit for bit; with a stride the steps
+    MuJoCo differentiates are exact (checked above against central differences) and the others lie
+    on the straight line between their neighbours."""
+    model = body[0].model
+    rng = np.random.default_rng(11)
+    serial, threaded, strided = (MujocoBody(model, h=0.02, workers=w, stride=s) for w, s in ((1, 1), (2, 1), (2, 3)))
+    qpos = body[1]
+    for dyn in (serial, threaded, strided):
+        dyn.set_anchor(qpos[400, 3:7])
+    X = serial.to_state(qpos[400:408], rng.normal(0, 0.2, (8, serial.nv)))
+    U = rng.normal(0, 0.1, (7, serial.nu))
+    A, B = serial.linearize_batch(X, U, 0)
+    At, Bt = threaded.linearize_batch(X, U, 0)
+    assert np.array_equal(A, At) and np.array_equal(B, Bt)
+    As, Bs = strided.linearize_batch(X, U, 0)
+    for i in (0, 3, 6):  # differentiated: every third step and the last
+        assert np.array_equal(As[i], A[i]) and np.array_equal(Bs[i], B[i])
+    assert np.allclose(As[4], (2 * A[3] + A[6]) / 3) and np.allclose(Bs[5], (B[3] + 2 * B[6]) / 3)
+    assert not np.allclose(As[4], A[4])  # the interpolation is an approximation, not a copy
+
+
+def _deepest_foot_point(mj, qpos: np.ndarray, foot_geoms: np.ndarray) -> np.ndarray:
+    """Per frame, how far the lowest foot capsule point is below z = 0 (MuJoCo's geom poses)."""
+    d = mujoco.MjData(mj)
+    out = np.zeros(len(qpos))
+    for k, q in enumerate(qpos):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(mj, d)
+        ends = [d.geom_xpos[g][None] + np.outer([-1, 1], d.geom_xmat[g].reshape(3, 3)[:, 2] * mj.geom_size[g, 1])
+                for g in foot_geoms]
+        out[k] = max(0.0, -min(float(e[:, 2].min()) - mj.geom_size[g, 0] for e, g in zip(ends, foot_geoms)))
+    return out
+
+
+def test_the_planner_tracks_a_reference_with_its_toes_out_of_the_ground(body):
+    """CMU 131_01's lunge puts the model's toes centimetres into the floor; the planner's target turns
+    the toe hinges (and only those) out of it, by at most 45 degrees, where the foot allows."""
+    from usdgaze.physics.tracking import clear_ground, resample
+
+    dyn, qpos = body
+    ref = resample(qpos, np.arange(len(qpos)) / 120.0, 0.02, dyn)
+    target = clear_ground(dyn, ref)
+    feet = [b for b, r in enumerate(dyn.model.role) if r == "foot"]
+    geoms = np.flatnonzero(np.isin(dyn.mj.geom_bodyid - 1, feet))
+    before, after = _deepest_foot_point(dyn.mj, ref, geoms), _deepest_foot_point(dyn.mj, target, geoms)
+    assert (before > 0.02).sum() >= 30 and before.max() > 0.04
+    assert (after > 0.02).sum() <= (before > 0.02).sum() / 3 and np.all(after <= before + 1e-9)
+    assert (after > 0.005).sum() <= (before > 0.005).sum() / 6
+    qadr, _ = dyn.model.layout()
+    toes = [qadr[b] for b, n in enumerate(dyn.model.names) if "toe" in n.lower() and dyn.model.kind[b] == "hinge"]
+    assert len(toes) == 2
+    others = np.setdiff1d(np.arange(dyn.nq), toes)
+    assert np.array_equal(target[:, others], ref[:, others])
+    assert 5.0 < np.degrees(np.abs(target[:, toes] - ref[:, toes]).max()) <= 45.0 + 1e-6

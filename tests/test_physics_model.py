@@ -120,7 +120,10 @@ def test_model_is_physically_plausible(case):
     names = [mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(mj.njnt)]
     kinds = [int(t) for t in mj.jnt_type]
     hinges = [n for n, t in zip(names, kinds) if t == mujoco.mjtJoint.mjJNT_HINGE]
-    assert len(hinges) == 4 and all(any(w in n.lower() for w in ("knee", "leg", "elbow", "forearm")) for n in hinges)
+    # Hinges at the knees and elbows (the paper's model) and at the toes (one flexion axis each).
+    limbs = [n for n in hinges if any(w in n.lower() for w in ("knee", "leg", "elbow", "forearm"))]
+    toes = [n for n in hinges if "toe" in n.lower()]
+    assert len(limbs) == 4 and len(toes) <= 2 and len(limbs) + len(toes) == len(hinges)
     assert kinds[0] == mujoco.mjtJoint.mjJNT_FREE and mj.nu == mj.nv - 6
     # Standing at rest, the centre of mass is laterally between the feet and at 45-65% of the height.
     d = mujoco.MjData(mj)

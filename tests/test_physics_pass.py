@@ -133,12 +133,16 @@ def test_input_untouched_and_the_layer_reports_per_frame_terms(shot):
         assert np.array_equal(np.array(muted.Get(t)), np.array(original.Get(t)))
 
 
-def test_each_solve_decreases_the_cost(tmp_path):
+@pytest.mark.parametrize("workers, stride", [(1, 1), (2, 3)])
+def test_each_solve_decreases_the_cost(tmp_path, workers, stride):
+    """Also with the window's derivatives split over two threads and interpolated between every third
+    step: approximate derivatives change the steps the solver proposes, never what it accepts."""
     clip = build.load_clip(excerpt(tmp_path / "short.usda", 0.12))
     model, ref = build.body_model(clip)
     from usdgaze.physics import retarget
 
-    result = mpc.simulate(model, retarget.to_qpos(model, ref), clip.seconds, mpc.Options(h=0.02, horizon_s=0.3))
+    options = mpc.Options(h=0.02, horizon_s=0.3, workers=workers, fd_stride=stride)
+    result = mpc.simulate(model, retarget.to_qpos(model, ref), clip.seconds, options)
     assert len(result.solve_costs) == 6
     for costs in result.solve_costs:
         assert all(b <= a for a, b in zip(costs, costs[1:]))
@@ -148,8 +152,8 @@ def test_each_solve_decreases_the_cost(tmp_path):
 def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     from usdgaze.console.main import main
 
-    # 5 kN straight down on the chest (stage Y up): no controller keeps the pelvis up.
-    src = excerpt(tmp_path / "crushed.usda", 0.2, (0.0, 0.2, 0.0), vector=(0.0, -5000.0, 0.0))
+    # 10 kN straight down on the chest (stage Y up): no controller keeps the pelvis up.
+    src = excerpt(tmp_path / "crushed.usda", 0.2, (0.0, 0.2, 0.0), vector=(0.0, -10000.0, 0.0))
     out = tmp_path / "sim.usda"
     assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3", "--discard-failed"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

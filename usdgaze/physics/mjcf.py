@@ -12,6 +12,10 @@ from usdgaze.physics.model import BodyModel
 # Soft contacts at a 0.04 s time constant (two 0.02 s steps) settle about 2 cm deep under body
 # weight; a contact margin starts the ground's push that much earlier, so feet rest near z = 0.
 GROUND_MARGIN = 0.015
+# Contact impedance (MuJoCo's solimp): 0.95 at first touch rising to 0.99 within 1 mm, above MuJoCo's
+# default 0.9-0.95, so more of each step's penetration is resisted within the same (stability-bound)
+# time constant. On the CMU walk this tracked better (mean joint error 2.5 vs 3.1 deg) than the default.
+SOLIMP = "0.95 0.99 0.001"
 
 
 def _v(a) -> str:
@@ -43,13 +47,13 @@ def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> s
            f'  <option timestep="{timestep:.6g}" integrator="Euler" gravity="0 0 -9.81"/>',
            '  <size memory="8M"/>',
            '  <default>',
-           f'    <geom contype="1" conaffinity="0" condim="3" friction="1.0 0.05 0.01" solref="{tc:.4g} 1" rgba="0.75 0.7 0.62 1"/>',
+           f'    <geom contype="1" conaffinity="0" condim="3" friction="1.0 0.05 0.01" solref="{tc:.4g} 1" solimp="{SOLIMP}" rgba="0.75 0.7 0.62 1"/>',
            '    <joint damping="2" armature="0.02" limited="true"/>',
            '    <motor ctrllimited="false"/>',
            '  </default>',
            '  <worldbody>',
            '    <light pos="0 0 4" dir="0 0 -1" directional="true"/>',
-           f'    <geom name="ground" type="plane" size="0 0 0.05" contype="0" conaffinity="1" solref="{tc:.4g} 1" '
+           f'    <geom name="ground" type="plane" size="0 0 0.05" contype="0" conaffinity="1" solref="{tc:.4g} 1" solimp="{SOLIMP}" '
            f'margin="{GROUND_MARGIN}" rgba="0.45 0.5 0.55 1"/>']
     children = [[c for c in range(len(m.bodies)) if m.body_parent[c] == b] for b in range(len(m.bodies))]
 
@@ -81,9 +85,13 @@ def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> s
     body(0, 2)
     out.append("  </worldbody>")
     out.append("  <actuator>")
+    toes = set(m.toes)
     for b in range(len(m.bodies)):
         for a, (joint, gear) in enumerate(_motors(m, b)):
-            out.append(f'    <motor name={quoteattr(f"{joint}_{a}")} joint={quoteattr(joint)} gear="{gear}"/>')
+            # Toe motors stop at their strength: a light toe with an unlimited motor can press itself
+            # through the soft ground, which cannot push back harder than the toe's small inertia allows.
+            lim = ' ctrllimited="true" ctrlrange="-1 1"' if b in toes else ""
+            out.append(f'    <motor name={quoteattr(f"{joint}_{a}")} joint={quoteattr(joint)} gear="{gear}"{lim}/>')
     out.append("  </actuator>")
     out.append("</mujoco>")
     return "\n".join(out) + "\n"

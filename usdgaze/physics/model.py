@@ -79,6 +79,11 @@ class BodyModel:
     def dof_bodies(self) -> np.ndarray:
         return np.array([b for b, k in enumerate(self.kind) if k in ("ball", "hinge")], dtype=int)
 
+    @property
+    def toes(self) -> list[int]:
+        """Bodies of the toes: foot bodies below a foot body."""
+        return [b for b in range(1, len(self.kind)) if _is_toe(self.role, self.body_parent, b)]
+
     def layout(self) -> tuple[np.ndarray, np.ndarray]:
         """First ``qpos`` and ``qvel`` index of each body's joint (MuJoCo's order: bodies in order)."""
         nq = np.array([{"free": 7, "ball": 4, "hinge": 1, "weld": 0}[k] for k in self.kind])
@@ -187,6 +192,12 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
                 kind[b] = "hinge"
                 axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
                 range_deg[b] = (-5.0, 150.0)
+        elif _is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
+            # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
+            kind[b] = "hinge"
+            left = np.cross([0.0, 0.0, 1.0], forward)
+            axis[b] = rmat[b].T @ (left / np.linalg.norm(left))
+            range_deg[b] = (-40.0, 60.0)
     if reference is not None:
         _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, weld_still)
 
@@ -197,13 +208,34 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]
     geoms = _geoms(offset, children, seg_vec, roles, rmat, feet)
     lowest = min(_lowest(pos, rmat, geoms, radius, b) for b in range(n))
-    strength = np.array([seg.STRENGTH.get(r, seg.STRENGTH["other"]) for r in roles]) * total_mass / 75.0
+    strength = _strengths(roles, bparent) * total_mass / 75.0
     return BodyModel(
         joints=list(joints), parents=parents, bodies=idx, body_parent=bparent, kind=kind, role=roles,
         names=_safe_names(joints, idx), offset=offset, rel_quat=rel, base_pos=pos[0], base_quat=orient[0],
         axis=axis, range_deg=range_deg, mass=mass, com=com, inertia=inertia, inertia_quat=iquat,
         radius=radius, geoms=geoms, strength=strength, to_model=to_model, total_mass=float(total_mass),
         height=height, lift=-lowest, feet=feet, forward=forward, rest_pos=pos, rest_rot=rmat)
+
+
+def _is_toe(roles: list[str], bparent: np.ndarray, b: int) -> bool:
+    return roles[b] == "foot" and roles[bparent[b]] == "foot"
+
+
+def _strengths(roles: list[str], bparent: np.ndarray) -> np.ndarray:
+    """Motor strength per body (N m per unit control) from its role. Unnamed joints on the chain from
+    the base to the head are the spine, which carries the trunk (they share its mass too) and gets
+    the trunk's strength; toes get the toe flexors'."""
+    out = np.array([seg.STRENGTH.get(r, seg.STRENGTH["other"]) for r in roles])
+    heads = [b for b, r in enumerate(roles) if r == "head"]
+    b = int(bparent[heads[0]]) if heads else -1
+    while b > 0:
+        if roles[b] == "other":
+            out[b] = seg.STRENGTH["trunk"]
+        b = int(bparent[b])
+    for b in range(1, len(roles)):
+        if _is_toe(roles, bparent, b):
+            out[b] = seg.STRENGTH["toe"]
+    return out
 
 
 def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -> bool:

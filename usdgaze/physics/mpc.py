@@ -16,7 +16,7 @@ import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.model import BodyModel
-from usdgaze.physics.tracking import BodyTracking, Weights, resample, velocities
+from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, resample, velocities
 
 FALL_RATIO = 0.8  # the issue's bar: pelvis below 80% of the reference's height is a fall
 
@@ -54,6 +54,7 @@ class Options:
     iterations: int = 1
     first_iterations: int = 5
     workers: int = 1  # threads for the window's finite differences
+    fd_stride: int = 1  # finite differences every this many steps of the window, interpolated between
     stop_after_fall_s: float = 0.2  # simulation ends this long after the pelvis first stays below the bar
     weights: Weights = field(default_factory=Weights)
 
@@ -130,31 +131,33 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
              pushes: tuple[Push, ...] = (), progress=None, tasks: Sequence[TaskFactory] = ()) -> Result:
     """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length, plus tasks."""
     import mujoco
-    from threadpoolctl import threadpool_limits
+    import scipy.linalg.lapack  # noqa: F401  the solver's LAPACK, loaded before the thread limit below:
+    from threadpoolctl import threadpool_limits  # a BLAS first loaded inside it keeps its own threads
 
     from usdgaze.planning import ddp
     from usdgaze.planning.compose import CostSum
 
     h = options.h
-    plan = MujocoBody(model, h=h, workers=options.workers)
+    plan = MujocoBody(model, h=h, workers=options.workers, stride=options.fd_stride)
     sim = MujocoBody(model, h=h, forces=_schedule(model, pushes, h, plan.mj.nbody))
     ref_q = resample(ref_qpos_frames, ref_seconds, h, plan)
-    ref_v = velocities(ref_q, h, plan.mj)
+    target = clear_ground(plan, ref_q)  # what the planner tracks; the measures use the reference as is
+    ref_v = velocities(target, h, plan.mj)
     head = _head_body(model)
-    cost = BodyTracking(plan, ref_q, ref_v, head, options.weights)
-    made = [factory(plan, ref_q) for factory in tasks]
+    cost = BodyTracking(plan, target, ref_v, head, options.weights)
+    made = [factory(plan, target) for factory in tasks]
     if made:
         cost = CostSum([cost, *made])
     measured: dict[str, list[float]] = {}
     n = max(2, int(round(options.horizon_s / h)))
     steps = len(ref_q) - 1
-    tail = _inverse_dynamics(plan, ref_q, ref_v, h)
+    tail = _inverse_dynamics(plan, target, ref_v, h)
     pad = lambda k: tail[min(k, steps)]  # noqa: E731
     solver: dict = {}
     mpc = ddp.RecedingHorizon(n, plan.nu, ddp.Options(max_iter=options.first_iterations, **solver),
                               U_init=np.array([pad(i) for i in range(n)]))
     qpos = np.zeros((steps + 1, plan.nq))
-    qpos[0] = ref_q[0]
+    qpos[0] = target[0]
     qvel = ref_v[0].copy()
     ctrl, costs = np.zeros((steps, plan.nu)), []
     feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(model)])

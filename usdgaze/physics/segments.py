@@ -46,11 +46,13 @@ DE_LEVA = {
 
 # Ball-joint range (max rotation from the model's neutral, degrees) and motor strength (N m per
 # unit control) per role; knees and elbows are hinges. Strengths are of the order of human peak
-# joint torques (hip and knee 150-250 N m, ankle ~150, shoulder ~80, elbow ~60, neck ~30).
+# joint torques (hip and knee 150-250 N m, ankle ~150, trunk extension 200-300, shoulder ~80, elbow
+# ~60, neck ~30, the toe flexors at the metatarsophalangeal joints some tens of N m). "toe" is not a
+# segment role (de Leva's foot includes the toes); the model gives it to a foot body below the foot.
 RANGE_DEG = {"head": 70.0, "trunk": 45.0, "upperArm": 170.0, "forearm": 150.0, "hand": 80.0,
              "thigh": 120.0, "shank": 150.0, "foot": 60.0, "other": 60.0}
 STRENGTH = {"head": 40.0, "trunk": 300.0, "upperArm": 80.0, "forearm": 60.0, "hand": 15.0,
-            "thigh": 250.0, "shank": 200.0, "foot": 120.0, "other": 30.0}
+            "thigh": 250.0, "shank": 200.0, "foot": 120.0, "toe": 20.0, "other": 30.0}
 
 _FOOT = re.compile(r"(foot|ankle)", re.I)
 _HAND = re.compile(r"(hand|wrist)", re.I)
