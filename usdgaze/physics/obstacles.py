@@ -47,7 +47,7 @@ class ObstacleTask:
                  objects: list[int] | None = None) -> None:
         """``centres``: the true paths at the planner's steps (what is measured, and what the body-only
         planner knows); ``objects``: the obstacles' indices among the coupled loop's objects, whose
-        belief then replaces the true paths inside the optimizer."""
+        belief then replaces the true paths inside the optimizer (-1: not an object, path known)."""
         self.dyn, self.w = dyn, float(weight)
         self.centres = np.asarray(centres, dtype=float)  # (K, J, 3) model world at the planner's steps
         self.truth = self.centres
@@ -68,6 +68,9 @@ class ObstacleTask:
         t = percept.h * (np.arange(len(self.truth)) - percept.k)[:, None]
         believed = np.full(self.truth.shape, 1e6)
         for j, index in enumerate(self.objects):
+            if index < 0:  # not an object the eyes can see: known as the body-only planner knows it
+                believed[:, j] = self.truth[:, j]
+                continue
             mu = percept.mu.get(index)
             if mu is not None:
                 believed[:, j] = mu[:3] + t * mu[3:6]
