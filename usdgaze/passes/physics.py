@@ -7,17 +7,16 @@ Tasks authored in the stage (read at this edge, then plain arrays):
   stage's axes) and ``usdgaze:physics:pushJoint`` (token, the joint whose body is pushed). Each
   sample's force holds until the next sample, so ``{1.0: (0, 0, 150), 1.2: (0, 0, 0)}`` is a 150 N
   push for 0.2 s.
-
-Honest failure: when the pelvis drops below 80% of the reference's height the shot is reported as a
-fall (time of the first such frame); the layer still holds what was simulated unless ``keep_failed``
-is False, in which case nothing is written and the command fails.
-
 * stepping stones and moving obstacles: prims (GazeObjectAPI objects, so the eyes can see them) with
   ``token usdgaze:physics:task = "stone"`` or ``"obstacle"``. A stone's position is its world
   translation at the clip's start; an obstacle's is its animated world translation, its size the
   object's ``gaze:object:radius`` (``usdgaze.physics.stones``, ``usdgaze.physics.obstacles``). A
   reference contact whose toe ends up on average more than 5 cm from its stone, or a body geom
   touching an obstacle, is reported as a problem of the shot.
+
+Honest failure: when the pelvis drops below 80% of the reference's height the shot is reported as a
+fall (time of the first such frame); the layer still holds what was simulated unless ``keep_failed``
+is False, in which case nothing is written and the command fails.
 """
 
 from __future__ import annotations
@@ -80,9 +79,10 @@ def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
     return tuple(pushes)
 
 
-def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray) -> list:
+def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
     """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
-    ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there)."""
+    ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
+    the coupled loop's object paths, whose belief the obstacle task then reads."""
     from usdgaze.physics import obstacles, stones
     from usdgaze.usd.objects import read_objects
 
@@ -112,7 +112,8 @@ def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray) -> list:
             flat = paths.reshape(len(secs), -1)
             return np.stack([np.interp(t, secs, flat[:, i]) for i in range(flat.shape[1])], -1).reshape(len(t), -1, 3)
 
-        factories.append(obstacles.factory(centres_at, np.array([o.radius for o in objs])))
+        seen = None if objects is None else [objects.index(o.path) if o.path in objects else -1 for o in objs]
+        factories.append(obstacles.factory(centres_at, np.array([o.radius for o in objs]), seen))
     return factories
 
 

@@ -78,6 +78,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     steps = int(np.ceil((clip.seconds[-1] - clip.seconds[0]) / h - 1e-6)) + 1
     things = _things(root, clip, source, prims, model, steps, h)
     tasks = [(lambda j: lambda plan, ref_q: CatchTask(plan, j, seed + j, truth=things[j].positions))(j) for j in catches]
+    tasks += body_pass.read_tasks(root.GetStage(), clip, model, source, ref_qpos, paths)
     opts = visuomotor.Options(options)
     opts.vision.seed = seed
     start = time.perf_counter()
@@ -112,7 +113,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
         written.added_rest_local = rig.rest_local[-2:]
         written.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
     override = AnimOverride.of(clip, written, move_roots=True)
-    report, terms = body_pass.shot_summary(clip, result, n, len(pushes), wall)
+    report, terms = body_pass.shot_summary(clip, result, n, len(pushes), wall)  # stones, obstacles said there
     for j in catches:
         miss = result.task_terms.get("catch.handToBallM")
         if miss is not None and np.all(np.isnan(miss) | (miss > 0.1)):

@@ -8,9 +8,10 @@ cost sees obstacles beyond the window without optimizing over it.
 
 Ours, where the paper leaves room (docs/physics.md):
 
-* ``p_j`` is where the obstacle is at that step. On the body-only controller the planner knows the
-  obstacles' paths (the Han et al. 2016 setting the paper compares against); with the eyes coupled it
-  is the belief's mean.
+* ``p_j``: with the eyes coupled (``physics.visuomotor``) it is the belief's mean before each solve,
+  run forward at its estimated velocity (the optimizer's expected mean), and an obstacle not yet
+  seen costs nothing; on the body-only controller the planner knows the obstacles' paths (the
+  Han et al. 2016 setting the paper compares against).
 * Distances are taken in the ground plane: the root's height says nothing about whether a sphere
   at knee or head height meets the body, and the root cannot dodge vertically.
 * ``s_j`` is the obstacle's radius plus ``clearance`` (0.6 m: the arms reach ~0.35 m from the root
@@ -42,9 +43,15 @@ class ObstacleTask:
     name = "obstacles"
 
     def __init__(self, dyn: MujocoBody, centres: np.ndarray, radii: np.ndarray, weight: float = W_TSK,
-                 lookahead_s: float = LOOKAHEAD_S, clearance: float = CLEARANCE_M, nearest: int = NEAREST) -> None:
+                 lookahead_s: float = LOOKAHEAD_S, clearance: float = CLEARANCE_M, nearest: int = NEAREST,
+                 objects: list[int] | None = None) -> None:
+        """``centres``: the true paths at the planner's steps (what is measured, and what the body-only
+        planner knows); ``objects``: the obstacles' indices among the coupled loop's objects, whose
+        belief then replaces the true paths inside the optimizer (-1: not an object, path known)."""
         self.dyn, self.w = dyn, float(weight)
         self.centres = np.asarray(centres, dtype=float)  # (K, J, 3) model world at the planner's steps
+        self.truth = self.centres
+        self.objects = objects
         self.radii = np.asarray(radii, dtype=float).reshape(-1)
         self.s2 = (self.radii + clearance) ** 2
         self.nearest = int(nearest)
@@ -52,6 +59,22 @@ class ObstacleTask:
         nv = dyn.nv
         self._p = slice(0, 2)  # root position (ground plane) in the body state
         self._v = slice(nv, nv + 2)  # root linear velocity (MuJoCo's free joint: world frame)
+
+    def perceive(self, percept) -> None:
+        """Before each solve of the coupled loop: the obstacles as the character believes them, from
+        step ``percept.k`` on (constant velocity; unseen ones far away, so they cost nothing)."""
+        if self.objects is None:
+            return
+        t = percept.h * (np.arange(len(self.truth)) - percept.k)[:, None]
+        believed = np.full(self.truth.shape, 1e6)
+        for j, index in enumerate(self.objects):
+            if index < 0:  # not an object the eyes can see: known as the body-only planner knows it
+                believed[:, j] = self.truth[:, j]
+                continue
+            mu = percept.mu.get(index)
+            if mu is not None:
+                believed[:, j] = mu[:3] + t * mu[3:6]
+        self.centres = believed
 
     def _at(self, k: int) -> np.ndarray:
         return self.centres[min(max(int(k), 0), len(self.centres) - 1), :, :2]
@@ -131,8 +154,9 @@ class ObstacleTask:
     def measure(self, k: int, data) -> dict[str, float]:
         """The proximity sum at the simulated root, and the smallest gap between any body geom and
         any obstacle sphere (metres; negative is a contact)."""
-        cost, _, _ = self._terms(data.qpos[:2], k)
-        return {"proximity": cost, "clearanceM": clearance(self.dyn.mj, data, self.centres[min(k, len(self.centres) - 1)], self.radii)}
+        cost, _, _ = self._terms(data.qpos[:2], k)  # as the planner sees them
+        truth = self.truth[min(k, len(self.truth) - 1)]
+        return {"proximity": cost, "clearanceM": clearance(self.dyn.mj, data, truth, self.radii)}
 
 
 def clearance(mj, data, centres: np.ndarray, radii: np.ndarray) -> float:
@@ -153,11 +177,11 @@ def clearance(mj, data, centres: np.ndarray, radii: np.ndarray) -> float:
     return gap
 
 
-def factory(centres_at, radii: np.ndarray, **options):
+def factory(centres_at, radii: np.ndarray, objects: list[int] | None = None, **options):
     """A ``mpc.TaskFactory``; ``centres_at(seconds)`` gives ``(K, J, 3)`` model-world centres at the
-    planner's step times (seconds from the clip's start)."""
+    planner's step times (seconds from the clip's start); ``objects`` as for :class:`ObstacleTask`."""
 
     def make(plan, ref_q):
-        return ObstacleTask(plan, centres_at(plan.h * np.arange(len(ref_q))), radii, **options)
+        return ObstacleTask(plan, centres_at(plan.h * np.arange(len(ref_q))), radii, objects=objects, **options)
 
     return make
