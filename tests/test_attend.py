@@ -46,6 +46,19 @@ def two_balls(tmp_path_factory):
     return runs
 
 
+@pytest.fixture(scope="module")
+def catch_balls(tmp_path_factory):
+    """The two throws to be caught (two_balls_catch.usda: a catch point in front, importance by time to
+    arrival), seeds 0-3."""
+    tmp = tmp_path_factory.mktemp("catch")
+    stage = ATTEND / "two_balls_catch.usda"
+    runs = {}
+    for n in SEEDS:
+        g = _run(tmp, stage, "--seed", str(n), name=f"catch{n}.usdc")[1]
+        runs[n] = (g, positions(g.stage, "/Objects/BallLeft", g.times), positions(g.stage, "/Objects/BallRight", g.times))
+    return runs
+
+
 INPUTS = [ATTEND / "ball_throw.usda", ATTEND / "standing.usdc", ATTEND.parent / "cmu" / "cmu_131_01.usdc"]
 SEEDS = (0, 1, 2, 3)  # Figure 4c's switching is a close call between plans: measured over four seeds
 ARRIVAL_S = (1.3, 1.4)  # BallLeft, BallRight (make_stages.py); the single ball arrives at 1.4 s
@@ -119,6 +132,26 @@ def test_uncertainty_cost_switches_back_and_forth(two_balls):
         assert np.median(gap[np.arange(len(on)), np.maximum(on, 0)][on >= 0]) < 0.15, n  # 0.06-0.09 m
         switches.append(_switches(on))
     assert min(switches) >= 3, switches
+
+
+def _last_shares(g, b1, b2, span_s=0.3):
+    """Share of the frames of the last ``span_s`` s before the first arrival on BallLeft, on BallRight."""
+    f = (g.seconds > ARRIVAL_S[0] - span_s - 1e-6) & (g.seconds <= ARRIVAL_S[0] + 1e-6)
+    on = _on_ball(g, b1, b2)[f]
+    return np.mean(on == 0), np.mean(on == 1)
+
+
+def test_the_ball_to_catch_first_holds_the_eyes_before_it_arrives(catch_balls, two_balls):
+    """Figure 4c's dwell on the nearer ball near the arrival, where the balls are thrown to be caught.
+    Measured over the last 0.3 s (9 frames) before BallLeft arrives (seeds 0-3): on BallLeft 67, 100,
+    100, 78 %, on BallRight 22, 0, 0, 0 %; before it, back and forth (2, 4, 4, 2 switches). The same
+    throws arriving at the chest with a constant importance (two_balls.usda): on BallLeft 0, 0, 33, 0 %
+    (the later ball is taken)."""
+    for n, (g, b1, b2) in catch_balls.items():
+        first, other = _last_shares(g, b1, b2)
+        assert first >= 0.6 and other <= 0.25, (n, first, other)
+        assert _switches(_on_ball(g, b1, b2)[g.seconds <= ARRIVAL_S[0]]) >= 2, n
+    assert max(_last_shares(*two_balls[f"uncertainty seed {n}"])[0] for n in SEEDS) <= 0.4
 
 
 def test_the_literal_per_step_process_noise_holds_one_ball(two_balls):
@@ -203,8 +236,9 @@ def test_uncertainty_grows_while_not_looked_at(two_balls):
                 assert unc[b - 1] < unc[a - 1]
 
 
-def test_eye_range_and_speed_limits(one_ball, two_balls):
-    for g in [one_ball[a][1] for a in ("0", "0.2", "0.4")] + [r[0] for r in two_balls.values()]:
+def test_eye_range_and_speed_limits(one_ball, two_balls, catch_balls):
+    runs = [r[0] for r in list(two_balls.values()) + list(catch_balls.values())]
+    for g in [one_ball[a][1] for a in ("0", "0.2", "0.4")] + runs:
         assert np.abs(g.yaw).max() <= 44.2 + 0.5
         assert -47.1 - 0.5 <= g.pitch.min() and g.pitch.max() <= 27.7 + 0.5
         # eye-in-head angular speed between frames

@@ -9,7 +9,10 @@
   arriving at chest height at 1.4 s (the SkelRoot's ``usdgaze:physics:catch`` names it:
   ``attend --physics`` catches it);
 * ``two_balls.usda``: two balls flying together from the front-left and front-right (from 7 m),
-  arriving at 1.3 and 1.4 s;
+  arriving at 1.3 and 1.4 s (Figure 4's balls: no task, they arrive at the chest);
+* ``two_balls_catch.usda``: the same throws to be caught: arriving 0.5 m in front of the head and 0.27 m
+  below it (within the hands' reach), each ball's importance rising as its time to arrival shrinks
+  (the task: see docs/attend.md, "A dwell on the nearer ball");
 * ``stepping_stones.usda``: the cmu_131_01 walk, a stone at each footfall (found from the toes'
   height and speed in the capture; each stone records ``userProperties:landing``, ``lift`` and
   ``swingStart``, the time code the foot stepping onto it leaves its previous contact); a stone's
@@ -106,6 +109,13 @@ def _throw(start, end, t_fly, t0, secs) -> np.ndarray:
     return start + v * t - 0.5 * G * np.array([0, 1.0, 0]) * t * t
 
 
+def catch_importance(secs: np.ndarray, arrival: float, tau: float = 0.5) -> np.ndarray:
+    """A ball to catch: importance 1 until it is ``tau`` s from arriving, then tau / (time to arrival),
+    up to 5 (at 0.1 s); 0.05 once caught. Ours: the paper's importance "depending on the task"."""
+    tta = arrival - secs
+    return np.where(tta > 0, np.maximum(1.0, tau / np.maximum(tta, 0.1)), 0.05)
+
+
 def standing(stage_times, world, names, tcps) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Write standing.usdc; return the head position, forward and left at the first frame."""
     src = Sdf.Layer.FindOrOpen(str(CMU / "cmu_131_01.usdc"))
@@ -177,6 +187,14 @@ def main() -> None:
           _throw(head + 7 * fwd + 1.5 * left - 0.2 * up, chest + 0.25 * left, 1.3, 0.0, secs), 0.11, "ballistic")
     _ball(layer, "/Objects/BallRight", codes,
           _throw(head + 7 * fwd - 1.5 * left - 0.2 * up, chest - 0.25 * left, 1.4, 0.0, secs), 0.11, "ballistic")
+    layer.Save()
+
+    layer = _new_layer(HERE / "two_balls_catch.usda", subs, codes[0], codes[-1], tcps)
+    catch = head + 0.5 * fwd - 0.27 * up
+    for name, side, t_fly in (("BallLeft", 1, 1.3), ("BallRight", -1, 1.4)):
+        _ball(layer, f"/Objects/{name}", codes,
+              _throw(head + 7 * fwd + side * 1.5 * left - 0.2 * up, catch + side * 0.25 * left, t_fly, 0.0, secs),
+              0.11, "ballistic", catch_importance(secs, t_fly))
     layer.Save()
 
     steps = footfalls(times, world, names, tcps)
