@@ -4,12 +4,14 @@
 
 Runs ``usdgaze attend`` on two_balls.usda with the distance-sum, sequential and uncertainty costs
 (and the uncertainty cost with the paper's alpha read literally as a variance per step, and with three
-more seeds of the observation noise), and on
+more seeds of the observation noise), on two_balls_catch.usda (the same throws to be caught: a catch
+point in front, importance rising as the time to arrival shrinks; four seeds), and on
 ball_throw.usda with alpha 0, 0.2 and 0.4; reads back each written layer's point of sight
 (``gaze:attend:pointOfSight``), estimates, and the balls' true positions, prints per run the share of
 frames the line of sight is within 5 deg of each ball, the switches between balls, the fixation
 runs, the median distance of the point of sight from the balls' midpoint over half their separation,
-and for one ball the roughness of the estimate; and draws figure4.png (top view of the point-of-sight
+the share of the last 0.3 s before the first arrival on each ball, and for one ball the roughness
+of the estimate; and draws figure4.png (top view of the point-of-sight
 paths, as in the paper's figure, plus the angle to each ball over time).
 """
 
@@ -30,6 +32,7 @@ from usdgaze.attend import AttendSettings, attend  # noqa: E402
 
 FIX_DEG = 5.0
 ARRIVAL_S = 1.4  # the last ball's arrival (make_stages.py)
+FIRST_S = 1.3  # the first ball's arrival (BallLeft)
 
 
 def _track(stage: Usd.Stage, prim: str, times) -> np.ndarray:
@@ -77,6 +80,8 @@ def _summary(name, secs, pos, tracks, origin, est):
         mid = np.linalg.norm(pos - 0.5 * (tracks[0] + tracks[1]), axis=1)[f]
         half = 0.5 * np.linalg.norm(tracks[0] - tracks[1], axis=1)[f]
         line += f"; sight from the midpoint {np.median(mid):.2f} m = {np.median(mid / half):.2f} x half the separation"
+        last = (secs > FIRST_S - 0.3 - 1e-6)[f] & (secs <= FIRST_S + 1e-6)[f]
+        line += f"; last 0.3 s before the first arrival: ball 1 {100 * np.mean(on[last] == 0):.0f}%, ball 2 {100 * np.mean(on[last] == 1):.0f}%"
     else:
         d2 = np.linalg.norm(est[2:] - 2 * est[1:-1] + est[:-2], axis=1)  # second difference per frame
         fixated = (secs >= 0.1) & (secs <= 1.2) & (_angles(pos, tracks[0], origin) < FIX_DEG)
@@ -109,10 +114,16 @@ def main() -> None:
         out = args.out / f"two_balls_uncertainty_seed{seed}.usdc"
         attend(two, out, settings=AttendSettings(window_s=args.window, seed=seed))
         extra.append((f"two balls, uncertainty, seed {seed}", *_read(out, two, ["/Objects/BallLeft", "/Objects/BallRight"])))
+    catch = HERE / "two_balls_catch.usda"
+    for seed in range(args.seed, args.seed + 4):
+        out = args.out / f"two_balls_catch_seed{seed}.usdc"
+        attend(catch, out, settings=AttendSettings(window_s=args.window, seed=seed))
+        extra.append((f"two balls to catch, seed {seed}", *_read(out, catch, ["/Objects/BallLeft", "/Objects/BallRight"])))
     origin = _eyes()
     for name, secs, pos, tracks, est in runs + extra:
         _summary(name, secs, pos, tracks, origin, est)
-    _draw(runs[:3] + extra[:1] + runs[3:], args.out / "figure4.png")  # 4c under a second seed beside it
+    # 4c under a second seed beside it, then the balls to catch (the dwell on the first one)
+    _draw(runs[:3] + extra[:1] + extra[3:4] + runs[3:], args.out / "figure4.png")
     print(f"wrote {args.out / 'figure4.png'}")
 
 
@@ -152,6 +163,8 @@ def _draw(runs, path: Path) -> None:
         for i, t in enumerate(tracks):
             ax2.plot(secs, _angles(pos, t, origin), label=f"ball {i + 1}")
         ax2.axhline(FIX_DEG, color="grey", lw=0.5)
+        if len(tracks) > 1:
+            ax2.axvline(FIRST_S, color="grey", lw=0.5, ls="--")  # the first ball arrives
         ax2.set_ylim(0, 60)
         ax2.set_xlabel("s")
         ax2.set_ylabel("angle to ball (deg)")
