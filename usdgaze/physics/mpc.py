@@ -131,10 +131,9 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
              pushes: tuple[Push, ...] = (), progress=None, tasks: Sequence[TaskFactory] = ()) -> Result:
     """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length, plus tasks."""
     import mujoco
-    import scipy.linalg.lapack  # noqa: F401  the solver's LAPACK, loaded before the thread limit below:
-    from threadpoolctl import threadpool_limits  # a BLAS first loaded inside it keeps its own threads
+    from threadpoolctl import threadpool_limits
 
-    from usdgaze.planning import ddp
+    from usdgaze.planning import ddp  # loads the solver's LAPACK before the thread limit below
     from usdgaze.planning.compose import CostSum
 
     h = options.h

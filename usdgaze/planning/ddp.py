@@ -29,6 +29,10 @@ from dataclasses import dataclass, field
 from typing import Callable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
+# Raw LAPACK: np.linalg's checks cost more than these tiny solves. Imported with this module, so that
+# scipy's BLAS is loaded before any caller's ``threadpool_limits`` block: a BLAS first loaded inside
+# one keeps its own threads (two spinning threads made a backward pass ~17x slower on 2 cores).
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 
 @runtime_checkable
@@ -136,8 +140,6 @@ def expand_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0):
 
 def _backward(fx, fu, running, terminal, mu: float, state_reg: bool = False):
     """Feedforward k, gains K and the predicted decrease terms; None if Quu + mu I is not PD."""
-    from scipy.linalg.lapack import dpotrf, dpotrs  # raw LAPACK: np.linalg's checks cost more than tiny solves
-
     lx, lu, lxx, luu, lux = running
     vx, vxx = terminal
     n, nu = lu.shape
