@@ -147,29 +147,12 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
 
     to_model = stage_to_model(up_axis, meters_per_unit)
     world = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0] @ world_matrices(rest_local[None], parents)[0]
-    pos = world[idx, :3, 3] @ to_model.T
-    orient = rot.from_matrix(to_model @ world[idx, :3, :3])
-    rmat = rot.to_matrix(orient)
+    pos, orient, rmat, offset, rel = _rest_frames(world[idx], bparent, to_model)
     n = len(idx)
-    offset = np.zeros((n, 3))
-    rel = np.tile(rot.IDENTITY, (n, 1))
-    for b in range(1, n):
-        p = bparent[b]
-        offset[b] = rmat[p].T @ (pos[b] - pos[p])
-        rel[b] = rot.relative(orient[p], orient[b])
-
     height = float(np.ptp(pos[:, 2])) * 1.08 or 1.0
     roles = seg.assign_roles([joints[j] for j in idx], bparent)
     children = [[c for c in range(n) if bparent[c] == b] for b in range(n)]
-    seg_vec = np.zeros((n, 3))  # body frame, from the joint along its segment
-    for b in range(n):
-        if children[b]:
-            sizes = [len(_subtree(c, bparent)) for c in children[b]]
-            seg_vec[b] = offset[children[b][int(np.argmax(sizes))]]
-        if np.linalg.norm(seg_vec[b]) < 1e-6:  # a leaf: continue the bone into it, else point up
-            d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
-            d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))
-            seg_vec[b] = d / np.linalg.norm(d) * _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
+    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height)
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = np.maximum(seg.segment_masses(roles, lengths, total_mass), 1e-3 * total_mass / n)
 
@@ -181,23 +164,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         forward = character_frame([joints[j] for j in idx], rest4, np.array([0.0, 0.0, 1.0]), where=where).forward
     except RigError:  # no left/right names: no anatomical axes, so no hinges either
         forward = None
-    axis = np.zeros((n, 3))
-    range_deg = np.zeros((n, 2))
-    for b in range(1, n):
-        range_deg[b] = (0.0, seg.RANGE_DEG.get(roles[b], seg.RANGE_DEG["other"]))
-        if roles[b] in _HINGES and children[b] and kind[b] == "ball" and forward is not None:
-            bone = rmat[b] @ seg_vec[b]
-            a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
-            if np.linalg.norm(a) > 0.2:
-                kind[b] = "hinge"
-                axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
-                range_deg[b] = (-5.0, 150.0)
-        elif _is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
-            # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
-            kind[b] = "hinge"
-            left = np.cross([0.0, 0.0, 1.0], forward)
-            axis[b] = rmat[b].T @ (left / np.linalg.norm(left))
-            range_deg[b] = (-40.0, 60.0)
+    axis, range_deg = _hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
         _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, weld_still)
 
@@ -215,6 +182,62 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         axis=axis, range_deg=range_deg, mass=mass, com=com, inertia=inertia, inertia_quat=iquat,
         radius=radius, geoms=geoms, strength=strength, to_model=to_model, total_mass=float(total_mass),
         height=height, lift=-lowest, feet=feet, forward=forward, rest_pos=pos, rest_rot=rmat)
+
+
+def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
+    """Model-space rest positions, orientations (quaternions and matrices) of the bodies, and each
+    body's offset and rotation relative to its parent."""
+    pos = world[:, :3, 3] @ to_model.T
+    orient = rot.from_matrix(to_model @ world[:, :3, :3])
+    rmat = rot.to_matrix(orient)
+    n = len(world)
+    offset = np.zeros((n, 3))
+    rel = np.tile(rot.IDENTITY, (n, 1))
+    for b in range(1, n):
+        p = bparent[b]
+        offset[b] = rmat[p].T @ (pos[b] - pos[p])
+        rel[b] = rot.relative(orient[p], orient[b])
+    return pos, orient, rmat, offset, rel
+
+
+def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float) -> np.ndarray:
+    """Per body, in its frame, the segment from its joint toward its main child (the largest
+    subtree); a leaf continues its bone by a role's share of the height, else points up."""
+    n = len(pos)
+    seg_vec = np.zeros((n, 3))
+    for b in range(n):
+        if children[b]:
+            sizes = [len(_subtree(c, bparent)) for c in children[b]]
+            seg_vec[b] = offset[children[b][int(np.argmax(sizes))]]
+        if np.linalg.norm(seg_vec[b]) < 1e-6:
+            d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
+            d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))
+            seg_vec[b] = d / np.linalg.norm(d) * _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
+    return seg_vec
+
+
+def _hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
+    """Knees, elbows and toes become hinges (``kind`` is updated): their axes in the body frame and
+    every body's range in degrees."""
+    n = len(kind)
+    axis = np.zeros((n, 3))
+    range_deg = np.zeros((n, 2))
+    for b in range(1, n):
+        range_deg[b] = (0.0, seg.RANGE_DEG.get(roles[b], seg.RANGE_DEG["other"]))
+        if roles[b] in _HINGES and children[b] and kind[b] == "ball" and forward is not None:
+            bone = rmat[b] @ seg_vec[b]
+            a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
+            if np.linalg.norm(a) > 0.2:
+                kind[b] = "hinge"
+                axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
+                range_deg[b] = (-5.0, 150.0)
+        elif _is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
+            # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
+            kind[b] = "hinge"
+            left = np.cross([0.0, 0.0, 1.0], forward)
+            axis[b] = rmat[b].T @ (left / np.linalg.norm(left))
+            range_deg[b] = (-40.0, 60.0)
+    return axis, range_deg
 
 
 def _is_toe(roles: list[str], bparent: np.ndarray, b: int) -> bool:
