@@ -87,11 +87,12 @@ def throw_stage(path: Path, start, arrival, flight_s: float, seconds: float, cat
 
 def seeded_throw(seed: int, flight_s: tuple[float, float] = (1.0, 1.3)):
     """(start, arrival, flight_s) of a throw from the front within reach: launched 5-7 m ahead, landing
-    30-40 cm in front of the shoulders, up to 20 cm below them (where the eyes can still see it without
+    35 cm in front of the shoulders (the catch task's plane: the ball stops there, it is not met
+    further along its path), up to 20 cm below them (where the eyes can still see it without
     bending the head), up to 25 cm to either side."""
     rng = np.random.default_rng(seed)
     _, shoulders, fwd, left = character()
-    arrival = shoulders + rng.uniform(0.3, 0.4) * fwd - rng.uniform(0.0, 0.2) * UP + rng.uniform(-0.25, 0.25) * left
+    arrival = shoulders + 0.35 * fwd - rng.uniform(0.0, 0.2) * UP + rng.uniform(-0.25, 0.25) * left
     start = shoulders + rng.uniform(5.0, 7.0) * fwd + rng.uniform(-1.5, 1.5) * left + rng.uniform(0.0, 0.6) * UP
     return start, arrival, float(rng.uniform(*flight_s))
 

@@ -135,7 +135,8 @@ def test_a_ball_from_the_front_is_watched_and_the_hand_goes_to_it(tmp_path):
     flying = m["secs"] < throw[2]
     # The eyes are on the ball while it is far, and near it in the last, fast part of its approach
     # (at 1-2 m its direction turns faster than the 100 deg/s pursuit between saccade windows).
-    assert off[m["secs"] < 0.5 * throw[2]].max() < 10.0 and np.median(off[flying]) < 10.0
+    early = (m["secs"] >= 0.1) & (m["secs"] < 0.5 * throw[2])  # after the first saccade
+    assert off[early].max() < 10.0 and np.median(off[flying]) < 10.0
     ref = cs.catch_measures(src, src, tmp_path, throw[2])  # the reference itself: arms down
     assert m["at_arrival"] < 0.10 < 0.3 < ref["at_arrival"]  # the reference keeps its arms down
     layer = Sdf.Layer.FindOrOpen(str(out))

@@ -77,7 +77,8 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     h = options.h
     steps = int(np.ceil((clip.seconds[-1] - clip.seconds[0]) / h - 1e-6)) + 1
     things = _things(root, clip, source, prims, model, steps, h)
-    tasks = [(lambda j: lambda plan, ref_q: CatchTask(plan, j, seed + j, truth=things[j].positions))(j) for j in catches]
+    tasks = [(lambda j: lambda plan, ref_q: CatchTask(plan, j, seed + j, truth=things[j].positions,
+                                                                reference=ref_q))(j) for j in catches]
     tasks += body_pass.read_tasks(root.GetStage(), clip, model, source, ref_qpos, paths)
     opts = visuomotor.Options(options)
     opts.vision.seed = seed

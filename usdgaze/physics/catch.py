@@ -3,7 +3,9 @@
 ``c_tsk = |p_hand - p_ball|^2 + |p_lat_ball - p_lat_sp|^2``: ``p_ball`` is where the ball is expected
 to arrive, predicted from the character's *belief* (the simulated Kalman estimate, never the true
 state) before each solve: where the estimated ballistic path crosses the catching plane, 35 cm in
-front of the shoulders' midpoint, if that is within ``reach_m`` of the catching point 20 cm below. ``p_sp`` is the midpoint of the
+front of the shoulders' midpoint, if that is within ``reach_m`` of the catching point 20 cm below.
+The shoulders are the reference's at that step (where the character means to stand): a plane that
+followed the simulated body's sway would move a steeply falling ball's crossing by tens of cm. ``p_sp`` is the midpoint of the
 feet (the support polygon's centre), the lateral axis the character's left at the window's start.
 
 Phases as the paper: reactive from a time drawn in 1.5-2 s before the estimated arrival (weight
@@ -14,7 +16,9 @@ asks for the arm to leave the reference, so the hand would never rise; in centim
 weight lifts the arm part-way and the proactive one takes the hand to the ball, as the paper tells.
 The lateral term charges only what lies beyond ``lateral_free_m`` (the paper: "if the arrival
 position is laterally far from the character"); a plain square would step the character under every
-ball. The catching hand is the one on the arrival's side, kept once the proactive phase starts.
+ball. The catching hand is the one on the arrival's side, kept once the proactive phase starts; from
+then on an estimate made while the ball is out of view (close below the face) does not move the
+target: the hand waits where the ball was last expected.
 
 Derivatives: the gradient is exact, the Hessian Gauss-Newton (``2 w J'J``), with the hand's and feet's
 Jacobians from MuJoCo's ``mj_jac`` mapped to the state's minimal coordinates.
@@ -76,11 +80,13 @@ class CatchTask:
     name = "catch"
 
     def __init__(self, dyn: MujocoBody, ball: int, seed: int = 0, options: CatchOptions = CatchOptions(),
-                 truth: np.ndarray | None = None) -> None:
+                 truth: np.ndarray | None = None, reference: np.ndarray | None = None) -> None:
         import mujoco
 
         self.dyn, self.ball, self.o = dyn, ball, options
         self.data = mujoco.MjData(dyn.mj)
+        self.reference = reference  # qpos per step: the catching plane stands where the reference does
+        self._ref_data = mujoco.MjData(dyn.mj)
         self.hands = _hand_sites(dyn.model)
         if not self.hands:
             raise ValueError("the body model has no hand below a forearm to catch with")
@@ -99,13 +105,21 @@ class CatchTask:
     # -- the belief: where and when the ball is expected ------------------------------------------
     def perceive(self, percept) -> None:
         """Estimate the arrival from the simulated belief and the simulated body (``percept.data``)."""
+        import mujoco
+
         d, o = percept.data, self.o
         k, h = percept.k, percept.h
+        if self.reference is not None:  # where the character means to stand, not where it sways to
+            d = self._ref_data
+            d.qpos[:] = self.reference[min(k, len(self.reference) - 1)]
+            mujoco.mj_kinematics(self.dyn.mj, d)
         fwd = self._forward(d)
         self.left = np.cross([0.0, 0.0, 1.0], fwd)
         if self.ball not in percept.mu:
             self.arrival = None
             return
+        if self.locked and percept.seen is not None and not percept.seen[self.ball]:
+            return  # out of view in the last moments: catch where it was last expected, not where a guess drifts
         mu, accel = percept.mu[self.ball], percept.things[self.ball].accel
         mid = d.xpos[self.shoulders].mean(axis=0) if self.shoulders else d.xpos[1]
         point = mid + o.ahead_m * fwd - np.array([0.0, 0.0, o.below_m])

@@ -60,6 +60,7 @@ class Percept:
     sigma: dict[int, np.ndarray]  # object index -> [sigma_p, sigma_v, sigma_pv]
     things: list[loop.Thing]
     data: object  # mujoco.MjData at the simulated state, kinematics done
+    seen: np.ndarray | None = None  # (objects,) bool: observed this step
 
 
 def _vision_result(n: int, n_obj: int) -> loop.LoopResult:
@@ -143,7 +144,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
                 break
             for task in made:
                 if hasattr(task, "perceive"):
-                    task.perceive(Percept(k, h, filters.mu, filters.sig, things, d))
+                    task.perceive(Percept(k, h, filters.mu, filters.sig, things, d, vis.visible[k]))
             prob = _Problem(eye, plan, filters, slots, k, tracking, made, vo)
             x = prob.state(e, xb, filters)
             solver.U[-1] = pad(k + n - 1)
