@@ -101,8 +101,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
              progress=None) -> Result:
     """Simulate body, eyes and belief over the reference's length; ``things``' positions per step of h."""
     import mujoco
-    import scipy.linalg.lapack  # noqa: F401  the solver's LAPACK, loaded before the thread limit (as mpc):
-    from threadpoolctl import threadpool_limits  # a BLAS first loaded inside it keeps its own threads
+    from threadpoolctl import threadpool_limits
 
     bo, vo = options.body, options.vision
     h = bo.h
