@@ -164,3 +164,6 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert "fell at" in printed and out.is_file()
     layer = Sdf.Layer.FindOrOpen(str(out))
     assert "fell at" in list(layer.customLayerData["usdgaze:physics"][SKEL]["problems"])[0]
+    again = tmp_path / "again.usda"  # deterministic: the same inputs give the same bytes
+    assert main(["attend", str(src), "--out", str(again), "--physics", "--window", "0.3"]) == 0
+    assert again.read_bytes() == out.read_bytes()

@@ -238,7 +238,9 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
                 report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress)
             reports.append(report)
             overrides.append(override)
-            terms[clip.skeleton] = {"report": {k: v for k, v in asdict(report).items() if v is not None and k != "problems"},
+            # wall_s stays out of the layer: the same inputs and seed must give the same bytes.
+            terms[clip.skeleton] = {"report": {k: v for k, v in asdict(report).items()
+                                               if v is not None and k not in ("problems", "wall_s")},
                                     "problems": report.problems or ["none"], "frames": shot_terms}
     if not reports:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
