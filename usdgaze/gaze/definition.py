@@ -187,10 +187,12 @@ def _validate_bindings(bindings: dict, source: str) -> None:
 
 
 def _validate_forward(forward, source: str) -> None:
-    """An unset forward, or a finite non-zero 3-vector."""
+    """An unset forward, or a finite non-zero 3-vector whose length is finite too."""
     if forward is not None:
         forward = np.asarray(forward, dtype=float)
-        if forward.shape != (3,) or not np.isfinite(forward).all() or not forward.any():
+        with np.errstate(over="ignore"):  # (1e200, 1e200, 0) is finite, its length is not
+            length = float(np.sqrt(np.sum(forward * forward))) if forward.shape == (3,) else np.nan
+        if forward.shape != (3,) or not np.isfinite(forward).all() or not 0 < length < np.inf:
             raise GazeMapError(
                 f"{source}.{FORWARD_ATTR}: {tuple(forward.ravel().tolist())} is not a direction "
                 f"(leave it unset to work forward out from the rest pose)"

@@ -98,8 +98,11 @@ class GazeMotions:
             raise ValueError(f"timing must have shape {offsets.shape[:-2] + (7,)}, got {timing.shape}")
         # Renormalize only what is visibly off unit length: values read from float32 storage stay
         # bit for bit, so a map read and written back is unchanged.
-        norm = np.linalg.norm(offsets, axis=-1, keepdims=True)
-        offsets = np.where(np.abs(norm - 1.0) > 1e-6, rot.normalize(offsets), offsets)
+        # Values too large to normalize come out non-finite or zero, and the map's checks refuse them
+        # with their own one-line error: no numpy warning on the way.
+        with np.errstate(over="ignore", invalid="ignore"):
+            norm = np.linalg.norm(offsets, axis=-1, keepdims=True)
+            offsets = np.where(np.abs(norm - 1.0) > 1e-6, rot.normalize(offsets), offsets)
         object.__setattr__(self, "offsets", rot.positive_w(offsets))
         object.__setattr__(self, "timing", timing)
 
