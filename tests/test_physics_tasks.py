@@ -130,10 +130,13 @@ def landings(posed: measure.Posed, toe: str, tcps: float) -> list[tuple[int, int
     return [(a, b) for a, b in zip(edges[::2], edges[1::2]) if (b - a) / tcps >= 0.05]
 
 
-def test_stone_contacts_are_measured_and_a_miss_is_said_per_shot(stepped):
-    """NOT the issue's bar (contacts within 5 cm of stones displaced up to 15 cm), which the controller
-    does not meet here (docs/physics.md): the feet the shot starts on stay on their stones, and the
-    shot's report says which displaced stone it missed, by as much as UsdSkel FK measures."""
+def test_a_stone_displaced_15_cm_is_stood_on_and_the_report_agrees_with_fk(stepped):
+    """The issue's bar in one of its four directions: the right foot's stone displaced 15 cm (toward
+    -X) is stood on within 5 cm by UsdSkel FK (2.5 cm measured) and the shot does not fall; the feet
+    the shot starts on stay on their stones, and the report calls a contact missed exactly where
+    FK measures over 5 cm (outside a 0.5 cm band: the report measures MuJoCo's toe body). The
+    bar is NOT met in all four directions (5.1-5.6 cm in two of them; undisplaced shuffle stones up
+    to 5.8 cm: docs/physics.md), so the other directions are not asserted."""
     sim = measure.posed(str(stepped["composed"]), SKEL)
     ref = measure.posed(str(stepped["src"]), SKEL)
     stones_at, moved, tcps = stepped["stones"], stepped["moved"], stepped["tcps"]
@@ -150,9 +153,9 @@ def test_stone_contacts_are_measured_and_a_miss_is_said_per_shot(stepped):
             if a == 0:
                 assert miss <= 0.05  # standing on it from the start
             if moved[i]:
-                assert bool(said) == (miss > 0.05), (miss, report.problems)
-                if said:
-                    assert abs(float(said[0].split()[1]) - 100 * miss) < 1.5
+                assert miss <= 0.05, (toe, miss, report.problems)
+            if abs(miss - 0.05) > 0.005:
+                assert bool(said) == (miss > 0.05), (toe, a, miss, report.problems)
             i += 1
 
 
