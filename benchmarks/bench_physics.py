@@ -259,7 +259,7 @@ def main() -> None:
             run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))
             continue
         if task in ("stones", "stones10", "obstacles"):
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
+            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
             shifts = {"RightAnkle": 0.15} | ({"LeftAnkle": 0.10} if task == "stones10" else {})
             runs = ([run_obstacles(opts, int(s_)) for s_ in a.seeds.split(",")] if task == "obstacles" else
                     [run_stones(opts, shifts, turn) for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi)])

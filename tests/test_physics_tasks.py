@@ -1,8 +1,8 @@
 """The physics tasks of the second seed (section 7) on the MuJoCo body: stepping stones and moving
 obstacles, authored in the stage and measured on the WRITTEN layer by UsdSkel forward kinematics.
 
-Stones: an excerpt of the CMU walk (1.2-2.3 s, h 0.02) with a stone at each reference footfall, found
-from the toes' height and speed in the capture, the right foot's swing stone displaced 15 cm; the feet
+Stones: an excerpt of the CMU walk (1.0-2.5 s) with a stone at each reference footfall, found from
+the toes' height and speed in the capture, the right foot's swing stone displaced 15 cm; the feet
 measured against the stones on the written layer (the bar, four directions, is not met in all of
 them: docs/physics.md).
 Obstacles: spheres crossing the walker's path near the reference's own position and time, measured
@@ -29,11 +29,8 @@ from .attend_support import compose
 ROOT = Path(__file__).resolve().parents[1]
 CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 SKEL, ANIM = "/root/Body/BodySkel", "/root/Body/BodySkel/scaled_131_01"
-SPAN = (1.2, 2.3)  # seconds of the walk: the left foot stands, the right foot's swing lands at 1.9 s
+SPAN = (1.0, 2.5)  # seconds of the walk: the right foot's 0.8 s swing lands at 1.9 s
 OPTIONS = mpc.Options(h=0.03, horizon_s=0.6)
-# h 0.02 for the walk on stones: at 0.03 the stiffer contacts (solimp 0.95-0.99) launch this excerpt's
-# body off its standing foot (docs/physics.md); the obstacle scene still tracks at 0.03.
-STONES_OPTIONS = mpc.Options(h=0.02, horizon_s=0.6)
 TOES = ("LeftToe", "RightToe")
 # The right foot reaches its stone in a 0.8 s swing: displaced the bar's 15 cm. The left foot only
 # shuffles here (lifts of 80 ms, footfalls 7-12 cm apart): its stones stay at the footfalls
@@ -116,7 +113,7 @@ def stepped(tmp_path_factory):
     add_objects(src, "stone", "Stone", placed, 0.15, seen=False)  # body only: the coupled loop is 3x slower
     before = measure.sha256(src)
     out = tmp / "walked.usda"
-    reports = physics_pass.run(src, out, STONES_OPTIONS)
+    reports = physics_pass.run(src, out, OPTIONS)
     return dict(src=src, out=out, composed=compose(tmp, src, out), stones=np.array(placed), moved=np.array(moved),
                 reports=reports, before=before, tcps=tcps)
 
@@ -132,11 +129,11 @@ def landings(posed: measure.Posed, toe: str, tcps: float) -> list[tuple[int, int
 
 def test_a_stone_displaced_15_cm_is_stood_on_and_the_report_agrees_with_fk(stepped):
     """The issue's bar in one of its four directions: the right foot's stone displaced 15 cm (toward
-    -X) is stood on within 5 cm by UsdSkel FK (2.5 cm measured) and the shot does not fall; the feet
+    -X) is stood on within 5 cm by UsdSkel FK (3.9 cm measured) and the shot does not fall; the feet
     the shot starts on stay on their stones, and the report calls a contact missed exactly where
     FK measures over 5 cm (outside a 0.5 cm band: the report measures MuJoCo's toe body). The
-    bar is NOT met in all four directions (5.1-5.6 cm in two of them; undisplaced shuffle stones up
-    to 5.8 cm: docs/physics.md), so the other directions are not asserted."""
+    bar is NOT met in all four directions (8.1 cm toward +Z: docs/physics.md), so the other
+    directions are not asserted."""
     sim = measure.posed(str(stepped["composed"]), SKEL)
     ref = measure.posed(str(stepped["src"]), SKEL)
     stones_at, moved, tcps = stepped["stones"], stepped["moved"], stepped["tcps"]
