@@ -164,6 +164,10 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert "fell at" in printed and out.is_file()
     layer = Sdf.Layer.FindOrOpen(str(out))
     assert "fell at" in list(layer.customLayerData["usdgaze:physics"][SKEL]["problems"])[0]
-    again = tmp_path / "again.usda"  # deterministic: the same inputs give the same bytes
-    assert main(["attend", str(src), "--out", str(again), "--physics", "--window", "0.3"]) == 0
+    again = tmp_path / "again.usda"  # deterministic, and threads split the work without changing it
+    assert main(["attend", str(src), "--out", str(again), "--physics", "--window", "0.3", "--threads", "2"]) == 0
     assert again.read_bytes() == out.read_bytes()
+    capsys.readouterr()
+    assert main(["attend", str(src), "--out", str(tmp_path / "x.usda"), "--physics", "--fd-stride", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--fd-stride" in err[0] and not (tmp_path / "x.usda").exists()

@@ -34,11 +34,19 @@ import click
                    "belief are simulated with the body, and balls the SkelRoot's usdgaze:physics:catch names are "
                    "caught.")
 @click.option("--discard-failed", is_flag=True, help="With --physics: when a shot falls, write nothing and exit 2.")
+@click.option("--threads", default=1, show_default=True, type=click.IntRange(1, 64),
+              help="With --physics: threads for the planner's finite differences (results identical to one).")
+@click.option("--fd-stride", default=1, show_default=True, type=click.IntRange(1, 8),
+              help="With --physics: MuJoCo derivatives every N planner steps, interpolated between (faster; "
+                   "2 roughly halves the time, docs/physics.md).")
 def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
-           physics, discard_failed) -> None:
+           physics, discard_failed, threads, fd_stride) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     if physics:
-        return _physics(input_path, out, window_s, skel_root, discard_failed, as_json, seed)
+        from usdgaze.physics.mpc import Options
+
+        options = Options(horizon_s=window_s, workers=threads, fd_stride=fd_stride)
+        return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed)
     from usdgaze.attend import AttendSettings, attend as run
     from usdgaze.core.hints import parse_hints
 
@@ -62,15 +70,13 @@ def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_
     click.echo(f"wrote {report.output}")
 
 
-def _physics(input_path, out, window_s, skel_root, discard_failed, as_json, seed) -> None:
+def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed) -> None:
     """``--physics``: the physics pass (usdgaze.passes.physics); one line per shot, a fall said plainly."""
     from dataclasses import asdict
 
     from usdgaze.passes.physics import run
-    from usdgaze.physics.mpc import Options
 
-    reports = run(input_path, out, Options(horizon_s=window_s), skel_root=skel_root, keep_failed=not discard_failed,
-                  seed=seed)
+    reports = run(input_path, out, options, skel_root=skel_root, keep_failed=not discard_failed, seed=seed)
     if as_json:
         click.echo(json.dumps({"output": str(out), "shots": [asdict(r) for r in reports]}, indent=2))
         return

@@ -106,7 +106,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
     bo, vo = options.body, options.vision
     h = bo.h
     vo = loop.LoopOptions(**{**vo.__dict__, "h": h, "window_s": bo.horizon_s})
-    plan = MujocoBody(model, h=h, workers=bo.workers)
+    plan = MujocoBody(model, h=h, workers=bo.workers, stride=bo.fd_stride)
     sim = MujocoBody(model, h=h, forces=mpc._schedule(model, pushes, h, plan.mj.nbody))
     eye = eyemod.Eye(h)
     Stacked([eye, plan])  # the slices every later stack gives the eye and the body
