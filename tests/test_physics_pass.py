@@ -171,3 +171,22 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert main(["attend", str(src), "--out", str(tmp_path / "x.usda"), "--physics", "--fd-stride", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--fd-stride" in err[0] and not (tmp_path / "x.usda").exists()
+
+
+def test_two_tasks_of_one_kind_report_under_their_own_keys():
+    """Two balls to catch must not append into one series (it would be twice the shot's length)."""
+
+    class Fake:
+        def __init__(self, name, value):
+            self.name, self.value = name, value
+
+        def measure(self, k, data):
+            return {"m": self.value * k}
+
+    tasks = [Fake("catch", 1.0), Fake("catch", 2.0), Fake("stones", 3.0)]
+    measured: dict = {}
+    for k in (1, 2, 3):
+        mpc.measure_tasks(tasks, k, None, measured)
+    assert sorted(measured) == ["catch.m", "catch2.m", "stones.m"]
+    assert np.array_equal(measured["catch2.m"], [np.nan, 2.0, 4.0, 6.0], equal_nan=True)
+    assert all(len(v) == 4 for v in measured.values())

@@ -115,8 +115,8 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
         written.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
     override = AnimOverride.of(clip, written, move_roots=True)
     report, terms = body_pass.shot_summary(clip, result, n, len(pushes), wall)  # stones, obstacles said there
-    for j in catches:
-        miss = result.task_terms.get("catch.handToBallM")
+    for i, j in enumerate(catches):  # the catch tasks come first, in this order
+        miss = result.task_terms.get(f"{mpc.task_prefix(['catch'] * len(catches), i)}.handToBallM")
         if miss is not None and np.all(np.isnan(miss) | (miss > 0.1)):
             near = np.nanmin(miss) if np.any(~np.isnan(miss)) else np.nan
             report.problems.append(f"catch {paths[j]}: the hand came no nearer than {100 * near:.0f} cm to the ball")

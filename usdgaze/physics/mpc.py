@@ -189,9 +189,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
             d.qpos[:] = qpos[k + 1]
             mujoco.mj_kinematics(plan.mj, d)
             depth[k + 1] = _foot_depth(plan.mj, d, feet)
-            for task in made:
-                for key, value in task.measure(k + 1, d).items():
-                    measured.setdefault(f"{task.name}.{key}", [np.nan] * (k + 1)).append(float(value))
+            measure_tasks(made, k + 1, d, measured)
             if progress:
                 progress(k + 1, steps)
     kk = len(qpos)
@@ -204,6 +202,22 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
                   joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth,
                   solve_costs=costs, fell_at=fell,
                   task_terms={key: np.array(v + [np.nan] * (kk - len(v)))[:kk] for key, v in measured.items()})
+
+
+def task_prefix(names: Sequence[str], i: int) -> str:
+    """The per-frame key prefix of the ``i``-th task: its name, numbered from its second instance on
+    (two balls to catch report ``catch.*`` and ``catch2.*``)."""
+    n = list(names[:i]).count(names[i])
+    return names[i] if n == 0 else f"{names[i]}{n + 1}"
+
+
+def measure_tasks(tasks, k: int, data, measured: dict[str, list[float]]) -> None:
+    """Append every task's measures after step ``k`` (NaN-padded where a key first appears)."""
+    names = [t.name for t in tasks]
+    for i, task in enumerate(tasks):
+        prefix = task_prefix(names, i)
+        for key, value in task.measure(k, data).items():
+            measured.setdefault(f"{prefix}.{key}", [np.nan] * k).append(float(value))
 
 
 def _schedule(model: BodyModel, pushes, h: float, nbody: int):

@@ -170,9 +170,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
             d.qpos[:] = qpos[k + 1]
             mujoco.mj_kinematics(plan.mj, d)
             depth[k + 1] = mpc._foot_depth(plan.mj, d, feet)
-            for task in made:
-                for key, value in task.measure(k + 1, d).items():
-                    measured.setdefault(f"{task.name}.{key}", [np.nan] * (k + 1)).append(float(value))
+            mpc.measure_tasks(made, k + 1, d, measured)
             if progress:
                 progress(k + 1, steps)
             if down * h >= bo.stop_after_fall_s:  # on the ground: nothing left to control
