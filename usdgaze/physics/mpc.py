@@ -192,14 +192,20 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
             measure_tasks(made, k + 1, d, measured)
             if progress:
                 progress(k + 1, steps)
+    return shot_result(model, qpos, ref_q, ref_seconds, ctrl, depth, costs, measured, steps, h)
+
+
+def shot_result(model: BodyModel, qpos, ref_q, ref_seconds, ctrl, depth, costs, measured, steps: int,
+                h: float) -> Result:
+    """The :class:`Result` of a simulation that ran ``len(qpos)`` of ``steps + 1`` states: fall,
+    pelvis ratio and joint errors against the reference, per-step arrays cut to that length."""
     kk = len(qpos)
     ratio = qpos[:, 2] / np.maximum(ref_q[:kk, 2], 1e-6)
     low = np.flatnonzero(ratio < FALL_RATIO)
     seconds = ref_seconds[0] + h * np.arange(kk)
     fell = float(seconds[low[0]]) if len(low) else (None if kk == steps + 1 else float(seconds[-1]))
-    depth = depth[:kk]
     return Result(seconds=seconds, qpos=qpos, ref_qpos=ref_q[:kk], ctrl=ctrl[: kk - 1], pelvis_ratio=ratio,
-                  joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth,
+                  joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth[:kk],
                   solve_costs=costs, fell_at=fell,
                   task_terms={key: np.array(v + [np.nan] * (kk - len(v)))[:kk] for key, v in measured.items()})
 

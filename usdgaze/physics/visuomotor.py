@@ -177,7 +177,7 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
                 kk = k + 2
                 _sense(k + 1, e, plan.to_state(qpos[k + 1], qvel), eye, plan, filters, vis)
                 break
-    return Result(_body_result(model, qpos[:kk], ref_q, ref_seconds, ctrl, depth, costs, measured, steps, h),
+    return Result(mpc.shot_result(model, qpos[:kk], ref_q, ref_seconds, ctrl, depth, costs, measured, steps, h),
                   _trim(vis, kk))
 
 
@@ -194,15 +194,3 @@ def _sense(k: int, e: np.ndarray, xb: np.ndarray, eye, plan, filters: loop.Filte
     slots = filters.choose(k, p_eyes, vis.visible[k])
     vis.optimized[k, slots] = True
     return slots
-
-
-def _body_result(model, qpos, ref_q, ref_seconds, ctrl, depth, costs, measured, steps, h) -> mpc.Result:
-    kk = len(qpos)
-    ratio = qpos[:, 2] / np.maximum(ref_q[:kk, 2], 1e-6)
-    low = np.flatnonzero(ratio < mpc.FALL_RATIO)
-    seconds = ref_seconds[0] + h * np.arange(kk)
-    fell = float(seconds[low[0]]) if len(low) else (None if kk == steps + 1 else float(seconds[-1]))
-    return mpc.Result(seconds=seconds, qpos=qpos, ref_qpos=ref_q[:kk], ctrl=ctrl[: kk - 1], pelvis_ratio=ratio,
-                      joint_error_deg=mpc.joint_errors_deg(model, qpos, ref_q[:kk]),
-                      foot_below_ground_m=depth[:kk], solve_costs=costs, fell_at=fell,
-                      task_terms={key: np.array(v + [np.nan] * (kk - len(v)))[:kk] for key, v in measured.items()})
