@@ -1,6 +1,7 @@
 """Farm-scale benchmark: start-up, per-shot cost against frames, memory, workers, dask, a projection.
 
     python benchmarks/bench_farm.py [--runs 3] [--joints 100] [--frames 10000,30000,100000] [--shots 20]
+        [--farm-frames 2000,6000] [--skip startup,scaling,farm]
 
 Everything is measured side by side in this one run (best of ``--runs``, interleaved); nothing is
 asserted. Sections:
@@ -14,7 +15,9 @@ asserted. Sections:
 * memory: in a fresh process per length, peak RSS above the RSS after imports, and tracemalloc's peak
   (numpy and Python allocations), against the bytes of the animation arrays (rotations float32 x4,
   translations float32 x3, scales float16 x3; goal <= 2x at the longest);
-* farm: ``--shots`` shots of ``--joints`` joints x 2,000 frames through ``usdgaze batch --force``:
+* farm: ``--shots`` shots of ``--joints`` joints x ``--farm-frames`` frames (2,000 and 6,000 by default:
+  at 2,000 a shot is ~0.1 s of work, so the command's own ~0.5 s start-up caps what workers can gain)
+  through ``usdgaze batch --force``:
   one worker, two workers (local pool), and a running 2-worker dask ``LocalCluster`` (one thread
   each; its start is not timed, a warm-up run is not counted); speed-ups over one worker (goals 1.7x,
   1.5x);
@@ -248,17 +251,18 @@ def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
 
 # -- farm ---------------------------------------------------------------------------------------------
 
-def _farm_manifest(work: Path, joints: int, shots: int) -> Path:
+def _farm_manifest(work: Path, joints: int, shots: int, frames: int) -> Path:
     syn = _synthetic()
-    rig = syn.make_rig(work / "shots" / "shot_000.usdc", joints=joints, frames=2000, time_codes_per_second=60,
+    folder = work / f"shots_{frames}"
+    rig = syn.make_rig(folder / "shot_000.usdc", joints=joints, frames=frames, time_codes_per_second=60,
                        turn_deg_per_s=6, mesh=True)
-    lines = ['[defaults]', f"shifts = {json.dumps(_shifts(2000 / 60.0))}", ""]
+    lines = ['[defaults]', f"shifts = {json.dumps(_shifts(frames / 60.0))}", ""]
     for i in range(shots):
-        src = work / "shots" / f"shot_{i:03d}.usdc"
+        src = folder / f"shot_{i:03d}.usdc"
         if i:
             shutil.copy(rig.path, src)
-        lines += ["[[job]]", f'input = "shots/{src.name}"', f'out = "out/{src.stem}_gaze.usdc"', ""]
-    manifest = work / "farm.toml"
+        lines += ["[[job]]", f'input = "{folder.name}/{src.name}"', f'out = "out_{frames}/{src.stem}_gaze.usdc"', ""]
+    manifest = work / f"farm_{frames}.toml"
     manifest.write_text("\n".join(lines))
     return manifest
 
@@ -296,36 +300,44 @@ def _cpu_of(client) -> float:
     return sum(client.run(usage).values())
 
 
-def farm(work: Path, joints: int, shots: int, runs: int) -> dict:
+def farm(work: Path, joints: int, shots: int, runs: int, lengths: list[int]) -> dict[int, dict]:
+    """Each shot length in turn, the three ways side by side; best wall time per way and length."""
     from distributed import Client, LocalCluster
 
-    manifest = _farm_manifest(work, joints, shots)
-    batch = [PY, "-m", "usdgaze", "batch", str(manifest), "--force", "--summary", str(work / "s.json")]
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}  # the single-worker run gets no BLAS threads either
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             Client(cluster.scheduler_address) as client:
-        cmds = {"1 worker": [*batch, "--workers", "1"], "2 workers": [*batch, "--workers", "2"],
-                "dask, 2 workers": [*batch, "--dask", cluster.scheduler_address]}
-        _wall(cmds["dask, 2 workers"], env=env)  # warm-up: the dask workers import usdgaze once
-        best, cpu = {k: np.inf for k in cmds}, {k: np.inf for k in cmds}
-        for i in range(runs):
-            for k in (list(cmds) if i % 2 == 0 else list(cmds)[::-1]):
-                before, workers_before = _children_cpu(), _cpu_of(client)
-                best[k] = min(best[k], _wall(cmds[k], env=env))
-                used = _children_cpu() - before + (_cpu_of(client) - workers_before)
-                cpu[k] = min(cpu[k], used)
+        return {frames: _farm_length(work, joints, shots, runs, frames, cluster, client) for frames in lengths}
+
+
+def _farm_length(work: Path, joints: int, shots: int, runs: int, frames: int, cluster, client) -> dict:
+    manifest = _farm_manifest(work, joints, shots, frames)
+    batch = [PY, "-m", "usdgaze", "batch", str(manifest), "--force", "--summary", str(work / "s.json")]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}  # the single-worker run gets no BLAS threads either
+    cmds = {"1 worker": [*batch, "--workers", "1"], "2 workers": [*batch, "--workers", "2"],
+            "dask, 2 workers": [*batch, "--dask", cluster.scheduler_address]}
+    _wall(cmds["dask, 2 workers"], env=env)  # warm-up: the dask workers import usdgaze once
+    best, cpu = {k: np.inf for k in cmds}, {k: np.inf for k in cmds}
+    for i in range(runs):
+        for k in (list(cmds) if i % 2 == 0 else list(cmds)[::-1]):
+            before, workers_before = _children_cpu(), _cpu_of(client)
+            best[k] = min(best[k], _wall(cmds[k], env=env))
+            used = _children_cpu() - before + (_cpu_of(client) - workers_before)
+            cpu[k] = min(cpu[k], used)
     one = best["1 worker"]
-    print(f"\n[farm] {shots} shots of {joints} joints x 2000 frames, usdgaze batch --force, whole command, best of {runs}")
+    print(f"\n[farm] {shots} shots of {joints} joints x {frames} frames, usdgaze batch --force, whole command, best of {runs}")
     print("  CPU = user + sys of the command and its workers (dask: of the cluster's workers too), least of the runs")
     for (name, t), goal in zip(best.items(), ("", "(goal >= 1.7x)", "(goal >= 1.5x)")):
         print(f"  {name:18s} {t:7.2f} s   speed-up {one / t:4.2f}x {goal:16s} CPU {cpu[name]:6.2f} s"
               f" ({cpu[name] / shots * 1e3:5.0f} ms a shot)")
     print(f"  this machine's own ceiling: 2 fork workers on {shots} equal CPU-bound tasks (no I/O) run "
           f"{ceiling(shots, runs):4.2f}x faster than 1")
+    shutil.rmtree(manifest.parent / f"shots_{frames}", ignore_errors=True)
+    shutil.rmtree(manifest.parent / f"out_{frames}", ignore_errors=True)
     return best
 
 
 def projection(start: dict, farm_best: dict, shots: int) -> None:
+    """500 shots of 100 joints x 2,000 frames, from the 2,000-frame farm row and the apply start-up."""
     apply_process = start["usdgaze apply cmu_131_02 (1 shift)"]
     per_shot = farm_best["1 worker"] / shots  # includes the one process start, spread over the shots
     two = farm_best["2 workers"] / shots
@@ -347,6 +359,8 @@ def main(argv=None) -> int:
     parser.add_argument("--joints", type=int, default=100)
     parser.add_argument("--frames", default="10000,30000,100000")
     parser.add_argument("--shots", type=int, default=20)
+    parser.add_argument("--farm-frames", default="2000,6000",
+                        help="shot lengths of the farm section (the projection uses 2000)")
     parser.add_argument("--skip", default="", help="comma list of sections to skip: startup,scaling,farm")
     args = parser.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
@@ -363,9 +377,10 @@ def main(argv=None) -> int:
         if "scaling" not in skip:
             scaling(work, args.joints, [int(f) for f in args.frames.split(",")], args.runs)
         if "farm" not in skip:
-            best = farm(work, args.joints, args.shots, args.runs)
-            if start:
-                projection(start, best, args.shots)
+            lengths = [int(f) for f in args.farm_frames.split(",")]
+            best = farm(work, args.joints, args.shots, args.runs, lengths)
+            if start and 2000 in best:
+                projection(start, best[2000], args.shots)
     print(f"\nload average {os.getloadavg()[0]:.1f} at the end (other jobs share this machine)")
     return 0
 

@@ -276,7 +276,7 @@ def _register(ids, path: Path, shots: list[Shot]) -> None:
 
 def load_manifest(path: str | os.PathLike) -> list[Shot]:
     """The shots of a manifest, every key checked before any shot runs (one-line errors)."""
-    from usdgaze.ingest.tomlio import load_toml
+    from usdgaze.files.tomlio import load_toml
 
     path = Path(path)
     data = load_toml(path)

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from usdgaze.errors import UsdGazeError
-from usdgaze.ingest.tomlio import load_toml
+from usdgaze.files.tomlio import load_toml
 
 LANDMARKS = ("lower_back", "upper_back", "neck_base", "head")
 """Marker landmarks in P+ segment order: pelvis, lowerSpine, upperSpine, neck."""

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from usdgaze.errors import UsdGazeError
 from usdgaze.ingest.markers import SkeletonBinding, skeleton_binding
-from usdgaze.ingest.tomlio import load_toml
+from usdgaze.files.tomlio import load_toml
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
