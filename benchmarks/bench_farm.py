@@ -206,7 +206,12 @@ def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
                            turn_deg_per_s=6, mesh=True)
         rigs[frames] = (rig, _shifts(frames / 60.0), work / f"walk_{frames}_gaze.usdc")
         api.apply(rig.path, rigs[frames][1], rigs[frames][2])  # warm-up
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from bench_pass import sdf_copy, written_attributes
+
+    attrs = {f: written_attributes(rigs[f][2]) for f in lengths}
     best = {f: [np.inf, np.inf] for f in lengths}
+    copy_best = {f: [np.inf, np.inf] for f in lengths}
     for i in range(runs):  # the lengths interleaved, so a change in the machine's load hits them alike
         for frames in (lengths if i % 2 == 0 else lengths[::-1]):
             rig, shifts, out = rigs[frames]
@@ -214,6 +219,10 @@ def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
             api.apply(rig.path, shifts, out)
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
             best[frames] = [min(best[frames][0], wall), min(best[frames][1], cpu)]
+            t0, c0 = time.perf_counter(), time.process_time()  # the floor: an Sdf copy of what it wrote
+            sdf_copy(rig.path, work / "floor_copy.usdc", attrs[frames], rest_from=out)
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            copy_best[frames] = [min(copy_best[frames][0], wall), min(copy_best[frames][1], cpu)]
     for frames in lengths:
         rig, shifts, out = rigs[frames]
         n = len(rig.anim_joints) if hasattr(rig, "anim_joints") else joints
@@ -223,6 +232,7 @@ def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
         floor = _memory(rig.path, work / "floor.usdc", shifts, trace=False, floor_of=out)
         wall, cpu = best[frames]
         results[frames] = dict(seconds=wall, per_jf=wall / (frames * n), cpu_jf=cpu / (frames * n), arrays=arrays,
+                               floor_jf=copy_best[frames][0] / (frames * n), floor_cpu_jf=copy_best[frames][1] / (frames * n),
                                joints=n, rss=mem["peak_rss"] - mem["rss0"], anon=mem["anon"],
                                traced=traced["peak_trace"], floor_rss=floor["peak_rss"] - floor["rss0"],
                                floor_anon=floor["anon"])
@@ -235,6 +245,14 @@ def scaling(work: Path, joints: int, lengths: list[int], runs: int) -> dict:
     for frames, r in results.items():
         print(f"  {frames:8d} {r['joints']:8d} {r['seconds']:10.3f} {r['per_jf'] * 1e9:14.1f} {r['per_jf'] / first:12.2f}x"
               f" {r['cpu_jf'] * 1e9:18.1f} {r['cpu_jf'] / first_cpu:12.2f}x")
+    f0 = results[lengths[0]]
+    print("  the floor alongside: an Sdf-level copy of what the pass wrote (bench_pass.sdf_copy), same lengths;"
+          " USD's own writer is not flat either")
+    print("  frames   floor ns/joint-frame   vs shortest   floor CPU ns/joint-frame   vs shortest   pass/floor (wall, CPU)")
+    for frames, r in results.items():
+        print(f"  {frames:8d} {r['floor_jf'] * 1e9:20.1f} {r['floor_jf'] / f0['floor_jf']:12.2f}x"
+              f" {r['floor_cpu_jf'] * 1e9:24.1f} {r['floor_cpu_jf'] / f0['floor_cpu_jf']:12.2f}x"
+              f"   {r['per_jf'] / r['floor_jf']:5.2f}x {r['cpu_jf'] / r['floor_cpu_jf']:5.2f}x")
     print("\n[memory] fresh process per length, peaks above the state after imports (goal <= 2x the arrays)")
     print("  RSS counts the input file's pages USD maps in; anonymous RSS is heap only (arrays, USD layer data);")
     print("  tracemalloc counts numpy and Python allocations")
