@@ -42,13 +42,15 @@ import click
 def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
            physics, discard_failed, threads, fd_stride) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
+    from usdgaze.core.hints import parse_hints
+
     if physics:
         from usdgaze.physics.mpc import Options
 
         options = Options(horizon_s=window_s, workers=threads, fd_stride=fd_stride)
-        return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed)
+        return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
+                        parse_hints(bind, forward))
     from usdgaze.attend import AttendSettings, attend as run
-    from usdgaze.core.hints import parse_hints
 
     paths = [p.strip() for p in objects.split(",") if p.strip()] if objects else None
     settings = AttendSettings(alpha=alpha, cost=cost, window_s=window_s, seed=seed, realize=realize,
@@ -70,13 +72,14 @@ def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_
     click.echo(f"wrote {report.output}")
 
 
-def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed) -> None:
+def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed, binding) -> None:
     """``--physics``: the physics pass (usdgaze.passes.physics); one line per shot, a fall said plainly."""
     from dataclasses import asdict
 
     from usdgaze.passes.physics import run
 
-    reports = run(input_path, out, options, skel_root=skel_root, keep_failed=not discard_failed, seed=seed)
+    reports = run(input_path, out, options, skel_root=skel_root, keep_failed=not discard_failed, seed=seed,
+                  binding=binding)
     if as_json:
         click.echo(json.dumps({"output": str(out), "shots": [asdict(r) for r in reports]}, indent=2))
         return

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usdgaze.core.hints import BindHints
 from usdgaze.errors import UsdGazeError
 from usdgaze.physics import mpc
 
@@ -207,8 +208,12 @@ def _head(ref, n: int):
 
 def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Options = mpc.Options(),
         skel_root: str | None = None, keep_failed: bool = True, total_mass: float = 75.0,
-        progress=None, seed: int = 0) -> list[ShotReport]:
-    """Simulate every skeleton of ``input_path`` (or under ``skel_root``) and write ``out``."""
+        progress=None, seed: int = 0, binding: BindHints | None = None) -> list[ShotReport]:
+    """Simulate every skeleton of ``input_path`` (or under ``skel_root``) and write ``out``.
+
+    ``binding`` (``--bind``/``--forward``) says which joints are the head, neck and eyes where names
+    do not, as for ``apply``: the eyes, their inspection and the gaze are placed by it. A binding is
+    checked on every skeleton, also one simulated without objects to look at."""
     from usdgaze.api import _layer_info, select_roots
     from usdgaze.usd.layers import atomic_export, build_override, check_output_path
     from usdgaze.usd.skelio import read_clip, skeletons_under
@@ -230,9 +235,10 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         for skel in skeletons_under(root):
             clip = read_clip(stage, skel, root, source)
             prims, paths, catches = visuomotor.read_scene(root, clip, source, options.h)
+            chain_frame = visuomotor.bind_clip(clip, root, binding)  # a bad binding: one line, before any work
             if prims:  # something to look at: eyes, belief and body in one loop
                 report, override, shot_terms, inspection = visuomotor.simulate_clip(
-                    clip, root, options, prims, paths, catches, total_mass, progress, seed)
+                    clip, root, options, prims, paths, catches, total_mass, progress, seed, chain_frame)
                 inspections.append(inspection)
             else:
                 report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress)

@@ -6,8 +6,9 @@ Y-up stages, the rotation of +90 degrees about X, ``(x, y, z) -> (x, -z, y)``: t
 +Z, its X stays X, and handedness is kept. The ground plane is the stage's ``up = 0`` plane.
 
 Bodies. One body per skeleton joint from the floating base (the first pelvis/hips joint, else the
-root) down; its frame is the joint's frame in the rest pose (``restTransforms``, or those derived
-from ``bindTransforms``), orthonormalized, so ``qpos`` of all zeros but the root is the rest pose.
+first joint, from the root down, where the tree branches) down; its frame is the joint's frame in the
+rest pose (``restTransforms``, or those derived from ``bindTransforms``), orthonormalized, so
+``qpos`` of all zeros but the root is the rest pose.
 Joints above the base or outside its subtree are not simulated and are carried from the reference.
 The base has a free joint; knees and elbows are hinges (axis fitted to the reference motion when
 given, else the anatomical flexion axis); exporter end sites are welded; every other joint is a
@@ -96,11 +97,17 @@ class BodyModel:
 
 
 def _base_joint(joints: list[str], parents: np.ndarray) -> int:
+    """The floating base: the first joint named as a pelvis, else where the tree first branches below
+    the root (legs and spine part at the pelvis; many rigs put a root joint on the ground above it)."""
     for j, name in enumerate(joints):
         if _BASE.search(re.sub(r"[^a-z0-9]", "", leaf(name).lower())):
             return j
-    roots = np.flatnonzero(parents < 0)
-    return int(roots[0])
+    j = int(np.flatnonzero(parents < 0)[0])
+    while True:
+        children = np.flatnonzero(parents == j)
+        if len(children) != 1:
+            return j
+        j = int(children[0])
 
 
 def _subtree(base: int, parents: np.ndarray) -> np.ndarray:
