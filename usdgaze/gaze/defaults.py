@@ -145,8 +145,23 @@ def example_motions(yaw: np.ndarray, pitch: np.ndarray) -> GazeMotions:
     return GazeMotions(offsets, timing)
 
 
+_BUILT_IN: tuple[np.ndarray, GazeMotions] | None = None
+
+
+def _built_in_examples() -> tuple[np.ndarray, GazeMotions]:
+    """The 55 examples, computed once per process (a few ms each time, for every shot) and read-only."""
+    global _BUILT_IN
+    if _BUILT_IN is None:
+        yaw, pitch = np.meshgrid(YAWS, PITCHES, indexing="ij")
+        params = np.column_stack([yaw.ravel(), pitch.ravel()])
+        motions = example_motions(params[:, 0], params[:, 1])
+        for array in (params, motions.offsets, motions.timing):
+            array.setflags(write=False)
+        _BUILT_IN = params, motions
+    return _BUILT_IN
+
+
 def default_definition(settings: SynthesisSettings | None = None) -> GazeMapDefinition:
     """The built-in map: 55 examples on the 11 x 5 grid (yaw-major, pitch ascending)."""
-    yaw, pitch = np.meshgrid(YAWS, PITCHES, indexing="ij")
-    params = np.column_stack([yaw.ravel(), pitch.ravel()])
-    return GazeMapDefinition(params, example_motions(params[:, 0], params[:, 1]), settings or SynthesisSettings())
+    params, motions = _built_in_examples()
+    return GazeMapDefinition(params, motions, settings or SynthesisSettings())
