@@ -9,7 +9,7 @@ import numpy as np
 
 from usdgaze import __version__
 from usdgaze.apply_types import ApplyReport, ApplyRequest, CharacterReport
-from usdgaze.characters import bind, built_map, clip_directives, root_directives, select_roots
+from usdgaze.characters import bind, built_map, clip_directives, own_map, root_directives, select_roots
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.hints import to_record as hints_record
 from usdgaze.core.rig import Chain, CharacterFrame
@@ -125,7 +125,7 @@ def _run_pass(stage, roots, forced, requests, req):
     for root in roots:
         root_requests = root_directives(root, source, requests)
         report.directives[str(root.GetPath())] = [r.flag for r in root_requests]
-        own = schema.read_map(root, source) if schema.has_map(root) else None
+        own = own_map(root, source)
         definition = forced or own or default_definition()
         map_source = req.map_spec if forced else (f"{source}:{root.GetPath()} (GazeMapAPI)" if own else f"built-in default (usdgaze {__version__})")
         gaze_map = built_map(definition)

@@ -89,9 +89,8 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
 
 
 def _attend(stage, source, out_path, objects, settings, skel_root, progress):
-    from usdgaze.api import bind, select_roots
+    from usdgaze.characters import bind, own_map, select_roots
     from usdgaze.passes.attend import apply_attend
-    from usdgaze.usd import schema
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
     from usdgaze.usd.objects import object_prims, read_objects
@@ -108,7 +107,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
         clip = read_clip(stage, skels[0], root, source)
-        own = schema.read_map(root, source) if schema.has_map(root) else None
+        own = own_map(root, source)
         chain, frame = bind(clip, own, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
         h = settings.h
         t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)
@@ -155,19 +154,18 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
 
 def _realize_map(stage, source, root, clip, chain, frame, prims, result, h):
     """The planner's fixations as look directives, realized by the look pass through the gaze map."""
+    from usdgaze.characters import built_map, own_map
     from usdgaze.gaze.defaults import default_definition
-    from usdgaze.gaze.gazemap import ParametricGazeMap
     from usdgaze.passes.look import Directive, apply_look
-    from usdgaze.usd import schema
     from usdgaze.usd.objects import read_objects
 
-    definition = schema.read_map(root, source) if schema.has_map(root) else default_definition()
+    definition = own_map(root, source) or default_definition()
     targets = [o.positions for o in read_objects(stage, source, prims, clip.times, 1.0)]  # stage units
     directives = [Directive(t, "look", target=j) if j >= 0 else Directive(t, "release")
                   for t, j in loop.fixations(result.loop, h)]
     if not directives:
         directives = [Directive(0.0, "release")]
-    return apply_look(clip, chain, frame, ParametricGazeMap(definition), directives, targets,
+    return apply_look(clip, chain, frame, built_map(definition), directives, targets,
                       target_names=[str(p.GetPath()) for p in prims])
 
 

@@ -17,6 +17,11 @@ from usdgaze.passes.requests import DirectiveRequest
 from usdgaze.usd import schema
 
 
+def own_map(root, source: str) -> GazeMapDefinition | None:
+    """The gaze map authored on a SkelRoot (GazeMapAPI), or None."""
+    return schema.read_map(root, source) if schema.has_map(root) else None
+
+
 def select_roots(stage, source: str, skel_root: str | None):
     """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
     from pxr import Sdf, UsdSkel

@@ -59,11 +59,9 @@ def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop
 
 def bind_clip(clip, root, binding=None):
     """(Chain, CharacterFrame) of a clip as ``apply`` binds it: hints, the SkelRoot's GazeMapAPI, names."""
-    from usdgaze.api import bind
-    from usdgaze.usd import schema
+    from usdgaze.characters import bind, own_map
 
-    own = schema.read_map(root, clip.source) if schema.has_map(root) else None
-    return bind(clip, own, binding)
+    return bind(clip, own_map(root, clip.source), binding)
 
 
 def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,

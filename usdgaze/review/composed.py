@@ -177,8 +177,8 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     from pxr import UsdGeom
 
     from usdgaze import api
+    from usdgaze.characters import own_map
     from usdgaze.core.hints import from_record
-    from usdgaze.usd import schema
     from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
 
     stage, gaze_layer = composed_stage(input_path, layer_path)
@@ -192,7 +192,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     touched = {str(p.path) for p in _prim_specs(gaze_layer)}
     hints = from_record(record, layer_file)  # the --bind/--forward the pass was given
     for root in roots:
-        own = schema.read_map(root, source) if schema.has_map(root) else None
+        own = own_map(root, source)
         for skel in skeletons_under(root):
             gaze_clip = read_clip(stage, skel, root, source)
             if gaze_clip.animation not in touched:

@@ -50,9 +50,9 @@ def _characters(stage):
     from pxr import UsdGeom
 
     from usdgaze import api as gaze_api
+    from usdgaze.characters import own_map
     from usdgaze.core.hints import from_record
     from usdgaze.review.composed import CharacterReview, _pose
-    from usdgaze.usd import schema
     from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
 
     source = stage.GetRootLayer().identifier
@@ -64,7 +64,7 @@ def _characters(stage):
         hints = None
     out = []
     for root in skel_roots(stage):
-        own = schema.read_map(root, source) if schema.has_map(root) else None
+        own = own_map(root, source)
         for skel in skeletons_under(root):
             try:
                 clip = read_clip(stage, skel, root, source)
