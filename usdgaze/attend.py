@@ -131,17 +131,8 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         if info is None:
             info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time, clip.end_time,
                              clip.up_axis, clip.meters_per_unit)
-    wall, cpu = time.perf_counter() - t_start, time.process_time() - cpu_start
-    solves = [c for r in report.results for c in r.loop.solves]
-    report.planner = {
-        "steps": steps, "frames": frames, "seconds": round(wall, 3), "cpu_seconds": round(cpu, 3),
-        "frames_per_second": round(frames / wall, 1) if wall > 0 else None,
-        "frames_per_cpu_second": round(frames / cpu, 1) if cpu > 0 else None,
-        "mean_iterations": round(float(np.mean([len(c) - 1 for c in solves])), 2) if solves else 0,
-        "cost_monotone": bool(all(np.all(np.diff(c) <= 0) for c in solves)),
-        "window_s": settings.window_s, "h": settings.h, "alpha": settings.alpha, "cost": settings.cost,
-        "seed": settings.seed, "realize": settings.realize,
-    }
+    report.planner = _planner_summary(report.results, steps, frames, time.perf_counter() - t_start,
+                                      time.process_time() - cpu_start, settings)
     info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",
                                "objects": [str(p.GetPath()) for p in prims], "alpha": settings.alpha,
                                "cost": settings.cost, "window_s": settings.window_s, "seed": settings.seed}}
@@ -150,6 +141,20 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
         add_inspection(layer, character, times, result.sight_world, result.eye_pose, paths,
                        result.estimates_world, result.uncertainty)
     return report, layer
+
+
+def _planner_summary(results: list, steps: int, frames: int, wall: float, cpu: float, settings) -> dict:
+    """The report's planner figures: steps, speed, iterations, whether every solve's cost fell."""
+    solves = [c for r in results for c in r.loop.solves]
+    return {
+        "steps": steps, "frames": frames, "seconds": round(wall, 3), "cpu_seconds": round(cpu, 3),
+        "frames_per_second": round(frames / wall, 1) if wall > 0 else None,
+        "frames_per_cpu_second": round(frames / cpu, 1) if cpu > 0 else None,
+        "mean_iterations": round(float(np.mean([len(c) - 1 for c in solves])), 2) if solves else 0,
+        "cost_monotone": bool(all(np.all(np.diff(c) <= 0) for c in solves)),
+        "window_s": settings.window_s, "h": settings.h, "alpha": settings.alpha, "cost": settings.cost,
+        "seed": settings.seed, "realize": settings.realize,
+    }
 
 
 def _realize_map(stage, source, root, clip, chain, frame, prims, result, h):
