@@ -5,6 +5,11 @@ Two processes, as in the paper: the planner's internal model (``plan``, no knowl
 forces or of what the eyes will see) and the simulation it drives (``sim``, with the push). Each
 control step solves a window of ``horizon_s`` warm-started from the previous solution shifted by one
 step, its new last control the reference's inverse-dynamics torques, then applies the first control.
+
+One loop (``run``) serves the body alone (``BodyController``) and the coupled eyes, belief and body
+(``physics.visuomotor``): both track the same target (``prepare``: the reference with its toes out of
+the ground), warm-start and restart the solver the same way (``Shot.horizon``), and measure and stop
+after a fall the same way; a ``Controller`` adds what it senses and plans besides the body.
 """
 
 from __future__ import annotations
@@ -127,72 +132,159 @@ def _foot_depth(mj, d, geoms: np.ndarray) -> float:
     return max(0.0, -low)
 
 
-def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options = Options(),
-             pushes: tuple[Push, ...] = (), progress=None, tasks: Sequence[TaskFactory] = ()) -> Result:
-    """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length, plus tasks."""
-    import mujoco
-    from threadpoolctl import threadpool_limits
+@dataclass
+class Shot:
+    """What a receding-horizon loop runs on, made once from the reference (``prepare``): the planner's
+    body (``plan``: no external force is known to it) and the simulated one (``sim``: pushed), the
+    reference at steps of ``h`` (``ref_q``: what the measures compare with), the planner's target
+    (``target``: its toes out of the ground, ``tracking.clear_ground``) with its velocities, the
+    tracking cost, the tasks, and the target's inverse-dynamics controls (``tail``)."""
 
-    from usdgaze.planning import ddp  # loads the solver's LAPACK before the thread limit below
-    from usdgaze.planning.compose import CostSum
+    model: BodyModel
+    ref_seconds: np.ndarray
+    h: float
+    plan: MujocoBody
+    sim: MujocoBody
+    ref_q: np.ndarray
+    target: np.ndarray
+    ref_v: np.ndarray
+    tracking: BodyTracking
+    tasks: list
+    tail: np.ndarray
+    n: int  # steps of a window
+
+    @property
+    def steps(self) -> int:
+        return len(self.ref_q) - 1
+
+    def pad(self, k: int, lead: int = 0) -> np.ndarray:
+        """The control a window ending at step ``k`` appends: ``lead`` zeros (the eye's, in the coupled
+        loop), then the target's inverse-dynamics torques (held past the end)."""
+        return np.r_[np.zeros(lead), self.tail[min(k, self.steps)]]
+
+    def horizon(self, options: Options, lead: int = 0):
+        """The receding-horizon solver: ``first_iterations`` on the cold first window, ``iterations``
+        after, the regularization restarted after a solve that ended at its ceiling."""
+        from usdgaze.planning import ddp
+
+        return ddp.RecedingHorizon(self.n, lead + self.plan.nu, ddp.Options(max_iter=options.iterations),
+                                   U_init=np.array([self.pad(i, lead) for i in range(self.n)]),
+                                   first=ddp.Options(max_iter=options.first_iterations), restart_at_ceiling=True)
+
+
+def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options,
+            pushes: tuple[Push, ...] = (), tasks: Sequence[TaskFactory] = (), lead: Sequence = ()) -> Shot:
+    """The :class:`Shot` of a reference (``qpos`` per frame at ``ref_seconds``), pushes and tasks;
+    ``lead``: parts ahead of the body in the planner's state (the coupled loop's eye), stacked with it
+    before the costs and tasks are made, so these see the body's slices of that state."""
+    from usdgaze.planning.compose import Stacked
 
     h = options.h
     plan = MujocoBody(model, h=h, workers=options.workers, stride=options.fd_stride)
     sim = MujocoBody(model, h=h, forces=_schedule(model, pushes, h, plan.mj.nbody))
+    if lead:
+        Stacked([*lead, plan])
     ref_q = resample(ref_qpos_frames, ref_seconds, h, plan)
     target = clear_ground(plan, ref_q)  # what the planner tracks; the measures use the reference as is
     ref_v = velocities(target, h, plan.mj)
-    head = _head_body(model)
-    cost = BodyTracking(plan, target, ref_v, head, options.weights)
+    tracking = BodyTracking(plan, target, ref_v, _head_body(model), options.weights)
     made = [factory(plan, target) for factory in tasks]
-    if made:
-        cost = CostSum([cost, *made])
-    measured: dict[str, list[float]] = {}
-    n = max(2, int(round(options.horizon_s / h)))
-    steps = len(ref_q) - 1
-    tail = _inverse_dynamics(plan, target, ref_v, h)
-    pad = lambda k: tail[min(k, steps)]  # noqa: E731
-    solver: dict = {}
-    mpc = ddp.RecedingHorizon(n, plan.nu, ddp.Options(max_iter=options.first_iterations, **solver),
-                              U_init=np.array([pad(i) for i in range(n)]))
+    return Shot(model, ref_seconds, h, plan, sim, ref_q, target, ref_v, tracking, made,
+                _inverse_dynamics(plan, target, ref_v, h), max(2, int(round(options.horizon_s / h))))
+
+
+class Controller(Protocol):
+    """The planning side of a control step: what ``run`` asks at each step ``k`` of the body state
+    ``xb`` (``data``: a ``mujoco.MjData`` at the simulated state, kinematics done)."""
+
+    def sense(self, k: int, xb: np.ndarray, data) -> None:
+        """Observe at step ``k`` (also at the last state, after the last control)."""
+
+    def control(self, k: int, xb: np.ndarray, data) -> tuple[np.ndarray, Sequence[float]]:
+        """The body's control for step ``k`` and the solve's cost per iteration."""
+
+    def advance(self, k: int) -> None:
+        """The body took step ``k`` (parts the controller simulates itself, the eyes, follow)."""
+
+
+class BodyController:
+    """The body alone: tracking plus tasks over the MuJoCo body, one warm-started window a step."""
+
+    def __init__(self, shot: Shot, options: Options) -> None:
+        from usdgaze.planning.compose import CostSum
+
+        self.shot, self.solver = shot, shot.horizon(options)
+        self.cost = CostSum([shot.tracking, *shot.tasks]) if shot.tasks else shot.tracking
+
+    def sense(self, k: int, xb: np.ndarray, data) -> None:
+        return None
+
+    def control(self, k: int, xb: np.ndarray, data):
+        self.solver.U[-1] = self.shot.pad(k + self.shot.n - 1)
+        u, sol = self.solver.step(self.shot.plan, self.cost, xb, k)
+        return u, sol.costs
+
+    def advance(self, k: int) -> None:
+        return None
+
+
+def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options = Options(),
+             pushes: tuple[Push, ...] = (), progress=None, tasks: Sequence[TaskFactory] = ()) -> Result:
+    """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length, plus tasks."""
+    from usdgaze.planning import ddp  # noqa: F401  (loads the solver's LAPACK before run's thread limit)
+
+    shot = prepare(model, ref_qpos_frames, ref_seconds, options, pushes, tasks)
+    return run(shot, options, BodyController(shot, options), progress)
+
+
+def run(shot: Shot, options: Options, controller: Controller, progress=None) -> Result:
+    """The receding-horizon loop of both the body-only and the coupled controller: per step, sense,
+    plan and apply the first control to the simulated body, measure; stop at a blow-up or
+    ``stop_after_fall_s`` after a fall."""
+    import mujoco
+    from threadpoolctl import threadpool_limits
+
+    from usdgaze.planning import ddp  # noqa: F401  (its LAPACK loaded outside the thread limit)
+
+    plan, sim, h, steps, ref_q = shot.plan, shot.sim, shot.h, shot.steps, shot.ref_q
     qpos = np.zeros((steps + 1, plan.nq))
-    qpos[0] = target[0]
-    qvel = ref_v[0].copy()
-    ctrl, costs = np.zeros((steps, plan.nu)), []
-    feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(model)])
+    qpos[0], qvel = shot.target[0], shot.ref_v[0].copy()
+    ctrl, costs, measured = np.zeros((steps, plan.nu)), [], {}
+    feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(shot.model)])
     depth = np.zeros(steps + 1)
     d = mujoco.MjData(plan.mj)
-    down = 0
+    d.qpos[:] = qpos[0]
+    mujoco.mj_kinematics(plan.mj, d)
+    down, kk = 0, steps + 1
     with threadpool_limits(1):  # small dense matrices: BLAS threads only contend
-        for k in range(steps):
+        for k in range(steps + 1):
             plan.set_anchor(ref_q[k, 3:7])
             sim.set_anchor(ref_q[k, 3:7])
             x = plan.to_state(qpos[k], qvel)
-            mpc.U[-1] = pad(k + n - 1)
-            u, sol = mpc.step(plan, cost, x, k)
-            mpc.options = ddp.Options(max_iter=options.iterations, **solver)
-            if mpc.mu >= mpc.options.mu_max:
-                # A solve that ended at the regularization's ceiling took no step; the next window is
-                # another problem (a new state, one more reference step), so it starts afresh.
-                mpc.mu = mpc.options.mu_init
-            costs.append([float(c) for c in sol.costs])
-            xn = sim.step(x, u, k)
-            if not np.all(np.isfinite(xn)):
-                qpos = qpos[: k + 1]
+            controller.sense(k, x, d)
+            if k == steps:
                 break
+            u, solve_costs = controller.control(k, x, d)
+            costs.append([float(c) for c in solve_costs])
+            xn = sim.step_body(x, u, k)
+            if not np.all(np.isfinite(xn)):
+                kk = k + 1
+                break
+            controller.advance(k)
             qpos[k + 1], qvel = sim.to_mujoco(xn)
             ctrl[k] = u
             down = down + 1 if qpos[k + 1, 2] < FALL_RATIO * ref_q[k + 1, 2] else 0
-            if down * h >= options.stop_after_fall_s:  # on the ground: nothing left to control
-                qpos = qpos[: k + 2]
-                break
             d.qpos[:] = qpos[k + 1]
             mujoco.mj_kinematics(plan.mj, d)
             depth[k + 1] = _foot_depth(plan.mj, d, feet)
-            measure_tasks(made, k + 1, d, measured)
+            measure_tasks(shot.tasks, k + 1, d, measured)
             if progress:
                 progress(k + 1, steps)
-    return shot_result(model, qpos, ref_q, ref_seconds, ctrl, depth, costs, measured, steps, h)
+            if down * h >= options.stop_after_fall_s:  # on the ground: nothing left to control
+                kk = k + 2
+                controller.sense(k + 1, plan.to_state(qpos[k + 1], qvel), d)
+                break
+    return shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
 
 
 def shot_result(model: BodyModel, qpos, ref_q, ref_seconds, ctrl, depth, costs, measured, steps: int,

@@ -11,7 +11,9 @@ observations, applies the Kalman update, the pushes, and the eye's speed and ran
 Each step k: sense from the simulated head (field of view, observation noise from the true distance
 to the point of sight), choose the tracked objects, let tasks read the belief (``perceive``), seed the
 window with look-at proposals (as ``vision.loop``), solve, apply the first control to the simulated
-body and eye. Objects are in the model's world (metres, Z up).
+body and eye. Objects are in the model's world (metres, Z up). The loop itself is ``mpc.run`` (the body-only
+controller's): the same target (the reference with its toes out of the ground), solver restarts, measures
+and stop after a fall; this module adds the eyes and the belief as an ``mpc.Controller``.
 """
 
 from __future__ import annotations
@@ -22,10 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from usdgaze.physics import mpc
-from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.model import BodyModel
-from usdgaze.physics.tracking import BodyTracking, resample, velocities
-from usdgaze.planning import ddp
 from usdgaze.planning.compose import CostSum, Stacked
 from usdgaze.vision import eye as eyemod
 from usdgaze.vision import loop
@@ -100,85 +99,55 @@ def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndar
              options: Options = Options(), pushes: tuple[mpc.Push, ...] = (), tasks: Sequence[mpc.TaskFactory] = (),
              progress=None) -> Result:
     """Simulate body, eyes and belief over the reference's length; ``things``' positions per step of h."""
-    import mujoco
-    from threadpoolctl import threadpool_limits
+    bo = options.body
+    eye = eyemod.Eye(bo.h)
+    shot = mpc.prepare(model, ref_qpos_frames, ref_seconds, bo, pushes, tasks, lead=[eye])
+    vo = loop.LoopOptions(**{**options.vision.__dict__, "h": bo.h, "window_s": bo.horizon_s})
+    controller = _Coupled(shot, eye, things, bo, vo)
+    body = mpc.run(shot, bo, controller, progress)
+    return Result(body, _trim(controller.vis, len(body.qpos)))
 
-    bo, vo = options.body, options.vision
-    h = bo.h
-    vo = loop.LoopOptions(**{**vo.__dict__, "h": h, "window_s": bo.horizon_s})
-    plan = MujocoBody(model, h=h, workers=bo.workers, stride=bo.fd_stride)
-    sim = MujocoBody(model, h=h, forces=mpc._schedule(model, pushes, h, plan.mj.nbody))
-    eye = eyemod.Eye(h)
-    Stacked([eye, plan])  # the slices every later stack gives the eye and the body
-    ref_q = resample(ref_qpos_frames, ref_seconds, h, plan)
-    ref_v = velocities(ref_q, h, plan.mj)
-    tracking = BodyTracking(plan, ref_q, ref_v, mpc._head_body(model), bo.weights)
-    made = [factory(plan, ref_q) for factory in tasks]
-    filters = loop.Filters(things, vo)
-    n = max(2, int(round(bo.horizon_s / h)))
-    steps = len(ref_q) - 1
-    tail = mpc._inverse_dynamics(plan, ref_q, ref_v, h)
-    pad = lambda k: np.r_[np.zeros(eye.nu), tail[min(k, steps)]]  # noqa: E731
-    solver = ddp.RecedingHorizon(n, eye.nu + plan.nu, ddp.Options(max_iter=bo.first_iterations),
-                                 U_init=np.array([pad(i) for i in range(n)]))
-    qpos = np.zeros((steps + 1, plan.nq))
-    qpos[0] = ref_q[0]
-    qvel = ref_v[0].copy()
-    e = np.array([0.0, 0.0, float(eyemod.zeta_for(vo.start_distance_m))])
-    ctrl, costs = np.zeros((steps, plan.nu)), []
-    vis = _vision_result(steps + 1, len(things))
-    feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in mpc._foot_bodies(model)])
-    depth = np.zeros(steps + 1)
-    measured: dict[str, list[float]] = {}
-    d = mujoco.MjData(plan.mj)
-    d.qpos[:] = qpos[0]
-    mujoco.mj_kinematics(plan.mj, d)
-    down, last_slots, kk = 0, None, steps + 1
-    with threadpool_limits(1):
-        for k in range(steps + 1):
-            plan.set_anchor(ref_q[k, 3:7])
-            sim.set_anchor(ref_q[k, 3:7])
-            xb = plan.to_state(qpos[k], qvel)
-            slots = _sense(k, e, xb, eye, plan, filters, vis)
-            if k == steps:
-                break
-            for task in made:
-                if hasattr(task, "perceive"):
-                    task.perceive(Percept(k, h, filters.mu, filters.sig, things, d, vis.visible[k]))
-            prob = _Problem(eye, plan, filters, slots, k, tracking, made, vo)
-            x = prob.state(e, xb, filters)
-            solver.U[-1] = pad(k + n - 1)
-            if k % loop.PROPOSE_EVERY == 0 or slots != last_slots:
-                ts = h * np.arange(n + 1)[:, None]
-                targets = [filters.mu[j][:3] + ts * filters.mu[j][3:] + 0.5 * ts**2 * things[j].accel for j in slots]
-                solver.U = loop.seed_controls(prob.stack, prob.cost, x, solver.U, k, targets)
-            last_slots = slots
-            u, sol = solver.step(prob.stack, prob.cost, x, k)
-            solver.options = ddp.Options(max_iter=bo.iterations)
-            if solver.mu >= solver.options.mu_max:  # no step taken: the next window starts afresh (as mpc)
-                solver.mu = solver.options.mu_init
-            costs.append([float(c) for c in sol.costs])
-            vis.solves.append(costs[-1])
-            xn = sim.step_body(xb, u[plan.us], k)
-            if not np.all(np.isfinite(xn)):
-                kk = k + 1
-                break
-            e = e + h * eyemod.limit(e, u[eye.us], float(eyemod.speed_bound(k * h)), h)
-            qpos[k + 1], qvel = sim.to_mujoco(xn)
-            ctrl[k] = u[plan.us]
-            down = down + 1 if qpos[k + 1, 2] < mpc.FALL_RATIO * ref_q[k + 1, 2] else 0
-            d.qpos[:] = qpos[k + 1]
-            mujoco.mj_kinematics(plan.mj, d)
-            depth[k + 1] = mpc._foot_depth(plan.mj, d, feet)
-            mpc.measure_tasks(made, k + 1, d, measured)
-            if progress:
-                progress(k + 1, steps)
-            if down * h >= bo.stop_after_fall_s:  # on the ground: nothing left to control
-                kk = k + 2
-                _sense(k + 1, e, plan.to_state(qpos[k + 1], qvel), eye, plan, filters, vis)
-                break
-    return Result(mpc.shot_result(model, qpos[:kk], ref_q, ref_seconds, ctrl, depth, costs, measured, steps, h),
-                  _trim(vis, kk))
+
+class _Coupled:
+    """The coupled loop's ``mpc.Controller``: senses from the simulated head, plans eye, body and belief
+    in one window (look-at proposals every ``loop.PROPOSE_EVERY`` steps and when the tracked objects
+    change), and simulates the eye with its speed and range limits."""
+
+    def __init__(self, shot: mpc.Shot, eye: eyemod.Eye, things: list[loop.Thing], bo: mpc.Options,
+                 vo: loop.LoopOptions) -> None:
+        self.shot, self.eye, self.things, self.vo = shot, eye, things, vo
+        self.filters = loop.Filters(things, vo)
+        self.solver = shot.horizon(bo, lead=self.eye.nu)
+        self.e = np.array([0.0, 0.0, float(eyemod.zeta_for(vo.start_distance_m))])
+        self.vis = _vision_result(shot.steps + 1, len(things))
+        self.slots: list[int] = []
+        self.last_slots: list[int] | None = None
+        self.u = np.zeros(self.eye.nu + shot.plan.nu)
+
+    def sense(self, k: int, xb: np.ndarray, data) -> None:
+        self.slots = _sense(k, self.e, xb, self.eye, self.shot.plan, self.filters, self.vis)
+
+    def control(self, k: int, xb: np.ndarray, data):
+        shot, filters, solver, slots = self.shot, self.filters, self.solver, self.slots
+        for task in shot.tasks:
+            if hasattr(task, "perceive"):
+                task.perceive(Percept(k, shot.h, filters.mu, filters.sig, self.things, data, self.vis.visible[k]))
+        prob = _Problem(self.eye, shot.plan, filters, slots, k, shot.tracking, shot.tasks, self.vo)
+        x = prob.state(self.e, xb, filters)
+        n = shot.n
+        solver.U[-1] = shot.pad(k + n - 1, self.eye.nu)
+        if k % loop.PROPOSE_EVERY == 0 or slots != self.last_slots:
+            ts = shot.h * np.arange(n + 1)[:, None]
+            targets = [filters.mu[j][:3] + ts * filters.mu[j][3:] + 0.5 * ts**2 * self.things[j].accel for j in slots]
+            solver.U = loop.seed_controls(prob.stack, prob.cost, x, solver.U, k, targets)
+        self.last_slots = slots
+        self.u, sol = solver.step(prob.stack, prob.cost, x, k)
+        self.vis.solves.append([float(c) for c in sol.costs])
+        return self.u[shot.plan.us], sol.costs
+
+    def advance(self, k: int) -> None:
+        h = self.shot.h
+        self.e = self.e + h * eyemod.limit(self.e, self.u[self.eye.us], float(eyemod.speed_bound(k * h)), h)
 
 
 def _sense(k: int, e: np.ndarray, xb: np.ndarray, eye, plan, filters: loop.Filters, vis: loop.LoopResult) -> list[int]:

@@ -262,7 +262,11 @@ def shift_controls(U: np.ndarray) -> np.ndarray:
 class RecedingHorizon:
     """Model-predictive control: solve a window, apply its first control, shift, repeat.
 
-    The Levenberg-Marquardt parameter the last solve ended with starts the next one.
+    The Levenberg-Marquardt parameter the last solve ended with starts the next one; with
+    ``restart_at_ceiling``, one that ended at ``mu_max`` (a solve that took no step) starts the next
+    window from ``mu_init`` instead: the next window is another problem (a new state, one more
+    reference step), and a ceiling kept would make every later solve take no step either.
+    ``first``: the options of the first solve (e.g. more iterations from a cold start), else ``options``.
 
     ``step`` takes the problem of the current window (the dynamics and cost may change between calls,
     e.g. when the set of tracked objects changes; only ``nu`` must stay the same), warm-starts from the
@@ -270,21 +274,26 @@ class RecedingHorizon:
     """
 
     def __init__(self, horizon: int, nu: int, options: Options | None = None,
-                 U_init: np.ndarray | None = None) -> None:
+                 U_init: np.ndarray | None = None, first: Options | None = None,
+                 restart_at_ceiling: bool = False) -> None:
         if horizon < 2:
             raise ValueError("the receding horizon needs at least two steps")
         self.horizon = horizon
         self.options = options or Options()
+        self.first = first
+        self.restart_at_ceiling = restart_at_ceiling
         self.U = np.zeros((horizon, nu)) if U_init is None else np.array(U_init, dtype=float)
         self.last: Solution | None = None
-        self.mu = self.options.mu_init
+        self.mu = (first or self.options).mu_init
 
     def step(self, dyn: Dynamics, cost: Cost, x: np.ndarray, k: int) -> tuple[np.ndarray, Solution]:
         # The regularization is warm-started too: consecutive windows are nearly the same problem.
-        opts = dataclasses.replace(self.options, mu_init=self.mu)
-        sol = solve(dyn, cost, x, self.U, k, opts)
+        base = self.first if self.first is not None and self.last is None else self.options
+        sol = solve(dyn, cost, x, self.U, k, dataclasses.replace(base, mu_init=self.mu))
         self.last = sol
-        self.mu = min(max(sol.mu, self.options.mu_min), self.options.mu_max)
+        self.mu = min(max(sol.mu, base.mu_min), base.mu_max)
+        if self.restart_at_ceiling and self.mu >= self.options.mu_max:
+            self.mu = self.options.mu_init
         self.U = shift_controls(sol.U)
         return sol.U[0].copy(), sol
 
