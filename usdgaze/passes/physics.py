@@ -208,57 +208,83 @@ def _head(ref, n: int):
 
 def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Options = mpc.Options(),
         skel_root: str | None = None, keep_failed: bool = True, total_mass: float = 75.0,
-        progress=None, seed: int = 0, binding: BindHints | None = None) -> list[ShotReport]:
+        progress=None, seed: int = 0, binding: BindHints | None = None, record: dict | None = None,
+        no_clobber: bool = False) -> list[ShotReport]:
     """Simulate every skeleton of ``input_path`` (or under ``skel_root``) and write ``out``.
 
     ``binding`` (``--bind``/``--forward``) says which joints are the head, neck and eyes where names
-    do not, as for ``apply``: the eyes, their inspection and the gaze are placed by it. A binding is
-    checked on every skeleton, also one simulated without objects to look at."""
-    from usdgaze.api import _layer_info, select_roots
-    from usdgaze.usd.layers import atomic_export, build_override, check_output_path
-    from usdgaze.usd.skelio import read_clip, skeletons_under
-    from usdgaze.usd.stage import open_stage
+    do not, as for ``apply``: the eyes, their inspection and the gaze are placed by it. Every
+    skeleton is read and bound before any is simulated, so a bad one costs no simulation.
+    ``record``: extra entries for the layer's ``customLayerData["usdgaze"]`` (a batch resume key).
+    The output goes through the one writer: it may not be the input or any layer the input
+    composes, and nothing is left behind on failure or interruption."""
+    from usdgaze.api import _open_input
+    from usdgaze.files.transaction import Outputs
+    from usdgaze.usd.layers import check_output_path
 
     source = str(input_path)
     if not Path(source).is_file():
         raise UsdGazeError(f"{source}: no such file")
-    out = check_output_path(out)
-    if os.path.abspath(out) == os.path.abspath(source):
-        raise UsdGazeError(f"{out}: --out would overwrite the input")
     if not (np.isfinite(options.horizon_s) and 2 * options.h - 1e-9 <= options.horizon_s <= 5.0):
         raise UsdGazeError(f"--window {options.horizon_s:g} s: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
-    from usdgaze.passes import visuomotor
+    with Outputs(no_clobber=no_clobber) as tx:
+        tx.read(source)  # first, so a clash names the input as such
+        out_path = tx.claim(check_output_path(out), "--out")
+        stage = _open_input(tx, source)
+        shots = _read_shots(stage, source, skel_root, options.h, binding)
+        reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
+                                       record)
+        tx.stage_layer(out_path, layer)
+    return reports
 
-    stage = open_stage(source)
-    reports, overrides, terms, inspections = [], [], {}, []
+
+def _read_shots(stage, source: str, skel_root: str | None, h: float, binding) -> list[tuple]:
+    """(root, clip, scene, chain and frame) of every skeleton: all read and bound before any work."""
+    from usdgaze.api import select_roots
+    from usdgaze.passes import visuomotor
+    from usdgaze.usd.skelio import read_clip, skeletons_under
+
+    shots = []
     for root in select_roots(stage, source, skel_root):
         for skel in skeletons_under(root):
             clip = read_clip(stage, skel, root, source)
-            prims, paths, catches = visuomotor.read_scene(root, clip, source, options.h)
-            chain_frame = visuomotor.bind_clip(clip, root, binding)  # a bad binding: one line, before any work
-            if prims:  # something to look at: eyes, belief and body in one loop
-                report, override, shot_terms, inspection = visuomotor.simulate_clip(
-                    clip, root, options, prims, paths, catches, total_mass, progress, seed, chain_frame)
-                inspections.append(inspection)
-            else:
-                report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress)
-            reports.append(report)
-            overrides.append(override)
-            # wall_s stays out of the layer: the same inputs and seed must give the same bytes.
-            terms[clip.skeleton] = {"report": {k: v for k, v in asdict(report).items()
-                                               if v is not None and k not in ("problems", "wall_s")},
-                                    "problems": report.problems or ["none"], "frames": shot_terms}
-    if not reports:
+            scene = visuomotor.read_scene(root, clip, source, h)
+            shots.append((root, clip, scene, visuomotor.bind_clip(clip, root, binding)))
+    if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
+    return shots
+
+
+def _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed, record):
+    """Simulate each shot; (reports, the override layer with per-frame terms and inspection prims)."""
+    from usdgaze import __version__
+    from usdgaze.api import _layer_info
+    from usdgaze.passes import visuomotor
+    from usdgaze.usd.attendio import add_inspection
+    from usdgaze.usd.layers import build_override
+
+    reports, overrides, terms, inspections = [], [], {}, []
+    for root, clip, (prims, paths, catches), chain_frame in shots:
+        if prims:  # something to look at: eyes, belief and body in one loop
+            report, override, shot_terms, inspection = visuomotor.simulate_clip(
+                clip, root, options, prims, paths, catches, total_mass, progress, seed, chain_frame)
+            inspections.append(inspection)
+        else:
+            report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress)
+        reports.append(report)
+        overrides.append(override)
+        # wall_s stays out of the layer: the same inputs and seed must give the same bytes.
+        terms[clip.skeleton] = {"report": {k: v for k, v in asdict(report).items()
+                                           if v is not None and k not in ("problems", "wall_s")},
+                                "problems": report.problems or ["none"], "frames": shot_terms}
     failed = [r for r in reports if r.problems]
     if failed and not keep_failed:
         raise UsdGazeError(f"{source}:{failed[0].skeleton}: {failed[0].problems[0]}; nothing written")
     info = _layer_info(stage)
-    info.custom = {"usdgaze:physics": terms}
+    info.custom = {"usdgaze:physics": terms,
+                   "usdgaze": {"version": __version__, "input": os.path.basename(source),
+                               "command": "attend --physics", "seed": seed, **(record or {})}}
     layer = build_override(overrides, info)
-    from usdgaze.usd.attendio import add_inspection
-
     for character, times, sight, eye_pose, paths, estimates, uncertainty in inspections:
         add_inspection(layer, character, times, sight, eye_pose, paths, estimates, uncertainty)
-    atomic_export(layer, out)
-    return reports
+    return reports, layer

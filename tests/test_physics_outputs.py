@@ -1,0 +1,48 @@
+"""``attend --physics`` writes through the one writer: its output may not be the input or any layer
+the input composes (compared by file identity, so a hard link or a second spelling is caught), and
+the refusal is one line before any simulation, with every input's bytes and mode unchanged."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+from pxr import Sdf
+
+import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
+from usdgaze.console.main import main
+
+from . import synthetic as syn
+from .measure import sha256
+
+
+def _shot(tmp_path):
+    """A shot layer that sublayers the animation file, as studio shots do."""
+    rig = syn.make_rig(tmp_path / "anim.usdc", frames=6, time_codes_per_second=24, mesh=False, walk_speed=0.0)
+    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    shot.subLayerPaths[:] = ["./anim.usdc"]
+    src = Sdf.Layer.FindOrOpen(str(rig.path))
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(shot, key, getattr(src, key))
+    shot.Save()
+    return tmp_path / "shot.usda", tmp_path / "anim.usdc"
+
+
+@pytest.mark.parametrize("target", ["sublayer", "hard link of the sublayer", "sublayer spelled otherwise"])
+def test_physics_output_may_not_be_a_layer_the_input_reads(tmp_path, capsys, target):
+    shot, anim = _shot(tmp_path)
+    if target == "sublayer":
+        out = anim
+    elif target == "hard link of the sublayer":
+        os.link(anim, tmp_path / "linked.usdc")
+        out = tmp_path / "linked.usdc"
+    else:
+        (tmp_path / "sub").mkdir()
+        out = tmp_path / "sub" / ".." / "anim.usdc"
+    before = {p: (sha256(p), os.stat(p).st_mode) for p in (shot, anim)}
+    assert main(["attend", str(shot), "--physics", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("usdgaze: error: "), err
+    assert "composed by the input" in err[0], err
+    assert {p: (sha256(p), os.stat(p).st_mode) for p in (shot, anim)} == before
+    assert not [p for p in tmp_path.rglob("*") if ".usdgaze-tmp" in p.name]
