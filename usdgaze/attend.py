@@ -67,8 +67,11 @@ class AttendReport:
 
 def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[str] | None = None,
            settings: AttendSettings | None = None, skel_root: str | None = None, progress=None,
-           no_clobber: bool = False) -> AttendReport:
-    """Synthesize attention-driven eye, head and upper-spine motion; write ``out``. Nothing on failure."""
+           no_clobber: bool = False, record: dict | None = None, make_folders: bool = False) -> AttendReport:
+    """Synthesize attention-driven eye, head and upper-spine motion; write ``out``. Nothing on failure.
+
+    ``record``: extra entries for the layer's ``customLayerData["usdgaze"]`` (a batch resume key);
+    ``make_folders``: create ``out``'s folder (kept only if the command succeeds)."""
     from usdgaze.files.transaction import Outputs
 
     settings = settings or AttendSettings()
@@ -81,14 +84,16 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
         from usdgaze.usd.layers import check_output_path
 
         tx.read(source)  # first, so a clash names the input as such
+        if make_folders:
+            tx.make_folder(Path(out).parent)
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
-        report, layer = _attend(stage, source, out_path, objects, settings, skel_root, progress)
+        report, layer = _attend(stage, source, out_path, objects, settings, skel_root, progress, record)
         tx.stage_layer(out_path, layer)
     return report
 
 
-def _attend(stage, source, out_path, objects, settings, skel_root, progress):
+def _attend(stage, source, out_path, objects, settings, skel_root, progress, record=None):
     from usdgaze.characters import bind, own_map, select_roots
     from usdgaze.passes.attend import apply_attend
     from usdgaze.usd.attendio import add_inspection
@@ -135,7 +140,8 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress):
                                       time.process_time() - cpu_start, settings)
     info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",
                                "objects": [str(p.GetPath()) for p in prims], "alpha": settings.alpha,
-                               "cost": settings.cost, "window_s": settings.window_s, "seed": settings.seed}}
+                               "cost": settings.cost, "window_s": settings.window_s, "seed": settings.seed,
+                               **(record or {})}}
     layer = build_override(overrides, info, fmt=out_path.suffix.lstrip("."))
     for character, times, result, paths in inspections:
         add_inspection(layer, character, times, result.sight_world, result.eye_pose, paths,

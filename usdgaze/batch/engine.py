@@ -17,7 +17,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from typing import Callable, Iterator
 
-from usdgaze.batch.manifest import Shot, apply_kwargs
+from usdgaze.batch.manifest import Shot, apply_kwargs, attend_kwargs
 
 DONE, SKIPPED, BAD, INTERNAL = "done", "skipped", "bad input", "internal error"
 EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
@@ -75,12 +75,8 @@ def run_shot(shot: Shot, force: bool = False, limit: bool = False) -> dict:
         if not force and recorded_key(shot.out) == key and _outputs_complete(shot):
             record.update(status=SKIPPED)
         else:
-            from usdgaze.api import apply
-
-            report = apply(**apply_kwargs(shot), record={KEY_FIELD: key}, make_folders=True)
+            record.update(status=DONE, **_run(shot, {KEY_FIELD: key}))
             del opened
-            record.update(status=DONE, characters=[c.skel_root for c in report.characters],
-                          frames=sum(c.frames for c in report.characters), warnings=report.warnings)
     except UsdGazeError as exc:
         record.update(status=BAD, message=str(exc))
     except Exception as exc:  # a bug: report it and let the other shots run
@@ -90,6 +86,29 @@ def run_shot(shot: Shot, force: bool = False, limit: bool = False) -> dict:
     record["seconds"] = round(time.perf_counter() - start, 4)
     record["cpu_seconds"] = round(time.process_time() - cpu, 4)  # this process's user + sys: load-proof
     return record
+
+
+def _run(shot: Shot, key: dict) -> dict:
+    """Run one shot's command; what its summary record says of the result."""
+    if shot.command == "apply":
+        from usdgaze.api import apply
+
+        report = apply(**apply_kwargs(shot), record=key, make_folders=True)
+        return {"characters": [c.skel_root for c in report.characters],
+                "frames": sum(c.frames for c in report.characters), "warnings": report.warnings}
+    kwargs = attend_kwargs(shot)
+    if kwargs.pop("physics"):
+        from usdgaze.passes.physics import run
+
+        shots = run(**kwargs, record=key, make_folders=True)
+        # A fall or a missed task is the shot's result, written and said (discard_failed: bad input).
+        return {"characters": [r.skeleton for r in shots], "frames": sum(r.frames for r in shots),
+                "warnings": [f"{r.skeleton}: {p}" for r in shots for p in r.problems]}
+    from usdgaze.attend import attend
+
+    report = attend(**kwargs, record=key, make_folders=True)
+    return {"characters": [c["skel_root"] for c in report.characters],
+            "frames": sum(c["frames"] for c in report.characters), "warnings": report.warnings}
 
 
 def _pool_context():

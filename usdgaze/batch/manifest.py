@@ -102,6 +102,31 @@ def _choice(key: str, choices: tuple[str, ...]):
     return check
 
 
+def _number(key: str, low: float, high: float):
+    def check(value: Any, label: Label, base: Path) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high:
+            raise UsdGazeError(f"{label(key, repr(value))}: expected a number from {low:g} to {high:g}")
+        return float(value)
+    return check
+
+
+def _integer(key: str, low: int, high: int):
+    def check(value: Any, label: Label, base: Path) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise UsdGazeError(f"{label(key, repr(value))}: expected a whole number from {low} to {high}")
+        return value
+    return check
+
+
+def _prims(value: Any, label: Label, base: Path) -> list[str]:
+    if isinstance(value, (str, bytes)) or not isinstance(value, list) or not value:
+        raise UsdGazeError(f"{label('objects', repr(value))}: expected a list of prim paths such as \"/World/Ball\"")
+    for text in value:
+        if not isinstance(text, str) or not text.startswith("/"):
+            raise UsdGazeError(f"{label('objects', repr(text))}: expected an absolute prim path such as /World/Ball")
+    return list(value)
+
+
 def _fixation(value: Any, label: Label, base: Path) -> float:
     from usdgaze.values import check_fixation
 
@@ -135,26 +160,44 @@ class Key:
     keyed: bool = True
     """Part of the resume key as a value (False: file contents stand in for it, or it cannot change
     the result)."""
+    commands: tuple[str, ...] = ("apply", "attend")
+    """The job commands that take the key."""
+
+
+COMMANDS = ("apply", "attend")
+_APPLY, _ATTEND = ("apply",), ("attend",)
 
 
 KEYS: dict[str, Key] = {
     "name": Key(_text("name"), None),
+    "command": Key(_choice("command", COMMANDS), None),
     "input": Key(_path("input"), "input_path", required=True, keyed=False),
     "out": Key(_path("out", layer=True), "out", required=True, output=True),
-    "preview": Key(_path("preview", layer=True), "preview", output=True),
-    "sublayer_into": Key(_path("sublayer_into", layer=True), "sublayer_into", output=True),
-    "plot": Key(_path("plot"), "plot", output=True),
-    "shifts": Key(_shifts, "shifts"),
-    "look_at": Key(_directives("look_at", "parse_look", "TARGET@TIME"), "look_at"),
-    "release": Key(_directives("release", "parse_release", "TIME"), "release"),
-    "eye_timing": Key(_choice("eye_timing", ("saccade", "model")), "look.eye_timing"),
-    "guides": Key(_flag("guides"), "guides"),
-    "map": Key(_map, "map_spec", keyed=False),
+    "preview": Key(_path("preview", layer=True), "preview", output=True, commands=_APPLY),
+    "sublayer_into": Key(_path("sublayer_into", layer=True), "sublayer_into", output=True, commands=_APPLY),
+    "plot": Key(_path("plot"), "plot", output=True, commands=_APPLY),
+    "shifts": Key(_shifts, "shifts", commands=_APPLY),
+    "look_at": Key(_directives("look_at", "parse_look", "TARGET@TIME"), "look_at", commands=_APPLY),
+    "release": Key(_directives("release", "parse_release", "TIME"), "release", commands=_APPLY),
+    "eye_timing": Key(_choice("eye_timing", ("saccade", "model")), "look.eye_timing", commands=_APPLY),
+    "guides": Key(_flag("guides"), "guides", commands=_APPLY),
+    "map": Key(_map, "map_spec", keyed=False, commands=_APPLY),
     "skel_root": Key(_text("skel_root"), "skel_root"),
-    "fixation": Key(_fixation, "options.fixation_m"),
+    "fixation": Key(_fixation, "options.fixation_m", commands=_APPLY),
     "bind": Key(_as_given, "options.binding"),
     "forward": Key(_as_given, "options.binding"),
     "no_clobber": Key(_flag("no_clobber"), "no_clobber", keyed=False),
+    # usdgaze attend (docs/attend.md, docs/physics.md): the command's options under the same names
+    "objects": Key(_prims, "objects", commands=_ATTEND),
+    "alpha": Key(_number("alpha", 0.0, 100.0), "settings.alpha", commands=_ATTEND),
+    "cost": Key(_choice("cost", ("uncertainty", "distance", "sequential")), "settings.cost", commands=_ATTEND),
+    "window": Key(_number("window", 0.05, 5.0), "settings.window_s", commands=_ATTEND),
+    "seed": Key(_integer("seed", 0, 2**32 - 1), "settings.seed", commands=_ATTEND),
+    "realize": Key(_choice("realize", ("direct", "map")), "settings.realize", commands=_ATTEND),
+    "physics": Key(_flag("physics"), "physics", commands=_ATTEND),
+    "discard_failed": Key(_flag("discard_failed"), "discard_failed", commands=_ATTEND),
+    "threads": Key(_integer("threads", 1, 64), "threads", keyed=False, commands=_ATTEND),  # same bytes for any
+    "fd_stride": Key(_integer("fd_stride", 1, 8), "fd_stride", commands=_ATTEND),
 }
 
 # Targets fed by several keys: built from all of them at once (and checked up front).
@@ -180,13 +223,19 @@ class Shot:
     def out(self) -> str:
         return self.values["out"]
 
+    @property
+    def command(self) -> str:
+        """``apply`` (the default) or ``attend``."""
+        return self.values.get("command", "apply")
+
     def outputs(self) -> list[str]:
         return [self.values[k] for k, spec in KEYS.items() if spec.output and k in self.values]
 
     def parameters(self) -> dict:
         """What the result depends on besides file contents: every non-path, non-output value."""
-        return {k: v for k, v in sorted(self.values.items())
-                if KEYS[k].to is not None and not KEYS[k].output and KEYS[k].keyed}
+        keyed = {k: v for k, v in sorted(self.values.items())
+                 if KEYS[k].to is not None and not KEYS[k].output and KEYS[k].keyed}
+        return keyed if self.command == "apply" else {"command": self.command, **keyed}
 
 
 def apply_kwargs(shot: Shot) -> dict:
@@ -213,6 +262,37 @@ def apply_kwargs(shot: Shot) -> dict:
     return kwargs
 
 
+def attend_kwargs(shot: Shot) -> dict:
+    """The call of an ``attend`` job: ``usdgaze.attend.attend`` keywords, or with ``physics`` those of
+    ``usdgaze.passes.physics.run`` (``physics`` True); checked as the CLI checks them."""
+    from usdgaze.attend import AttendSettings
+
+    v = shot.values
+    settings = {KEYS[k].to.partition(".")[2]: value for k, value in v.items()
+                if (KEYS[k].to or "").startswith("settings.")}
+    common = {"input_path": v["input"], "out": v["out"], "skel_root": v.get("skel_root"),
+              "no_clobber": v.get("no_clobber", False)}
+    binding = _binding(v, shot.where) if ("bind" in v or "forward" in v) else None
+    if not v.get("physics"):
+        extra = sorted(set(v) & {"discard_failed", "threads", "fd_stride"})
+        if extra:
+            raise UsdGazeError(f"{shot.where}: {extra[0]}: a key of physics jobs (physics = true)")
+        found = AttendSettings(**settings, binding=binding)
+        found.check()
+        return {**common, "physics": False, "objects": v.get("objects"), "settings": found}
+    extra = sorted(set(v) & {"objects", "alpha", "cost", "realize"})
+    if extra:  # the coupled loop reads every GazeObjectAPI prim and its own belief settings
+        raise UsdGazeError(f"{shot.where}: {extra[0]}: not taken by physics jobs (docs/physics.md)")
+    from usdgaze.physics.mpc import Options
+
+    options = Options(horizon_s=settings.get("window_s", 0.8), workers=v.get("threads", 1),
+                      fd_stride=v.get("fd_stride", 1))
+    if not 2 * options.h - 1e-9 <= options.horizon_s <= 5.0:
+        raise UsdGazeError(f"{shot.where}: window = {options.horizon_s:g}: expected {2 * options.h:g} to 5 s")
+    return {**common, "physics": True, "options": options, "seed": settings.get("seed", 0), "binding": binding,
+            "keep_failed": not v.get("discard_failed", False)}
+
+
 def _where(path: Path, index: int, name: str | None) -> str:
     return f"{path}: job {index}" + (f" '{name}'" if name is not None else "")
 
@@ -228,17 +308,27 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
     unknown = sorted(set(merged) - set(KEYS))
     if unknown:
         raise UsdGazeError(f"{where}: unknown key '{unknown[0]}' (keys: {', '.join(sorted(KEYS))})")
+    command = _choice("command", COMMANDS)(merged.get("command", "apply"), label, path.parent)
+    wrong = sorted(k for k in raw if command not in KEYS[k].commands)
+    if wrong:
+        raise UsdGazeError(f"{where}: {wrong[0]}: not a key of {command} jobs (pipeline/README.md)")
+    # [defaults] may hold keys of either command: each job takes those of its own.
+    merged = {k: v for k, v in merged.items() if command in KEYS[k].commands}
     for key, spec in KEYS.items():
         if spec.required and key not in merged:
             raise UsdGazeError(f"{where}: missing '{key}'")
     base = path.parent.resolve()
     values = {k: KEYS[k].check(v, label, base) for k, v in merged.items()}
-    if "shifts" in values and not values["shifts"] and not values.get("look_at") and not values.get("release"):
+    if command == "apply" and "shifts" in values and not values["shifts"] and not values.get("look_at") \
+            and not values.get("release"):
         # Left out, the SkelRoots' own GazeScheduleAPI schedules apply; an empty list is a slip.
         raise UsdGazeError(f"{label('shifts', '[]')}: no shift given; nothing to do")
     name = values.pop("name", None) or Path(values["input"]).stem
     shot = Shot(index=index, name=name, values=values, where=where)
-    check_request(ApplyRequest(**apply_kwargs(shot)), label)  # the CLI's and the API's own checks
+    if command == "attend":
+        attend_kwargs(shot)  # the attend command's own checks, up front
+    else:
+        check_request(ApplyRequest(**apply_kwargs(shot)), label)  # the CLI's and the API's own checks
     return shot
 
 

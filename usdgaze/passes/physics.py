@@ -209,7 +209,7 @@ def _head(ref, n: int):
 def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Options = mpc.Options(),
         skel_root: str | None = None, keep_failed: bool = True, total_mass: float = 75.0,
         progress=None, seed: int = 0, binding: BindHints | None = None, record: dict | None = None,
-        no_clobber: bool = False) -> list[ShotReport]:
+        no_clobber: bool = False, make_folders: bool = False) -> list[ShotReport]:
     """Simulate every skeleton of ``input_path`` (or under ``skel_root``) and write ``out``.
 
     ``binding`` (``--bind``/``--forward``) says which joints are the head, neck and eyes where names
@@ -229,6 +229,8 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         raise UsdGazeError(f"--window {options.horizon_s:g} s: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
     with Outputs(no_clobber=no_clobber) as tx:
         tx.read(source)  # first, so a clash names the input as such
+        if make_folders:  # kept only if the command succeeds
+            tx.make_folder(Path(out).parent)
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
         shots = _read_shots(stage, source, skel_root, options.h, binding)
