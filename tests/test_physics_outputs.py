@@ -46,3 +46,18 @@ def test_physics_output_may_not_be_a_layer_the_input_reads(tmp_path, capsys, tar
     assert "composed by the input" in err[0], err
     assert {p: (sha256(p), os.stat(p).st_mode) for p in (shot, anim)} == before
     assert not [p for p in tmp_path.rglob("*") if ".usdgaze-tmp" in p.name]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--physics", "--alpha", "0.4"], "--alpha is not taken with --physics"),
+    (["--physics", "--objects", "/Objects/Ball"], "--objects is not taken with --physics"),
+    (["--threads", "2"], "--threads is an option of --physics"),
+    (["--discard-failed"], "--discard-failed is an option of --physics"),
+])
+def test_an_option_of_the_other_mode_is_refused_not_ignored(tmp_path, capsys, args, words):
+    shot, anim = _shot(tmp_path)
+    out = tmp_path / "out.usdc"
+    assert main(["attend", str(shot), "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not out.exists()

@@ -39,11 +39,13 @@ import click
 @click.option("--fd-stride", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: MuJoCo derivatives every N planner steps, interpolated between (faster; "
                    "2 roughly halves the time, docs/physics.md).")
-def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
+@click.pass_context
+def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
            physics, discard_failed, threads, fd_stride) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     from usdgaze.core.hints import parse_hints
 
+    _check_combination(ctx, physics)
     if physics:
         from usdgaze.physics.mpc import Options
 
@@ -70,6 +72,28 @@ def attend(input_path, out, objects, alpha, cost, window_s, seed, realize, skel_
     click.echo(f"planner: {p['steps']} steps of {p['h']} s, window {p['window_s']} s, "
                f"{p['mean_iterations']} iterations/step, {p['frames_per_second']} frames/s")
     click.echo(f"wrote {report.output}")
+
+
+# Options of one mode only: given in the other, they would be ignored, so they are refused.
+_KINEMATIC_ONLY = {"objects": "--objects", "alpha": "--alpha", "cost": "--cost", "realize": "--realize"}
+_PHYSICS_ONLY = {"discard_failed": "--discard-failed", "threads": "--threads", "fd_stride": "--fd-stride"}
+
+
+def _check_combination(ctx, physics: bool) -> None:
+    from click.core import ParameterSource
+
+    from usdgaze.errors import UsdGazeError
+
+    given = [name for name in ctx.params if ctx.get_parameter_source(name) != ParameterSource.DEFAULT]
+    if physics:
+        wrong = [flag for name, flag in _KINEMATIC_ONLY.items() if name in given]
+        if wrong:
+            raise UsdGazeError(f"{wrong[0]} is not taken with --physics: the coupled loop reads every "
+                               "GazeObjectAPI prim with its own belief settings (docs/physics.md)")
+    else:
+        wrong = [flag for name, flag in _PHYSICS_ONLY.items() if name in given]
+        if wrong:
+            raise UsdGazeError(f"{wrong[0]} is an option of --physics")
 
 
 def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed, binding) -> None:
