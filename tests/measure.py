@@ -158,3 +158,16 @@ def eye_in_head(p: Posed, head: str, eye: str, forward, left, up) -> tuple[np.nd
     yaw = np.degrees(np.arctan2((d * l).sum(-1), (d * f).sum(-1)))
     pitch = np.degrees(np.arcsin(np.clip((d * u).sum(-1), -1, 1)))
     return yaw, pitch
+
+
+def lowest_capsule_point(p: Posed, leaf: str, capsules, radius: float, meters_per_unit: float) -> np.ndarray:
+    """Per frame, the height in metres above the stage's ground (up = 0) of the lowest surface point of
+    capsules fixed to a joint: each ``(a, b)`` a segment in metres in the joint's frame (orthonormalized:
+    the frame's rotation, its scale removed), ``radius`` metres. A capsule's lowest point is the lower
+    of its two end points, minus the radius."""
+    m = p.world[:, p.index(leaf)]
+    u, _, vt = np.linalg.svd(m[:, :3, :3])
+    rot = u @ vt  # row vectors: world direction = v @ rot
+    origin = m[:, 3, :3] @ p.up * meters_per_unit
+    ends = np.array([[a, b] for a, b in capsules], dtype=float).reshape(-1, 3)
+    return origin + np.einsum("ej,fjk,k->fe", ends, rot, p.up).min(axis=1) - radius
