@@ -24,9 +24,11 @@ from usdgaze.physics.model import BodyModel
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
-    z = np.zeros(v.shape[:-1])
-    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1), np.stack([v[..., 2], z, -v[..., 0]], -1),
-                     np.stack([-v[..., 1], v[..., 0], z], -1)], -2)
+    out = np.zeros(v.shape[:-1] + (3, 3))  # filled in place: the same values as stacking, fewer calls
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -z, y, -x
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = z, -y, x
+    return out
 
 
 def _jr(r: np.ndarray, inverse: bool) -> np.ndarray:
@@ -50,12 +52,14 @@ def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     v = q[:, 1:]
     s = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
     ang = 2.0 * np.arctan2(s, q[:, :1])
-    return v * np.divide(ang, s, out=np.full_like(s, 2.0), where=s > 1e-12)
+    big = s > 1e-12
+    return v * np.where(big, ang / np.where(big, s, 1.0), 2.0)
 
 
 def _rotvec_to_quat(r: np.ndarray) -> np.ndarray:
     ang = np.sqrt(np.einsum("ij,ij->i", r, r))[:, None]
-    k = np.divide(np.sin(0.5 * ang), ang, out=np.full_like(ang, 0.5), where=ang > 1e-12)
+    big = ang > 1e-12
+    k = np.where(big, np.sin(0.5 * ang) / np.where(big, ang, 1.0), 0.5)
     return np.concatenate([np.cos(0.5 * ang), r * k], axis=1)
 
 
