@@ -19,7 +19,10 @@ written layer by UsdSkel FK: the nearer palm's distance to the true ball at its 
 the field of view.
 
     python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
-        [--horizon 0.6] [--iterations 1] [--stride 1]
+        [--horizon 0.6] [--iterations 1] [--stride 1] [--speed]
+
+``--speed``: every task once per core count, timed alone, with frames/s per wall second, per CPU
+second and the idle bound (``benchmarks/_physics_speed.py``).
 """
 
 from __future__ import annotations
@@ -82,15 +85,9 @@ def _contacts(p: np.ndarray, secs: np.ndarray):
     return list(zip(edges[::2], edges[1::2]))
 
 
-def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
-    """One stepping-stone run: stones at the footfalls of 1.0-2.5 s, those first stood on 0.3 s after the
-    start and 0.3 s before the end displaced by ``shifts[foot]`` toward ``turn`` radians."""
-    from usdgaze.physics import stones
-
-    clip = build.load_clip(CMU)
-    model, ref = build.body_model(clip)
-    keep = (clip.seconds >= 1.0 - 1e-9) & (clip.seconds <= 2.5 + 1e-9)
-    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - 1.0
+def stone_places(model, qpos: np.ndarray, secs: np.ndarray, shifts: dict, turn: float):
+    """Stones at the reference's footfalls (model world, ``(S, 3)``) and which are displaced: those first
+    stood on 0.3 s after the start and 0.3 s before the end, by ``shifts[foot]`` toward ``turn`` radians."""
     toes, names = _toes(model, qpos)
     placed, moved = [], []
     for f, name in enumerate(names):
@@ -103,7 +100,19 @@ def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
             size = shifts.get(name, 0.0) if 0.3 <= first <= secs[-1] - 0.3 else 0.0
             placed.append(np.mean(feet_at, axis=0) + size * np.array([np.cos(turn), np.sin(turn), 0.0]))
             moved.append(size > 0)
-    placed = np.array(placed)
+    return np.array(placed), moved
+
+
+def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
+    """One stepping-stone run: stones at the footfalls of 1.0-2.5 s (``stone_places``)."""
+    from usdgaze.physics import stones
+
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    keep = (clip.seconds >= 1.0 - 1e-9) & (clip.seconds <= 2.5 + 1e-9)
+    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - 1.0
+    _, names = _toes(model, qpos)
+    placed, moved = stone_places(model, qpos, secs, shifts, turn)
     start = time.perf_counter()
     r = mpc.simulate(model, qpos, secs, opts, tasks=[stones.factory(placed, (qpos, secs - secs[0]))])
     wall = time.perf_counter() - start
@@ -121,19 +130,9 @@ def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
             "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
 
 
-def run_obstacles(opts: mpc.Options, seed: int) -> dict:
-    """Two spheres (25 cm) crossing 1.0-2.2 s of the walk, each passing 0.45-0.6 m from the root at a
-    random time, direction, speed (0.6-1.4 m/s) and height (0.4-1.2 m): overlap with the body's
-    capsules with the controller and, for the reference, without."""
-    import mujoco
-
-    from usdgaze.physics import obstacles
-    from usdgaze.physics.dynamics import MujocoBody
-
-    clip = build.load_clip(CMU)
-    model, ref = build.body_model(clip)
-    keep = (clip.seconds >= 1.0 - 1e-9) & (clip.seconds <= 2.2 + 1e-9)
-    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - 1.0
+def crossing(qpos: np.ndarray, secs: np.ndarray, seed: int):
+    """Two spheres (25 cm) crossing the walk, each passing 0.45-0.6 m from the root at a random time,
+    direction, speed (0.6-1.4 m/s) and height (0.4-1.2 m): ``(centres at seconds -> (K, 2, 3), radii)``."""
     rng = np.random.default_rng(seed)
     paths = []
     for _ in range(2):
@@ -144,8 +143,22 @@ def run_obstacles(opts: mpc.Options, seed: int) -> dict:
         centre = at * [1, 1, 0] + np.array([-flat[1], flat[0], 0]) * rng.uniform(0.45, 0.6) * rng.choice([-1, 1])
         centre[2] = rng.uniform(0.4, 1.2)
         paths.append((centre, flat * rng.uniform(0.6, 1.4), tc))
-    radii = np.full(len(paths), 0.25)
-    at = lambda t: np.stack([c + np.outer(t - tc, v) for c, v, tc in paths], axis=1)  # noqa: E731
+    return (lambda t: np.stack([c + np.outer(t - tc, v) for c, v, tc in paths], axis=1)), np.full(len(paths), 0.25)
+
+
+def run_obstacles(opts: mpc.Options, seed: int) -> dict:
+    """Two spheres crossing 1.0-2.2 s of the walk (``crossing``): overlap with the body's capsules with
+    the controller and, for the reference, without."""
+    import mujoco
+
+    from usdgaze.physics import obstacles
+    from usdgaze.physics.dynamics import MujocoBody
+
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    keep = (clip.seconds >= 1.0 - 1e-9) & (clip.seconds <= 2.2 + 1e-9)
+    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - 1.0
+    at, radii = crossing(qpos, secs, seed)
     body = MujocoBody(model)
     d = mujoco.MjData(body.mj)
 
@@ -245,6 +258,8 @@ def main() -> None:
     ap.add_argument("--seeds", default="0,1,2,3,4")
     ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--speed", action="store_true", help="frames/s of each task (--tasks, default all) on each of "
+                    "--cores, timed alone (benchmarks/_physics_speed.py)")
     ap.add_argument("--throw", default=None, help=argparse.SUPPRESS)  # one catch throw (run_catch's worker)
     a = ap.parse_args()
     if a.throw is not None:
@@ -253,6 +268,9 @@ def main() -> None:
     from threadpoolctl import threadpool_limits
 
     cpus = sorted(os.sched_getaffinity(0))
+    if a.speed:
+        speed_table(a, cpus)
+        return
     rows = []
     for task in a.tasks.split(","):
         if task == "catch":
@@ -281,6 +299,26 @@ def main() -> None:
                   f"{row['min_pelvis_ratio']:.2f} of ref | joint err {row['mean_joint_error_deg']:.1f} deg | "
                   f"foot below ground {100 * row['max_foot_below_ground_m']:.1f} cm", flush=True)
     os.sched_setaffinity(0, cpus)
+
+
+def speed_table(a, cpus: list[int]) -> None:
+    """``--speed``: each task once per core count (its threads as many), then the summary table."""
+    from threadpoolctl import threadpool_limits
+
+    import _physics_speed as speed  # benchmarks/ is on sys.path when run as a script
+
+    tasks = speed.TASKS if a.tasks == "track,push" else tuple(a.tasks.split(","))
+    rows = []
+    for task in tasks:
+        for cores in (int(c) for c in a.cores.split(",")):
+            os.sched_setaffinity(0, cpus[:cores])
+            h = 0.03 if task.startswith(("stones", "obstacles")) else a.h  # as the task runs above
+            opts = mpc.Options(h=h, horizon_s=a.horizon, iterations=a.iterations, workers=cores, fd_stride=a.stride)
+            with threadpool_limits(1):
+                rows.append(speed.run(task, cores, opts, a.seconds, sys.modules[__name__]))
+            print(json.dumps(rows[-1]), flush=True)
+    os.sched_setaffinity(0, cpus)
+    print(speed.table(rows), flush=True)
 
 
 if __name__ == "__main__":

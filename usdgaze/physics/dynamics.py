@@ -24,9 +24,11 @@ from usdgaze.physics.model import BodyModel
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
-    z = np.zeros(v.shape[:-1])
-    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1), np.stack([v[..., 2], z, -v[..., 0]], -1),
-                     np.stack([-v[..., 1], v[..., 0], z], -1)], -2)
+    out = np.zeros(v.shape[:-1] + (3, 3))  # filled in place: the same values as stacking, fewer calls
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -z, y, -x
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = z, -y, x
+    return out
 
 
 def _jr(r: np.ndarray, inverse: bool) -> np.ndarray:
@@ -50,12 +52,14 @@ def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     v = q[:, 1:]
     s = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
     ang = 2.0 * np.arctan2(s, q[:, :1])
-    return v * np.divide(ang, s, out=np.full_like(s, 2.0), where=s > 1e-12)
+    big = s > 1e-12
+    return v * np.where(big, ang / np.where(big, s, 1.0), 2.0)
 
 
 def _rotvec_to_quat(r: np.ndarray) -> np.ndarray:
     ang = np.sqrt(np.einsum("ij,ij->i", r, r))[:, None]
-    k = np.divide(np.sin(0.5 * ang), ang, out=np.full_like(ang, 0.5), where=ang > 1e-12)
+    big = ang > 1e-12
+    k = np.where(big, np.sin(0.5 * ang) / np.where(big, ang, 1.0), 0.5)
     return np.concatenate([np.cos(0.5 * ang), r * k], axis=1)
 
 
@@ -95,6 +99,9 @@ class MujocoBody:
         self.workers, self._pool, self._clones = int(workers), None, []
         self.stride = int(stride)
         self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
+        # qpos of recent states (key: their position bytes), for this anchor: a window's rollout, its
+        # costs and the head pose ask for the same rows in turn (a pure function: results unchanged).
+        self._qpos_cache: dict[bytes, np.ndarray] = {}
         qadr, dadr = model.layout()
         balls = [b for b, k in enumerate(model.kind) if k == "ball"]
         hinges = [b for b, k in enumerate(model.kind) if k == "hinge"]
@@ -114,6 +121,7 @@ class MujocoBody:
     def set_anchor(self, quat_wxyz: np.ndarray) -> None:
         self.anchor = np.asarray(quat_wxyz, dtype=float) / np.linalg.norm(quat_wxyz)
         self._set_anchor_maps()
+        self._qpos_cache.clear()
 
     def _set_anchor_maps(self) -> None:
         # Left multiplication by the anchor (and by its conjugate) as 4x4 matrices on wxyz quaternions.
@@ -137,14 +145,23 @@ class MujocoBody:
         return out[0] if single else out
 
     def to_mujoco(self, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``qpos``, ``qvel`` of one body state."""
+        """``qpos``, ``qvel`` of one body state (new arrays)."""
+        key = xb[:self.nv].tobytes()
+        qpos = self._qpos_cache.get(key)
+        if qpos is None:
+            if len(self._qpos_cache) >= 4096:
+                self._qpos_cache.clear()
+            qpos = self._qpos_cache[key] = self._qpos(xb)
+        return qpos.copy(), xb[self.nv:2 * self.nv].copy()
+
+    def _qpos(self, xb: np.ndarray) -> np.ndarray:
         qpos = np.empty(self.nq)
         qpos[0:3] = xb[0:3]
         q = _rotvec_to_quat(xb[self._rot_x])
         q[0] = self._left @ q[0]
         qpos[self._rot_q] = q
         qpos[self._hq] = xb[self._hd]
-        return qpos, xb[self.nv:2 * self.nv].copy()
+        return qpos
 
     def _tangent_map(self, xb: np.ndarray, inverse: bool) -> np.ndarray:
         """Per rotation block, ``dx/dtangent`` (``inverse=False`` gives Jr^-1) or its inverse."""
@@ -188,26 +205,27 @@ class MujocoBody:
         """dp ``(N, 3, NX)`` and dR ``(N, 3, 3, NX)`` w.r.t. the full state (positions only)."""
         import mujoco
 
-        p, R = self.head_pose_batch(X, k0)
-        body = self._head[0]
+        if not hasattr(self, "_head"):
+            self._head_setup()
+        body, offset, axes = self._head
         nx = self.stack.nx if self.stack is not None else self.nx
         dp, dR = np.zeros((len(X), 3, nx)), np.zeros((len(X), 3, 3, nx))
-        d = self.data
-        rot = self._rot[:, None] + np.arange(3)
+        d, rot, s = self.data, self._rot_x, self.xs.start
+        maps = _jr(X[:, self.xs][:, rot].reshape(-1, 3), inverse=False).reshape(len(X), len(rot), 3, 3)  # d tangent / d x
+        jp, jr = np.zeros((3, self.nv)), np.zeros((3, self.nv))
         for i, x in enumerate(X):
-            xb = x[self.xs]
-            d.qpos[:], _ = self.to_mujoco(xb)
+            d.qpos[:], _ = self.to_mujoco(x[self.xs])
             mujoco.mj_kinematics(self.mj, d)
             mujoco.mj_comPos(self.mj, d)
-            jp, jr = np.zeros((3, self.nv)), np.zeros((3, self.nv))
-            mujoco.mj_jac(self.mj, d, jp, jr, p[i], body)
-            maps = _jr(xb[rot], inverse=False)  # d tangent / d x per rotation block
-            for b in range(len(rot)):
-                jp[:, rot[b]] = jp[:, rot[b]] @ maps[b]
-                jr[:, rot[b]] = jr[:, rot[b]] @ maps[b]
-            s = self.xs.start
+            xm = d.xmat[body].reshape(3, 3)
+            p, R = d.xpos[body] + xm @ offset, xm @ axes  # head_pose_batch's, from the same kinematics
+            jp[:], jr[:] = 0.0, 0.0
+            mujoco.mj_jac(self.mj, d, jp, jr, p, body)
+            # per rotation block, (3, 3) @ (3, 3) as one stacked matmul (the same products, fewer calls)
+            jp[:, rot] = np.matmul(jp[:, rot].transpose(1, 0, 2), maps[i]).transpose(1, 0, 2)
+            jr[:, rot] = np.matmul(jr[:, rot].transpose(1, 0, 2), maps[i]).transpose(1, 0, 2)
             dp[i, :, s:s + self.nv] = jp
-            dR[i, :, :, s:s + self.nv] = np.einsum("ijn,jk->ikn", _skew(jr.T).transpose(1, 2, 0), R[i])
+            dR[i, :, :, s:s + self.nv] = np.einsum("ijn,jk->ikn", _skew(jr.T).transpose(1, 2, 0), R)
         return dp, dR
 
     def head_pose(self, x, k):
@@ -279,23 +297,31 @@ class MujocoBody:
         interpolation of Han et al. 2016, which the paper's solver uses). With ``workers > 1`` the
         steps are split over threads, each with its own copy of the part (MuJoCo releases the GIL
         inside its functions)."""
+        return self.linearize_start(X, U, k0)()
+
+    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
+        """``linearize_batch`` begun: with ``workers > 1`` the threads start now and the caller may do
+        other work (the cost's expansion) before calling the result for the matrices."""
         n = len(U)
         at = np.unique(np.r_[np.arange(0, n, max(1, self.stride)), n - 1]) if n else np.zeros(0, int)
         if self.workers <= 1 or len(at) < 2:
             pairs = [self.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in at]
-        else:
-            from concurrent.futures import ThreadPoolExecutor
+            return lambda: self._window_matrices(pairs, at, n)
+        from concurrent.futures import ThreadPoolExecutor
 
-            if self._pool is None:
-                self._pool = ThreadPoolExecutor(self.workers)
-                self._clones = [self._clone() for _ in range(self.workers)]
-            for c in self._clones:
-                c.set_anchor(self.anchor)
-                c.forces = self.forces
-            chunks = np.array_split(at, self.workers)
-            parts = self._pool.map(lambda a: [a[0].linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in a[1]],
-                                   zip(self._clones, chunks))
-            pairs = [p for chunk in parts for p in chunk]
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(self.workers)
+            self._clones = [self._clone() for _ in range(self.workers)]
+        futures = []
+        for c, chunk in zip(self._clones, np.array_split(at, self.workers)):
+            c.set_anchor(self.anchor)
+            c.forces = self.forces
+            futures.append(self._pool.submit(
+                lambda c=c, chunk=chunk: [c.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in chunk]))
+        return lambda: self._window_matrices([p for f in futures for p in f.result()], at, n)
+
+    def _window_matrices(self, pairs, at: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """The window's (A, B) from those at steps ``at`` (interpolated between), as the stack's rows."""
         A = np.stack([p[0] for p in pairs])
         B = np.stack([p[1] for p in pairs])
         if len(at) < n:  # interpolate between the differentiated steps
@@ -317,5 +343,6 @@ class MujocoBody:
 
         twin = copy.copy(self)
         twin.data = mujoco.MjData(self.mj)
+        twin._qpos_cache = {}  # each thread its own
         twin.workers, twin._pool, twin._clones = 1, None, []
         return twin

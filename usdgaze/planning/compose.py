@@ -82,8 +82,19 @@ class Stacked:
         return np.vstack([r[0] for r in rows]), np.vstack([r[1] for r in rows])
 
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
-        rows = [p.linearize_batch(X, U, k0) for p in self.parts]
-        return np.concatenate([r[0] for r in rows], axis=1), np.concatenate([r[1] for r in rows], axis=1)
+        return self.linearize_start(X, U, k0)()
+
+    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int):
+        """``linearize_batch`` begun: parts with a ``linearize_start`` (the MuJoCo body's threaded finite
+        differences) start first, the others' rows are made meanwhile; call the result for the rows."""
+        started = {i: p.linearize_start(X, U, k0) for i, p in enumerate(self.parts) if hasattr(p, "linearize_start")}
+        done = {i: p.linearize_batch(X, U, k0) for i, p in enumerate(self.parts) if i not in started}
+
+        def rows():
+            got = [done[i] if i in done else started[i]() for i in range(len(self.parts))]
+            return np.concatenate([r[0] for r in got], axis=1), np.concatenate([r[1] for r in got], axis=1)
+
+        return rows
 
     def forward_pass(self, X, U, kff, K, alpha, k0):
         """Roll out u = U + alpha kff + K (x - X) with the passive parts done last, in one batch.

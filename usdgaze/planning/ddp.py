@@ -121,6 +121,19 @@ def total_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0) -> float:
 
 def linearize_trajectory(dyn: Dynamics, X: np.ndarray, U: np.ndarray, k0: int = 0):
     """(fx, fu) stacked over the window: shapes (N, nx, nx), (N, nx, nu)."""
+    return linearize_start(dyn, X, U, k0)()
+
+
+def linearize_start(dyn: Dynamics, X: np.ndarray, U: np.ndarray, k0: int = 0) -> Callable[[], tuple]:
+    """``linearize_trajectory`` begun: a dynamics with ``linearize_start`` (threads) runs it while the
+    caller expands the cost; the result, called, gives (fx, fu)."""
+    if hasattr(dyn, "linearize_start"):
+        return dyn.linearize_start(X[: len(U)], U, k0)
+    result = _linearize_now(dyn, X, U, k0)
+    return lambda: result
+
+
+def _linearize_now(dyn: Dynamics, X: np.ndarray, U: np.ndarray, k0: int):
     if hasattr(dyn, "linearize_batch"):
         return dyn.linearize_batch(X[: len(U)], U, k0)
     pairs = [dyn.linearize(X[i], U[i], k0 + i) for i in range(len(U))]
@@ -215,8 +228,9 @@ def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0
     converged = False
     it = 0
     for it in range(1, opt.max_iter + 1):
-        fx, fu = linearize_trajectory(dyn, X, U, k0)
+        pending = linearize_start(dyn, X, U, k0)  # threads, where the dynamics has them, run meanwhile
         running, terminal = expand_cost(cost, X, U, k0)
+        fx, fu = pending()
         accepted = False
         while mu <= opt.mu_max and not accepted:
             back = _backward(fx, fu, running, terminal, mu, opt.regularization == "state")
