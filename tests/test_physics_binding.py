@@ -37,13 +37,26 @@ def test_physics_needs_a_binding_on_an_unnamed_rig_and_reads_the_hints(tmp_path,
     assert not out.exists()
 
 
-def test_the_floating_base_is_where_the_tree_branches_below_a_root_on_the_ground(tmp_path):
-    from usdgaze.physics import model as body_model
+def test_the_floating_base_is_where_the_legs_meet_when_no_name_says_pelvis(tmp_path):
+    from usdgaze.physics import build
 
+    # The numbered synthetic rig: a root joint on the ground above the pelvis.
     rig = _rig(tmp_path)
-    joints = list(rig.joints)  # the tokens the rig generator wrote, skeleton order
-    parents = np.array([joints.index(j.rsplit("/", 1)[0]) if "/" in j else -1 for j in joints])
-    base = body_model._base_joint(joints, parents)
-    # Independently: the pelvis the rig generator placed, whose children are the legs and the spine.
-    assert joints[base].rsplit("/", 1)[-1] == rig.leaf["pelvis"], (joints[base], rig.leaf["pelvis"])
-    assert (parents == base).sum() >= 2
+    from usdgaze.usd.skelio import read_clip, skeletons_under
+    from usdgaze.usd.stage import open_stage
+
+    stage = open_stage(str(rig.path))
+    root = stage.GetPrimAtPath(rig.skel_root)
+    clip = read_clip(stage, skeletons_under(root)[0], root, str(rig.path))
+    model, _ = build.body_model(clip, 75.0)
+    assert model.joints[model.bodies[0]].rsplit("/", 1)[-1] == rig.leaf["pelvis"]
+
+    # By hand: root on the ground with the pelvis and a prop joint beside it, toes, a heel end site.
+    from usdgaze.physics.model import _base_joint
+
+    parents = np.array([-1, 0, 0, 1, 3, 4, 1, 6, 7, 1, 9, 4])
+    heights = np.array([0.0, 1.0, 0.05, 0.5, 0.08, 0.0, 0.5, 0.08, 0.0, 1.3, 1.7, 0.0])
+    names = [f"j{i}" for i in range(len(parents))]
+    assert _base_joint(names, parents, heights) == 1
+    # A name still wins: a joint called pelvis is the base wherever the legs meet.
+    assert _base_joint(["root", "a", "b", "Pelvis", *names[4:]], parents, heights) == 3

@@ -6,9 +6,9 @@ Y-up stages, the rotation of +90 degrees about X, ``(x, y, z) -> (x, -z, y)``: t
 +Z, its X stays X, and handedness is kept. The ground plane is the stage's ``up = 0`` plane.
 
 Bodies. One body per skeleton joint from the floating base (the first pelvis/hips joint, else the
-first joint, from the root down, where the tree branches) down; its frame is the joint's frame in the
-rest pose (``restTransforms``, or those derived from ``bindTransforms``), orthonormalized, so
-``qpos`` of all zeros but the root is the rest pose.
+joint where the two legs meet: the common ancestor of the lowest end joints at rest) down; its frame
+is the joint's frame in the rest pose (``restTransforms``, or those derived from ``bindTransforms``),
+orthonormalized, so ``qpos`` of all zeros but the root is the rest pose.
 Joints above the base or outside its subtree are not simulated and are carried from the reference.
 The base has a free joint; knees and elbows are hinges (axis fitted to the reference motion when
 given, else the anatomical flexion axis); exporter end sites are welded; every other joint is a
@@ -96,18 +96,32 @@ class BodyModel:
         return int(hits[0]) if len(hits) else -1
 
 
-def _base_joint(joints: list[str], parents: np.ndarray) -> int:
-    """The floating base: the first joint named as a pelvis, else where the tree first branches below
-    the root (legs and spine part at the pelvis; many rigs put a root joint on the ground above it)."""
+def _base_joint(joints: list[str], parents: np.ndarray, heights: np.ndarray) -> int:
+    """The floating base: the first joint named as a pelvis, else where the two legs meet: the
+    nearest common ancestor of the lowest end joint at rest (a toe) and the lowest one on another
+    branch (the other foot). Many rigs put a root joint on the ground above the hips, some with props
+    or IK targets beside them, so neither the root nor the first branching is the pelvis."""
     for j, name in enumerate(joints):
         if _BASE.search(re.sub(r"[^a-z0-9]", "", leaf(name).lower())):
             return j
-    j = int(np.flatnonzero(parents < 0)[0])
-    while True:
-        children = np.flatnonzero(parents == j)
-        if len(children) != 1:
-            return j
-        j = int(children[0])
+
+    def chain(j: int) -> list[int]:
+        out = [j]
+        while parents[out[-1]] >= 0:
+            out.append(int(parents[out[-1]]))
+        return out
+
+    ends = [int(j) for j in np.argsort(heights, kind="stable") if not np.any(parents == j)]
+    low, span = float(np.min(heights)), float(np.ptp(heights))
+    if len(ends) >= 2 and span > 0:
+        first = chain(ends[0])
+        for other in ends[1:]:
+            up = set(chain(other))
+            meet = next((j for j in first if j in up), None)  # None: another skeleton tree
+            # Two ends of one foot (toe, heel) meet low; the legs meet at about half the height.
+            if meet is not None and heights[meet] - low > 0.25 * span:
+                return meet
+    return int(np.flatnonzero(parents < 0)[0])
 
 
 def _subtree(base: int, parents: np.ndarray) -> np.ndarray:
@@ -144,7 +158,9 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     parents = np.asarray(parents, dtype=int)
     if total_mass <= 0:
         raise UsdGazeError(f"{where}: total mass must be positive, got {total_mass}")
-    base = _base_joint(joints, parents)
+    to_model = stage_to_model(up_axis, meters_per_unit)
+    world = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0] @ world_matrices(rest_local[None], parents)[0]
+    base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2])
     idx = _subtree(base, parents)
     if len(idx) < 2:
         raise UsdGazeError(f"{where}: the skeleton below '{joints[base]}' has no joints to simulate")
@@ -152,8 +168,6 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     bparent = np.array([body_of.get(int(parents[j]), -1) for j in idx])
     bparent[0] = -1
 
-    to_model = stage_to_model(up_axis, meters_per_unit)
-    world = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0] @ world_matrices(rest_local[None], parents)[0]
     pos, orient, rmat, offset, rel = _rest_frames(world[idx], bparent, to_model)
     n = len(idx)
     height = float(np.ptp(pos[:, 2])) * 1.08 or 1.0
