@@ -249,10 +249,11 @@ class MujocoBody:
         import mujoco
 
         self._load(xb, ub, k)
-        kinds = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
-        bad = [self.data.warning[w].number for w in kinds]
+        kinds = [int(w) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
+                                  mujoco.mjtWarning.mjWARN_BADQPOS)]
+        bad = self.data.warning.number[kinds].tolist()
         mujoco.mj_step(self.mj, self.data)
-        if [self.data.warning[w].number for w in kinds] != bad:
+        if self.data.warning.number[kinds].tolist() != bad:
             # MuJoCo resets an unstable state to qpos0; say so to the solver instead (infinite cost).
             return np.full(self.nx, np.nan)
         return self.to_state(self.data.qpos, self.data.qvel)
