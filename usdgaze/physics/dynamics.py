@@ -123,6 +123,13 @@ class MujocoBody:
         self._set_anchor_maps()
         self._qpos_cache.clear()
 
+    def _same_anchor(self, other: "MujocoBody") -> None:
+        """``other``'s anchor, bit for bit (``set_anchor`` normalizes again, which may move the last bit:
+        a thread's copy must convert states exactly as the part it works for)."""
+        if self.anchor is not other.anchor:
+            self.anchor, self._left, self._left_conj = other.anchor, other._left, other._left_conj
+            self._qpos_cache.clear()
+
     def _set_anchor_maps(self) -> None:
         # Left multiplication by the anchor (and by its conjugate) as 4x4 matrices on wxyz quaternions.
         w, x, y, z = self.anchor
@@ -315,7 +322,7 @@ class MujocoBody:
             self._clones = [self._clone() for _ in range(self.workers)]
         futures = []
         for c, chunk in zip(self._clones, np.array_split(at, self.workers)):
-            c.set_anchor(self.anchor)
+            c._same_anchor(self)
             c.forces = self.forces
             futures.append(self._pool.submit(
                 lambda c=c, chunk=chunk: [c.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in chunk]))
