@@ -44,7 +44,7 @@ def _walk(start: float, end: float, bench):
     return model, retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - start
 
 
-def _objects(paths: np.ndarray, h: float, radius: float, kind: str = "") -> list[loop.Thing]:
+def _objects(paths: np.ndarray, radius: float, kind: str = "") -> list[loop.Thing]:
     """Things from positions per planner step ``(K, J, 3)``."""
     return [loop.Thing(f"o{j}", paths[:, j], 1.0, radius, kind) for j in range(paths.shape[1])]
 
@@ -83,13 +83,13 @@ def scene(task: str, h: float, seconds: float, bench):
     if task.startswith("stones"):
         model, qpos, secs = _walk(1.0, 2.5, bench)
         placed, _ = bench.stone_places(model, qpos, secs, {"RightAnkle": 0.15}, 0.0)
-        things = _objects(np.repeat(placed[None], len(steps(secs)), 0), h, 0.15)
+        things = _objects(np.repeat(placed[None], len(steps(secs)), 0), 0.15)
         return model, qpos, secs, None if task.endswith("body") else things, [stones.factory(placed, (qpos, secs))], ()
     model, qpos, secs = _walk(1.0, 2.2, bench)
     at, radii = bench.crossing(qpos, secs, 0)
     if task.endswith("body"):
         return model, qpos, secs, None, [obstacles.factory(at, radii)], ()
-    things = _objects(at(steps(secs)), h, float(radii[0]))
+    things = _objects(at(steps(secs)), float(radii[0]))
     return model, qpos, secs, things, [obstacles.factory(at, radii, list(range(len(radii))))], ()
 
 
