@@ -155,6 +155,36 @@ def test_a_receding_horizon_started_over_regularized_recovers():
     assert steps[0] == 0 and sum(steps[20:]) > 0 and abs(x[0]) < 0.5
 
 
+class _WrongSign(LinearQuadratic):
+    """The double integrator whose linearization has its controls' sign flipped: every step the solver
+    proposes raises the true cost, so each solve ends at the regularization's ceiling."""
+
+    def linearize(self, x, u, k):
+        fx, fu = super().linearize(x, u, k)
+        return fx, -fu
+
+
+def test_a_receding_horizon_restarts_after_the_ceiling_and_runs_more_iterations_first():
+    A, B, Q, R = _double_integrator()
+    P = solve_discrete_are(A, B, Q, R)
+    bad = _WrongSign(A, B, Q, R, P)
+    opts = ddp.Options(max_iter=1, mu_max=1e3)
+    for restart, expect in ((True, opts.mu_init), (False, opts.mu_max)):
+        mpc = ddp.RecedingHorizon(horizon=10, nu=1, options=opts, restart_at_ceiling=restart)
+        u, sol = mpc.step(bad, bad, np.array([1.0, 0.0]), 0)
+        assert sol.mu > opts.mu_max and len(sol.costs) == 1  # no step taken
+        assert mpc.mu == expect
+    good = LinearQuadratic(A, B, Q, R, P)
+    mpc = ddp.RecedingHorizon(horizon=10, nu=1, options=ddp.Options(max_iter=1, tol=0.0),
+                              first=ddp.Options(max_iter=4, tol=0.0), U_init=np.full((10, 1), 0.3))
+    x, iterations = np.array([1.0, 0.0]), []
+    for k in range(3):
+        u, sol = mpc.step(good, good, x, k)
+        iterations.append(sol.iterations)
+        x = good.step(x, u, k)
+    assert iterations[0] > 1 and iterations[1:] == [1, 1]
+
+
 def _fd(f, x, eps=1e-6):
     cols = [(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in np.eye(len(x))]
     return np.stack(cols, axis=-1)
