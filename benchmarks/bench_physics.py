@@ -10,7 +10,11 @@ overlap of body and spheres with and without the controller. Each runs pinned to
 split over 2 threads), one BLAS thread. Printed per run: wall time, simulated seconds per wall second,
 output frames per second at 30 fps and at the planner's 1/h, and the shot's measures (fall, lowest
 pelvis height against the reference, mean joint-angle error, deepest foot below the ground), against
-the paper's 1-6 frames/s on six cores and the goal of >= 6 frames/s on two.
+the paper's 1-6 frames/s on six cores and the goal of >= 6 frames/s on two. "Foot below the ground"
+is the deepest point of the model's foot geoms (the capsules of the ankle, sole and toe bodies: the
+lower end of each, minus its radius) on the simulated steps; with ``--fk`` the track task runs
+through the physics pass (``usdgaze attend --physics``) instead and also measures it on the WRITTEN
+layer at every frame of the clip, by UsdSkel FK: the same capsules fixed to the written joints.
 
 ``catch``: the coupled loop (eyes, belief and body, ``usdgaze attend --physics``) on five seeded
 throws from the front within reach and one from behind (tests/catch_stages.py), each measured on the
@@ -19,7 +23,7 @@ written layer by UsdSkel FK: the nearer palm's distance to the true ball at its 
 the field of view.
 
     python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
-        [--horizon 0.6] [--iterations 1] [--stride 1] [--speed]
+        [--horizon 0.6] [--iterations 1] [--stride 1] [--speed] [--fk]
 
 ``--speed``: every task once per core count, timed alone, with frames/s per wall second, per CPU
 second and the idle bound (``benchmarks/_physics_speed.py``).
@@ -180,7 +184,46 @@ def run_obstacles(opts: mpc.Options, seed: int) -> dict:
             "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
 
 
-def run_task(task: str, seconds: float, opts: mpc.Options) -> dict:
+def fk_foot_heights(src: Path, layer: Path, tmp: Path, model) -> tuple[np.ndarray, np.ndarray]:
+    """Seconds from the start and, per frame of the written ``layer`` composed over ``src``, the height
+    (m) of the lowest point of the model's foot capsules, posed by UsdSkel FK (``tests/measure.py``: no
+    usdgaze math)."""
+    from pxr import Usd, UsdGeom
+
+    from tests import measure
+    from tests.attend_support import compose
+
+    posed = measure.posed(str(compose(tmp, src, layer)), str(_skeleton(src)))
+    stage = Usd.Stage.Open(str(src))
+    mpu = UsdGeom.GetStageMetersPerUnit(stage)
+    seconds = (posed.times - posed.times[0]) / stage.GetTimeCodesPerSecond()
+    feet = [b for b, r in enumerate(model.role) if r == "foot"]
+    return seconds, np.min([measure.lowest_capsule_point(posed, model.joints[model.bodies[b]].rsplit("/", 1)[-1],
+                                                [(v[:3], v[3:]) for k, v in model.geoms[b] if k == "capsule"],
+                                                float(model.radius[b]), mpu) for b in feet], axis=0)
+
+
+def _skeleton(src: Path):
+    from pxr import Usd, UsdSkel
+
+    stage = Usd.Stage.Open(str(src))
+    return next(p.GetPath() for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
+
+
+def _track_through_pass(opts: mpc.Options, model) -> tuple:
+    """The whole walk through the physics pass: its report and the feet's heights by UsdSkel FK."""
+    import tempfile
+
+    from usdgaze.passes import physics as physics_pass
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "walk.usda"
+        report = physics_pass.run(CMU, out, opts)[0]
+        seconds, low = fk_foot_heights(CMU, out, Path(tmp), model)
+    return report, seconds, low
+
+
+def run_task(task: str, seconds: float, opts: mpc.Options, fk: bool = False) -> dict:
     clip = build.load_clip(CMU)
     model, ref = build.body_model(clip)
     qpos = retarget.to_qpos(model, ref)
@@ -192,6 +235,17 @@ def run_task(task: str, seconds: float, opts: mpc.Options) -> dict:
         pushes = (mpc.Push(chest, 150.0 * _left(model, qpos[0]), 0.5, 0.2),)
     start = time.perf_counter()
     cpu0 = time.process_time()
+    if fk and task == "track":
+        report, fk_s, low = _track_through_pass(opts, model)
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu0
+        sim_s = report.simulated_s
+        return {"task": task, "simulated_s": round(sim_s, 3), "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
+                "fps_at_30": round(30 * sim_s / wall, 2), "cpu_fps_at_30": round(30 * sim_s / cpu, 2),
+                "fell": report.fell, "min_pelvis_ratio": round(report.min_pelvis_ratio, 3),
+                "mean_joint_error_deg": round(report.mean_joint_error_deg, 2),
+                "max_foot_below_ground_m": round(report.max_foot_below_ground_m, 4),
+                "fk_max_foot_below_ground_m": round(float(-low.min()), 4), "fk_frames": len(low),
+                "fk_frames_below_2cm": int((low < -0.02).sum()), "fk_deepest_at_s": round(float(fk_s[low.argmin()]), 3)}
     r = mpc.simulate(model, qpos[keep], clip.seconds[keep], opts, pushes)
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu0
     sim_s = float(r.seconds[-1] - r.seconds[0])
@@ -260,6 +314,7 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--speed", action="store_true", help="frames/s of each task (--tasks, default all) on each of "
                     "--cores, timed alone (benchmarks/_physics_speed.py)")
+    ap.add_argument("--fk", action="store_true", help="track: through the physics pass, feet measured on the layer")
     ap.add_argument("--throw", default=None, help=argparse.SUPPRESS)  # one catch throw (run_catch's worker)
     a = ap.parse_args()
     if a.throw is not None:
@@ -289,9 +344,9 @@ def main() -> None:
             opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores,
                                fd_stride=a.stride)
             with threadpool_limits(1):
-                row = run_task(task, a.seconds, opts) | {"cores": cores}
+                row = run_task(task, a.seconds, opts, a.fk) | {"cores": cores}
             rows.append(row)
-            print(json.dumps(row) if a.json else
+            print(json.dumps(row) if a.json or "fk_frames" in row else
                   f"{task:6s} {cores} core(s): {row['simulated_s']:.2f} s simulated in {row['wall_s']:.1f} s wall "
                   f"-> {row['fps_at_30']:.2f} frames/s at 30 fps ({row['fps_at_1_over_h']:.2f} at 1/h; "
                   f"{row['cpu_fps_at_30']:.2f} per CPU second; load {row['load']}) "
