@@ -7,6 +7,13 @@ of the foot's first body (the ankle) and ``W_ref`` the reference's at the same s
 
 Ours, where the paper leaves room:
 
+* Units: the paper gives none. Distances are in thirds of a metre (the position residual times
+  ``POSITION_SCALE = 3``; the rotation matrices' difference is unitless, ``4 (1 - cos angle)``).
+  In metres a 10 deg turn of the foot costs as much as a 25 cm miss, and the orientation term
+  decided where the foot went: displaced stones were stood on up to 21 cm off, undisplaced ones up
+  to 10 cm (the foot crept during its contact). With 3, a 10 deg turn weighs as an 8 cm miss; the
+  displaced stone is stood on within 2-3 cm in 7 of 8 directions (docs/physics.md). 2 and 4 fell
+  in 1 and 3 of 4 runs, 5 and 10 in all (the standing feet pulled too hard).
 * ``p_cs``: the paper takes the stone closest to the contact foot in the last optimal trajectory.
   Re-choosing it inside the optimizer lets a lagging swing foot lock onto the stone the other foot
   just left (seen on the CMU walk, whose feet cross); here each reference contact keeps one stone
@@ -34,6 +41,7 @@ W_TSK = 10.0
 CONTACT_HEIGHT_M = 0.06
 CONTACT_SPEED = 0.6  # m/s
 CONTACT_MIN_S = 0.05
+POSITION_SCALE = 3.0  # the position residual in thirds of a metre (see the module docstring)
 
 
 def feet(dyn: MujocoBody) -> list[tuple[str, int, int]]:
@@ -120,12 +128,12 @@ class StoneTask:
             _, ankle, toe = self.feet[f]
             s = self.stones[self.stone[f, k]]
             target = np.array([s[0], s[1], self.ref_height[f][k]])
-            r = np.concatenate([xpos[toe] - target, (xmat[ankle] - self.ref_frame[f][k]).ravel()])
+            r = np.concatenate([POSITION_SCALE * (xpos[toe] - target), (xmat[ankle] - self.ref_frame[f][k]).ravel()])
             J = None
             if jac:
                 jp, _ = self.points.jacobian(xb, toe, xpos[toe])
                 _, jr = self.points.jacobian(xb, ankle, xpos[ankle])
-                J = np.vstack([jp, frame_jacobian(xmat[ankle], jr)])
+                J = np.vstack([POSITION_SCALE * jp, frame_jacobian(xmat[ankle], jr)])
             out.append((r, J))
         return out
 
