@@ -4,7 +4,12 @@ Tasks: ``track`` follows the CMU 131_01 walk (``--seconds``, default its whole 8
 stands through a 150 N, 0.2 s push at the chest from the character's left (the first 1.5 s of the
 clip, push at 0.5 s); ``stones`` walks 1.0-2.5 s of it with a stone at each footfall, the right
 foot's swing stone displaced 15 cm in four directions (and, as ``stones10``, the left foot's shuffle
-stone 10 cm: four runs each), printing each toe landing's distance to its stone; ``obstacles`` walks
+stone 10 cm: four runs each), printing each reference contact's mean toe distance to its stone and each
+toe landing's; ``stones-fk`` runs the stones test's own scene (the displacement turned 0/90/180/270
+deg about up) through the physics pass and measures by UsdSkel FK on the written layer; ``stones-gaze`` runs the coupled loop (eyes, belief, body) on 4.0-6.0 s of the walk
+with stepping_stones.usda's stones as objects (each important until its foot lifts, or until it
+lands as authored; with and without the stones' physics task) and prints, by UsdSkel FK on the
+written layer, whether the gaze reached each stone before the written foot stepping on it lifted; ``obstacles`` walks
 1.0-2.2 s among two spheres crossing its path (``--seeds``, five by default), printing the deepest
 overlap of body and spheres with and without the controller. Each runs pinned to 1 core and to 2 cores (finite differences of the window
 split over 2 threads), one BLAS thread. Printed per run: wall time, simulated seconds per wall second,
@@ -127,11 +132,101 @@ def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
             foot = sim[a:min(b, a + 4), f].mean(axis=0)  # the first ~0.1 s on the ground
             d = np.linalg.norm(placed[:, :2] - foot[:2], axis=1)
             landings.append((name, round(float(r.seconds[a]), 2), bool(moved[d.argmin()]), round(float(d.min()), 3)))
+    # per reference contact, the toe's mean distance to its stone (what the shot's report judges)
+    from usdgaze.physics.dynamics import MujocoBody
+    from usdgaze.physics.tracking import resample
+
+    plan = MujocoBody(model, h=opts.h)
+    which = stones.StoneTask(plan, resample(qpos, secs, opts.h, plan), placed, frames=(qpos, secs - secs[0])).stone
+    over = []
+    for f, name in enumerate(names):
+        v = r.task_terms[f"stones.{name}.stoneDistanceM"]
+        edges = np.flatnonzero(np.diff(np.r_[0, which[f, :len(v)] >= 0, 0].astype(int)))
+        for a, b in zip(edges[::2], edges[1::2]):
+            if np.isfinite(v[a:b]).any():
+                over.append((name, round(float(r.seconds[a] - r.seconds[0]), 2), bool(moved[which[f, a]]),
+                             round(float(np.nanmean(v[a:b])), 3)))
     sim_s = float(r.seconds[-1] - r.seconds[0])
-    return {"task": "stones", "fell_at_s": r.fell_at, "wall_s": round(wall, 1), "fps_at_30": round(30 * sim_s / wall, 2),
+    return {"task": "stones", "turn_deg": round(float(np.degrees(turn))), "fell_at_s": r.fell_at, "wall_s": round(wall, 1),
+            "fps_at_30": round(30 * sim_s / wall, 2), "contacts": over,
+            "on_moved_m": [x[3] for x in over if x[2]], "others_max_m": max([x[3] for x in over if not x[2]], default=None),
             "landings": landings, "max_landing_m": max(x[3] for x in landings),
             "max_on_moved_m": max([x[3] for x in landings if x[2]], default=None),
             "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
+
+
+def run_stones_fk(opts: mpc.Options, turn_deg: float) -> dict:
+    """The stones test's scene (tests/test_physics_tasks.py: 1.0-2.5 s, a stone at each footfall, the
+    right swing's displaced 15 cm toward its TOWARD turned ``turn_deg`` about the stage's up) through
+    the physics pass; each reference contact's mean ground-plane toe distance to its stone by UsdSkel
+    FK on the written layer (the test's measure)."""
+    import tempfile
+
+    from pxr import Sdf
+
+    from tests import measure
+    from tests import test_physics_tasks as T
+    from tests.attend_support import compose
+    from usdgaze.passes import physics as physics_pass
+
+    c, s = np.cos(np.radians(turn_deg)), np.sin(np.radians(turn_deg))
+    toward = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]) @ T.TOWARD  # about +Y, the stage's up
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        src = T.cut(tmp / "stones.usda", *T.SPAN)
+        ref = measure.posed(str(src), T.SKEL)
+        tcps = Sdf.Layer.FindOrOpen(str(src)).timeCodesPerSecond
+        placed, moved = [], []
+        for toe in T.TOES:
+            for a, b in T.contacts(ref, toe, tcps):
+                foot = ref.position(toe)[a:b].mean(axis=0)
+                foot -= (foot @ ref.up) * ref.up
+                size = T.SHIFT[toe] if 0.3 <= a / tcps <= T.SPAN[1] - T.SPAN[0] - 0.3 else 0.0
+                placed.append(foot + toward * size)
+                moved.append(size > 0)
+        T.add_objects(src, "stone", "Stone", placed, 0.15, seen=False)
+        cpu0 = time.process_time()
+        report = physics_pass.run(src, tmp / "out.usda", opts)[0]
+        cpu = time.process_time() - cpu0
+        sim = measure.posed(str(compose(tmp, src, tmp / "out.usda")), T.SKEL)
+        rows, i = [], 0
+        for toe in T.TOES:
+            for a, b in T.contacts(ref, toe, tcps):
+                off = sim.position(toe)[a:b] - placed[i]
+                off -= np.outer(off @ sim.up, sim.up)
+                rows.append((toe, round(a / tcps, 2), moved[i], round(float(np.linalg.norm(off, axis=1).mean()), 3)))
+                i += 1
+    return {"task": "stones-fk", "turn_deg": turn_deg, "toward": toward.round(3).tolist(), "fell_at_s": report.fell_at_s,
+            "on_moved_m": [r[3] for r in rows if r[2]], "others_max_m": max(r[3] for r in rows if not r[2]),
+            "contacts": rows, "min_pelvis_ratio": round(report.min_pelvis_ratio, 3),
+            "mean_joint_error_deg": round(report.mean_joint_error_deg, 2), "cpu_s": round(cpu, 1)}
+
+
+def run_stones_gaze(opts: mpc.Options, span: tuple[float, float], until_lift: bool, task: bool) -> dict:
+    """The coupled loop (eyes, belief, body) on a crop of sample_stages/attend/stepping_stones.usda
+    (stones as GazeObjectAPI objects; ``until_lift``: each important until its foot lifts, else until
+    its landing as authored; ``task``: also physics stones), measured on the written layer by UsdSkel
+    FK: per stone stepped on, when the written foot that steps on it lifts and whether the line of
+    sight reached the stone before then (tests/stone_stages.py)."""
+    import tempfile
+    from dataclasses import asdict
+
+    from tests import stone_stages
+    from usdgaze.passes import physics as physics_pass
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        src = stone_stages.walk_stage(tmp / "walk.usda", *span, until_lift=until_lift, task=task)
+        cpu0, t0 = time.process_time(), time.perf_counter()
+        report = physics_pass.run(src, tmp / "out.usda", opts)[0]
+        cpu, wall = time.process_time() - cpu0, time.perf_counter() - t0
+        rows = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(r).items()}
+                for r in stone_stages.gaze_before_lift(tmp, src, tmp / "out.usda")]
+    checked = [r for r in rows if r["lift_s"] >= 0.4]  # the planner's first 0.4 s left out, as attend's test
+    return {"task": "stones-gaze", "span_s": list(span), "until_lift": until_lift, "stone_task": task, "fell_at_s": report.fell_at_s, "problems": report.problems,
+            "cpu_s": round(cpu, 1), "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2),
+            "wall_s": round(wall, 1), "stones": rows,
+            "reached_before_lift": f"{sum(r['reached'] for r in checked)} of {len(checked)}"}
 
 
 def crossing(qpos: np.ndarray, secs: np.ndarray, seed: int):
@@ -330,6 +425,16 @@ def main() -> None:
     for task in a.tasks.split(","):
         if task == "catch":
             run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))
+            continue
+        if task == "stones-fk":
+            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+            for turn in (0.0, 90.0, 180.0, 270.0):
+                print(json.dumps(run_stones_fk(opts, turn)), flush=True)
+            continue
+        if task == "stones-gaze":
+            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+            for until_lift, task_on in ((True, False), (False, False), (True, True)):
+                print(json.dumps(run_stones_gaze(opts, (4.0, 6.0), until_lift, task_on)), flush=True)
             continue
         if task in ("stones", "stones10", "obstacles"):
             opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)

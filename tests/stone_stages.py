@@ -1,0 +1,128 @@
+"""Stepping-stone stages for the coupled physics loop, and the gaze-before-lift measure on a written layer.
+
+``walk_stage`` writes a .usda over ``sample_stages/attend/stepping_stones.usda`` (the CMU walk, a
+GazeObjectAPI stone at each footfall, each stone's importance 1 from the previous swing start to its
+landing, 0.05 otherwise, each also a physics stone) with the animation cropped to a span of seconds
+at 30 fps. ``gaze_before_lift`` measures, by UsdSkel FK on the composed layer only, for each stone a
+foot steps on: when the written foot that steps on it lifts (the end of that foot's previous
+contact in the WRITTEN motion) and whether the line of sight reached the stone before then. Used by
+the tests and by benchmarks/bench_physics.py.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from pxr import Sdf
+
+from . import measure
+from .attend_support import ATTEND, angle_to, compose, gaze, positions
+
+SKEL, ANIM = "/root/Body/BodySkel", "/root/Body/BodySkel/scaled_131_01"
+CMU = ATTEND.parent / "cmu" / "cmu_131_01.usdc"
+TOES = ("LeftToe", "RightToe")
+ON_DEG, ON_M = 5.0, 0.3  # reached: line of sight within 5 deg, or point of sight within 0.3 m (as attend's test)
+
+
+def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = False, task: bool = True) -> Path:
+    """stepping_stones.usda with the walk cropped to ``[start_s, end_s]`` (30 fps samples).
+
+    ``until_lift``: each stone's importance is 1 from the previous swing start until its own foot
+    lifts (its ``swingStart``), 0.05 otherwise: the paper's "looked at the selected stone before
+    moving the stepping foot to the stone and then looked at the next target stone once the foot
+    began to move" (the sample stage keeps a stone important until its landing). ``task=False``
+    blocks the stones' ``usdgaze:physics:task`` (they stay objects to look at)."""
+    src = Sdf.Layer.FindOrOpen(str(CMU))
+    tcps = src.timeCodesPerSecond
+    a = src.startTimeCode + 4.0 * round(start_s * tcps / 4.0)
+    codes = np.arange(a, a + (end_s - start_s) * tcps + 1e-6, 4.0)
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.subLayerPaths[:] = [str(ATTEND / "stepping_stones.usda")]
+    layer.startTimeCode, layer.endTimeCode = float(codes[0]), float(codes[-1])
+    layer.timeCodesPerSecond = layer.framesPerSecond = tcps
+    layer.pseudoRoot.SetInfo("upAxis", "Y")
+    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    prim = Sdf.CreatePrimInLayer(layer, ANIM)
+    prim.specifier = Sdf.SpecifierOver
+    for name in ("rotations", "translations", "scales"):
+        attr = src.GetPrimAtPath(ANIM).attributes[name]
+        spec = Sdf.AttributeSpec(prim, name, attr.typeName)
+        for c in codes:
+            value = src.QueryTimeSample(attr.path, c) if src.GetNumTimeSamplesForPath(attr.path) else attr.default
+            layer.SetTimeSample(spec.path, float(c), value)
+    stones = Sdf.Layer.FindOrOpen(str(ATTEND / "stepping_stones.usda"))
+    for spec in stones.GetPrimAtPath("/Stones").nameChildren:
+        over = Sdf.CreatePrimInLayer(layer, spec.path)
+        over.specifier = Sdf.SpecifierOver
+        if not task:
+            attr = Sdf.AttributeSpec(over, "usdgaze:physics:task", Sdf.ValueTypeNames.Token)
+            attr.default = Sdf.ValueBlock()
+        if until_lift:
+            swing = spec.attributes["userProperties:swingStart"].default
+            earlier = [c.attributes["userProperties:swingStart"].default for c in stones.GetPrimAtPath("/Stones").nameChildren]
+            rise = max([w for w in earlier if w < swing], default=codes[0] - 1)
+            imp = Sdf.AttributeSpec(over, "gaze:object:importance", Sdf.ValueTypeNames.Float)
+            for c in codes:
+                layer.SetTimeSample(imp.path, float(c), 1.0 if rise <= c < swing else 0.05)
+    layer.Save()
+    return path
+
+
+def contacts(posed: measure.Posed, toe: str, seconds: np.ndarray) -> list[tuple[int, int]]:
+    """Frame spans with the toe within 6 cm of its lowest and slower than 0.6 m/s, >= 50 ms."""
+    p = posed.position(toe)
+    h = p @ posed.up
+    speed = np.linalg.norm(np.gradient(p - np.outer(h, posed.up), seconds, axis=0), axis=1)
+    low = (h < h.min() + 0.06) & (speed < 0.6)
+    edges = np.flatnonzero(np.diff(np.r_[0, low.astype(int), 0]))
+    return [(a, b) for a, b in zip(edges[::2], edges[1::2]) if seconds[b - 1] - seconds[a] >= 0.05 - 1e-9]
+
+
+@dataclass
+class StoneGaze:
+    stone: str
+    toe: str
+    lift_s: float  # the written foot leaves its previous contact
+    land_s: float  # the written foot's contact on this stone starts
+    miss_m: float  # the written toe's mean ground-plane distance to the stone over that contact
+    nearest_deg: float  # the line of sight's smallest angle to the stone up to the lift
+    first_on_s: float | None  # first time it was reached (up to the lift), None if never
+    reached: bool
+
+
+def _flat(posed: measure.Posed, v: np.ndarray) -> np.ndarray:
+    return v - np.outer(v @ posed.up, posed.up)
+
+
+def gaze_before_lift(tmp: Path, src: Path, out: Path) -> list[StoneGaze]:
+    """Per stone stepped on in the reference (a reference contact within 5 cm of it), the written
+    contact of the same foot nearest in time and the lift before it; stones whose foot is on them
+    from the first frame are left out."""
+    composed = compose(tmp, src, out, "stones_composed.usda")
+    g = gaze(composed)
+    ref, sim = measure.posed(str(src), SKEL), measure.posed(str(composed), SKEL)
+    rows = []
+    for prim in g.stage.Traverse():
+        if not prim.GetAttribute("userProperties:landing"):
+            continue
+        stone = positions(g.stage, str(prim.GetPath()), g.times)
+        found = [(toe, a) for toe in TOES for a, b in contacts(ref, toe, g.seconds)
+                 if np.linalg.norm(_flat(ref, ref.position(toe)[a:b].mean(0) - stone[0])) < 0.05]
+        if not found:
+            continue
+        toe, ref_land = found[0]
+        spans = contacts(sim, toe, g.seconds)
+        i = int(np.argmin([abs(a - ref_land) for a, _ in spans])) if spans else 0
+        if i == 0 or abs(g.seconds[spans[i][0]] - g.seconds[ref_land]) > 0.3:
+            continue  # on it from the start (or never lifted): no lift to look before
+        a, b = spans[i]
+        lift = spans[i - 1][1] - 1
+        miss = float(np.linalg.norm(_flat(sim, sim.position(toe)[a:b] - stone[a:b]), axis=1).mean())
+        ang = angle_to(g, stone)[: lift + 1]
+        on = (ang < ON_DEG) | (np.linalg.norm(g.sight - stone, axis=1)[: lift + 1] < ON_M)
+        rows.append(StoneGaze(prim.GetName(), toe, float(g.seconds[lift]), float(g.seconds[a]), miss,
+                              float(ang.min()), float(g.seconds[int(np.argmax(on))]) if on.any() else None,
+                              bool(on.any())))
+    return rows
