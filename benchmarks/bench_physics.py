@@ -147,9 +147,10 @@ def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
                 over.append((name, round(float(r.seconds[a] - r.seconds[0]), 2), bool(moved[which[f, a]]),
                              round(float(np.nanmean(v[a:b])), 3)))
     sim_s = float(r.seconds[-1] - r.seconds[0])
-    return {"task": "stones", "turn_deg": round(float(np.degrees(turn))), "fell_at_s": r.fell_at, "wall_s": round(wall, 1),
-            "fps_at_30": round(30 * sim_s / wall, 2), "contacts": over,
-            "on_moved_m": [x[3] for x in over if x[2]], "others_max_m": max([x[3] for x in over if not x[2]], default=None),
+    return {"task": "stones", "turn_deg": round(float(np.degrees(turn))), "fell_at_s": r.fell_at,
+            "wall_s": round(wall, 1), "fps_at_30": round(30 * sim_s / wall, 2), "contacts": over,
+            "on_moved_m": [x[3] for x in over if x[2]],
+            "others_max_m": max([x[3] for x in over if not x[2]], default=None),
             "landings": landings, "max_landing_m": max(x[3] for x in landings),
             "max_on_moved_m": max([x[3] for x in landings if x[2]], default=None),
             "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
@@ -196,7 +197,8 @@ def run_stones_fk(opts: mpc.Options, turn_deg: float) -> dict:
                 off -= np.outer(off @ sim.up, sim.up)
                 rows.append((toe, round(a / tcps, 2), moved[i], round(float(np.linalg.norm(off, axis=1).mean()), 3)))
                 i += 1
-    return {"task": "stones-fk", "turn_deg": turn_deg, "toward": toward.round(3).tolist(), "fell_at_s": report.fell_at_s,
+    return {"task": "stones-fk", "turn_deg": turn_deg, "toward": toward.round(3).tolist(),
+            "fell_at_s": report.fell_at_s,
             "on_moved_m": [r[3] for r in rows if r[2]], "others_max_m": max(r[3] for r in rows if not r[2]),
             "contacts": rows, "min_pelvis_ratio": round(report.min_pelvis_ratio, 3),
             "mean_joint_error_deg": round(report.mean_joint_error_deg, 2), "cpu_s": round(cpu, 1)}
@@ -223,7 +225,8 @@ def run_stones_gaze(opts: mpc.Options, span: tuple[float, float], until_lift: bo
         rows = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(r).items()}
                 for r in stone_stages.gaze_before_lift(tmp, src, tmp / "out.usda")]
     checked = [r for r in rows if r["lift_s"] >= 0.4]  # the planner's first 0.4 s left out, as attend's test
-    return {"task": "stones-gaze", "span_s": list(span), "until_lift": until_lift, "stone_task": task, "fell_at_s": report.fell_at_s, "problems": report.problems,
+    return {"task": "stones-gaze", "span_s": list(span), "until_lift": until_lift, "stone_task": task,
+            "fell_at_s": report.fell_at_s, "problems": report.problems,
             "cpu_s": round(cpu, 1), "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2),
             "wall_s": round(wall, 1), "stones": rows,
             "reached_before_lift": f"{sum(r['reached'] for r in checked)} of {len(checked)}"}

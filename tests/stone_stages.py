@@ -52,22 +52,26 @@ def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = Fals
         for c in codes:
             value = src.QueryTimeSample(attr.path, c) if src.GetNumTimeSamplesForPath(attr.path) else attr.default
             layer.SetTimeSample(spec.path, float(c), value)
-    stones = Sdf.Layer.FindOrOpen(str(ATTEND / "stepping_stones.usda"))
-    for spec in stones.GetPrimAtPath("/Stones").nameChildren:
+    _stone_overs(layer, codes, until_lift, task)
+    layer.Save()
+    return path
+
+
+def _stone_overs(layer: Sdf.Layer, codes: np.ndarray, until_lift: bool, task: bool) -> None:
+    """Overs on stepping_stones.usda's stones: the physics task blocked, the importance until the lift."""
+    sample = Sdf.Layer.FindOrOpen(str(ATTEND / "stepping_stones.usda"))  # held: its specs live with it
+    stones = list(sample.GetPrimAtPath("/Stones").nameChildren)
+    swings = [c.attributes["userProperties:swingStart"].default for c in stones]
+    for spec, swing in zip(stones, swings):
         over = Sdf.CreatePrimInLayer(layer, spec.path)
         over.specifier = Sdf.SpecifierOver
         if not task:
-            attr = Sdf.AttributeSpec(over, "usdgaze:physics:task", Sdf.ValueTypeNames.Token)
-            attr.default = Sdf.ValueBlock()
+            Sdf.AttributeSpec(over, "usdgaze:physics:task", Sdf.ValueTypeNames.Token).default = Sdf.ValueBlock()
         if until_lift:
-            swing = spec.attributes["userProperties:swingStart"].default
-            earlier = [c.attributes["userProperties:swingStart"].default for c in stones.GetPrimAtPath("/Stones").nameChildren]
-            rise = max([w for w in earlier if w < swing], default=codes[0] - 1)
+            rise = max([w for w in swings if w < swing], default=codes[0] - 1)  # the previous swing start
             imp = Sdf.AttributeSpec(over, "gaze:object:importance", Sdf.ValueTypeNames.Float)
             for c in codes:
                 layer.SetTimeSample(imp.path, float(c), 1.0 if rise <= c < swing else 0.05)
-    layer.Save()
-    return path
 
 
 def contacts(posed: measure.Posed, toe: str, seconds: np.ndarray) -> list[tuple[int, int]]:
