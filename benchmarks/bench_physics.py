@@ -6,7 +6,9 @@ clip, push at 0.5 s); ``stones`` walks 1.0-2.5 s of it with a stone at each foot
 foot's swing stone displaced 15 cm in four directions (and, as ``stones10``, the left foot's shuffle
 stone 10 cm: four runs each), printing each reference contact's mean toe distance to its stone and each
 toe landing's; ``stones-fk`` runs the stones test's own scene (the displacement turned 0/90/180/270
-deg about up) through the physics pass and measures by UsdSkel FK on the written layer; ``stones-gaze`` runs the coupled loop (eyes, belief, body) on 4.0-6.0 s of the walk
+deg about up) through the physics pass and measures by UsdSkel FK on the written layer; ``stones-walk``
+runs the walk itself (4.0-5.5 s, at ``--h``), the left foot's landing displaced 15 cm in four directions;
+``stones-gaze`` runs the coupled loop (eyes, belief, body) on 4.0-6.0 s of the walk
 with stepping_stones.usda's stones as objects (each important until its foot lifts, or until it
 lands as authored; with and without the stones' physics task) and prints, by UsdSkel FK on the
 written layer, whether the gaze reached each stone before the written foot stepping on it lifted; ``obstacles`` walks
@@ -112,14 +114,14 @@ def stone_places(model, qpos: np.ndarray, secs: np.ndarray, shifts: dict, turn: 
     return np.array(placed), moved
 
 
-def run_stones(opts: mpc.Options, shifts: dict, turn: float) -> dict:
+def run_stones(opts: mpc.Options, shifts: dict, turn: float, span: tuple[float, float] = (1.0, 2.5)) -> dict:
     """One stepping-stone run: stones at the footfalls of 1.0-2.5 s (``stone_places``)."""
     from usdgaze.physics import stones
 
     clip = build.load_clip(CMU)
     model, ref = build.body_model(clip)
-    keep = (clip.seconds >= 1.0 - 1e-9) & (clip.seconds <= 2.5 + 1e-9)
-    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - 1.0
+    keep = (clip.seconds >= span[0] - 1e-9) & (clip.seconds <= span[1] + 1e-9)
+    qpos, secs = retarget.to_qpos(model, ref)[keep], clip.seconds[keep] - span[0]
     _, names = _toes(model, qpos)
     placed, moved = stone_places(model, qpos, secs, shifts, turn)
     start = time.perf_counter()
@@ -438,6 +440,11 @@ def main() -> None:
             opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
             for until_lift, task_on in ((True, False), (False, False), (True, True)):
                 print(json.dumps(run_stones_gaze(opts, (4.0, 6.0), until_lift, task_on)), flush=True)
+            continue
+        if task == "stones-walk":  # the walk itself, 4.0-5.5 s: the left foot's 0.67 s landing displaced
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
+            for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):
+                print(json.dumps(run_stones(opts, {"LeftAnkle": 0.15}, turn, (4.0, 5.5))), flush=True)
             continue
         if task in ("stones", "stones10", "obstacles"):
             opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
