@@ -4,16 +4,20 @@
 to arrive, predicted from the character's *belief* (the simulated Kalman estimate, never the true
 state) before each solve: where the estimated ballistic path crosses the catching plane, 35 cm in
 front of the shoulders' midpoint, if that is within ``reach_m`` of the catching point 20 cm below.
-The shoulders are the reference's at that step (where the character means to stand): a plane that
-followed the simulated body's sway would move a steeply falling ball's crossing by tens of cm. ``p_sp`` is the midpoint of the
-feet (the support polygon's centre), the lateral axis the character's left at the window's start.
+The crossing is the exact root of the path's distance to the plane, and the path is the belief's own
+process model (``_crossing``, ``perceive``). The shoulders are the reference's at that step (where
+the character means to stand): a plane that followed the simulated body's sway would move a steeply
+falling ball's crossing by tens of cm. ``p_sp`` is the midpoint of the feet (the support polygon's
+centre), the lateral axis the character's left at the window's start.
 
 Phases as the paper: reactive from a time drawn in 1.5-2 s before the estimated arrival (weight
 1e-3), proactive from a time drawn in 0.5-1 s before it (weight 0.1) until the ball arrives (plus
-``hold_s``); nothing before. Distances are in centimetres (``unit_m``): the paper gives no unit, and
-in metres its 0.1 would price a 50 cm miss at 0.025 a step against the ~1 a step the tracking term
-asks for the arm to leave the reference, so the hand would never rise; in centimetres the reactive
-weight lifts the arm part-way and the proactive one takes the hand to the ball, as the paper tells.
+``hold_s``); nothing before. Distances are in units of 2 cm (``unit_m``): the paper gives no unit.
+In metres its 0.1 would price a 50 cm miss at 0.025 a step against the ~1 a step the tracking term
+asks for the arm to leave the reference, so the hand would never rise; in centimetres (4 times the
+2 cm price) the proactive pull leaned the standing body into falls (2 of the 5 bench throws, once
+the arrival estimate was right); in 2 cm units the reactive weight lifts the arm part-way and the
+proactive one takes the hand to the ball, as the paper tells, without a fall in those throws.
 The lateral term charges only what lies beyond ``lateral_free_m`` (the paper: "if the arrival
 position is laterally far from the character"); a plain square would step the character under every
 ball. The catching hand is the one on the arrival's side, kept once the proactive phase starts; from
