@@ -367,6 +367,8 @@ def catch_one(seed: str, opts: mpc.Options) -> dict:
     """One throw ("behind" or a seed) through the physics pass (as the CLI runs it), measured."""
     import tempfile
 
+    from pxr import Sdf
+
     from tests import catch_stages as cs
     from usdgaze.passes import physics as physics_pass
 
@@ -379,8 +381,13 @@ def catch_one(seed: str, opts: mpc.Options) -> dict:
         wall = time.perf_counter() - t0
         m = cs.catch_measures(src, tmp / "out.usda", tmp, flight)
         sim_s = reports[0].simulated_s
+        frames = Sdf.Layer.FindOrOpen(str(tmp / "out.usda")).customLayerData["usdgaze:physics"][cs.SKEL]["frames"]
+        t = np.array(frames["seconds"]) - frames["seconds"][0]
+        k = min(int(np.searchsorted(t, flight - 1e-6)), len(t) - 1)
+        own = frames["catch.handToArrivalM"][k]  # the planner's own: the hand to its estimated arrival point
         return {"task": "catch", "throw": seed, "flight_s": round(flight, 3),
                 "hand_to_ball_at_arrival_cm": round(100 * m["at_arrival"], 1),
+                "hand_to_estimate_at_arrival_cm": round(100 * own, 1) if own == own else None,
                 "nearest_cm": round(100 * float(m["distance"].min()), 1), "fell": reports[0].fell,
                 "wall_s": round(wall, 1), "fps_at_30": round(30 * sim_s / wall, 2)}
 
