@@ -110,6 +110,9 @@ def test_the_arrival_is_where_the_true_path_crosses_the_catching_plane(problem):
     ball = loop.Thing("ball", np.array([path(k * h) for k in range(40)]), kind="ballistic")
     params = loop.Filters([ball], loop.LoopOptions(h=h, sigma_v0=1e4)).params
     mu, sig = np.r_[path(0.0), 0.0, 0.0, 0.0], np.array([1.0, 1e4, 0.0])
+    task.locked, task.reference = False, None
+    task.perceive(visuomotor.Percept(0, h, {0: mu}, {0: sig}, [ball], d, np.array([True])))
+    assert task.arrival is None and task.weight(0, h) == 0.0  # a new track's speed (10 m/s prior): no phase yet
     for k in range(1, 20):  # noise-free observations: the filter converges to its own process model
         mu, sig = kalman_update(mu, sig, path(k * h), 1e-8, ball.accel, params)
     k = 19

@@ -12,7 +12,8 @@ centre), the lateral axis the character's left at the window's start.
 
 Phases as the paper: reactive from a time drawn in 1.5-2 s before the estimated arrival (weight
 1e-3), proactive from a time drawn in 0.5-1 s before it (weight 0.1) until the ball arrives (plus
-``hold_s``); nothing before. Distances are in units of 2 cm (``unit_m``): the paper gives no unit.
+``hold_s``); nothing before, nor while the belief's speed is less sure than 0.5 m/s (a new track's
+arrival time is no estimate yet). Distances are in units of 2 cm (``unit_m``): the paper gives no unit.
 In metres its 0.1 would price a 50 cm miss at 0.025 a step against the ~1 a step the tracking term
 asks for the arm to leave the reference, so the hand would never rise; in centimetres (4 times the
 2 cm price) the proactive pull leaned the standing body into falls (2 of the 5 bench throws, once
@@ -36,6 +37,9 @@ import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody, _jr
 from usdgaze.physics.model import BodyModel
+from usdgaze.vision.belief import VisionParams
+
+_BELIEF_UNIT_M = VisionParams().unit_m  # the belief's covariances are in this unit squared
 
 
 @dataclass
@@ -51,6 +55,7 @@ class CatchOptions:
     lateral_free_m: float = 0.3
     hold_s: float = 0.1  # the task holds this long after the estimated arrival
     horizon_s: float = 3.0  # how far ahead the estimated path is searched
+    max_speed_sd_m_s: float = 0.5  # no arrival (no phase) while the belief's speed is less sure than this
 
 
 def _hand_sites(model: BodyModel) -> dict[str, tuple[int, np.ndarray]]:
@@ -124,6 +129,12 @@ class CatchTask:
             return
         if self.locked and percept.seen is not None and not percept.seen[self.ball]:
             return  # out of view in the last moments: catch where it was last expected, not where a guess drifts
+        if not self.locked and np.sqrt(percept.sigma[self.ball][1]) * _BELIEF_UNIT_M > o.max_speed_sd_m_s:
+            # A new track's speed prior is 10 m/s: the first estimates of the arrival time fall anywhere
+            # (measured: 0.85 s ahead at 0.1 s into a 1.1 s throw, 80 cm off), and one inside the drawn
+            # proactive lead would start and lock the strong pull on a wrong target. No estimate yet.
+            self.arrival = None
+            return
         mu, accel = percept.mu[self.ball], percept.things[self.ball].accel
         # The filter steps p += h v, v += h a (vision.belief.kalman_update), so the velocity it learns is
         # the step's mean, h a / 2 ahead of the true one: the continuous path from it would fall short by
