@@ -323,6 +323,48 @@ def _track_through_pass(opts: mpc.Options, model) -> tuple:
     return report, seconds, low
 
 
+def coupled_obstacles_one(seed: int, opts: mpc.Options) -> dict:
+    """One seeded scene of the coupled loop's obstacle test (tests/obstacle_stages.py) through the
+    physics pass, measured on the written layer by UsdSkel FK: the smallest gap between the bones
+    (8 cm thick) and the spheres, with and without the controller."""
+    import tempfile
+
+    from tests import measure
+    from tests import obstacle_stages as obs
+    from tests.attend_support import compose
+    from usdgaze.passes import physics as physics_pass
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        src, prims = obs.obstacle_scene(tmp, seed)
+        t0, c0 = time.perf_counter(), time.process_time()
+        report = physics_pass.run(src, tmp / "out.usda", opts)[0]
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        composed = compose(tmp, src, tmp / "out.usda")
+        ref = obs.gaps(measure.posed(str(src), obs.SKEL), src, prims, obs.RADIUS_M)
+        sim = obs.gaps(measure.posed(str(composed), obs.SKEL), composed, prims, obs.RADIUS_M)
+        return {"task": "obstacles-coupled", "seed": seed, "reference_gap_cm": round(100 * float(ref.min()), 1),
+                "simulated_gap_cm": round(100 * float(sim.min()), 1), "fell_at_s": report.fell_at_s,
+                "mean_joint_error_deg": round(report.mean_joint_error_deg, 2), "cpu_s": round(cpu, 1),
+                "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2), "problems": report.problems}
+
+
+def run_coupled_obstacles(opts: mpc.Options, seeds) -> list[dict]:
+    """The coupled loop's obstacle scenes, each in a fresh process (as the catch throws)."""
+    import subprocess
+
+    rows = []
+    for seed in seeds:
+        cmd = [sys.executable, __file__, "--obstacle-scene", str(seed), "--h", str(opts.h), "--horizon",
+               str(opts.horizon_s), "--iterations", str(opts.iterations)]
+        rows.append(json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.splitlines()[-1]))
+        print(json.dumps(rows[-1]), flush=True)
+    hit = [r for r in rows if r["simulated_gap_cm"] < 0]
+    fell = [r for r in rows if r["fell_at_s"] is not None]
+    print(f"obstacles-coupled: contact in {len(hit)} of {len(rows)} runs, {len(fell)} falls (bar: no contact)", flush=True)
+    return rows
+
+
 def run_task(task: str, seconds: float, opts: mpc.Options, fk: bool = False) -> dict:
     clip = build.load_clip(CMU)
     model, ref = build.body_model(clip)
@@ -416,16 +458,21 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.02)
     ap.add_argument("--horizon", type=float, default=0.6)
     ap.add_argument("--iterations", type=int, default=1)
-    ap.add_argument("--seeds", default="0,1,2,3,4")
+    ap.add_argument("--seeds", default=None, help="obstacles: 0,1,2,3,4; obstacles-coupled: 0,2,4,7,8")
     ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--speed", action="store_true", help="frames/s of each task (--tasks, default all) on each of "
                     "--cores, timed alone (benchmarks/_physics_speed.py)")
     ap.add_argument("--fk", action="store_true", help="track: through the physics pass, feet measured on the layer")
     ap.add_argument("--throw", default=None, help=argparse.SUPPRESS)  # one catch throw (run_catch's worker)
+    ap.add_argument("--obstacle-scene", type=int, default=None, help=argparse.SUPPRESS)  # one coupled scene
     a = ap.parse_args()
     if a.throw is not None:
         print(json.dumps(catch_one(a.throw, mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))))
+        return
+    if a.obstacle_scene is not None:
+        opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+        print(json.dumps(coupled_obstacles_one(a.obstacle_scene, opts)))
         return
     from threadpoolctl import threadpool_limits
 
@@ -453,10 +500,14 @@ def main() -> None:
             for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):
                 print(json.dumps(run_stones(opts, {"LeftAnkle": 0.15}, turn, (4.0, 5.5))), flush=True)
             continue
+        if task == "obstacles-coupled":
+            run_coupled_obstacles(mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations),
+                                  [int(s_) for s_ in (a.seeds or "0,2,4,7,8").split(",")])
+            continue
         if task in ("stones", "stones10", "obstacles"):
             opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
             shifts = {"RightAnkle": 0.15} | ({"LeftAnkle": 0.10} if task == "stones10" else {})
-            runs = ([run_obstacles(opts, int(s_)) for s_ in a.seeds.split(",")] if task == "obstacles" else
+            runs = ([run_obstacles(opts, int(s_)) for s_ in (a.seeds or "0,1,2,3,4").split(",")] if task == "obstacles" else
                     [run_stones(opts, shifts, turn) for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi)])
             for row in runs:
                 print(json.dumps(row), flush=True)

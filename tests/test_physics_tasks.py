@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf
+from pxr import Sdf
 
 from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import build, mpc, obstacles, retarget, stones
@@ -26,10 +26,11 @@ from usdgaze.physics.tracking import resample
 
 from . import measure, stone_stages
 from .attend_support import compose
+from .obstacle_stages import add_objects, crossing, cut, gaps
 
 ROOT = Path(__file__).resolve().parents[1]
 CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
-SKEL, ANIM = "/root/Body/BodySkel", "/root/Body/BodySkel/scaled_131_01"
+SKEL = "/root/Body/BodySkel"
 SPAN = (1.0, 2.5)  # seconds of the walk: the right foot's 0.8 s swing lands at 1.9 s
 OPTIONS = mpc.Options(h=0.03, horizon_s=0.6)
 TOES = ("LeftToe", "RightToe")
@@ -39,25 +40,6 @@ TOES = ("LeftToe", "RightToe")
 SHIFT = {"LeftToe": 0.0, "RightToe": 0.15}
 TOWARD = np.array([-0.975, 0.0, 0.223])  # the stage's -X, 13 deg toward +Z
 OBSTACLE_SEED = 11  # the reference walks 32 cm deep into one of the spheres
-BONE_M = 0.08  # a bone's radius for the contact measure: thicker than the model's limbs (2-9 cm)
-
-
-def cut(path: Path, start_s: float, end_s: float) -> Path:
-    """The CMU stage cut to ``[start_s, end_s]`` seconds of its animation."""
-    layer = Sdf.Layer.FindOrOpen(str(CMU))
-    tcps = layer.timeCodesPerSecond
-    out = Sdf.Layer.CreateNew(str(path))
-    out.TransferContent(layer)
-    a, b = layer.startTimeCode + start_s * tcps, layer.startTimeCode + end_s * tcps
-    for name in ("rotations", "translations", "scales"):
-        attr = Sdf.Path(f"{ANIM}.{name}")
-        for t in out.ListTimeSamplesForPath(attr):
-            if t < a - 1e-6 or t > b + 1e-6:
-                out.EraseTimeSample(attr, t)
-    times = out.ListTimeSamplesForPath(Sdf.Path(f"{ANIM}.rotations"))
-    out.startTimeCode, out.endTimeCode = times[0], times[-1]
-    out.Save()
-    return path
 
 
 def contacts(posed: measure.Posed, toe: str, tcps: float) -> list[tuple[int, int]]:
@@ -69,31 +51,6 @@ def contacts(posed: measure.Posed, toe: str, tcps: float) -> list[tuple[int, int
     low = (h < h.min() + 0.06) & (speed < 0.6)
     edges = np.flatnonzero(np.diff(np.r_[0, low.astype(int), 0]))
     return [(a, b) for a, b in zip(edges[::2], edges[1::2]) if (b - a) / tcps >= 0.05]
-
-
-def add_objects(path: Path, kind: str, name: str, positions: list[np.ndarray], radius: float, times=None,
-                seen: bool = True):
-    """Task prims; ``seen``: GazeObjectAPI objects (the coupled loop: eyes and belief), else plain
-    spheres the body-only controller knows."""
-    layer = Sdf.Layer.FindOrOpen(str(path))
-    group = Sdf.CreatePrimInLayer(layer, f"/{name}s")
-    group.specifier, group.typeName = Sdf.SpecifierDef, "Xform"
-    for i, pos in enumerate(positions):
-        prim = Sdf.CreatePrimInLayer(layer, f"/{name}s/{name}{i}")
-        prim.specifier, prim.typeName = Sdf.SpecifierDef, "Sphere"
-        if seen:
-            prim.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
-        Sdf.AttributeSpec(prim, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = radius
-        Sdf.AttributeSpec(prim, physics_pass.TASK, Sdf.ValueTypeNames.Token).default = kind
-        tr = Sdf.AttributeSpec(prim, "xformOp:translate", Sdf.ValueTypeNames.Double3)
-        if times is None:
-            tr.default = Gf.Vec3d(*map(float, pos))
-        else:
-            for t, p in zip(times, pos):
-                layer.SetTimeSample(tr.path, float(t), Gf.Vec3d(*map(float, p)))
-        Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                          variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
-    layer.Save()
 
 
 @pytest.fixture(scope="module")
@@ -182,49 +139,6 @@ def test_the_gaze_reaches_each_stone_before_the_foot_that_steps_on_it_lifts(tmp_
     rows = [r for r in stone_stages.gaze_before_lift(tmp_path, src, out) if r.lift_s >= 0.4]
     assert len(rows) >= 2 and not report.fell, (rows, report.problems)
     assert all(r.reached for r in rows), rows
-
-
-def crossing(ref: measure.Posed, tcps: float, seed: int, count: int = 2):
-    """Spheres (centres at 30 fps time codes) crossing the reference's path: each passes 0.45-0.6 m
-    from the hips at a random time, from a random direction at 0.6-1.4 m/s, 0.4-1.2 m up."""
-    rng = np.random.default_rng(seed)
-    t = ref.times[0] + np.arange(0.0, ref.times[-1] - ref.times[0] + 1e-6, 4.0)
-    secs = (t - ref.times[0]) / tcps
-    hips = ref.position("Hips")
-    up = ref.up
-    paths = []
-    for _ in range(count):
-        tc = rng.uniform(0.4, secs[-1] - 0.2)
-        at = hips[int(round(tc * tcps))]
-        a = rng.uniform(0, 2 * np.pi)
-        flat = np.array([np.cos(a), 0.0, np.sin(a)])  # the stage's ground plane (Y up)
-        side = np.cross(up, flat)
-        centre = at - (at @ up) * up + side * rng.uniform(0.45, 0.6) * rng.choice([-1, 1]) + up * rng.uniform(0.4, 1.2)
-        paths.append(centre + np.outer(secs - tc, flat * rng.uniform(0.6, 1.4)))
-    return t, paths
-
-
-def gaps(posed: measure.Posed, stage_path: Path, prims: list[str], radius: float) -> np.ndarray:
-    """Per frame, the smallest distance between any bone (joint to parent joint, 8 cm thick) and any
-    sphere, at the spheres' true positions on the stage (USD's own transforms); < 0 is a contact."""
-    from pxr import Usd, UsdGeom, UsdSkel
-
-    stage = Usd.Stage.Open(str(stage_path))
-    skel = UsdSkel.Skeleton(stage.GetPrimAtPath(SKEL))
-    topo = UsdSkel.Topology(skel.GetJointsAttr().Get())
-    parents = np.array([topo.GetParent(i) for i in range(len(posed.joints))])
-    bones = [(i, int(p)) for i, p in enumerate(parents) if p >= 0]
-    out = []
-    for f, t in enumerate(posed.times):
-        cache = UsdGeom.XformCache(Usd.TimeCode(float(t)))
-        centres = np.array([np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(p)))[3, :3] for p in prims])
-        pts = posed.world[f, :, 3, :3]
-        a, b = pts[[i for i, _ in bones]], pts[[p for _, p in bones]]
-        ab = b - a
-        s = np.clip(np.einsum("cbk,bk->cb", centres[:, None] - a[None], ab) / np.maximum(np.sum(ab * ab, 1), 1e-12), 0, 1)
-        near = a[None] + s[..., None] * ab[None]
-        out.append(float((np.linalg.norm(centres[:, None] - near, axis=-1) - BONE_M - radius).min()))
-    return np.array(out)
 
 
 def test_the_body_steers_away_from_obstacles_that_would_hit_the_reference(tmp_path):
