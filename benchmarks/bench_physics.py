@@ -281,6 +281,7 @@ def run_obstacles(opts: mpc.Options, seed: int) -> dict:
     return {"task": "obstacles", "seed": seed, "fell_at_s": r.fell_at, "wall_s": round(wall, 1),
             "fps_at_30": round(30 * sim_s / wall, 2), "reference_gap_m": round(deepest(qpos, secs), 3),
             "simulated_gap_m": round(deepest(r.qpos, r.seconds - r.seconds[0]), 3),
+            "mean_joint_error_deg": round(float(r.joint_error_deg.mean()), 2),
             "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
 
 
@@ -323,10 +324,11 @@ def _track_through_pass(opts: mpc.Options, model) -> tuple:
     return report, seconds, low
 
 
-def coupled_obstacles_one(seed: int, opts: mpc.Options) -> dict:
-    """One seeded scene of the coupled loop's obstacle test (tests/obstacle_stages.py) through the
-    physics pass, measured on the written layer by UsdSkel FK: the smallest gap between the bones
-    (8 cm thick) and the spheres, with and without the controller."""
+def coupled_obstacles_one(seed: int, opts: mpc.Options, toward: bool = False, seen: bool = True) -> dict:
+    """One seeded scene of the obstacle test (tests/obstacle_stages.py; ``toward``: the spheres come
+    from ahead; ``seen``: objects of the coupled loop, else spheres whose paths the body-only
+    controller knows) through the physics pass, measured on the written layer by UsdSkel FK: the
+    smallest gap between the bones (8 cm thick) and the spheres, with and without the controller."""
     import tempfile
 
     from tests import measure
@@ -336,32 +338,32 @@ def coupled_obstacles_one(seed: int, opts: mpc.Options) -> dict:
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        src, prims = obs.obstacle_scene(tmp, seed)
+        src, prims = obs.obstacle_scene(tmp, seed, toward=toward, seen=seen)
         t0, c0 = time.perf_counter(), time.process_time()
         report = physics_pass.run(src, tmp / "out.usda", opts)[0]
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         composed = compose(tmp, src, tmp / "out.usda")
         ref = obs.gaps(measure.posed(str(src), obs.SKEL), src, prims, obs.RADIUS_M)
         sim = obs.gaps(measure.posed(str(composed), obs.SKEL), composed, prims, obs.RADIUS_M)
-        return {"task": "obstacles-coupled", "seed": seed, "reference_gap_cm": round(100 * float(ref.min()), 1),
+        return {"task": "obstacles-coupled" if seen else "obstacles-known", "seed": seed, "toward": toward, "reference_gap_cm": round(100 * float(ref.min()), 1),
                 "simulated_gap_cm": round(100 * float(sim.min()), 1), "fell_at_s": report.fell_at_s,
                 "mean_joint_error_deg": round(report.mean_joint_error_deg, 2), "cpu_s": round(cpu, 1),
                 "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2), "problems": report.problems}
 
 
-def run_coupled_obstacles(opts: mpc.Options, seeds) -> list[dict]:
-    """The coupled loop's obstacle scenes, each in a fresh process (as the catch throws)."""
+def run_coupled_obstacles(opts: mpc.Options, seeds, toward: bool = False, seen: bool = True) -> list[dict]:
+    """The obstacle test's scenes, each in a fresh process (as the catch throws)."""
     import subprocess
 
     rows = []
     for seed in seeds:
         cmd = [sys.executable, __file__, "--obstacle-scene", str(seed), "--h", str(opts.h), "--horizon",
-               str(opts.horizon_s), "--iterations", str(opts.iterations)]
+               str(opts.horizon_s), "--iterations", str(opts.iterations)] + (["--toward"] if toward else []) + ([] if seen else ["--known"])
         rows.append(json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.splitlines()[-1]))
         print(json.dumps(rows[-1]), flush=True)
     hit = [r for r in rows if r["simulated_gap_cm"] < 0]
     fell = [r for r in rows if r["fell_at_s"] is not None]
-    print(f"obstacles-coupled: contact in {len(hit)} of {len(rows)} runs, {len(fell)} falls (bar: no contact)", flush=True)
+    print(f"{rows[0]['task']}: contact in {len(hit)} of {len(rows)} runs, {len(fell)} falls (bar: no contact)", flush=True)
     return rows
 
 
@@ -458,7 +460,7 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.02)
     ap.add_argument("--horizon", type=float, default=0.6)
     ap.add_argument("--iterations", type=int, default=1)
-    ap.add_argument("--seeds", default=None, help="obstacles: 0,1,2,3,4; obstacles-coupled: 0,2,4,7,8")
+    ap.add_argument("--seeds", default=None, help="obstacles: 0,1,2,3,4; obstacles-coupled: 0,2,4,7,8 (--toward: 0,2,5,6,7)")
     ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--speed", action="store_true", help="frames/s of each task (--tasks, default all) on each of "
@@ -466,13 +468,15 @@ def main() -> None:
     ap.add_argument("--fk", action="store_true", help="track: through the physics pass, feet measured on the layer")
     ap.add_argument("--throw", default=None, help=argparse.SUPPRESS)  # one catch throw (run_catch's worker)
     ap.add_argument("--obstacle-scene", type=int, default=None, help=argparse.SUPPRESS)  # one coupled scene
+    ap.add_argument("--toward", action="store_true", help="obstacles-coupled/-known: the spheres come from ahead")
+    ap.add_argument("--known", action="store_true", help=argparse.SUPPRESS)  # one scene, body-only
     a = ap.parse_args()
     if a.throw is not None:
         print(json.dumps(catch_one(a.throw, mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))))
         return
     if a.obstacle_scene is not None:
         opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
-        print(json.dumps(coupled_obstacles_one(a.obstacle_scene, opts)))
+        print(json.dumps(coupled_obstacles_one(a.obstacle_scene, opts, a.toward, not a.known)))
         return
     from threadpoolctl import threadpool_limits
 
@@ -500,9 +504,11 @@ def main() -> None:
             for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):
                 print(json.dumps(run_stones(opts, {"LeftAnkle": 0.15}, turn, (4.0, 5.5))), flush=True)
             continue
-        if task == "obstacles-coupled":
+        if task in ("obstacles-coupled", "obstacles-known"):
+            default = "0,2,5,6,7" if a.toward else "0,2,4,7,8"  # the first five the reference touches
             run_coupled_obstacles(mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations),
-                                  [int(s_) for s_ in (a.seeds or "0,2,4,7,8").split(",")])
+                                  [int(s_) for s_ in (a.seeds or default).split(",")], a.toward,
+                                  task == "obstacles-coupled")
             continue
         if task in ("stones", "stones10", "obstacles"):
             opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)

@@ -64,20 +64,26 @@ def add_objects(path: Path, kind: str, name: str, positions: list[np.ndarray], r
     layer.Save()
 
 
-def crossing(ref, tcps: float, seed: int, count: int = 2):
+def crossing(ref, tcps: float, seed: int, count: int = 2, toward: bool = False):
     """Spheres (centres at 30 fps time codes) crossing the reference's path: each passes 0.45-0.6 m
-    from the hips at a random time, from a random direction at 0.6-1.4 m/s, 0.4-1.2 m up."""
+    from the hips at a random time, at 0.6-1.4 m/s, 0.4-1.2 m up, from a random direction, or with
+    ``toward`` coming at the walker from ahead (within 45 deg of head-on) and passing it no earlier
+    than 0.7 s, so that each starts 1.5-2 m away, where the eyes can see it (the paper's "approaching
+    obstacles"; from a random direction many come from behind or start beside the walker, out of
+    the +-60 deg field of view until they touch)."""
     rng = np.random.default_rng(seed)
     t = ref.times[0] + np.arange(0.0, ref.times[-1] - ref.times[0] + 1e-6, 4.0)
     secs = (t - ref.times[0]) / tcps
     hips = ref.position("Hips")
     up = ref.up
+    walk = hips[-1] - hips[0]
+    heading = np.arctan2(walk[2], walk[0])  # the stage's ground plane (Y up): x = cos, z = sin
     paths = []
     for _ in range(count):
-        tc = rng.uniform(0.4, secs[-1] - 0.2)
+        tc = rng.uniform(0.7 if toward else 0.4, secs[-1] - 0.2)  # from ahead: seen 1.5-2 m away
         at = hips[int(round(tc * tcps))]
-        a = rng.uniform(0, 2 * np.pi)
-        flat = np.array([np.cos(a), 0.0, np.sin(a)])  # the stage's ground plane (Y up)
+        a = heading + np.pi + rng.uniform(-0.25 * np.pi, 0.25 * np.pi) if toward else rng.uniform(0, 2 * np.pi)
+        flat = np.array([np.cos(a), 0.0, np.sin(a)])
         side = np.cross(up, flat)
         centre = at - (at @ up) * up + side * rng.uniform(0.45, 0.6) * rng.choice([-1, 1]) + up * rng.uniform(0.4, 1.2)
         paths.append(centre + np.outer(secs - tc, flat * rng.uniform(0.6, 1.4)))
@@ -107,13 +113,15 @@ def gaps(posed, stage_path: Path, prims: list[str], radius: float) -> np.ndarray
     return np.array(out)
 
 
-def obstacle_scene(tmp: Path, seed: int, span: tuple[float, float] = SPAN) -> tuple[Path, list[str]]:
-    """The walk cut to ``span`` with two seeded spheres crossing it as GazeObjectAPI objects (the
-    coupled loop); the stage and the spheres' prim paths."""
+def obstacle_scene(tmp: Path, seed: int, span: tuple[float, float] = SPAN, toward: bool = False,
+                   seen: bool = True) -> tuple[Path, list[str]]:
+    """The walk cut to ``span`` with two seeded spheres crossing it (:func:`crossing`), GazeObjectAPI
+    objects (the coupled loop) or, ``seen=False``, plain spheres whose paths the body-only controller
+    knows; the stage and the spheres' prim paths."""
     from . import measure
 
     src = cut(tmp / "obstacles.usda", *span)
     tcps = Sdf.Layer.FindOrOpen(str(src)).timeCodesPerSecond
-    times, paths = crossing(measure.posed(str(src), SKEL), tcps, seed=seed)
-    add_objects(src, "obstacle", "Obstacle", [np.array(p) for p in paths], RADIUS_M, times=times)
+    times, paths = crossing(measure.posed(str(src), SKEL), tcps, seed=seed, toward=toward)
+    add_objects(src, "obstacle", "Obstacle", [np.array(p) for p in paths], RADIUS_M, times=times, seen=seen)
     return src, [f"/Obstacles/Obstacle{i}" for i in range(len(paths))]
