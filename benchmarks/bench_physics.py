@@ -13,7 +13,11 @@ with stepping_stones.usda's stones as objects (each important until its foot lif
 lands as authored; with and without the stones' physics task) and prints, by UsdSkel FK on the
 written layer, whether the gaze reached each stone before the written foot stepping on it lifted; ``obstacles`` walks
 1.0-2.2 s among two spheres crossing its path (``--seeds``, five by default), printing the deepest
-overlap of body and spheres with and without the controller. Each runs pinned to 1 core and to 2 cores (finite differences of the window
+overlap of body and spheres with and without the controller; ``obstacles-coupled`` runs the obstacle
+test's scenes (tests/obstacle_stages.py: seeds 0,2,4,7,8, each touched by the reference; with
+``--toward`` the spheres come from ahead, seeds 0,2,5,6,7) through ``attend --physics`` with the eyes
+and belief coupled, ``obstacles-known`` the same scenes body-only (the planner knows the paths), each
+measured on the written layer by UsdSkel FK (``--obstacle-form root``: the paper's root cost). Each runs pinned to 1 core and to 2 cores (finite differences of the window
 split over 2 threads), one BLAS thread. Printed per run: wall time, simulated seconds per wall second,
 output frames per second at 30 fps and at the planner's 1/h, and the shot's measures (fall, lowest
 pelvis height against the reference, mean joint-angle error, deepest foot below the ground), against
@@ -278,7 +282,7 @@ def run_obstacles(opts: mpc.Options, seed: int) -> dict:
     r = mpc.simulate(model, qpos, secs, opts, tasks=[obstacles.factory(at, radii)])
     wall = time.perf_counter() - start
     sim_s = float(r.seconds[-1] - r.seconds[0])
-    return {"task": "obstacles", "seed": seed, "fell_at_s": r.fell_at, "wall_s": round(wall, 1),
+    return {"task": "obstacles", "form": obstacles.FORM, "seed": seed, "fell_at_s": r.fell_at, "wall_s": round(wall, 1),
             "fps_at_30": round(30 * sim_s / wall, 2), "reference_gap_m": round(deepest(qpos, secs), 3),
             "simulated_gap_m": round(deepest(r.qpos, r.seconds - r.seconds[0]), 3),
             "mean_joint_error_deg": round(float(r.joint_error_deg.mean()), 2),
@@ -345,20 +349,25 @@ def coupled_obstacles_one(seed: int, opts: mpc.Options, toward: bool = False, se
         composed = compose(tmp, src, tmp / "out.usda")
         ref = obs.gaps(measure.posed(str(src), obs.SKEL), src, prims, obs.RADIUS_M)
         sim = obs.gaps(measure.posed(str(composed), obs.SKEL), composed, prims, obs.RADIUS_M)
-        return {"task": "obstacles-coupled" if seen else "obstacles-known", "seed": seed, "toward": toward, "reference_gap_cm": round(100 * float(ref.min()), 1),
+        from usdgaze.physics import obstacles
+
+        return {"task": "obstacles-coupled" if seen else "obstacles-known", "form": obstacles.FORM, "seed": seed,
+                "toward": toward, "reference_gap_cm": round(100 * float(ref.min()), 1),
                 "simulated_gap_cm": round(100 * float(sim.min()), 1), "fell_at_s": report.fell_at_s,
                 "mean_joint_error_deg": round(report.mean_joint_error_deg, 2), "cpu_s": round(cpu, 1),
                 "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2), "problems": report.problems}
 
 
-def run_coupled_obstacles(opts: mpc.Options, seeds, toward: bool = False, seen: bool = True) -> list[dict]:
+def run_coupled_obstacles(opts: mpc.Options, seeds, toward: bool = False, seen: bool = True,
+                          form: str = "body") -> list[dict]:
     """The obstacle test's scenes, each in a fresh process (as the catch throws)."""
     import subprocess
 
     rows = []
     for seed in seeds:
         cmd = [sys.executable, __file__, "--obstacle-scene", str(seed), "--h", str(opts.h), "--horizon",
-               str(opts.horizon_s), "--iterations", str(opts.iterations)] + (["--toward"] if toward else []) + ([] if seen else ["--known"])
+               str(opts.horizon_s), "--iterations", str(opts.iterations), "--obstacle-form", form]
+        cmd += (["--toward"] if toward else []) + ([] if seen else ["--known"])
         rows.append(json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.splitlines()[-1]))
         print(json.dumps(rows[-1]), flush=True)
     hit = [r for r in rows if r["simulated_gap_cm"] < 0]
@@ -470,7 +479,11 @@ def main() -> None:
     ap.add_argument("--obstacle-scene", type=int, default=None, help=argparse.SUPPRESS)  # one coupled scene
     ap.add_argument("--toward", action="store_true", help="obstacles-coupled/-known: the spheres come from ahead")
     ap.add_argument("--known", action="store_true", help=argparse.SUPPRESS)  # one scene, body-only
+    ap.add_argument("--obstacle-form", default="body", help="obstacles*: the cost's form, body (ours) or root (the paper's)")
     a = ap.parse_args()
+    from usdgaze.physics import obstacles
+
+    obstacles.FORM = a.obstacle_form
     if a.throw is not None:
         print(json.dumps(catch_one(a.throw, mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))))
         return
@@ -508,7 +521,7 @@ def main() -> None:
             default = "0,2,5,6,7" if a.toward else "0,2,4,7,8"  # the first five the reference touches
             run_coupled_obstacles(mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations),
                                   [int(s_) for s_ in (a.seeds or default).split(",")], a.toward,
-                                  task == "obstacles-coupled")
+                                  task == "obstacles-coupled", a.obstacle_form)
             continue
         if task in ("stones", "stones10", "obstacles"):
             opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)

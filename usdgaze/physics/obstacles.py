@@ -47,6 +47,7 @@ NEAREST = 4
 LOOKAHEAD_S = 0.6
 CLEARANCE_M = {"body": 0.1, "root": 0.6}
 FORMS = tuple(CLEARANCE_M)
+FORM = "body"  # the default (benchmarks/bench_physics.py --obstacle-form root compares the paper's)
 
 
 class ObstacleTask:
@@ -56,11 +57,12 @@ class ObstacleTask:
 
     def __init__(self, dyn: MujocoBody, centres: np.ndarray, radii: np.ndarray, weight: float = W_TSK,
                  lookahead_s: float = LOOKAHEAD_S, clearance: float | None = None, nearest: int = NEAREST,
-                 objects: list[int] | None = None, form: str = "body") -> None:
+                 objects: list[int] | None = None, form: str | None = None) -> None:
         """``centres``: the true paths at the planner's steps (what is measured, and what the body-only
         planner knows); ``objects``: the obstacles' indices among the coupled loop's objects, whose
         belief then replaces the true paths inside the optimizer (-1: not an object, path known);
         ``form``: "body" (ours, the default) or "root" (the paper's eq. 9)."""
+        form = FORM if form is None else form
         if form not in FORMS:
             raise ValueError(f"obstacle cost form {form!r}: expected one of {FORMS}")
         self.dyn, self.w, self.form = dyn, float(weight), form
