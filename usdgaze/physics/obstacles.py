@@ -15,9 +15,9 @@ Ours, where the paper leaves room (docs/physics.md):
   its point nearest the obstacle's centre, in 3D): ``sum_j max_g exp(-|p_g - p_j|^2 / s_gj^2)``
   with ``s_gj`` the obstacle's radius plus the capsule's plus ``clearance`` (0.1 m; the gradient
   is largest ~6 cm before contact). On the CMU walk the spheres meet the arms ~0.5 m from the
-  root, which a root term cannot see (with it, contact in 4 of 5 coupled runs). "Four nearest":
-  the four obstacles with the largest terms per step. The extrapolated sub-window carries the
-  whole body along the root's ground-plane velocity.
+  root, which a root term cannot see (with it, contact in 4 of 5 coupled runs before this
+  work). "Four nearest": the four obstacles with the largest terms per step. The extrapolated
+  sub-window carries the whole body along the root's ground-plane velocity.
 * ``p_j``: with the eyes coupled (``physics.visuomotor``) it is the belief's mean before each solve,
   run forward at its estimated velocity (the optimizer's expected mean), and an obstacle not yet
   seen costs nothing; on the body-only controller the planner knows the obstacles' paths (the
