@@ -26,6 +26,18 @@ TOES = ("LeftToe", "RightToe")
 ON_DEG, ON_M = 5.0, 0.3  # reached: line of sight within 5 deg, or point of sight within 0.3 m (as attend's test)
 
 
+def copy_animation(layer: Sdf.Layer, src: Sdf.Layer, anim: str, codes) -> None:
+    """An over of ``anim`` in ``layer`` holding ``src``'s skinning arrays at ``codes`` only (a crop)."""
+    prim = Sdf.CreatePrimInLayer(layer, anim)
+    prim.specifier = Sdf.SpecifierOver
+    for name in ("rotations", "translations", "scales"):
+        attr = src.GetPrimAtPath(anim).attributes[name]
+        spec = Sdf.AttributeSpec(prim, name, attr.typeName)
+        for c in codes:
+            value = src.QueryTimeSample(attr.path, c) if src.GetNumTimeSamplesForPath(attr.path) else attr.default
+            layer.SetTimeSample(spec.path, float(c), value)
+
+
 def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = False, task: bool = True) -> Path:
     """stepping_stones.usda with the walk cropped to ``[start_s, end_s]`` (30 fps samples).
 
@@ -44,14 +56,7 @@ def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = Fals
     layer.timeCodesPerSecond = layer.framesPerSecond = tcps
     layer.pseudoRoot.SetInfo("upAxis", "Y")
     layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
-    prim = Sdf.CreatePrimInLayer(layer, ANIM)
-    prim.specifier = Sdf.SpecifierOver
-    for name in ("rotations", "translations", "scales"):
-        attr = src.GetPrimAtPath(ANIM).attributes[name]
-        spec = Sdf.AttributeSpec(prim, name, attr.typeName)
-        for c in codes:
-            value = src.QueryTimeSample(attr.path, c) if src.GetNumTimeSamplesForPath(attr.path) else attr.default
-            layer.SetTimeSample(spec.path, float(c), value)
+    copy_animation(layer, src, ANIM, codes)
     _stone_overs(layer, codes, until_lift, task)
     layer.Save()
     return path

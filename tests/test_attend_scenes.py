@@ -8,6 +8,7 @@ from pxr import Gf, Sdf, Usd
 
 from tests import measure
 from tests.attend_support import ATTEND, angle_to, compose, gaze, positions
+from tests.stone_stages import copy_animation
 from usdgaze.console.main import main
 
 CMU = ATTEND.parent / "cmu"
@@ -78,14 +79,7 @@ def stones(tmp_path_factory):
     codes = np.arange(480.0, 800.0 + 1e-6, 4.0)
 
     def crop(layer):
-        prim = Sdf.CreatePrimInLayer(layer, anim)
-        prim.specifier = Sdf.SpecifierOver
-        for name in ("rotations", "translations", "scales"):
-            a = src.GetPrimAtPath(anim).attributes[name]
-            spec = Sdf.AttributeSpec(prim, name, a.typeName)
-            for c in codes:
-                value = src.QueryTimeSample(a.path, c) if src.GetNumTimeSamplesForPath(a.path) else a.default
-                layer.SetTimeSample(spec.path, float(c), value)
+        copy_animation(layer, src, anim, codes)
 
     stage = _stage_with(tmp, "walk.usda", [ATTEND / "stepping_stones.usda"], crop, 480.0, 800.0)
     out = tmp / "walk_out.usdc"
