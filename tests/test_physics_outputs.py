@@ -61,3 +61,15 @@ def test_an_option_of_the_other_mode_is_refused_not_ignored(tmp_path, capsys, ar
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0], err
     assert not out.exists()
+
+
+def test_physics_without_mujoco_installed_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
+    import sys
+
+    shot, _ = _shot(tmp_path)
+    out = tmp_path / "out.usdc"
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # what `import mujoco` meets where it is not installed
+    assert main(["attend", str(shot), "--physics", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["usdgaze: error: --physics needs MuJoCo: pip install 'usdgaze[physics]'"], err
+    assert not out.exists()

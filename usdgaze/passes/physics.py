@@ -222,6 +222,9 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     from usdgaze.files.transaction import Outputs
     from usdgaze.usd.layers import check_output_path
 
+    from usdgaze.physics.dynamics import require_mujoco
+
+    require_mujoco()  # before any work: a missing extra is one line, exit 2
     source = str(input_path)
     if not Path(source).is_file():
         raise UsdGazeError(f"{source}: no such file")

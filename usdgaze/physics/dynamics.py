@@ -20,7 +20,18 @@ from typing import Callable
 
 import numpy as np
 
+from usdgaze.errors import UsdGazeError
 from usdgaze.physics.model import BodyModel
+
+
+def require_mujoco():
+    """The ``mujoco`` module, or a one-line error saying how to get it (an optional extra): a missing
+    package is the machine's setup, not a bug a farm should retry."""
+    try:
+        import mujoco
+    except ImportError:
+        raise UsdGazeError("--physics needs MuJoCo: pip install 'usdgaze[physics]'") from None
+    return mujoco
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
