@@ -19,6 +19,12 @@ if TYPE_CHECKING:
     from usdgaze.core.hints import BindHints
 
 
+# Options of one mode of ``usdgaze attend`` only (the CLI's parameter names, the manifest's keys): given
+# in the other mode they would be ignored, so the CLI and ``usdgaze batch`` refuse them.
+KINEMATIC_ONLY = ("objects", "alpha", "cost", "realize")
+PHYSICS_ONLY = ("discard_failed", "threads", "fd_stride")
+
+
 @dataclass
 class AttendSettings:
     """What ``usdgaze attend`` takes besides its files (see docs/attend.md)."""
@@ -94,7 +100,7 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
 
 
 def _attend(stage, source, out_path, objects, settings, skel_root, progress, record=None):
-    from usdgaze.characters import bind, own_map, select_roots
+    from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes.attend import apply_attend
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
@@ -112,8 +118,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
         clip = read_clip(stage, skels[0], root, source)
-        own = own_map(root, source)
-        chain, frame = bind(clip, own, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
+        chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
         h = settings.h
         t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)
         codes = clip.start_time + t_plan * clip.time_codes_per_second

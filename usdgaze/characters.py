@@ -22,6 +22,11 @@ def own_map(root, source: str) -> GazeMapDefinition | None:
     return schema.read_map(root, source) if schema.has_map(root) else None
 
 
+def bind_root(clip: SkelClip, root, hints: BindHints | None = None) -> tuple[Chain, CharacterFrame]:
+    """:func:`bind` with the map authored on the clip's SkelRoot ``root``: hints, GazeMapAPI, names."""
+    return bind(clip, own_map(root, clip.source), hints)
+
+
 def select_roots(stage, source: str, skel_root: str | None):
     """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
     from pxr import Sdf, UsdSkel

@@ -265,7 +265,7 @@ def apply_kwargs(shot: Shot) -> dict:
 def attend_kwargs(shot: Shot) -> dict:
     """The call of an ``attend`` job: ``usdgaze.attend.attend`` keywords, or with ``physics`` those of
     ``usdgaze.passes.physics.run`` (``physics`` True); checked as the CLI checks them."""
-    from usdgaze.attend import AttendSettings
+    from usdgaze.attend import KINEMATIC_ONLY, PHYSICS_ONLY, AttendSettings
 
     v = shot.values
     settings = {KEYS[k].to.partition(".")[2]: value for k, value in v.items()
@@ -274,21 +274,21 @@ def attend_kwargs(shot: Shot) -> dict:
               "no_clobber": v.get("no_clobber", False)}
     binding = _binding(v, shot.where) if ("bind" in v or "forward" in v) else None
     if not v.get("physics"):
-        extra = sorted(set(v) & {"discard_failed", "threads", "fd_stride"})
+        extra = sorted(set(v) & set(PHYSICS_ONLY))
         if extra:
             raise UsdGazeError(f"{shot.where}: {extra[0]}: a key of physics jobs (physics = true)")
         found = AttendSettings(**settings, binding=binding)
         found.check()
         return {**common, "physics": False, "objects": v.get("objects"), "settings": found}
-    extra = sorted(set(v) & {"objects", "alpha", "cost", "realize"})
+    extra = sorted(set(v) & set(KINEMATIC_ONLY))
     if extra:  # the coupled loop reads every GazeObjectAPI prim and its own belief settings
         raise UsdGazeError(f"{shot.where}: {extra[0]}: not taken by physics jobs (docs/physics.md)")
+    from usdgaze.passes.physics import check_window
     from usdgaze.physics.mpc import Options
 
-    options = Options(horizon_s=settings.get("window_s", 0.8), workers=v.get("threads", 1),
+    options = Options(horizon_s=settings.get("window_s", AttendSettings.window_s), workers=v.get("threads", 1),
                       fd_stride=v.get("fd_stride", 1))
-    if not 2 * options.h - 1e-9 <= options.horizon_s <= 5.0:
-        raise UsdGazeError(f"{shot.where}: window = {options.horizon_s:g}: expected {2 * options.h:g} to 5 s")
+    check_window(options, f"{shot.where}: window = {options.horizon_s:g}")
     return {**common, "physics": True, "options": options, "seed": settings.get("seed", 0), "binding": binding,
             "keep_failed": not v.get("discard_failed", False)}
 

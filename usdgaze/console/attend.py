@@ -74,24 +74,21 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
     click.echo(f"wrote {report.output}")
 
 
-# Options of one mode only: given in the other, they would be ignored, so they are refused.
-_KINEMATIC_ONLY = {"objects": "--objects", "alpha": "--alpha", "cost": "--cost", "realize": "--realize"}
-_PHYSICS_ONLY = {"discard_failed": "--discard-failed", "threads": "--threads", "fd_stride": "--fd-stride"}
-
-
 def _check_combination(ctx, physics: bool) -> None:
     from click.core import ParameterSource
 
+    from usdgaze.attend import KINEMATIC_ONLY, PHYSICS_ONLY
     from usdgaze.errors import UsdGazeError
 
     given = [name for name in ctx.params if ctx.get_parameter_source(name) != ParameterSource.DEFAULT]
+    flag = lambda name: "--" + name.replace("_", "-")  # noqa: E731
     if physics:
-        wrong = [flag for name, flag in _KINEMATIC_ONLY.items() if name in given]
+        wrong = [flag(name) for name in KINEMATIC_ONLY if name in given]
         if wrong:
             raise UsdGazeError(f"{wrong[0]} is not taken with --physics: the coupled loop reads every "
                                "GazeObjectAPI prim with its own belief settings (docs/physics.md)")
     else:
-        wrong = [flag for name, flag in _PHYSICS_ONLY.items() if name in given]
+        wrong = [flag(name) for name in PHYSICS_ONLY if name in given]
         if wrong:
             raise UsdGazeError(f"{wrong[0]} is an option of --physics")
 

@@ -206,6 +206,12 @@ def _head(ref, n: int):
     return Reference(ref.translations[:n], ref.rotations[:n], ref.scales[:n], s2w)
 
 
+def check_window(options: mpc.Options, label: str) -> None:
+    """The planner window must hold two steps and stay under 5 s; ``label`` names the value."""
+    if not (np.isfinite(options.horizon_s) and 2 * options.h - 1e-9 <= options.horizon_s <= 5.0):
+        raise UsdGazeError(f"{label}: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
+
+
 def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Options = mpc.Options(),
         skel_root: str | None = None, keep_failed: bool = True, total_mass: float = 75.0,
         progress=None, seed: int = 0, binding: BindHints | None = None, record: dict | None = None,
@@ -220,16 +226,14 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     composes, and nothing is left behind on failure or interruption."""
     from usdgaze.api import _open_input
     from usdgaze.files.transaction import Outputs
-    from usdgaze.usd.layers import check_output_path
-
     from usdgaze.physics.dynamics import require_mujoco
+    from usdgaze.usd.layers import check_output_path
 
     require_mujoco()  # before any work: a missing extra is one line, exit 2
     source = str(input_path)
     if not Path(source).is_file():
         raise UsdGazeError(f"{source}: no such file")
-    if not (np.isfinite(options.horizon_s) and 2 * options.h - 1e-9 <= options.horizon_s <= 5.0):
-        raise UsdGazeError(f"--window {options.horizon_s:g} s: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
+    check_window(options, f"--window {options.horizon_s:g} s")
     with Outputs(no_clobber=no_clobber) as tx:
         tx.read(source)  # first, so a clash names the input as such
         if make_folders:  # kept only if the command succeeds
@@ -245,7 +249,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
 
 def _read_shots(stage, source: str, skel_root: str | None, h: float, binding) -> list[tuple]:
     """(root, clip, scene, chain and frame) of every skeleton: all read and bound before any work."""
-    from usdgaze.api import select_roots
+    from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes import visuomotor
     from usdgaze.usd.skelio import read_clip, skeletons_under
 
@@ -254,7 +258,7 @@ def _read_shots(stage, source: str, skel_root: str | None, h: float, binding) ->
         for skel in skeletons_under(root):
             clip = read_clip(stage, skel, root, source)
             scene = visuomotor.read_scene(root, clip, source, h)
-            shots.append((root, clip, scene, visuomotor.bind_clip(clip, root, binding)))
+            shots.append((root, clip, scene, bind_root(clip, root, binding)))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots

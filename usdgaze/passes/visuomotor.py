@@ -57,19 +57,13 @@ def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop
     return [loop.Thing(o.path, o.positions @ rot.T, o.importance, o.radius, o.kind) for o in objs]
 
 
-def bind_clip(clip, root, binding=None):
-    """(Chain, CharacterFrame) of a clip as ``apply`` binds it: hints, the SkelRoot's GazeMapAPI, names."""
-    from usdgaze.characters import bind, own_map
-
-    return bind(clip, own_map(root, clip.source), binding)
-
-
 def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,
                   progress=None, seed: int = 0, chain_frame=None):
     """Simulate one clip with its eyes; (ShotReport, AnimOverride, per-frame terms, inspection).
 
-    ``chain_frame``: the clip's (Chain, CharacterFrame) from :func:`bind_clip` (default: bound by names
-    and the SkelRoot's map)."""
+    ``chain_frame``: the clip's (Chain, CharacterFrame) from :func:`usdgaze.characters.bind_root`
+    (default: bound by names and the SkelRoot's map)."""
+    from usdgaze.characters import bind_root
     from usdgaze.passes import physics as body_pass
     from usdgaze.passes.attend import AttendResult, eyes_on
     from usdgaze.passes.chain import with_eyes
@@ -99,7 +93,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     qpos, n = body_pass._frames_from_steps(result, clip.seconds, quats)
     qpos = np.concatenate([qpos, np.repeat(qpos[-1:], len(clip.seconds) - n, 0)])  # a fall: hold the last
     rotations, translations = retarget.from_qpos(model, qpos, ref)
-    chain, frame = chain_frame or bind_clip(clip, root)
+    chain, frame = chain_frame or bind_root(clip, root)
     rig = with_eyes(clip, chain, frame, PassOptions())
     t_rel = clip.seconds - clip.seconds[0]
     t_sim = result.seconds - result.seconds[0]
