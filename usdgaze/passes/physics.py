@@ -157,12 +157,13 @@ def _frames_from_steps(result: mpc.Result, seconds: np.ndarray, dyn_quats: list[
     return q, int(inside.sum())
 
 
-def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, progress=None):
-    """Simulate one clip; its :class:`ShotReport`, the override and the per-frame measures."""
+def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, progress=None, chain_frame=None):
+    """Simulate one clip; its :class:`ShotReport`, the override and the per-frame measures
+    (``chain_frame``: the gaze binding, for rigs whose joint names do not tell the body's segments)."""
     from usdgaze.physics import build, retarget
     from usdgaze.usd.layers import AnimOverride
 
-    model, ref = build.body_model(clip, total_mass)
+    model, ref = build.body_model(clip, total_mass, chain_frame=chain_frame)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
     ref_qpos = retarget.to_qpos(model, ref)
     tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos)
@@ -279,7 +280,7 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
                 clip, root, options, prims, paths, catches, total_mass, progress, seed, chain_frame)
             inspections.append(inspection)
         else:
-            report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress)
+            report, override, shot_terms = simulate_clip(clip, root, options, total_mass, progress, chain_frame)
         reports.append(report)
         overrides.append(override)
         # wall_s stays out of the layer: the same inputs and seed must give the same bytes.

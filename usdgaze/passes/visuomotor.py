@@ -73,7 +73,8 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     from usdgaze.usd.layers import AnimOverride
 
     source = clip.source
-    model, ref = build.body_model(clip, total_mass, weld_still=not catches)
+    chain_frame = chain_frame or bind_root(clip, root)
+    model, ref = build.body_model(clip, total_mass, weld_still=not catches, chain_frame=chain_frame)
     pushes = body_pass.read_pushes(root, clip, model, f"{source}:{root.GetPath()}")
     ref_qpos = retarget.to_qpos(model, ref)
     h = options.h
@@ -93,7 +94,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     qpos, n = body_pass._frames_from_steps(result, clip.seconds, quats)
     qpos = np.concatenate([qpos, np.repeat(qpos[-1:], len(clip.seconds) - n, 0)])  # a fall: hold the last
     rotations, translations = retarget.from_qpos(model, qpos, ref)
-    chain, frame = chain_frame or bind_root(clip, root)
+    chain, frame = chain_frame
     rig = with_eyes(clip, chain, frame, PassOptions())
     t_rel = clip.seconds - clip.seconds[0]
     t_sim = result.seconds - result.seconds[0]

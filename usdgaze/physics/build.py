@@ -28,16 +28,21 @@ def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outpu
     return read_clip(stage, skels[0], roots[0], source)
 
 
-def body_model(clip, total_mass: float = 75.0, weld_still: bool = True):
+def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_frame=None):
     """The body model of a clip's skeleton, hinge axes and ranges fitted to its animation (``weld_still``:
-    see :func:`usdgaze.physics.model.build`)."""
-    from usdgaze.physics.model import build
+    see :func:`usdgaze.physics.model.build`); ``chain_frame``, the gaze binding's (Chain, CharacterFrame),
+    tells the head, eyes and forward where the joint names do not."""
+    from usdgaze.physics.model import Hints, build
     from usdgaze.physics.retarget import Reference
 
+    hints = None
+    if chain_frame is not None:
+        chain, frame = chain_frame
+        hints = Hints(head=chain.head, eyes=tuple(chain.eyes or ()), forward=frame.forward)
     ref = Reference.from_clip(clip)
     model = build(clip.joints, clip.parents, clip.rest_local, clip.skel_to_world, clip.up_axis,
                   clip.meters_per_unit, total_mass=total_mass, reference=ref.rotations, where=clip.where(),
-                  weld_still=weld_still)
+                  weld_still=weld_still, hints=hints)
     return model, ref
 
 

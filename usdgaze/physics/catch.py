@@ -155,7 +155,11 @@ class CatchTask:
     def _forward(self, d) -> np.ndarray:
         """The character's horizontal forward: the body's left (shoulders or thighs) crossed with up."""
         m = self.dyn.model
-        pair = sorted([b for b, r in enumerate(m.role) if r == "thigh"], key=lambda b: m.names[b].lower().startswith("r"))
+        thighs = [b for b, r in enumerate(m.role) if r == "thigh"]
+        if m.forward is not None and m.rest_pos is not None:  # left first, by where it is at rest
+            pair = sorted(thighs, key=lambda b: -float(m.rest_pos[b] @ np.cross([0.0, 0.0, 1.0], m.forward)))
+        else:
+            pair = sorted(thighs, key=lambda b: m.names[b].lower().startswith("r"))
         if len(pair) < 2:
             return np.array([1.0, 0.0, 0.0])
         left = d.xpos[pair[0] + 1] - d.xpos[pair[1] + 1]

@@ -192,7 +192,7 @@ class MujocoBody:
         m = self.model
         heads = [b for b, r in enumerate(m.role) if r == "head" and m.kind[b] != "weld"]
         hb = heads[-1] if heads else len(m.bodies) - 1
-        eyes = [b for b, n in enumerate(m.names) if "eye" in n.lower()]
+        eyes = m.eyes
         r_h = m.rest_rot[hb]
         fwd = m.forward if m.forward is not None else np.array([1.0, 0.0, 0.0])
         up = np.array([0.0, 0.0, 1.0])

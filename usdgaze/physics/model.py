@@ -73,6 +73,7 @@ class BodyModel:
     lift: float  # metres the rest pose is raised in the MJCF so that it stands on the ground
     feet: list[int] = field(default_factory=list)  # body indices of the topmost foot bodies
     forward: np.ndarray | None = None  # character forward at rest, model world (None: no left/right names)
+    eyes: list[int] = field(default_factory=list)  # eye bodies (by name or the gaze binding), welded
     rest_pos: np.ndarray | None = None  # (B, 3) body origins at rest, model world (before the lift)
     rest_rot: np.ndarray | None = None  # (B, 3, 3) body frames at rest, model world
 
@@ -151,15 +152,19 @@ def _safe_names(joints: list[str], idx: np.ndarray) -> list[str]:
 
 def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_to_world: np.ndarray,
           up_axis: str, meters_per_unit: float, total_mass: float = 75.0,
-          reference: np.ndarray | None = None, where: str = "skeleton", weld_still: bool = True) -> BodyModel:
+          reference: np.ndarray | None = None, where: str = "skeleton", weld_still: bool = True,
+          hints: Hints | None = None) -> BodyModel:
     """The body model of a skeleton; ``reference`` (``(F, J, 4)`` local xyzw rotations) fits hinge axes
     and widens joint ranges to what the motion uses. ``weld_still``: weld the joints the reference holds
-    at rest throughout (off where a task must move what the reference does not, e.g. arms to catch)."""
+    at rest throughout (off where a task must move what the reference does not, e.g. arms to catch).
+    ``hints``: the gaze binding's head, eyes and forward, for rigs whose names say nothing."""
     parents = np.asarray(parents, dtype=int)
     if total_mass <= 0:
         raise UsdGazeError(f"{where}: total mass must be positive, got {total_mass}")
     to_model = stage_to_model(up_axis, meters_per_unit)
-    world = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0] @ world_matrices(rest_local[None], parents)[0]
+    world_rot = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
+    world = world_rot @ world_matrices(rest_local[None], parents)[0]
+    world_rot = world_rot[:3, :3]
     base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2])
     idx = _subtree(base, parents)
     if len(idx) < 2:
@@ -171,20 +176,21 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     pos, orient, rmat, offset, rel = _rest_frames(world[idx], bparent, to_model)
     n = len(idx)
     height = float(np.ptp(pos[:, 2])) * 1.08 or 1.0
-    roles = seg.assign_roles([joints[j] for j in idx], bparent)
+    hints = hints or Hints()
+    head = body_of.get(hints.head) if hints.head is not None else None
+    roles = seg.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
+    eyes = {body_of[e] for e in hints.eyes if e in body_of}
+    eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
     children = [[c for c in range(n) if bparent[c] == b] for b in range(n)]
     seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height)
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = np.maximum(seg.segment_masses(roles, lengths, total_mass), 1e-3 * total_mass / n)
 
-    kind = ["free"] + ["weld" if _welded(joints[idx[b]], roles, bparent, b, children) else "ball"
+    kind = ["free"] + ["weld" if b in eyes or _welded(joints[idx[b]], roles, bparent, b, children) else "ball"
                        for b in range(1, n)]
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
-    try:
-        forward = character_frame([joints[j] for j in idx], rest4, np.array([0.0, 0.0, 1.0]), where=where).forward
-    except RigError:  # no left/right names: no anatomical axes, so no hinges either
-        forward = None
+    forward = _forward([joints[j] for j in idx], rest4, roles, bparent, pos, hints, to_model @ world_rot, where)
     axis, range_deg = _hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
         _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, weld_still)
@@ -202,7 +208,35 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         names=_safe_names(joints, idx), offset=offset, rel_quat=rel, base_pos=pos[0], base_quat=orient[0],
         axis=axis, range_deg=range_deg, mass=mass, com=com, inertia=inertia, inertia_quat=iquat,
         radius=radius, geoms=geoms, strength=strength, to_model=to_model, total_mass=float(total_mass),
-        height=height, lift=-lowest, feet=feet, forward=forward, rest_pos=pos, rest_rot=rmat)
+        height=height, lift=-lowest, feet=feet, forward=forward, eyes=sorted(eyes), rest_pos=pos, rest_rot=rmat)
+
+
+@dataclass(frozen=True)
+class Hints:
+    """What the gaze binding knows that names may not: the head and eye joints (skeleton indices) and
+    the character's forward in skeleton space. Used only where the names say nothing."""
+
+    head: int | None = None
+    eyes: tuple[int, ...] = ()
+    forward: np.ndarray | None = None
+
+
+def _forward(names, rest4, roles, bparent, pos, hints: Hints, skel_to_model, where: str) -> np.ndarray | None:
+    """The character's forward at rest, model world: from left/right names; else the binding's
+    forward; else the feet (heel to toe, on the ground plane); None if nothing tells (no hinges then)."""
+    try:
+        return character_frame(names, rest4, np.array([0.0, 0.0, 1.0]), where=where).forward
+    except RigError:
+        pass
+    if hints.forward is not None:
+        f = skel_to_model @ np.asarray(hints.forward, dtype=float)
+    else:
+        feet = [b for b in range(1, len(roles)) if roles[b] == "foot" and roles[bparent[b]] != "foot"]
+        toes = [(b, max(seg.descendants(b, bparent), key=lambda k: np.linalg.norm(pos[k] - pos[b]), default=b))
+                for b in feet]
+        f = sum((pos[t] - pos[b] for b, t in toes if t != b), np.zeros(3))
+    f = np.array([f[0], f[1], 0.0])
+    return f / np.linalg.norm(f) if np.linalg.norm(f) > 1e-9 else None
 
 
 def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
@@ -283,11 +317,9 @@ def _strengths(roles: list[str], bparent: np.ndarray) -> np.ndarray:
 
 
 def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -> bool:
-    """End sites, eyes (the eye model moves them, not the physics) and fingers (below the hand) are
-    welded to their parents: they carry mass but no degrees of freedom."""
+    """End sites and fingers (below the hand) are welded to their parents, as are the eyes (the eye
+    model moves them, not the physics; see ``build``): they carry mass but no degrees of freedom."""
     if seg.is_end_joint(name) and not children[b]:
-        return True
-    if _EYE.search(leaf(name)):
         return True
     return roles[b] == "hand" and roles[bparent[b]] == "hand"
 
