@@ -92,7 +92,6 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
         eye_angles=eyes.angles,
         settled=plan.settled if saccading is None else plan.settled & ~saccading,
         seconds=clip.seconds,
-        segment_angles=np.degrees(rot.angle(plan.displacement)),
         shift_timing=plan.timing,
         eye_positions=np.stack([world(p) for p in eyes.positions]),
         point_of_sight=world(origin) + reach[:, None] * sight_w,

@@ -91,6 +91,7 @@ def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray
     role_of = {j: role for role in SEGMENT_OF_ROLE for j in chain.roles[role]}
     new_rot: dict[int, np.ndarray] = {}
     new_world: dict[int, np.ndarray] = {}
+    spread: dict[int, np.ndarray] = {}
     for j in chain.path:
         _, q_j, _ = rig.local(j)
         p = int(rig.parents[j])
@@ -100,7 +101,9 @@ def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray
             q_new = q_j
         else:
             seg = SEGMENT_OF_ROLE[role]
-            q = rot.power(disp[:, seg], 1.0 / counts[seg])  # a role's rotation spread over its joints
+            if seg not in spread:  # a role's rotation spread over its joints: the same for each of them
+                spread[seg] = rot.power(disp[:, seg], 1.0 / counts[seg])
+            q = spread[seg]
             if role == "pelvis":
                 # Heading frame: the character frame turned about up to where the pelvis faces now.
                 facing = rot.rotate(rot.multiply(base.rotation[j], rot.conjugate(rig.rest_q[j])), frame.forward)

@@ -74,8 +74,6 @@ class PassResult:
     """Frames in a hold phase (a shift finished, no new one begun)."""
     seconds: np.ndarray | None = None
     """Sample times in seconds from the stage start."""
-    segment_angles: np.ndarray | None = None
-    """Rotation angle of each model segment's displacement per frame ``(F, 5)`` (deg)."""
     shift_timing: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     eye_positions: np.ndarray | None = None

@@ -44,14 +44,16 @@ class _Segment:
     def evaluate(self, at: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Segment offsets ``(F, 5, 4)``, wanted gaze change ``(F, 2)``, normalized time and gaze
         progress (fraction of the change, overshoot included) at ``at``."""
+        # A still start is one row that broadcasts: its relative rotation and canonical gaze are
+        # computed once, not per frame.
         if self.previous is None:
-            start = np.broadcast_to(rot.IDENTITY, (len(at), 5, 4))
-            start_delta = np.zeros((len(at), 2))
+            start = np.broadcast_to(rot.IDENTITY, (1, 5, 4))
+            start_delta = np.zeros((1, 2))
         elif self.inherit:
             start, start_delta, _, _ = self.previous.evaluate(at)
         else:
-            start = np.broadcast_to(self.previous.target, (len(at), 5, 4))
-            start_delta = np.broadcast_to(self.previous.request, (len(at), 2))
+            start = self.previous.target[None]
+            start_delta = self.previous.request[None]
         m = self.motion
         tau = motion.normalized_time(at - self.start_s, m.duration)
         s = motion.profile(tau[:, None], m.starts[None, :], m.peak_time, m.overshoot)
