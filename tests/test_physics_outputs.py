@@ -1,10 +1,15 @@
 """``attend --physics`` writes through the one writer: its output may not be the input or any layer
 the input composes (compared by file identity, so a hard link or a second spelling is caught), and
-the refusal is one line before any simulation, with every input's bytes and mode unchanged."""
+the refusal is one line before any simulation, with every input's bytes and mode unchanged. An
+interrupted simulation (SIGINT, one or two planner threads) exits 130 with one line and leaves the
+folder as it was."""
 
 from __future__ import annotations
 
 import os
+import signal
+import subprocess
+import time
 
 import pytest
 from pxr import Sdf
@@ -13,6 +18,7 @@ import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
 from usdgaze.console.main import main
 
 from . import synthetic as syn
+from .bad_common import CLI, snapshot
 from .measure import sha256
 
 
@@ -73,3 +79,31 @@ def test_physics_without_mujoco_installed_is_one_line_and_exit_2(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["usdgaze: error: --physics needs MuJoCo: pip install 'usdgaze[physics]'"], err
     assert not out.exists()
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a running process, from /proc (Linux)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_sigint_while_simulating_leaves_nothing(tmp_path, threads):
+    from .test_physics_pass import excerpt
+
+    src = excerpt(tmp_path / "walk.usda", 1.0)
+    before = snapshot(tmp_path)
+    proc = subprocess.Popen([*CLI, "attend", str(src), "--physics", "--threads",
+                             str(threads), "--out", str(tmp_path / "body.usdc")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Past the imports and the model build (about 1.5 CPU s): the planner is simulating.
+    deadline = time.monotonic() + 120
+    while proc.poll() is None and _cpu_seconds(proc.pid) < 3.0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert proc.poll() is None, "finished before it could be interrupted"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 128 + signal.SIGINT, err
+    assert err.splitlines() == ["usdgaze: error: interrupted by SIGINT; nothing was written"]
+    assert snapshot(tmp_path) == before
