@@ -72,15 +72,35 @@ def test_catch_term_gradient_and_gauss_newton_hessian_match_central_differences(
     num = _central(lambda z: task.l(z, u, 0), x)
     assert np.linalg.norm(num) > 1.0 and np.linalg.norm(lx - num) / np.linalg.norm(num) < 1e-4
     xs = task.dyn.xs
-    J = _central(lambda z: task._residual(z[xs], False)[0], x).T  # residual Jacobian
+    J = _central(lambda z: task._residuals(z[xs][None], False)[0][0], x).T  # residual Jacobian
     assert np.linalg.norm(lxx - 2 * task.weight(0, H) * J.T @ J) / np.linalg.norm(lxx) < 1e-4
     # The lateral term is live beyond the free band: move the feet 40 cm off the arrival's side.
     task.arrival = (0.3, task.arrival[1] + 0.7 * task.left)
     lx2 = task.derivs(x, u, 0)[0]
     num2 = _central(lambda z: task.l(z, u, 0), x)
-    assert abs(task._residual(x[xs], False)[0][3]) > 1.0
+    assert abs(task._residuals(x[xs][None], False)[0][0, 3]) > 1.0
     assert np.linalg.norm(lx2 - num2) / np.linalg.norm(num2) < 1e-4
     task.arrival = (0.3, task.arrival[1] - 0.7 * task.left)
+
+
+def test_catch_window_derivatives_match_central_differences_of_each_step(problem):
+    """The batched cost and expansion the solver uses, on a window of three different states whose
+    last step is past the phase (weight 0): each row against central differences of its own step."""
+    prob, task, x, u = problem
+    rng = np.random.default_rng(4)
+    X = np.stack([x, x + rng.normal(0, 0.05, len(x)), x + rng.normal(0, 0.05, len(x))])
+    U = np.stack([u, u, u])
+    k0 = int(np.floor((task.arrival[0] + task.o.hold_s) / H)) - 1  # steps k0, k0 + 1 in the phase, k0 + 2 not
+    assert [task.weight(k0 + i, H) for i in range(3)] == [task.o.w_proactive] * 2 + [0.0]
+    c = task.cost_batch(X, U, k0)
+    lx, lu, lxx, luu, lux = task.derivs_batch(X, U, k0)
+    assert c[2] == 0.0 and not lx[2].any() and not lxx[2].any() and not (lu.any() or luu.any() or lux.any())
+    xs = task.dyn.xs
+    for i in range(2):
+        num = _central(lambda z: task.cost_batch(np.r_[X[:i], z[None], X[i + 1:]], U, k0)[i], X[i])
+        assert c[i] > 1.0 and np.linalg.norm(lx[i] - num) / np.linalg.norm(num) < 1e-4
+        J = _central(lambda z: task._residuals(z[xs][None], False)[0][0], X[i]).T
+        assert np.linalg.norm(lxx[i] - 2 * task.o.w_proactive * J.T @ J) / np.linalg.norm(lxx[i]) < 1e-4
 
 
 def test_the_arrival_is_where_the_true_path_crosses_the_catching_plane(problem):

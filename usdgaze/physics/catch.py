@@ -26,7 +26,10 @@ then on an estimate made while the ball is out of view (close below the face) do
 target: the hand waits where the ball was last expected.
 
 Derivatives: the gradient is exact, the Hessian Gauss-Newton (``2 w J'J``), with the hand's and feet's
-Jacobians from MuJoCo's ``mj_jac`` mapped to the state's minimal coordinates.
+Jacobians from MuJoCo's ``mj_jac`` mapped to the state's minimal coordinates. The cost and its
+derivatives are batched over the window (``cost_batch``, ``derivs_batch``: MuJoCo's kinematics per
+state, the residuals and products over the steps whose phase weight is not zero at once); the
+per-step methods are the same code on one step.
 """
 
 from __future__ import annotations
@@ -70,16 +73,6 @@ def _hand_sites(model: BodyModel) -> dict[str, tuple[int, np.ndarray]]:
         palm = 0.5 * model.offset[kids[0]] if kids else model.com[b]
         side = "right" if model.names[b].lower().startswith("r") else "left"
         out.setdefault(side, (b + 1, palm))
-    return out
-
-
-def _columns(dyn: MujocoBody, J: np.ndarray, xb: np.ndarray) -> np.ndarray:
-    """A tangent-space Jacobian (3, nv) in the state's minimal coordinates (rotation vectors)."""
-    rot = dyn._rot[:, None] + np.arange(3)
-    maps = _jr(xb[rot], inverse=False)
-    out = J.copy()
-    for b in range(len(rot)):
-        out[:, rot[b]] = J[:, rot[b]] @ maps[b]
     return out
 
 
@@ -178,63 +171,83 @@ class CatchTask:
         return 0.0
 
     # -- the cost -------------------------------------------------------------------------------
-    def _residual(self, xb: np.ndarray, jac: bool):
+    def _residuals(self, Xb: np.ndarray, jac: bool):
+        """Residuals ``(n, 4)`` (palm to arrival, lateral excess, in ``unit_m``) of body states ``Xb``
+        ``(n, 2 nv)`` and, with ``jac``, their Jacobians ``(n, 4, nv)`` in the state's coordinates.
+
+        MuJoCo's kinematics (and Jacobians) run per state; the rest over the batch at once."""
         import mujoco
 
-        d, dyn = self.data, self.dyn
-        d.qpos[:], _ = dyn.to_mujoco(xb)
-        mujoco.mj_kinematics(dyn.mj, d)
+        d, dyn, o = self.data, self.dyn, self.o
         body, palm = self.hands[self.hand or next(iter(self.hands))]
-        p_hand = d.xpos[body] + d.xmat[body].reshape(3, 3) @ palm
-        feet = d.xpos[self.feet].mean(axis=0)
+        n, nv = len(Xb), dyn.nv
+        p_hand, feet = np.empty((n, 3)), np.empty((n, 3))
+        jh, jf = (np.zeros((n, 3, nv)), np.zeros((n, 3, nv))) if jac else (None, None)
+        j = np.zeros((3, nv))
+        for i in range(n):
+            d.qpos[:], _ = dyn.to_mujoco(Xb[i])
+            mujoco.mj_kinematics(dyn.mj, d)
+            p_hand[i] = d.xpos[body] + d.xmat[body].reshape(3, 3) @ palm
+            feet[i] = d.xpos[self.feet].mean(axis=0)
+            if jac:
+                mujoco.mj_comPos(dyn.mj, d)
+                mujoco.mj_jac(dyn.mj, d, jh[i], None, p_hand[i], body)
+                for f in self.feet:
+                    mujoco.mj_jacBody(dyn.mj, d, j, None, f)
+                    jf[i] += j / len(self.feet)
         target = self.arrival[1]
-        lat = float((target - feet) @ self.left)
-        excess = np.sign(lat) * max(abs(lat) - self.o.lateral_free_m, 0.0)
-        r = np.r_[p_hand - target, excess] / self.o.unit_m
+        lat = (target - feet) @ self.left
+        live = np.abs(lat) > o.lateral_free_m
+        excess = np.sign(lat) * np.maximum(np.abs(lat) - o.lateral_free_m, 0.0)
+        r = np.concatenate([p_hand - target, excess[:, None]], axis=1) / o.unit_m
         if not jac:
             return r, None
-        mujoco.mj_comPos(dyn.mj, d)
-        jh = np.zeros((3, dyn.nv))
-        mujoco.mj_jac(dyn.mj, d, jh, None, p_hand, body)
-        jf = np.zeros((3, dyn.nv))
-        for f in self.feet:
-            j = np.zeros((3, dyn.nv))
-            mujoco.mj_jacBody(dyn.mj, d, j, None, f)
-            jf += j / len(self.feet)
-        jl = -(self.left @ jf)[None] * (1.0 if abs(lat) > self.o.lateral_free_m else 0.0)
-        J = np.vstack([jh, jl]) / self.o.unit_m
-        return r, _columns(dyn, J, xb)
+        jl = -(self.left @ jf) * np.where(live, 1.0, 0.0)[:, None]
+        J = np.concatenate([jh, jl[:, None]], axis=1) / o.unit_m
+        rot = dyn._rot_x  # d(tangent)/dx = Jr(r) per rotation block
+        maps = _jr(Xb[:, rot].reshape(-1, 3), inverse=False).reshape(n, len(rot), 3, 3)
+        J[:, :, rot] = np.matmul(J[:, :, rot].transpose(0, 2, 1, 3), maps).transpose(0, 2, 1, 3)
+        return r, J
 
-    def _state(self, x, k, derivs: bool):
-        w = self.weight(k, self.dyn.h)
-        nx = len(x)
-        if w == 0.0:
-            return 0.0, (np.zeros(nx), np.zeros((nx, nx))) if derivs else None
-        xs = self.dyn.xs
-        r, J = self._residual(x[xs], derivs)
-        c = w * float(r @ r)
-        if not derivs:
-            return c, None
-        nv = self.dyn.nv
-        lx, lxx = np.zeros(nx), np.zeros((nx, nx))
-        pos = slice(xs.start, xs.start + nv)
-        lx[pos] = 2 * w * J.T @ r
-        lxx[pos, pos] = 2 * w * J.T @ J
-        return c, (lx, lxx)
+    def _weights(self, k0: int, n: int) -> np.ndarray:
+        return np.array([self.weight(k0 + i, self.dyn.h) for i in range(n)])
+
+    def cost_batch(self, X, U, k0):
+        w = self._weights(k0, len(U))
+        out = np.zeros(len(U))
+        on = np.flatnonzero(w)
+        if len(on):
+            r, _ = self._residuals(X[on][:, self.dyn.xs], False)
+            out[on] = w[on] * np.sum(r * r, axis=1)  # the per-step r @ r, bit for bit
+        return out
+
+    def derivs_batch(self, X, U, k0):
+        """Exact gradient ``2 w J'r`` and Gauss-Newton Hessian ``2 w J'J`` of the window's steps."""
+        n, nx, nu = len(U), X.shape[1], U.shape[1]
+        w = self._weights(k0, n)
+        lx, lxx = np.zeros((n, nx)), np.zeros((n, nx, nx))
+        on = np.flatnonzero(w)
+        if len(on):
+            xs, nv = self.dyn.xs, self.dyn.nv
+            r, J = self._residuals(X[on][:, xs], True)
+            pos = slice(xs.start, xs.start + nv)
+            wJt = (2 * w[on, None, None] * J).transpose(0, 2, 1)  # products as the per-step 2 w J' r, 2 w J' J
+            lx[on, pos] = np.matmul(wJt, r[:, :, None])[:, :, 0]
+            lxx[on, pos, pos] = np.matmul(wJt, J)
+        return lx, np.zeros((n, nu)), lxx, np.zeros((n, nu, nu)), np.zeros((n, nu, nx))
 
     def l(self, x, u, k):
-        return self._state(x, k, False)[0]
+        return float(self.cost_batch(x[None], u[None], k)[0])
 
     def derivs(self, x, u, k):
-        _, (lx, lxx) = self._state(x, k, True)
-        nu = len(u)
-        return lx, np.zeros(nu), lxx, np.zeros((nu, nu)), np.zeros((nu, len(x)))
+        return tuple(a[0] for a in self.derivs_batch(x[None], u[None], k))
 
     def terminal(self, x, k):
-        return self._state(x, k, False)[0]
+        return self.l(x, np.zeros(0), k)
 
     def terminal_derivs(self, x, k):
-        return self._state(x, k, True)[1]
+        lx, _, lxx, _, _ = self.derivs(x, np.zeros(0), k)
+        return lx, lxx
 
     # -- the report -----------------------------------------------------------------------------
     def measure(self, k: int, data) -> dict[str, float]:
