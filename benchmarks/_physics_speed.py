@@ -102,7 +102,7 @@ def run(task: str, cores: int, opts: mpc.Options, seconds: float, bench) -> dict
         sim = lambda: visuomotor.simulate(model, qpos, secs, things, visuomotor.Options(opts), pushes, tasks).body  # noqa: E731
     r, wall, cpu, main = timed(sim)
     frames = 30 * float(r.seconds[-1] - r.seconds[0])
-    return {"task": task, "cores": cores, "coupled": things is not None, "h": opts.h, "stride": opts.fd_stride,
+    return {"task": task, "cores": cores, "coupled": things is not None, "h": opts.h, "stride": opts.fd_stride, "reuse": opts.fd_reuse,
             "simulated_s": round(frames / 30, 3), "fell_at_s": r.fell_at, "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
             "main_thread_cpu_s": round(main, 2), "fps_at_30": round(frames / wall, 2), "cpu_fps_at_30": round(frames / cpu, 2),
             "bound_fps_at_30": round(frames / max(cpu / cores, main), 2), "load": round(os.getloadavg()[0], 1)}

@@ -34,7 +34,7 @@ written layer by UsdSkel FK: the nearer palm's distance to the true ball at its 
 the field of view.
 
     python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
-        [--horizon 0.6] [--iterations 1] [--stride 1] [--speed] [--fk]
+        [--horizon 0.6] [--iterations 1] [--stride 1] [--reuse 1] [--speed] [--fk]
 
 ``--speed``: every task once per core count, timed alone, with frames/s per wall second, per CPU
 second and the idle bound (``benchmarks/_physics_speed.py``).
@@ -471,6 +471,7 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=1)
     ap.add_argument("--seeds", default=None, help="obstacles: 0,1,2,3,4; obstacles-coupled: 0,2,4,7,8 (--toward: 0,2,5,6,7)")
     ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
+    ap.add_argument("--reuse", type=int, default=1, help="finite differences kept up to REUSE solves (mpc.Options.fd_reuse)")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--speed", action="store_true", help="frames/s of each task (--tasks, default all) on each of "
                     "--cores, timed alone (benchmarks/_physics_speed.py)")
@@ -534,7 +535,7 @@ def main() -> None:
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
             opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores,
-                               fd_stride=a.stride)
+                               fd_stride=a.stride, fd_reuse=a.reuse)
             with threadpool_limits(1):
                 row = run_task(task, a.seconds, opts, a.fk) | {"cores": cores}
             rows.append(row)
@@ -560,7 +561,8 @@ def speed_table(a, cpus: list[int]) -> None:
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
             h = 0.03 if task.startswith(("stones", "obstacles")) else a.h  # as the task runs above
-            opts = mpc.Options(h=h, horizon_s=a.horizon, iterations=a.iterations, workers=cores, fd_stride=a.stride)
+            opts = mpc.Options(h=h, horizon_s=a.horizon, iterations=a.iterations, workers=cores, fd_stride=a.stride,
+                               fd_reuse=a.reuse)
             with threadpool_limits(1):
                 rows.append(speed.run(task, cores, opts, a.seconds, sys.modules[__name__]))
             print(json.dumps(rows[-1]), flush=True)

@@ -18,7 +18,7 @@ cProfile adds its own overhead to every Python call (~10-20% here); ``--plain`` 
 total alone. A digest of the simulated states says whether two versions of the code simulated the
 same bits. Asserts nothing.
 
-    python benchmarks/profile_physics.py [--tasks track,catch] [--seconds 1.0] [--stride 1] [--plain]
+    python benchmarks/profile_physics.py [--tasks track,catch] [--seconds 1.0] [--stride 1] [--reuse 1] [--plain]
 """
 
 from __future__ import annotations
@@ -75,11 +75,11 @@ def phases(st: pstats.Stats, total: float) -> dict[str, float]:
     return out
 
 
-def run(task: str, seconds: float, stride: int, profile: bool) -> dict:
+def run(task: str, seconds: float, stride: int, profile: bool, reuse: int = 1) -> dict:
     from threadpoolctl import threadpool_limits
 
     h = 0.03 if task.startswith(("stones", "obstacles")) else 0.02
-    opts = mpc.Options(h=h, workers=1, fd_stride=stride)
+    opts = mpc.Options(h=h, workers=1, fd_stride=stride, fd_reuse=reuse)
     model, qpos, secs, things, tasks, pushes = speed.scene(task, h, seconds, bench)
     if task == "catch" and seconds < secs[-1]:
         keep = secs <= seconds + 1e-9
@@ -99,7 +99,7 @@ def run(task: str, seconds: float, stride: int, profile: bool) -> dict:
         cpu = time.process_time() - c0
     frames = 30 * float(r.seconds[-1] - r.seconds[0])
     steps = len(r.seconds) - 1
-    row = {"task": task, "h": h, "stride": stride, "simulated_s": round(frames / 30, 3), "steps": steps,
+    row = {"task": task, "h": h, "stride": stride, "reuse": reuse, "simulated_s": round(frames / 30, 3), "steps": steps,
            "fell_at_s": r.fell_at, "profiled": profile, "cpu_s": round(cpu, 2),
            "cpu_ms_per_frame": round(1e3 * cpu / frames, 1), "cpu_ms_per_step": round(1e3 * cpu / steps, 1),
            "frames_per_cpu_s": round(frames / cpu, 2),
@@ -116,11 +116,12 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=1.0, help="simulated seconds (track: of the walk; catch: "
                     "of the throw, which lasts 1.3 s)")
     ap.add_argument("--stride", type=int, default=1)
+    ap.add_argument("--reuse", type=int, default=1, help="mpc.Options.fd_reuse")
     ap.add_argument("--plain", action="store_true", help="no cProfile: the total alone")
     a = ap.parse_args()
     os.sched_setaffinity(0, sorted(os.sched_getaffinity(0))[:1])
     for task in a.tasks.split(","):
-        row = run(task, a.seconds, a.stride, not a.plain)
+        row = run(task, a.seconds, a.stride, not a.plain, a.reuse)
         print(json.dumps(row), flush=True)
 
 

@@ -128,6 +128,47 @@ def test_window_linearization_threads_and_interpolation(body):
     assert not np.allclose(As[4], A[4])  # the interpolation is an approximation, not a copy
 
 
+def test_window_linearization_reusing_earlier_windows_finite_differences(body):
+    """``reuse``: on a rollout, the matrices kept from an earlier window (the same absolute step) and
+    mapped to this window's states are the ones differentiated anew, bit for bit, when the states are
+    the same (the window called again, then shifted by a step along the same rollout), with one
+    thread or two; fewer steps are differentiated; the first ``FD_FRESH`` steps always are."""
+    model, qpos = body[0].model, body[1]
+    rng = np.random.default_rng(12)
+    serial = MujocoBody(model, h=0.02)
+    n = 16
+    U = rng.normal(0, 0.1, (n + 1, serial.nu))
+    X = np.zeros((n + 2, serial.nx))
+    X[0] = serial.to_state(qpos[300], rng.normal(0, 0.2, serial.nv))
+    for i in range(n + 1):
+        X[i + 1] = serial.step_body(X[i], U[i], i)
+    windows = [(X[:n], U[:n], 0), (X[:n], U[:n], 0), (X[1:n + 1], U[1:n + 1], 1)]
+    want = [serial.linearize_batch(*w) for w in windows]
+    for workers in (1, 2):
+        reusing = MujocoBody(model, h=0.02, workers=workers, reuse=3)
+        fresh = []
+        for (Xw, Uw, k0), (A, B) in zip(windows, want):
+            fresh.append(reusing._fresh_steps(np.arange(n), Xw, Uw, k0))
+            reusing._fd_calls -= 1  # the call below counts itself
+            got = reusing.linearize_start(Xw, Uw, k0)()
+            assert np.array_equal(got[0], A) and np.array_equal(got[1], B)
+        assert fresh[0].all()  # nothing kept yet
+        for f in fresh[1:]:
+            assert f[:5].all() and f[-1] == (f is fresh[2]) and 3 <= np.count_nonzero(~f) <= n - 5 - (n - 5) // 3 + 1
+    # Where the states moved, the kept matrices are the earlier window's, not new differences.
+    kept = MujocoBody(model, h=0.02, reuse=3)
+    kept.linearize_batch(X[:n], U[:n], 0)
+    Xm = X[:n] + np.r_[np.zeros(6), 1e-4 * np.ones(serial.nx - 6)]
+    skipped = np.flatnonzero(~kept._fresh_steps(np.arange(n), Xm, U[:n], 0))
+    kept._fd_calls -= 1
+    A_kept = kept.linearize_batch(Xm, U[:n], 0)[0]
+    A_new = serial.linearize_batch(Xm, U[:n], 0)[0]
+    i = skipped[0]
+    assert not np.array_equal(A_kept[i], A_new[i])
+    assert np.linalg.norm(A_kept[i] - A_new[i]) < 1e-2 * np.linalg.norm(A_new[i])  # a nearby state's
+    assert np.array_equal(A_kept[:5], A_new[:5])
+
+
 def _deepest_foot_point(mj, qpos: np.ndarray, foot_geoms: np.ndarray) -> np.ndarray:
     """Per frame, how far the lowest foot capsule point is below z = 0 (MuJoCo's geom poses)."""
     d = mujoco.MjData(mj)

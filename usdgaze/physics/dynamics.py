@@ -79,6 +79,12 @@ def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate([w1 * w2 - np.sum(v1 * v2, -1, keepdims=True), w1 * v2 + w2 * v1 + np.cross(v1, v2)], -1)
 
 
+# MuJoCo's warnings of an unstable step (``mjtWarning``: mjWARN_BADQPOS, BADQVEL, BADQACC)
+_BAD = [3, 4, 5]
+# With ``reuse > 1``: the window's first steps, differentiated at every call (0.1 s at h 0.02).
+FD_FRESH = 5
+
+
 def _quiet(message: str) -> None:
     return None
 
@@ -90,7 +96,7 @@ class MujocoBody:
     name = "body"
 
     def __init__(self, model: BodyModel, h: float = 0.02, forces: Callable[[int], np.ndarray] | None = None,
-                 centered: bool = False, eps: float = 1e-6, workers: int = 1, stride: int = 1) -> None:
+                 centered: bool = False, eps: float = 1e-6, workers: int = 1, stride: int = 1, reuse: int = 1) -> None:
         import mujoco
 
         from usdgaze.physics import mjcf
@@ -109,6 +115,7 @@ class MujocoBody:
         self.forces = forces
         self.workers, self._pool, self._clones = int(workers), None, []
         self.stride = int(stride)
+        self.reuse, self._fd_cache, self._fd_calls = int(reuse), {}, 0  # see linearize_batch
         self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
         # qpos of recent states (key: their position bytes), for this anchor: a window's rollout, its
         # costs and the head pose ask for the same rows in turn (a pure function: results unchanged).
@@ -267,11 +274,10 @@ class MujocoBody:
         import mujoco
 
         self._load(xb, ub, k)
-        kinds = [int(w) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
-                                  mujoco.mjtWarning.mjWARN_BADQPOS)]
-        bad = self.data.warning.number[kinds].tolist()
+        counts = self.data.warning.number
+        bad = counts[_BAD].tolist()
         mujoco.mj_step(self.mj, self.data)
-        if self.data.warning.number[kinds].tolist() != bad:
+        if counts[_BAD].tolist() != bad:
             # MuJoCo resets an unstable state to qpos0; say so to the solver instead (infinite cost).
             return np.full(self.nx, np.nan)
         return self.to_state(self.data.qpos, self.data.qvel)
@@ -281,6 +287,12 @@ class MujocoBody:
 
     def linearize_body(self, xb: np.ndarray, ub: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         """(A, B) of one step in these coordinates: ``(2nv, 2nv)``, ``(2nv, nu)``."""
+        A, B = self._fd(xb, ub, k)
+        # Tangent -> minimal coordinates: rows by Jr^-1 at the next state, columns by Jr at this one.
+        return self._minimal(A, B, xb, self._next(xb, ub, k))
+
+    def _fd(self, xb: np.ndarray, ub: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """MuJoCo's finite-difference transition matrices of one step, in its tangent coordinates."""
         import mujoco
 
         nv = self.nv
@@ -288,10 +300,10 @@ class MujocoBody:
         A = np.zeros((2 * nv, 2 * nv))
         B = np.zeros((2 * nv, self.nu))
         mujoco.mjd_transitionFD(self.mj, self.data, self.eps, self.centered, A, B, None, None)
-        # Tangent -> minimal coordinates: rows by Jr^-1 at the next state, columns by Jr at this one.
-        self._load(xb, ub, k)
-        mujoco.mj_step(self.mj, self.data)
-        xn = self.to_state(self.data.qpos)
+        return A, B
+
+    def _minimal(self, A: np.ndarray, B: np.ndarray, xb: np.ndarray, xn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tangent-space (A, B) of the step from ``xb`` to ``xn`` in the state's coordinates (in place)."""
         out_map = self._tangent_map(xn, inverse=False)  # Jr^-1(r'), (blocks, 3, 3)
         in_map = self._tangent_map(xb, inverse=True)  # Jr(r)
         idx = self._rot_x
@@ -313,9 +325,11 @@ class MujocoBody:
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
         """The window's linearizations. With ``stride > 1`` MuJoCo's finite differences are taken at
         every ``stride``-th step and the last, and linearly interpolated in between (the derivative
-        interpolation of Han et al. 2016, which the paper's solver uses). With ``workers > 1`` the
-        steps are split over threads, each with its own copy of the part (MuJoCo releases the GIL
-        inside its functions)."""
+        interpolation of Han et al. 2016, which the paper's solver uses). With ``reuse > 1`` a step
+        differentiated by an earlier call (the previous window, for a receding horizon) keeps its
+        matrices for up to ``reuse`` calls (see ``_fresh_steps``). With ``workers > 1`` the steps are
+        split over threads, each with its own copy of the part (MuJoCo releases the GIL inside its
+        functions)."""
         return self.linearize_start(X, U, k0)()
 
     def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
@@ -323,21 +337,97 @@ class MujocoBody:
         other work (the cost's expansion) before calling the result for the matrices."""
         n = len(U)
         at = np.unique(np.r_[np.arange(0, n, max(1, self.stride)), n - 1]) if n else np.zeros(0, int)
-        if self.workers <= 1 or len(at) < 2:
-            pairs = [self.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in at]
-            return lambda: self._window_matrices(pairs, at, n)
+        if self.reuse > 1:
+            return self._linearize_reusing(X, U, k0, at)
+        work = lambda body, chunk: [body.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in chunk]  # noqa: E731
+        got = self._split(work, at)
+        return lambda: self._window_matrices([p for part in got() for p in part], at, n)
+
+    def _split(self, work: Callable, steps: np.ndarray) -> Callable[[], list]:
+        """``work(body, chunk)`` over ``steps``: here, or split over the threads' copies of the part
+        (started now); the result, called, gives each chunk's outcome in order."""
+        if self.workers <= 1 or len(steps) < 2:
+            done = [work(self, steps)]
+            return lambda: done
         from concurrent.futures import ThreadPoolExecutor
 
         if self._pool is None:
             self._pool = ThreadPoolExecutor(self.workers)
             self._clones = [self._clone() for _ in range(self.workers)]
         futures = []
-        for c, chunk in zip(self._clones, np.array_split(at, self.workers)):
+        for c, chunk in zip(self._clones, np.array_split(steps, self.workers)):
             c._same_anchor(self)
             c.forces = self.forces
-            futures.append(self._pool.submit(
-                lambda c=c, chunk=chunk: [c.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in chunk]))
-        return lambda: self._window_matrices([p for f in futures for p in f.result()], at, n)
+            futures.append(self._pool.submit(work, c, chunk))
+        return lambda: [f.result() for f in futures]
+
+    def _fresh_steps(self, at: np.ndarray, X: np.ndarray, U: np.ndarray, k0: int) -> np.ndarray:
+        """Which of the steps ``at`` (window indices) MuJoCo differentiates in this call: the first
+        ``FD_FRESH`` (they decide the control applied next), those not differentiated before or whose
+        constraints (contacts, joint limits) are not those they were differentiated with, and a
+        ``1 / reuse`` share of the others in turn, so that no step's matrices are older than ``reuse``
+        calls."""
+        import mujoco
+
+        self._fd_calls += 1
+        for k in [k for k in self._fd_cache if k < k0]:
+            del self._fd_cache[k]
+        fresh = np.ones(len(at), bool)
+        for j, i in enumerate(at):
+            k = k0 + i
+            if i < FD_FRESH or k not in self._fd_cache or (k + self._fd_calls) % self.reuse == 0:
+                continue
+            self._load(X[i, self.xs], U[i, self.us], k)
+            mujoco.mj_fwdPosition(self.mj, self.data)
+            fresh[j] = self._constraints() != self._fd_cache[k][2]
+        return fresh
+
+    def _constraints(self) -> bytes:
+        """The constraint rows MuJoCo made at the loaded state (kind and contact or limit of each)."""
+        d = self.data
+        return d.efc_type[:d.nefc].tobytes() + d.efc_id[:d.nefc].tobytes()
+
+    def _linearize_reusing(self, X: np.ndarray, U: np.ndarray, k0: int, at: np.ndarray):
+        """``linearize_start`` with ``reuse > 1``: MuJoCo's tangent-space matrices of the fresh steps
+        are kept per absolute step; the others are read back and mapped to this window's states (the
+        next state from the window itself: ``X`` is a rollout of ``U``)."""
+        fresh = self._fresh_steps(at, X, U, k0)
+
+        def work(body, chunk):
+            out = []
+            for i in chunk:
+                xb, ub = X[i, self.xs], U[i, self.us]
+                A, B = body._fd(xb, ub, k0 + i)
+                xn = body._next(xb, ub, k0 + i)  # its forward pass made the constraints at xb
+                out.append(((A.copy(), B.copy(), body._constraints()), body._minimal(A, B, xb, xn)))
+            return out
+
+        got = self._split(work, at[fresh])
+
+        def matrices():
+            done = iter(p for part in got() for p in part)
+            pairs = []
+            for i, new in zip(at, fresh):
+                k = k0 + i
+                if new:
+                    self._fd_cache[k], (A, B) = next(done)
+                else:
+                    A_t, B_t, _ = self._fd_cache[k]
+                    xb = X[i, self.xs]
+                    xn = X[i + 1, self.xs] if i + 1 < len(X) else self._next(xb, U[i, self.us], k)
+                    A, B = self._minimal(A_t.copy(), B_t.copy(), xb, xn)
+                pairs.append((A, B))
+            return self._window_matrices(pairs, at, len(U))
+
+        return matrices
+
+    def _next(self, xb: np.ndarray, ub: np.ndarray, k: int) -> np.ndarray:
+        """The next body state's positions (velocities zero) under MuJoCo's step."""
+        import mujoco
+
+        self._load(xb, ub, k)
+        mujoco.mj_step(self.mj, self.data)
+        return self.to_state(self.data.qpos)
 
     def _window_matrices(self, pairs, at: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
         """The window's (A, B) from those at steps ``at`` (interpolated between), as the stack's rows."""
@@ -364,4 +454,5 @@ class MujocoBody:
         twin.data = mujoco.MjData(self.mj)
         twin._qpos_cache = {}  # each thread its own
         twin.workers, twin._pool, twin._clones = 1, None, []
+        twin.reuse, twin._fd_cache = 1, {}  # the part it works for keeps the matrices
         return twin

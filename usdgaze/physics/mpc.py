@@ -60,6 +60,9 @@ class Options:
     first_iterations: int = 5
     workers: int = 1  # threads for the window's finite differences
     fd_stride: int = 1  # finite differences every this many steps of the window, interpolated between
+    # > 1: a step's finite differences are kept from earlier windows for up to this many solves (past the
+    # window's first dynamics.FD_FRESH steps, which are taken anew each solve); 1: every step anew
+    fd_reuse: int = 1
     stop_after_fall_s: float = 0.2  # simulation ends this long after the pelvis first stays below the bar
     weights: Weights = field(default_factory=Weights)
 
@@ -180,7 +183,7 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
     from usdgaze.planning.compose import Stacked
 
     h = options.h
-    plan = MujocoBody(model, h=h, workers=options.workers, stride=options.fd_stride)
+    plan = MujocoBody(model, h=h, workers=options.workers, stride=options.fd_stride, reuse=options.fd_reuse)
     sim = MujocoBody(model, h=h, forces=_schedule(model, pushes, h, plan.mj.nbody))
     if lead:
         Stacked([*lead, plan])
