@@ -181,32 +181,32 @@ class CatchTask:
         d, dyn, o = self.data, self.dyn, self.o
         body, palm = self.hands[self.hand or next(iter(self.hands))]
         n, nv = len(Xb), dyn.nv
-        p_hand, feet = np.empty((n, 3)), np.empty((n, 3))
-        jh, jf = (np.zeros((n, 3, nv)), np.zeros((n, 3, nv))) if jac else (None, None)
+        p_hand, feet, lat = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        jh, jf, jl = (np.zeros((n, 3, nv)), np.zeros((n, 3, nv)), np.zeros((n, nv))) if jac else (None, None, None)
         j = np.zeros((3, nv))
         for i in range(n):
             d.qpos[:], _ = dyn.to_mujoco(Xb[i])
             mujoco.mj_kinematics(dyn.mj, d)
             p_hand[i] = d.xpos[body] + d.xmat[body].reshape(3, 3) @ palm
             feet[i] = d.xpos[self.feet].mean(axis=0)
+            lat[i] = float((self.arrival[1] - feet[i]) @ self.left)
             if jac:
                 mujoco.mj_comPos(dyn.mj, d)
                 mujoco.mj_jac(dyn.mj, d, jh[i], None, p_hand[i], body)
                 for f in self.feet:
                     mujoco.mj_jacBody(dyn.mj, d, j, None, f)
                     jf[i] += j / len(self.feet)
-        target = self.arrival[1]
-        lat = (target - feet) @ self.left
+                jl[i] = -(self.left @ jf[i])  # per state: BLAS's sums as the per-step term's, bit for bit
         live = np.abs(lat) > o.lateral_free_m
         excess = np.sign(lat) * np.maximum(np.abs(lat) - o.lateral_free_m, 0.0)
-        r = np.concatenate([p_hand - target, excess[:, None]], axis=1) / o.unit_m
+        r = np.concatenate([p_hand - self.arrival[1], excess[:, None]], axis=1) / o.unit_m
         if not jac:
             return r, None
-        jl = -(self.left @ jf) * np.where(live, 1.0, 0.0)[:, None]
-        J = np.concatenate([jh, jl[:, None]], axis=1) / o.unit_m
-        rot = dyn._rot_x  # d(tangent)/dx = Jr(r) per rotation block
+        J = np.concatenate([jh, (jl * np.where(live, 1.0, 0.0)[:, None])[:, None]], axis=1) / o.unit_m
+        rot = dyn._rot_x  # d(tangent)/dx = Jr(r) per rotation block, as one stack of (4, 3) @ (3, 3)
         maps = _jr(Xb[:, rot].reshape(-1, 3), inverse=False).reshape(n, len(rot), 3, 3)
-        J[:, :, rot] = np.matmul(J[:, :, rot].transpose(0, 2, 1, 3), maps).transpose(0, 2, 1, 3)
+        blocks = np.ascontiguousarray(J[:, :, rot].transpose(0, 2, 1, 3))
+        J[:, :, rot] = np.matmul(blocks, maps).transpose(0, 2, 1, 3)
         return r, J
 
     def _weights(self, k0: int, n: int) -> np.ndarray:
@@ -218,7 +218,7 @@ class CatchTask:
         on = np.flatnonzero(w)
         if len(on):
             r, _ = self._residuals(X[on][:, self.dyn.xs], False)
-            out[on] = w[on] * np.sum(r * r, axis=1)  # the per-step r @ r, bit for bit
+            out[on] = w[on] * np.array([ri @ ri for ri in r])  # BLAS's dot, as the per-step term
         return out
 
     def derivs_batch(self, X, U, k0):
@@ -231,9 +231,10 @@ class CatchTask:
             xs, nv = self.dyn.xs, self.dyn.nv
             r, J = self._residuals(X[on][:, xs], True)
             pos = slice(xs.start, xs.start + nv)
-            wJt = (2 * w[on, None, None] * J).transpose(0, 2, 1)  # products as the per-step 2 w J' r, 2 w J' J
-            lx[on, pos] = np.matmul(wJt, r[:, :, None])[:, :, 0]
-            lxx[on, pos, pos] = np.matmul(wJt, J)
+            wJt = (2 * w[on, None, None] * J).transpose(0, 2, 1)
+            # per step, the per-step term's BLAS calls on the same layouts: its bits, not another sum order's
+            lx[on, pos] = [a @ b for a, b in zip(wJt, r)]
+            lxx[on, pos, pos] = [a @ b for a, b in zip(wJt, J)]
         return lx, np.zeros((n, nu)), lxx, np.zeros((n, nu, nu)), np.zeros((n, nu, nx))
 
     def l(self, x, u, k):
