@@ -148,8 +148,8 @@ def test_window_linearization_reusing_earlier_windows_finite_differences(body):
         reusing = MujocoBody(model, h=0.02, workers=workers, reuse=3)
         fresh = []
         for (Xw, Uw, k0), (A, B) in zip(windows, want):
-            fresh.append(reusing._fresh_steps(np.arange(n), Xw, Uw, k0))
-            reusing._fd_calls -= 1  # the call below counts itself
+            fresh.append(reusing.kept.fresh_steps(reusing, np.arange(n), Xw, Uw, k0))
+            reusing.kept.calls -= 1  # the call below counts itself
             got = reusing.linearize_start(Xw, Uw, k0)()
             assert np.array_equal(got[0], A) and np.array_equal(got[1], B)
         assert fresh[0].all()  # nothing kept yet
@@ -159,8 +159,8 @@ def test_window_linearization_reusing_earlier_windows_finite_differences(body):
     kept = MujocoBody(model, h=0.02, reuse=3)
     kept.linearize_batch(X[:n], U[:n], 0)
     Xm = X[:n] + np.r_[np.zeros(6), 1e-4 * np.ones(serial.nx - 6)]
-    skipped = np.flatnonzero(~kept._fresh_steps(np.arange(n), Xm, U[:n], 0))
-    kept._fd_calls -= 1
+    skipped = np.flatnonzero(~kept.kept.fresh_steps(kept, np.arange(n), Xm, U[:n], 0))
+    kept.kept.calls -= 1
     A_kept = kept.linearize_batch(Xm, U[:n], 0)[0]
     A_new = serial.linearize_batch(Xm, U[:n], 0)[0]
     i = skipped[0]

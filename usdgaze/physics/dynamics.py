@@ -81,8 +81,6 @@ def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 # MuJoCo's warnings of an unstable step (``mjtWarning``: mjWARN_BADQPOS, BADQVEL, BADQACC)
 _BAD = [3, 4, 5]
-# With ``reuse > 1``: the window's first steps, differentiated at every call (0.1 s at h 0.02).
-FD_FRESH = 5
 
 
 def _quiet(message: str) -> None:
@@ -115,7 +113,11 @@ class MujocoBody:
         self.forces = forces
         self.workers, self._pool, self._clones = int(workers), None, []
         self.stride = int(stride)
-        self.reuse, self._fd_cache, self._fd_calls = int(reuse), {}, 0  # see linearize_batch
+        self.kept = None  # finite differences kept across windows (``reuse > 1``, see linearize_batch)
+        if reuse > 1:
+            from usdgaze.physics.reuse import KeptDifferences
+
+            self.kept = KeptDifferences(int(reuse))
         self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
         # qpos of recent states (key: their position bytes), for this anchor: a window's rollout, its
         # costs and the head pose ask for the same rows in turn (a pure function: results unchanged).
@@ -327,7 +329,7 @@ class MujocoBody:
         every ``stride``-th step and the last, and linearly interpolated in between (the derivative
         interpolation of Han et al. 2016, which the paper's solver uses). With ``reuse > 1`` a step
         differentiated by an earlier call (the previous window, for a receding horizon) keeps its
-        matrices for up to ``reuse`` calls (see ``_fresh_steps``). With ``workers > 1`` the steps are
+        matrices for up to ``reuse`` calls (``physics.reuse``). With ``workers > 1`` the steps are
         split over threads, each with its own copy of the part (MuJoCo releases the GIL inside its
         functions)."""
         return self.linearize_start(X, U, k0)()
@@ -337,8 +339,8 @@ class MujocoBody:
         other work (the cost's expansion) before calling the result for the matrices."""
         n = len(U)
         at = np.unique(np.r_[np.arange(0, n, max(1, self.stride)), n - 1]) if n else np.zeros(0, int)
-        if self.reuse > 1:
-            return self._linearize_reusing(X, U, k0, at)
+        if self.kept is not None:
+            return self.kept.linearize_start(self, X, U, k0, at)
         work = lambda body, chunk: [body.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in chunk]  # noqa: E731
         got = self._split(work, at)
         return lambda: self._window_matrices([p for part in got() for p in part], at, n)
@@ -360,66 +362,6 @@ class MujocoBody:
             c.forces = self.forces
             futures.append(self._pool.submit(work, c, chunk))
         return lambda: [f.result() for f in futures]
-
-    def _fresh_steps(self, at: np.ndarray, X: np.ndarray, U: np.ndarray, k0: int) -> np.ndarray:
-        """Which of the steps ``at`` (window indices) MuJoCo differentiates in this call: the first
-        ``FD_FRESH`` (they decide the control applied next), those not differentiated before or whose
-        constraints (contacts, joint limits) are not those they were differentiated with, and a
-        ``1 / reuse`` share of the others in turn, so that no step's matrices are older than ``reuse``
-        calls."""
-        import mujoco
-
-        self._fd_calls += 1
-        for k in [k for k in self._fd_cache if k < k0]:
-            del self._fd_cache[k]
-        fresh = np.ones(len(at), bool)
-        for j, i in enumerate(at):
-            k = k0 + i
-            if i < FD_FRESH or k not in self._fd_cache or (k + self._fd_calls) % self.reuse == 0:
-                continue
-            self._load(X[i, self.xs], U[i, self.us], k)
-            mujoco.mj_fwdPosition(self.mj, self.data)
-            fresh[j] = self._constraints() != self._fd_cache[k][2]
-        return fresh
-
-    def _constraints(self) -> bytes:
-        """The constraint rows MuJoCo made at the loaded state (kind and contact or limit of each)."""
-        d = self.data
-        return d.efc_type[:d.nefc].tobytes() + d.efc_id[:d.nefc].tobytes()
-
-    def _linearize_reusing(self, X: np.ndarray, U: np.ndarray, k0: int, at: np.ndarray):
-        """``linearize_start`` with ``reuse > 1``: MuJoCo's tangent-space matrices of the fresh steps
-        are kept per absolute step; the others are read back and mapped to this window's states (the
-        next state from the window itself: ``X`` is a rollout of ``U``)."""
-        fresh = self._fresh_steps(at, X, U, k0)
-
-        def work(body, chunk):
-            out = []
-            for i in chunk:
-                xb, ub = X[i, self.xs], U[i, self.us]
-                A, B = body._fd(xb, ub, k0 + i)
-                xn = body._next(xb, ub, k0 + i)  # its forward pass made the constraints at xb
-                out.append(((A.copy(), B.copy(), body._constraints()), body._minimal(A, B, xb, xn)))
-            return out
-
-        got = self._split(work, at[fresh])
-
-        def matrices():
-            done = iter(p for part in got() for p in part)
-            pairs = []
-            for i, new in zip(at, fresh):
-                k = k0 + i
-                if new:
-                    self._fd_cache[k], (A, B) = next(done)
-                else:
-                    A_t, B_t, _ = self._fd_cache[k]
-                    xb = X[i, self.xs]
-                    xn = X[i + 1, self.xs] if i + 1 < len(X) else self._next(xb, U[i, self.us], k)
-                    A, B = self._minimal(A_t.copy(), B_t.copy(), xb, xn)
-                pairs.append((A, B))
-            return self._window_matrices(pairs, at, len(U))
-
-        return matrices
 
     def _next(self, xb: np.ndarray, ub: np.ndarray, k: int) -> np.ndarray:
         """The next body state's positions (velocities zero) under MuJoCo's step."""
@@ -454,5 +396,5 @@ class MujocoBody:
         twin.data = mujoco.MjData(self.mj)
         twin._qpos_cache = {}  # each thread its own
         twin.workers, twin._pool, twin._clones = 1, None, []
-        twin.reuse, twin._fd_cache = 1, {}  # the part it works for keeps the matrices
+        twin.kept = None  # the part it works for keeps the matrices
         return twin

@@ -61,7 +61,7 @@ class Options:
     workers: int = 1  # threads for the window's finite differences
     fd_stride: int = 1  # finite differences every this many steps of the window, interpolated between
     # > 1: a step's finite differences are kept from earlier windows for up to this many solves (past the
-    # window's first dynamics.FD_FRESH steps, which are taken anew each solve); 1: every step anew
+    # window's first reuse.FD_FRESH steps, which are taken anew each solve); 1: every step anew
     fd_reuse: int = 1
     stop_after_fall_s: float = 0.2  # simulation ends this long after the pelvis first stays below the bar
     weights: Weights = field(default_factory=Weights)
