@@ -12,16 +12,16 @@ from usdgaze.planning.kinbody import KinematicBody
 from usdgaze.vision import eye as eyemod
 from usdgaze.vision.belief import SLOT, Belief, VisionParams, kalman_update
 from usdgaze.vision.costs import AttendCost
-from usdgaze.vision.loop import LoopOptions, Thing, run
+from usdgaze.vision.loop import Filters, LoopOptions, Thing, run
 
 H = 0.025
 
 
-def _problem(pos_a, pos_b, seed=0):
+def _problem(pos_a, pos_b, seed=0, radii=None):
     body = KinematicBody(_base_chain(seed=seed), H)
     eye = eyemod.Eye(H)
     sight = eyemod.Sight(eye, body)
-    belief = Belief(2, [[0, 0, -9.81], [0, 0, 0]], VisionParams(0.2, 0.3, H), sight)
+    belief = Belief(2, [[0, 0, -9.81], [0, 0, 0]], VisionParams(0.2, 0.3, H), sight, radii)
     stack = Stacked([eye, body, belief])
     rng = np.random.default_rng(seed)
     x = np.zeros(stack.nx)
@@ -34,11 +34,25 @@ def _problem(pos_a, pos_b, seed=0):
     return stack, sight, x, rng.normal(0, 1, stack.nu)
 
 
-@pytest.mark.parametrize("where", ["in view", "at the edge of the field of view"])
+def _at_the_edge(radius: float) -> np.ndarray:
+    """A point 1.8 m from the eyes of ``_problem``'s pose, 60 deg plus a ``radius`` sphere's angular
+    radius off its line of sight (step 0)."""
+    _, sight, x, _ = _problem([2.0, 0.3, 1.6], [1.5, -0.5, 1.5])
+    pps, p, _ = (a[0] for a in sight.points(x[None], 0))
+    axis = (pps - p) / np.linalg.norm(pps - p)
+    side = np.cross(axis, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    a = np.radians(60.0) + np.arcsin(radius / 1.8)
+    return p + 1.8 * (np.cos(a) * axis + np.sin(a) * side)
+
+
+@pytest.mark.parametrize("where", ["in view", "at the edge of the field of view", "a sphere at the edge"])
 def test_stacked_eye_body_belief_derivatives(where):
-    # an object near the +-60 deg edge exercises the visibility weight's derivative
-    b = [1.0, 1.6, 1.6] if where != "in view" else [1.5, -0.5, 1.5]
-    stack, _, x, u = _problem([2.0, 0.3, 1.6], b)
+    # an object near the +-60 deg edge (a point, or a sphere by its angular radius) exercises the
+    # visibility weight's derivative through the line of sight, the eyes and the object's distance
+    radius = 0.3 if where == "a sphere at the edge" else 0.0
+    b = [1.5, -0.5, 1.5] if where == "in view" else _at_the_edge(radius)
+    stack, _, x, u = _problem([2.0, 0.3, 1.6], b, radii=[0.0, radius])
     for k in (0, 3):
         fx, fu = stack.linearize(x, u, k)
         assert _rel_err(fx, _fd(lambda y: stack.step(y, u, k), x)) <= 1e-4
@@ -108,6 +122,23 @@ def test_every_planner_solve_decreases_its_cost_monotonically():
     res = run(base, balls, LoopOptions(h=H, window_s=0.3), K)
     assert all(np.all(np.diff(c) < 0) for c in res.solves)
     assert sum(len(c) > 1 for c in res.solves) >= K // 2  # most solves took at least one step
+
+
+def test_a_sphere_is_in_view_when_any_part_of_it_is_within_60_deg_of_the_line_of_sight():
+    """Geometry by hand: a 25 cm sphere 1.2 m away subtends asin(0.25 / 1.2) = 12.02 deg, so it is seen
+    with its centre up to 72.0 deg off the line of sight; a point only to 60 deg. The line of sight
+    (eyes to the point of sight), not the head, is the axis: looking 30 deg left sees 90 deg left."""
+    def at(deg: float, dist: float = 1.2) -> np.ndarray:  # in the ground plane, degrees left of +X
+        return dist * np.array([np.cos(np.radians(deg)), np.sin(np.radians(deg)), 0.0])
+
+    def seen(pos, radius, sight_deg=0.0):
+        thing = Thing("o", np.array([pos]), radius=radius)
+        return bool(Filters([thing], LoopOptions(h=H)).sense(0, np.zeros(3), at(sight_deg, 2.0))[0])
+
+    assert seen(at(71.5), 0.25) and not seen(at(72.5), 0.25)  # 12.02 deg wider for the sphere
+    assert seen(at(59.5), 0.0) and not seen(at(60.5), 0.0) and not seen(at(71.5), 0.0)  # a point: 60 deg
+    assert not seen(at(-71.5), 0.25, sight_deg=30.0) and seen(at(89.5), 0.0, sight_deg=30.0)
+    assert seen(at(101.5), 0.25, sight_deg=30.0) and not seen(at(102.5), 0.25, sight_deg=30.0)
 
 
 def test_at_most_four_objects_in_the_optimization_the_nearest_in_view_all_updated():

@@ -8,8 +8,8 @@ the tasks. Two processes, as in the paper and ``vision/loop.py``: inside the opt
 mean is its expectation (deterministic) and no external force is known; the simulation draws seeded
 observations, applies the Kalman update, the pushes, and the eye's speed and range limits.
 
-Each step k: sense from the simulated head (field of view, observation noise from the true distance
-to the point of sight), choose the tracked objects, let tasks read the belief (``perceive``), seed the
+Each step k: sense from the simulated head (field of view about the line of sight, each object's
+radius, observation noise from the true distance to the point of sight), choose the tracked objects, let tasks read the belief (``perceive``), seed the
 window with look-at proposals (as ``vision.loop``), solve, apply the first control to the simulated
 body and eye. Objects are in the model's world (metres, Z up). The loop itself is ``mpc.run`` (the body-only
 controller's): the same target (the reference with its toes out of the ground), solver restarts, measures
@@ -81,7 +81,8 @@ class _Problem:
         things = filters.things
         self.sight = eyemod.Sight(eye, plan)
         accel = np.array([things[j].accel for j in slots]).reshape(-1, 3)
-        self.stack = Stacked([eye, plan, Belief(len(slots), accel, filters.params, self.sight)])
+        radii = [things[j].radius for j in slots]
+        self.stack = Stacked([eye, plan, Belief(len(slots), accel, filters.params, self.sight, radii)])
         imp = np.array([things[j].importance_at(k) for j in slots])
         # The eye's energy only: the body's torques are priced by BodyTracking in N m.
         u_scale = np.r_[np.ones(eye.nu), np.zeros(plan.nu)]
@@ -154,8 +155,8 @@ def _sense(k: int, e: np.ndarray, xb: np.ndarray, eye, plan, filters: loop.Filte
     """Observe from the simulated head, record eye, sight and belief at step k; the slots to plan for."""
     sight = eyemod.Sight(eye, plan)
     x_pose = np.concatenate([e, xb])
-    pps, p_eyes, R = (a[0] for a in sight.points(x_pose[None], k))
-    vis.visible[k] = filters.sense(k, p_eyes, R[:, 0], pps)
+    pps, p_eyes, _ = (a[0] for a in sight.points(x_pose[None], k))
+    vis.visible[k] = filters.sense(k, p_eyes, pps)
     vis.eye[k], vis.sight[k], vis.eyes[k] = e, pps, p_eyes
     for j in filters.mu:
         vis.estimate[k, j] = filters.mu[j][:3]

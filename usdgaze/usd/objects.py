@@ -30,6 +30,12 @@ class StageObject:
     importance: np.ndarray  # (K,) > 0
     radius: float
     kind: str
+    sized: bool = False  # the radius is authored (not the schema's fallback)
+
+    @property
+    def view_radius(self) -> float:
+        """The size the field of view sees: the authored radius; without one a point (0)."""
+        return self.radius if self.sized else 0.0
 
 
 def _attr(prim: Usd.Prim, name: str, default, where: str):
@@ -142,7 +148,8 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
     for prim in prims:
         where = f"{source}:{prim.GetPath()}"
         importance = _importance(prim, time_codes, where)
-        radius = float(_attr(prim, "gaze:object:radius", 0.1, where))
+        authored = _attr(prim, "gaze:object:radius", None, where)
+        radius = 0.1 if authored is None else float(authored)
         kind = str(_attr(prim, "gaze:object:kind", "", where))
         if not np.all(np.isfinite(importance)) or np.any(importance <= 0):
             bad = importance[~(np.isfinite(importance) & (importance > 0))][0]
@@ -154,5 +161,5 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
         pos = _positions(prim, time_codes, caches) * meters_per_unit
         if not np.all(np.isfinite(pos)):
             raise UsdGazeError(f"{where}: its world transform is not finite at some time")
-        out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind))
+        out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind, authored is not None))
     return out

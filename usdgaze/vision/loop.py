@@ -5,8 +5,8 @@ grid (t_k = k h, metres); outputs are the eye pose, the chain offsets, the point
 object's estimate and uncertainty per step.
 
 Each step k:
-1. sense: an object is observed when its true position is inside the +-60 deg field of view of the
-   head; z = p + N(0, r I) from a seeded generator, r from the true distance to the point of sight.
+1. sense: an object is observed when some part of it (its radius; 0 a point) is inside the +-60 deg
+   field of view about the line of sight (``belief.in_view``); z = p + N(0, r I) from a seeded generator, r from the true distance to the point of sight.
    A newly seen object starts a filter; a known one gets the Kalman update (prediction only when
    unseen); one whose sigma_p exceeds ``drop_sigma`` is forgotten until seen again.
 2. choose at most ``max_tracked`` known objects for the optimization: highest importance first, then
@@ -30,7 +30,7 @@ from usdgaze.planning import ddp
 from usdgaze.planning.compose import Stacked
 from usdgaze.planning.kinbody import BaseChain, KinematicBody
 from usdgaze.vision import eye as eyemod
-from usdgaze.vision.belief import GRAVITY, Belief, VisionParams, in_view, kalman_update, noise
+from usdgaze.vision.belief import GRAVITY, Belief, VisionParams, in_view, kalman_update, noise, view_axis
 from usdgaze.vision.costs import AttendCost, Weights
 
 MODES = ("uncertainty", "distance", "sequential")
@@ -42,12 +42,13 @@ PROPOSAL_SPEED = 0.97  # of the speed bound
 
 @dataclass
 class Thing:
-    """One object: true positions per planner step (K, 3) in metres, importance (scalar or (K,)), radius, kind."""
+    """One object: true positions per planner step (K, 3) in metres, importance (scalar or (K,)), radius
+    (m, its size for the field of view; 0: a point), kind."""
 
     name: str
     positions: np.ndarray
     importance: float | np.ndarray = 1.0
-    radius: float = 0.1
+    radius: float = 0.0
     kind: str = ""
 
     @property
@@ -104,11 +105,13 @@ class Filters:
         self.rng = np.random.default_rng(opts.seed)
         self.age: dict[int, int] = {}
 
-    def sense(self, k: int, eyes: np.ndarray, forward: np.ndarray, pps: np.ndarray) -> np.ndarray:
+    def sense(self, k: int, eyes: np.ndarray, pps: np.ndarray) -> np.ndarray:
+        """Observe every object in view from ``eyes`` looking at ``pps``; which were seen."""
         seen = np.zeros(len(self.things), bool)
+        axis = view_axis(pps, eyes)
         for j, th in enumerate(self.things):
             p = th.positions[min(k, len(th.positions) - 1)]
-            seen[j] = bool(in_view(p, eyes, forward))
+            seen[j] = bool(in_view(p, eyes, axis, th.radius))
             z = r = None
             if seen[j]:
                 r = float(noise(pps, p, self.opts.eta)[0])
@@ -217,8 +220,8 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         sight = eyemod.Sight(eye, body)
         Stacked([eye, body])  # bind slices for the sensing pose
         x_pose = np.concatenate([e, qb])
-        pps, p_eyes, R = (a[0] for a in sight.points(x_pose[None], k))
-        out.visible[k] = filters.sense(k, p_eyes, R[:, 0], pps)
+        pps, p_eyes, _ = (a[0] for a in sight.points(x_pose[None], k))
+        out.visible[k] = filters.sense(k, p_eyes, pps)
         out.eyes[k] = p_eyes
         for j in filters.mu:
             out.estimate[k, j] = filters.mu[j][:3]
@@ -227,7 +230,8 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
                 done.add(j)
         slots = filters.choose(k, p_eyes, out.visible[k])
         out.optimized[k, slots] = True
-        belief = Belief(len(slots), np.array([things[j].accel for j in slots]).reshape(-1, 3), filters.params, sight)
+        belief = Belief(len(slots), np.array([things[j].accel for j in slots]).reshape(-1, 3), filters.params, sight,
+                        [things[j].radius for j in slots])
         stack = Stacked([eye, body, belief])
         x = np.concatenate([e, qb] + [np.concatenate([filters.mu[j], filters.sig[j]]) for j in slots])
         target = _arrival_order_target(filters, slots, p_eyes, done, locked) if opts.mode == "sequential" else 0
