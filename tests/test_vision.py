@@ -36,10 +36,10 @@ def _problem(pos_a, pos_b, seed=0, radii=None):
 
 def _at_the_edge(radius: float) -> np.ndarray:
     """A point 1.8 m from the eyes of ``_problem``'s pose, 60 deg plus a ``radius`` sphere's angular
-    radius off its line of sight (step 0)."""
+    radius off the head's forward (step 0)."""
     _, sight, x, _ = _problem([2.0, 0.3, 1.6], [1.5, -0.5, 1.5])
-    pps, p, _ = (a[0] for a in sight.points(x[None], 0))
-    axis = (pps - p) / np.linalg.norm(pps - p)
+    _, p, R = (a[0] for a in sight.points(x[None], 0))
+    axis = R[:, 0]
     side = np.cross(axis, [0.0, 0.0, 1.0])
     side /= np.linalg.norm(side)
     a = np.radians(60.0) + np.arcsin(radius / 1.8)
@@ -49,7 +49,7 @@ def _at_the_edge(radius: float) -> np.ndarray:
 @pytest.mark.parametrize("where", ["in view", "at the edge of the field of view", "a sphere at the edge"])
 def test_stacked_eye_body_belief_derivatives(where):
     # an object near the +-60 deg edge (a point, or a sphere by its angular radius) exercises the
-    # visibility weight's derivative through the line of sight, the eyes and the object's distance
+    # visibility weight's derivative through the head's forward, the eyes and the object's distance
     radius = 0.3 if where == "a sphere at the edge" else 0.0
     b = [1.5, -0.5, 1.5] if where == "in view" else _at_the_edge(radius)
     stack, _, x, u = _problem([2.0, 0.3, 1.6], b, radii=[0.0, radius])
@@ -124,21 +124,24 @@ def test_every_planner_solve_decreases_its_cost_monotonically():
     assert sum(len(c) > 1 for c in res.solves) >= K // 2  # most solves took at least one step
 
 
-def test_a_sphere_is_in_view_when_any_part_of_it_is_within_60_deg_of_the_line_of_sight():
+def test_a_sphere_is_in_view_when_any_part_of_it_is_within_60_deg_of_the_head_forward():
     """Geometry by hand: a 25 cm sphere 1.2 m away subtends asin(0.25 / 1.2) = 12.02 deg, so it is seen
-    with its centre up to 72.0 deg off the line of sight; a point only to 60 deg. The line of sight
-    (eyes to the point of sight), not the head, is the axis: looking 30 deg left sees 90 deg left."""
+    with its centre up to 72.0 deg off the head's forward; a point only to 60 deg. The head, not the
+    line of sight, is the axis: the eyes looking 40 deg left see no further left."""
     def at(deg: float, dist: float = 1.2) -> np.ndarray:  # in the ground plane, degrees left of +X
         return dist * np.array([np.cos(np.radians(deg)), np.sin(np.radians(deg)), 0.0])
 
-    def seen(pos, radius, sight_deg=0.0):
+    def seen(pos, radius, head_deg=0.0, sight_deg=0.0):
         thing = Thing("o", np.array([pos]), radius=radius)
-        return bool(Filters([thing], LoopOptions(h=H)).sense(0, np.zeros(3), at(sight_deg, 2.0))[0])
+        filters = Filters([thing], LoopOptions(h=H))
+        return bool(filters.sense(0, np.zeros(3), at(head_deg, 1.0), at(sight_deg, 2.0))[0])
 
     assert seen(at(71.5), 0.25) and not seen(at(72.5), 0.25)  # 12.02 deg wider for the sphere
     assert seen(at(59.5), 0.0) and not seen(at(60.5), 0.0) and not seen(at(71.5), 0.0)  # a point: 60 deg
-    assert not seen(at(-71.5), 0.25, sight_deg=30.0) and seen(at(89.5), 0.0, sight_deg=30.0)
-    assert seen(at(101.5), 0.25, sight_deg=30.0) and not seen(at(102.5), 0.25, sight_deg=30.0)
+    # 0.6 m away it subtends asin(0.25 / 0.6) = 24.62 deg: seen to 84.6 deg, on either side
+    assert seen(at(-84.0, 0.6), 0.25) and not seen(at(-85.0, 0.6), 0.25)
+    assert not seen(at(72.5), 0.25, sight_deg=40.0) and not seen(at(60.5), 0.0, sight_deg=40.0)
+    assert seen(at(101.5), 0.25, head_deg=30.0) and not seen(at(102.5), 0.25, head_deg=30.0)
 
 
 def test_at_most_four_objects_in_the_optimization_the_nearest_in_view_all_updated():

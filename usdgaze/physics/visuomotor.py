@@ -8,9 +8,9 @@ the tasks. Two processes, as in the paper and ``vision/loop.py``: inside the opt
 mean is its expectation (deterministic) and no external force is known; the simulation draws seeded
 observations, applies the Kalman update, the pushes, and the eye's speed and range limits.
 
-Each step k: sense from the simulated head (field of view about the line of sight, each object's
-radius, observation noise from the true distance to the point of sight), choose the tracked objects, let tasks read the belief (``perceive``), seed the
-window with look-at proposals (as ``vision.loop``), solve, apply the first control to the simulated
+Each step k: sense from the simulated head (field of view, each object's radius, observation noise
+from the true distance to the point of sight), choose the tracked objects, let tasks read the belief
+(``perceive``), seed the window with look-at proposals (as ``vision.loop``), solve, apply the first control to the simulated
 body and eye. Objects are in the model's world (metres, Z up). The loop itself is ``mpc.run`` (the body-only
 controller's): the same target (the reference with its toes out of the ground), solver restarts, measures
 and stop after a fall; this module adds the eyes and the belief as an ``mpc.Controller``.
@@ -155,8 +155,8 @@ def _sense(k: int, e: np.ndarray, xb: np.ndarray, eye, plan, filters: loop.Filte
     """Observe from the simulated head, record eye, sight and belief at step k; the slots to plan for."""
     sight = eyemod.Sight(eye, plan)
     x_pose = np.concatenate([e, xb])
-    pps, p_eyes, _ = (a[0] for a in sight.points(x_pose[None], k))
-    vis.visible[k] = filters.sense(k, p_eyes, pps)
+    pps, p_eyes, R = (a[0] for a in sight.points(x_pose[None], k))
+    vis.visible[k] = filters.sense(k, p_eyes, R[:, 0], pps)
     vis.eye[k], vis.sight[k], vis.eyes[k] = e, pps, p_eyes
     for j in filters.mu:
         vis.estimate[k, j] = filters.mu[j][:3]

@@ -17,13 +17,14 @@ r = r0 + 1 - exp(-D / eta), with D smoothed at 0 (sqrt(D^2 + eps^2) - eps) so it
 differentiable and r0 keeping the gain finite; the paper's formula is partly garbled in our copy, this
 is its legible part: 0 at the fovea, rising to 1 far from it, eta the fovea constant.
 
-Field of view. The paper's -60..60 deg is "the human's field of view for binocular vision" (Henson
-2000), a visual field: measured about the line of sight (perimetry holds the fixation), so it turns
-with the eyes (``view_axis``: the eyes' midpoint to the point of sight), not only with the head. An
-object is in view when any part of it is: its angle off the line of sight, less its angular radius
-``asin(radius / distance)`` (``angular_radius``; radius 0 is a point), is within 60 deg. Outside it
-there is no observation: the simulation skips the update, the planner adds ``R_OUT`` smoothly,
-(1 - vis) R_OUT with vis a logistic of the angle.
+Field of view. The paper's -60..60 deg is "the character's field of view", "the human's field of
+view for binocular vision" (Henson 2000): measured about the head's forward from the eyes' midpoint
+(docs/attend.md says why not the line of sight: the binocular field's edges are the nose's and the
+brows', which stay with the head when the eyes turn). An object is in view when any part of it is:
+its angle off the head's forward, less its angular radius ``asin(radius / distance)``
+(``angular_radius``; radius 0 is a point), is within 60 deg. Outside it there is no observation:
+the simulation skips the update, the planner adds ``R_OUT`` smoothly, (1 - vis) R_OUT with vis a
+logistic of the angle.
 
 Units. The paper gives r in [0, 1) and alpha as bare numbers. Covariances here are kept in units of
 ``unit_m`` squared (0.1 m: r = 1 is an observation error of 10 cm standard deviation): the
@@ -44,7 +45,7 @@ import numpy as np
 
 from usdgaze.planning.compose import Part
 
-FOV = np.radians(60.0)  # half the field of view, about the line of sight
+FOV = np.radians(60.0)  # half the field of view, about the head's forward
 VIS_WIDTH = 0.03  # logistic width in cos(angle): ~ +-3 deg around the edge of the field of view
 R_OUT = 50.0
 R0 = 1e-4
@@ -99,21 +100,6 @@ def noise(pps: np.ndarray, pos: np.ndarray, eta: float):
     return R0 + 1.0 - e, (e / (eta * ds))[..., None] * diff
 
 
-def view_axis(pps: np.ndarray, eyes: np.ndarray) -> np.ndarray:
-    """The field of view's axis: the unit line of sight, eyes' midpoint to the point of sight."""
-    v = pps - eyes
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
-
-
-def view_axis_jacobian(pps: np.ndarray, eyes: np.ndarray, d_pps: np.ndarray, d_eyes: np.ndarray):
-    """The unit line of sight (N, 3) and its Jacobian (N, 3, NX) from those of its two points."""
-    v = pps - eyes
-    n = np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
-    z = v / n
-    proj = (np.eye(3) - z[:, :, None] * z[:, None, :]) / n[:, :, None]
-    return z, np.einsum("nij,njx->nix", proj, d_pps - d_eyes)
-
-
 def angular_radius(dist: np.ndarray, radius) -> tuple[np.ndarray, np.ndarray]:
     """asin(radius / dist), the half-angle a sphere subtends (pi/2 with the eyes inside it), and its
     derivative in dist (0 where the radius is 0 or the eyes are inside)."""
@@ -134,7 +120,8 @@ def _edge(n: np.ndarray, radius):
 
 
 def visibility(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray, radius=0.0):
-    """Smooth in-view weight, and its gradients w.r.t. pos (= -w.r.t. eyes) and forward (the view axis)."""
+    """Smooth in-view weight of a sphere (``radius``; 0 a point), and its gradients w.r.t. pos (= -w.r.t.
+    eyes) and forward (the head's)."""
     v = pos - eyes
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     n = np.maximum(n, 1e-9)
@@ -148,7 +135,7 @@ def visibility(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray, radius=0.
 
 def in_view(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray, radius=0.0) -> np.ndarray:
     """The hard test the simulation uses: some part of the sphere (centre ``pos``, ``radius``; 0 a point)
-    within 60 deg of ``forward`` (the view axis) seen from ``eyes``."""
+    within 60 deg of ``forward`` (the head's) seen from ``eyes``."""
     v = pos - eyes
     n = np.maximum(np.linalg.norm(v, axis=-1), 1e-9)
     c = np.sum(v * forward, -1) / n
@@ -189,19 +176,17 @@ class Belief(Part):
     def _r(self, X, k0, with_jac: bool):
         mp, _, s = self._split(X)
         if with_jac:
-            pps, p, _, J, dp, _ = self.sight.jacobian(X, k0)
-            axis, d_axis = view_axis_jacobian(pps, p, J, dp)
+            pps, p, R, J, dp, dR = self.sight.jacobian(X, k0)
         else:
-            pps, p, _ = self.sight.points(X, k0)
-            axis = view_axis(pps, p)
+            pps, p, R = self.sight.points(X, k0)
         r_d, g_pps = noise(pps[:, None], mp, self.params.eta)
-        vis, g_pos, g_fwd = visibility(mp, p[:, None], axis[:, None], self.radii)
+        vis, g_pos, g_fwd = visibility(mp, p[:, None], R[:, None, :, 0], self.radii)
         r = r_d + (1 - vis) * R_OUT
         if not with_jac:
             return s, r
-        # dr/dx (N, n, NX): through the point of sight, the object estimate, the eyes and the line of sight
+        # dr/dx (N, n, NX): through the point of sight, the object estimate, the eyes and the head forward
         dr = np.einsum("nsi,nix->nsx", g_pps, J)
-        dr -= R_OUT * (np.einsum("nsi,nix->nsx", -g_pos, dp) + np.einsum("nsi,nix->nsx", g_fwd, d_axis))
+        dr -= R_OUT * (np.einsum("nsi,nix->nsx", -g_pos, dp) + np.einsum("nsi,nix->nsx", g_fwd, dR[:, :, 0]))
         d_pos = -g_pps - R_OUT * g_pos
         cols = self.xs.start + SLOT * np.arange(self.n)[:, None] + np.arange(3)
         for j in range(self.n):
@@ -216,9 +201,9 @@ class Belief(Part):
         i = np.arange(N)[:, None, None]
         mv = B0[None, :, 3:6] + i * h * self.accel[None]
         mp = B0[None, :, :3] + i * h * B0[None, :, 3:6] + h * h * (i * (i - 1) / 2) * self.accel[None]
-        pps, p, _ = self.sight.points(X, k0)
+        pps, p, R = self.sight.points(X, k0)
         r = noise(pps[:, None], mp, self.params.eta)[0]
-        vis = visibility(mp, p[:, None], view_axis(pps, p)[:, None], self.radii)[0]
+        vis = visibility(mp, p[:, None], R[:, None, :, 0], self.radii)[0]
         r = r + (1 - vis) * R_OUT
         # The covariance recursion is sequential and each object's is a few scalars: plain Python floats
         # do the same IEEE operations in the same order as numpy would, without a ufunc call per operation.
@@ -240,9 +225,9 @@ class Belief(Part):
         h, a = self.params.h, self.params.q
         B = x[self.xs].reshape(self.n, SLOT)
         mp, mv, s = B[:, :3], B[:, 3:6], B[:, 6:9]
-        pps, p, _ = self.sight.point(x, k)
+        pps, p, R = self.sight.point(x, k)
         r = noise(pps, mp, self.params.eta)[0]
-        r = r + R_OUT * (1.0 - visibility(mp, p, view_axis(pps, p), self.radii)[0])
+        r = r + R_OUT * (1.0 - visibility(mp, p, R[:, 0], self.radii)[0])
         sp = s[:, 0] + 2 * h * s[:, 2] + h * h * s[:, 1] + a
         sv = s[:, 1] + a
         spv = s[:, 2] + h * s[:, 1]

@@ -6,7 +6,7 @@ object's estimate and uncertainty per step.
 
 Each step k:
 1. sense: an object is observed when some part of it (its radius; 0 a point) is inside the +-60 deg
-   field of view about the line of sight (``belief.in_view``); z = p + N(0, r I) from a seeded generator, r from the true distance to the point of sight.
+   field of view of the head (``belief.in_view``); z = p + N(0, r I) from a seeded generator, r from the true distance to the point of sight.
    A newly seen object starts a filter; a known one gets the Kalman update (prediction only when
    unseen); one whose sigma_p exceeds ``drop_sigma`` is forgotten until seen again.
 2. choose at most ``max_tracked`` known objects for the optimization: highest importance first, then
@@ -30,7 +30,7 @@ from usdgaze.planning import ddp
 from usdgaze.planning.compose import Stacked
 from usdgaze.planning.kinbody import BaseChain, KinematicBody
 from usdgaze.vision import eye as eyemod
-from usdgaze.vision.belief import GRAVITY, Belief, VisionParams, in_view, kalman_update, noise, view_axis
+from usdgaze.vision.belief import GRAVITY, Belief, VisionParams, in_view, kalman_update, noise
 from usdgaze.vision.costs import AttendCost, Weights
 
 MODES = ("uncertainty", "distance", "sequential")
@@ -105,13 +105,12 @@ class Filters:
         self.rng = np.random.default_rng(opts.seed)
         self.age: dict[int, int] = {}
 
-    def sense(self, k: int, eyes: np.ndarray, pps: np.ndarray) -> np.ndarray:
-        """Observe every object in view from ``eyes`` looking at ``pps``; which were seen."""
+    def sense(self, k: int, eyes: np.ndarray, forward: np.ndarray, pps: np.ndarray) -> np.ndarray:
+        """Observe every object in view from ``eyes`` (head ``forward``) looking at ``pps``; which were seen."""
         seen = np.zeros(len(self.things), bool)
-        axis = view_axis(pps, eyes)
         for j, th in enumerate(self.things):
             p = th.positions[min(k, len(th.positions) - 1)]
-            seen[j] = bool(in_view(p, eyes, axis, th.radius))
+            seen[j] = bool(in_view(p, eyes, forward, th.radius))
             z = r = None
             if seen[j]:
                 r = float(noise(pps, p, self.opts.eta)[0])
@@ -220,8 +219,8 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         sight = eyemod.Sight(eye, body)
         Stacked([eye, body])  # bind slices for the sensing pose
         x_pose = np.concatenate([e, qb])
-        pps, p_eyes, _ = (a[0] for a in sight.points(x_pose[None], k))
-        out.visible[k] = filters.sense(k, p_eyes, pps)
+        pps, p_eyes, R = (a[0] for a in sight.points(x_pose[None], k))
+        out.visible[k] = filters.sense(k, p_eyes, R[:, 0], pps)
         out.eyes[k] = p_eyes
         for j in filters.mu:
             out.estimate[k, j] = filters.mu[j][:3]
