@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Sdf
+from pxr import Sdf, Usd
 
 from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import build, mpc, obstacles, retarget, stones
@@ -26,7 +26,7 @@ from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.tracking import resample
 
 from . import measure, stone_stages
-from .attend_support import compose
+from .attend_support import compose, positions
 from .obstacle_stages import RADIUS_M, add_objects, cut, gaps, obstacle_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,7 +40,7 @@ TOES = ("LeftToe", "RightToe")
 # (displaced 10 cm, its first shuffle lands 7-13 cm off: docs/physics.md).
 SHIFT = {"LeftToe": 0.0, "RightToe": 0.15}
 TOWARD = np.array([-0.975, 0.0, 0.223])  # the stage's -X, 13 deg toward +Z
-OBSTACLE_SEED = 2  # spheres from ahead (obstacle_stages.crossing): the reference walks 7 cm into one
+OBSTACLE_SEED = 6  # spheres from ahead (obstacle_stages.crossing): the reference walks 24 cm into one
 
 
 def contacts(posed: measure.Posed, toe: str, tcps: float) -> list[tuple[int, int]]:
@@ -142,24 +142,52 @@ def test_the_gaze_reaches_each_stone_before_the_foot_that_steps_on_it_lifts(tmp_
     assert all(r.reached for r in rows), rows
 
 
+def _first_estimate(layer: Sdf.Layer, obj: str) -> float:
+    """The first time code at which the written inspection prims hold an estimate of ``obj``."""
+    for char in layer.GetPrimAtPath("/UsdGazeAttend").nameChildren:
+        for child in char.nameChildren:
+            if child.attributes["gaze:attend:object"].default == obj:
+                est = child.attributes["gaze:attend:estimate"].path
+                return next(t for t in layer.ListTimeSamplesForPath(est)
+                            if np.all(np.isfinite(layer.QueryTimeSample(est, t))))
+    raise AssertionError(f"no inspection prim for {obj}")
+
+
 def test_approaching_obstacles_the_reference_walks_into_are_seen_and_not_touched(tmp_path):
-    """One of the five seeded runs of the bar (docs/physics.md: contact in 1 of the 5 approaching
-    scenes, by a sphere never in view, so the bar is not met): with the eyes and belief coupled and
-    the cost on the body's capsules, two spheres coming at the walker from ahead, one of which the
-    reference walks 7 cm deep into; the simulated body, by UsdSkel FK on the written layer, clears
-    both (by 22.9 cm when measured), does not fall, and the report agrees."""
+    """One of the five seeded runs of the bar (docs/physics.md: no contact in the 5 approaching
+    scenes): with the eyes and belief coupled and the cost on the body's capsules, two spheres coming
+    at the walker from ahead, both of which the reference walks into (24 and 9 cm deep). The shallower
+    one starts 66 deg off the head's forward, 1.2 m away: only its edge (asin(0.25 / 1.2) = 12 deg) is
+    in the field of view, and it is tracked from the first frame (the written inspection prims, the
+    angle by UsdSkel FK of the written head; as a point it was never seen before it touched,
+    docs/physics.md). The simulated body, by UsdSkel FK on the written layer, clears both (by 6.0 cm
+    when measured), does not fall, and the report agrees."""
     src, prims = obstacle_scene(tmp_path, OBSTACLE_SEED, toward=True)
     ref = measure.posed(str(src), SKEL)
-    assert gaps(ref, src, prims, RADIUS_M).min() < -0.05  # the reference walks into one
+    assert gaps(ref, src, prims, RADIUS_M).min() < -0.2  # the reference walks into one
     out = tmp_path / "avoided.usda"
     report = physics_pass.run(src, out, OPTIONS)[0]
     composed = compose(tmp_path, src, out)
-    after = gaps(measure.posed(str(composed), SKEL), composed, prims, RADIUS_M)
+    posed = measure.posed(str(composed), SKEL)
+    after = gaps(posed, composed, prims, RADIUS_M)
     assert after.min() > 0 and not report.fell, (after.min(), report.problems)
-    frames = Sdf.Layer.FindOrOpen(str(out)).customLayerData["usdgaze:physics"][SKEL]["frames"]
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    frames = layer.customLayerData["usdgaze:physics"][SKEL]["frames"]
     assert max(frames["obstacles.proximity"][1:]) > 0.1  # the belief saw them coming
     touched = min(frames["obstacles.clearanceM"][1:]) < 0
     assert touched == any("touched an obstacle" in p for p in report.problems)
+    # At the first frame, by UsdSkel FK of the written head: the sphere farthest off its forward has
+    # its centre outside +-60 deg and its edge inside; both are tracked from that frame on.
+    fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
+    head_fwd = posed.axis("Head", measure.local_forward(posed, "Head", fwd))[0]
+    eyes = 0.5 * (posed.position("LeftEye")[0] + posed.position("RightEye")[0])
+    stage = Usd.Stage.Open(str(composed))
+    to = np.array([positions(stage, p, posed.times[:1])[0] for p in prims]) - eyes
+    dist = np.linalg.norm(to, axis=1)
+    off = np.degrees(np.arccos(to @ head_fwd / dist))
+    edge = np.degrees(np.arcsin(RADIUS_M / dist))
+    assert 63 < off.max() and np.all(off - edge < 60), (off, edge)
+    assert all(_first_estimate(layer, p) == posed.times[0] for p in prims)
 
 
 @pytest.fixture(scope="module")
