@@ -81,8 +81,7 @@ class _Problem:
         things = filters.things
         self.sight = eyemod.Sight(eye, plan)
         accel = np.array([things[j].accel for j in slots]).reshape(-1, 3)
-        radii = [things[j].radius for j in slots]
-        self.stack = Stacked([eye, plan, Belief(len(slots), accel, filters.params, self.sight, radii)])
+        self.stack = Stacked([eye, plan, Belief(len(slots), accel, filters.params, self.sight)])
         imp = np.array([things[j].importance_at(k) for j in slots])
         # The eye's energy only: the body's torques are priced by BodyTracking in N m.
         u_scale = np.r_[np.ones(eye.nu), np.zeros(plan.nu)]

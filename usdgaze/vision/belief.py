@@ -22,9 +22,11 @@ view for binocular vision" (Henson 2000): measured about the head's forward from
 (docs/attend.md says why not the line of sight: the binocular field's edges are the nose's and the
 brows', which stay with the head when the eyes turn). An object is in view when any part of it is:
 its angle off the head's forward, less its angular radius ``asin(radius / distance)``
-(``angular_radius``; radius 0 is a point), is within 60 deg. Outside it there is no observation:
-the simulation skips the update, the planner adds ``R_OUT`` smoothly, (1 - vis) R_OUT with vis a
-logistic of the angle.
+(``angular_radius``; radius 0 is a point), is within 60 deg (``in_view``). Outside it there is no
+observation: the simulation skips the update, the planner adds ``R_OUT`` smoothly, (1 - vis) R_OUT
+with vis a logistic of the centre's angle (``visibility``: the planner's model keeps the point; with
+the radius in it as well, the planner's cost moved for a ball in view throughout and a bench catch
+throw fell, docs/physics.md).
 
 Units. The paper gives r in [0, 1) and alpha as bare numbers. Covariances here are kept in units of
 ``unit_m`` squared (0.1 m: r = 1 is an observation error of 10 cm standard deviation): the
@@ -46,6 +48,7 @@ import numpy as np
 from usdgaze.planning.compose import Part
 
 FOV = np.radians(60.0)  # half the field of view, about the head's forward
+COS_FOV = np.cos(FOV)
 VIS_WIDTH = 0.03  # logistic width in cos(angle): ~ +-3 deg around the edge of the field of view
 R_OUT = 50.0
 R0 = 1e-4
@@ -100,46 +103,30 @@ def noise(pps: np.ndarray, pos: np.ndarray, eta: float):
     return R0 + 1.0 - e, (e / (eta * ds))[..., None] * diff
 
 
-def angular_radius(dist: np.ndarray, radius) -> tuple[np.ndarray, np.ndarray]:
-    """asin(radius / dist), the half-angle a sphere subtends (pi/2 with the eyes inside it), and its
-    derivative in dist (0 where the radius is 0 or the eyes are inside)."""
-    r = np.broadcast_to(np.asarray(radius, float), np.shape(dist))
-    q = np.clip(r / np.maximum(dist, 1e-9), 0.0, 1.0)
-    inside = q >= 1.0
-    rad = np.arcsin(q)
-    root = np.sqrt(np.maximum(dist * dist - r * r, 1e-18))
-    deriv = np.where(inside | (r <= 0), 0.0, -r / (np.maximum(dist, 1e-9) * root))
-    return rad, deriv
+def angular_radius(dist: np.ndarray, radius) -> np.ndarray:
+    """asin(radius / dist): the half-angle a sphere subtends (pi/2 with the eyes inside it)."""
+    r = np.asarray(radius, float)
+    return np.arcsin(np.clip(r / np.maximum(dist, 1e-9), 0.0, 1.0))
 
 
-def _edge(n: np.ndarray, radius):
-    """cos of the field's edge for an object at distance n (60 deg plus its angular radius), and its
-    derivative in n."""
-    a, da = angular_radius(n, radius)
-    return np.cos(FOV + a), -np.sin(FOV + a) * da
-
-
-def visibility(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray, radius=0.0):
-    """Smooth in-view weight of a sphere (``radius``; 0 a point), and its gradients w.r.t. pos (= -w.r.t.
-    eyes) and forward (the head's)."""
+def visibility(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray):
+    """Smooth in-view weight, and its gradients w.r.t. pos (= -w.r.t. eyes) and forward."""
     v = pos - eyes
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     n = np.maximum(n, 1e-9)
     c = np.sum(v * forward, -1, keepdims=True) / n
-    edge, d_edge = _edge(n[..., 0], radius)
-    s = 1.0 / (1.0 + np.exp(-(c[..., 0] - edge) / VIS_WIDTH))
+    s = 1.0 / (1.0 + np.exp(-(c[..., 0] - COS_FOV) / VIS_WIDTH))
     ds_dc = (s * (1 - s) / VIS_WIDTH)[..., None]
-    g_pos = ds_dc * (forward / n - c * v / n**2 - d_edge[..., None] * v / n)
-    return s, g_pos, ds_dc * v / n
+    return s, ds_dc * (forward / n - c * v / n**2), ds_dc * v / n
 
 
 def in_view(pos: np.ndarray, eyes: np.ndarray, forward: np.ndarray, radius=0.0) -> np.ndarray:
     """The hard test the simulation uses: some part of the sphere (centre ``pos``, ``radius``; 0 a point)
-    within 60 deg of ``forward`` (the head's) seen from ``eyes``."""
+    within 60 deg of the head's ``forward`` seen from ``eyes``."""
     v = pos - eyes
     n = np.maximum(np.linalg.norm(v, axis=-1), 1e-9)
     c = np.sum(v * forward, -1) / n
-    return c >= _edge(n, radius)[0]
+    return c >= np.cos(FOV + angular_radius(n, radius))
 
 
 def kalman_update(mu: np.ndarray, s: np.ndarray, z: np.ndarray | None, r: float, accel: np.ndarray,
@@ -163,10 +150,8 @@ class Belief(Part):
     name = "belief"
     passive = True  # no controls, read by no other part: rolled out after the eye and body (compose.Stacked)
 
-    def __init__(self, n: int, accel: np.ndarray, params: VisionParams, sight, radii=None) -> None:
-        """``radii``: the objects' sizes for the field of view (m, per slot; None: points)."""
+    def __init__(self, n: int, accel: np.ndarray, params: VisionParams, sight) -> None:
         self.n, self.accel, self.params, self.sight = n, np.asarray(accel, float).reshape(n, 3), params, sight
-        self.radii = np.zeros(n) if radii is None else np.asarray(radii, float).reshape(n)
         self.nx, self.nu = SLOT * n, 0
 
     def _split(self, X):
@@ -180,7 +165,7 @@ class Belief(Part):
         else:
             pps, p, R = self.sight.points(X, k0)
         r_d, g_pps = noise(pps[:, None], mp, self.params.eta)
-        vis, g_pos, g_fwd = visibility(mp, p[:, None], R[:, None, :, 0], self.radii)
+        vis, g_pos, g_fwd = visibility(mp, p[:, None], R[:, None, :, 0])
         r = r_d + (1 - vis) * R_OUT
         if not with_jac:
             return s, r
@@ -203,7 +188,7 @@ class Belief(Part):
         mp = B0[None, :, :3] + i * h * B0[None, :, 3:6] + h * h * (i * (i - 1) / 2) * self.accel[None]
         pps, p, R = self.sight.points(X, k0)
         r = noise(pps[:, None], mp, self.params.eta)[0]
-        vis = visibility(mp, p[:, None], R[:, None, :, 0], self.radii)[0]
+        vis = visibility(mp, p[:, None], R[:, None, :, 0])[0]
         r = r + (1 - vis) * R_OUT
         # The covariance recursion is sequential and each object's is a few scalars: plain Python floats
         # do the same IEEE operations in the same order as numpy would, without a ufunc call per operation.
@@ -227,7 +212,9 @@ class Belief(Part):
         mp, mv, s = B[:, :3], B[:, 3:6], B[:, 6:9]
         pps, p, R = self.sight.point(x, k)
         r = noise(pps, mp, self.params.eta)[0]
-        r = r + R_OUT * (1.0 - visibility(mp, p, R[:, 0], self.radii)[0])
+        v = mp - p
+        cosang = (v @ R[:, 0]) / np.maximum(np.sqrt(np.einsum("si,si->s", v, v)), 1e-9)
+        r = r + R_OUT * (1.0 - 1.0 / (1.0 + np.exp(-(cosang - COS_FOV) / VIS_WIDTH)))
         sp = s[:, 0] + 2 * h * s[:, 2] + h * h * s[:, 1] + a
         sv = s[:, 1] + a
         spv = s[:, 2] + h * s[:, 1]

@@ -229,8 +229,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
                 done.add(j)
         slots = filters.choose(k, p_eyes, out.visible[k])
         out.optimized[k, slots] = True
-        belief = Belief(len(slots), np.array([things[j].accel for j in slots]).reshape(-1, 3), filters.params, sight,
-                        [things[j].radius for j in slots])
+        belief = Belief(len(slots), np.array([things[j].accel for j in slots]).reshape(-1, 3), filters.params, sight)
         stack = Stacked([eye, body, belief])
         x = np.concatenate([e, qb] + [np.concatenate([filters.mu[j], filters.sig[j]]) for j in slots])
         target = _arrival_order_target(filters, slots, p_eyes, done, locked) if opts.mode == "sequential" else 0
