@@ -10,8 +10,8 @@ observations, applies the Kalman update, the pushes, and the eye's speed and ran
 
 Each step k: sense from the simulated head (field of view, each object's radius, observation noise
 from the true distance to the point of sight), choose the tracked objects, let tasks read the belief
-(``perceive``), seed the window with look-at proposals (as ``vision.loop``), solve, apply the first control to the simulated
-body and eye. Objects are in the model's world (metres, Z up). The loop itself is ``mpc.run`` (the body-only
+(``perceive``), seed the window with look-at proposals (as ``vision.loop``), solve, apply the first
+control to the simulated body and eye. Objects are in the model's world (metres, Z up). The loop itself is ``mpc.run`` (the body-only
 controller's): the same target (the reference with its toes out of the ground), solver restarts, measures
 and stop after a fall; this module adds the eyes and the belief as an ``mpc.Controller``.
 """
