@@ -184,6 +184,18 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert main(["attend", str(src), "--out", str(tmp_path / "x.usda"), "--physics", "--fd-stride", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--fd-stride" in err[0] and not (tmp_path / "x.usda").exists()
+    # The step and the window: the layer's simulated steps are --timestep apart, the window
+    # defaults to the physics planner's 0.6 s, and both are recorded with the other settings.
+    assert main(["attend", str(src), "--out", str(tmp_path / "x.usda"), "--physics", "--timestep", "0.2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--timestep" in err[0] and not (tmp_path / "x.usda").exists()
+    coarse = tmp_path / "coarse.usda"
+    assert main(["attend", str(src), "--out", str(coarse), "--physics", "--timestep", "0.03"]) == 0
+    data = Sdf.Layer.FindOrOpen(str(coarse)).customLayerData
+    steps = np.diff(list(data["usdgaze:physics"][SKEL]["frames"]["seconds"]))
+    assert len(steps) >= 5 and np.allclose(steps, 0.03)
+    assert dict(data["usdgaze"]["planner"]) == {"timestep": 0.03, "window": 0.6, "iterations": 1,
+                                                "firstIterations": 5, "fdStride": 1, "fdReuse": 1}
 
 
 def test_two_tasks_of_one_kind_report_under_their_own_keys():

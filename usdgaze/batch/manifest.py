@@ -199,6 +199,7 @@ KEYS: dict[str, Key] = {
     "threads": Key(_integer("threads", 1, 64), "threads", keyed=False, commands=_ATTEND),  # same bytes for any
     "fd_stride": Key(_integer("fd_stride", 1, 8), "fd_stride", commands=_ATTEND),
     "fd_reuse": Key(_integer("fd_reuse", 1, 8), "fd_reuse", commands=_ATTEND),
+    "timestep": Key(_number("timestep", 0.01, 0.05), "timestep", commands=_ATTEND),
 }
 
 # Targets fed by several keys: built from all of them at once (and checked up front).
@@ -287,8 +288,8 @@ def attend_kwargs(shot: Shot) -> dict:
     from usdgaze.passes.physics import check_window
     from usdgaze.physics.mpc import Options
 
-    options = Options(horizon_s=settings.get("window_s", AttendSettings.window_s), workers=v.get("threads", 1),
-                      fd_stride=v.get("fd_stride", 1), fd_reuse=v.get("fd_reuse", 1))
+    options = Options(h=v.get("timestep", Options.h), horizon_s=settings.get("window_s", Options.horizon_s),
+                      workers=v.get("threads", 1), fd_stride=v.get("fd_stride", 1), fd_reuse=v.get("fd_reuse", 1))
     check_window(options, f"{shot.where}: window = {options.horizon_s:g}")
     return {**common, "physics": True, "options": options, "seed": settings.get("seed", 0), "binding": binding,
             "keep_failed": not v.get("discard_failed", False)}

@@ -16,7 +16,8 @@ import click
               help="Process noise of the vision system's belief, per second (0: glance once; 0.2: steady tracking).")
 @click.option("--cost", default="uncertainty", show_default=True, type=click.Choice(["uncertainty", "distance", "sequential"]),
               help="Attention cost: the paper's uncertainty, the distance-sum baseline, or one object after another.")
-@click.option("--window", "window_s", default=0.8, show_default=True, type=float, help="Planner window, seconds.")
+@click.option("--window", "window_s", default=None, type=float,
+              help="Planner window, seconds.  [default: 0.8; with --physics 0.6]")
 @click.option("--seed", default=0, show_default=True, type=int, help="Seed of the simulated observation noise.")
 @click.option("--realize", default="direct", show_default=True, type=click.Choice(["direct", "map"]),
               help="direct: write the planner's eyes, neck and spine; map: turn its fixations into look-at "
@@ -39,12 +40,14 @@ import click
 @click.option("--fd-stride", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: MuJoCo derivatives every N planner steps, interpolated between (faster; "
                    "2 roughly halves the time, docs/physics.md).")
+@click.option("--timestep", default=0.02, show_default=True, type=click.FloatRange(0.01, 0.05),
+              help="With --physics: the simulation's and the planner's step h, seconds (the paper: 0.02-0.03).")
 @click.option("--fd-reuse", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: keep a step's MuJoCo derivatives for up to N solves while its contacts "
                    "stay the same (faster; 3 saves about a quarter, feet sink deeper, docs/physics.md).")
 @click.pass_context
 def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
-           physics, discard_failed, threads, fd_stride, fd_reuse) -> None:
+           physics, discard_failed, threads, fd_stride, timestep, fd_reuse) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     from usdgaze.core.hints import parse_hints
 
@@ -52,13 +55,15 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
     if physics:
         from usdgaze.physics.mpc import Options
 
-        options = Options(horizon_s=window_s, workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse)
+        options = Options(h=timestep, horizon_s=Options.horizon_s if window_s is None else window_s,
+                          workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse)
         return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                         parse_hints(bind, forward))
     from usdgaze.attend import AttendSettings, attend as run
 
     paths = [p.strip() for p in objects.split(",") if p.strip()] if objects else None
-    settings = AttendSettings(alpha=alpha, cost=cost, window_s=window_s, seed=seed, realize=realize,
+    settings = AttendSettings(alpha=alpha, cost=cost, seed=seed, realize=realize,
+                              window_s=AttendSettings.window_s if window_s is None else window_s,
                               binding=parse_hints(bind, forward))
     report = run(input_path, out, paths, settings, skel_root=skel_root)
     summary = {"output": report.output, "characters": report.characters, "objects": report.objects,

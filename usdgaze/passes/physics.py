@@ -207,6 +207,13 @@ def _head(ref, n: int):
     return Reference(ref.translations[:n], ref.rotations[:n], ref.scales[:n], s2w)
 
 
+def _planner_record(options: mpc.Options) -> dict:
+    """The settings that decide the simulated motion, for the layer (threads do not: same bytes)."""
+    return {"timestep": options.h, "window": options.horizon_s, "iterations": options.iterations,
+            "firstIterations": options.first_iterations, "fdStride": options.fd_stride,
+            "fdReuse": options.fd_reuse}
+
+
 def check_window(options: mpc.Options, label: str) -> None:
     """The planner window must hold two steps and stay under 5 s; ``label`` names the value."""
     if not (np.isfinite(options.horizon_s) and 2 * options.h - 1e-9 <= options.horizon_s <= 5.0):
@@ -293,7 +300,8 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
     info = _layer_info(stage)
     info.custom = {"usdgaze:physics": terms,
                    "usdgaze": {"version": __version__, "input": os.path.basename(source),
-                               "command": "attend --physics", "seed": seed, **(record or {})}}
+                               "command": "attend --physics", "seed": seed, "planner": _planner_record(options),
+                               **(record or {})}}
     layer = build_override(overrides, info)
     for character, times, sight, eye_pose, paths, estimates, uncertainty in inspections:
         add_inspection(layer, character, times, sight, eye_pose, paths, estimates, uncertainty)
