@@ -38,14 +38,16 @@ def copy_animation(layer: Sdf.Layer, src: Sdf.Layer, anim: str, codes) -> None:
             layer.SetTimeSample(spec.path, float(c), value)
 
 
-def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = False, task: bool = True) -> Path:
+def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = False, task: bool = True,
+               shift: dict[str, np.ndarray] | None = None) -> Path:
     """stepping_stones.usda with the walk cropped to ``[start_s, end_s]`` (30 fps samples).
 
     ``until_lift``: each stone's importance is 1 from the previous swing start until its own foot
     lifts (its ``swingStart``), 0.05 otherwise: the paper's "looked at the selected stone before
     moving the stepping foot to the stone and then looked at the next target stone once the foot
     began to move" (the sample stage keeps a stone important until its landing). ``task=False``
-    blocks the stones' ``usdgaze:physics:task`` (they stay objects to look at)."""
+    blocks the stones' ``usdgaze:physics:task`` (they stay objects to look at). ``shift``: stone name ->
+    offset (stage units) added to that stone's translation (a stone displaced from the footfall)."""
     src = Sdf.Layer.FindOrOpen(str(CMU))
     tcps = src.timeCodesPerSecond
     a = src.startTimeCode + 4.0 * round(start_s * tcps / 4.0)
@@ -57,13 +59,14 @@ def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = Fals
     layer.pseudoRoot.SetInfo("upAxis", "Y")
     layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
     copy_animation(layer, src, ANIM, codes)
-    _stone_overs(layer, codes, until_lift, task)
+    _stone_overs(layer, codes, until_lift, task, shift or {})
     layer.Save()
     return path
 
 
-def _stone_overs(layer: Sdf.Layer, codes: np.ndarray, until_lift: bool, task: bool) -> None:
-    """Overs on stepping_stones.usda's stones: the physics task blocked, the importance until the lift."""
+def _stone_overs(layer: Sdf.Layer, codes: np.ndarray, until_lift: bool, task: bool, shift: dict) -> None:
+    """Overs on stepping_stones.usda's stones: the physics task blocked, the importance until the lift,
+    stones displaced."""
     sample = Sdf.Layer.FindOrOpen(str(ATTEND / "stepping_stones.usda"))  # held: its specs live with it
     stones = list(sample.GetPrimAtPath("/Stones").nameChildren)
     swings = [c.attributes["userProperties:swingStart"].default for c in stones]
@@ -72,6 +75,10 @@ def _stone_overs(layer: Sdf.Layer, codes: np.ndarray, until_lift: bool, task: bo
         over.specifier = Sdf.SpecifierOver
         if not task:
             Sdf.AttributeSpec(over, "usdgaze:physics:task", Sdf.ValueTypeNames.Token).default = Sdf.ValueBlock()
+        if spec.name in shift:
+            at = spec.attributes["xformOp:translate"].default
+            moved = Sdf.AttributeSpec(over, "xformOp:translate", Sdf.ValueTypeNames.Double3)
+            moved.default = tuple(float(a + d) for a, d in zip(at, shift[spec.name]))
         if until_lift:
             rise = max([w for w in swings if w < swing], default=codes[0] - 1)  # the previous swing start
             imp = Sdf.AttributeSpec(over, "gaze:object:importance", Sdf.ValueTypeNames.Float)
@@ -79,12 +86,13 @@ def _stone_overs(layer: Sdf.Layer, codes: np.ndarray, until_lift: bool, task: bo
                 layer.SetTimeSample(imp.path, float(c), 1.0 if rise <= c < swing else 0.05)
 
 
-def contacts(posed: measure.Posed, toe: str, seconds: np.ndarray) -> list[tuple[int, int]]:
-    """Frame spans with the toe within 6 cm of its lowest and slower than 0.6 m/s, >= 50 ms."""
+def contacts(posed: measure.Posed, toe: str, seconds: np.ndarray, floor: float | None = None) -> list[tuple[int, int]]:
+    """Frame spans with the toe within 6 cm of its lowest (or of ``floor``) and slower than 0.6 m/s,
+    >= 50 ms."""
     p = posed.position(toe)
     h = p @ posed.up
     speed = np.linalg.norm(np.gradient(p - np.outer(h, posed.up), seconds, axis=0), axis=1)
-    low = (h < h.min() + 0.06) & (speed < 0.6)
+    low = (h < (h.min() if floor is None else floor) + 0.06) & (speed < 0.6)
     edges = np.flatnonzero(np.diff(np.r_[0, low.astype(int), 0]))
     return [(a, b) for a, b in zip(edges[::2], edges[1::2]) if seconds[b - 1] - seconds[a] >= 0.05 - 1e-9]
 
@@ -96,6 +104,7 @@ class StoneGaze:
     lift_s: float  # the written foot leaves its previous contact
     land_s: float  # the written foot's contact on this stone starts
     miss_m: float  # the written toe's mean ground-plane distance to the stone over that contact
+    ref_miss_m: float  # the same over the reference's contact on it (the stones test's measure)
     nearest_deg: float  # the line of sight's smallest angle to the stone up to the lift
     first_on_s: float | None  # first time it was reached (up to the lift), None if never
     reached: bool
@@ -105,10 +114,12 @@ def _flat(posed: measure.Posed, v: np.ndarray) -> np.ndarray:
     return v - np.outer(v @ posed.up, posed.up)
 
 
-def gaze_before_lift(tmp: Path, src: Path, out: Path) -> list[StoneGaze]:
-    """Per stone stepped on in the reference (a reference contact within 5 cm of it), the written
-    contact of the same foot nearest in time and the lift before it; stones whose foot is on them
-    from the first frame are left out."""
+def gaze_before_lift(tmp: Path, src: Path, out: Path, shift: dict[str, np.ndarray] | None = None) -> list[StoneGaze]:
+    """Per stone stepped on in the reference (a reference contact within 5 cm of it, less its
+    ``shift``), the written contact of the same foot nearest in time and the lift before it; stones
+    whose foot is on them from the first frame are left out. The written contacts are low against
+    the reference toe's lowest (a written toe that dips into the ground on one frame does not make
+    every stance of that foot too high to count)."""
     composed = compose(tmp, src, out, "stones_composed.usda")
     g = gaze(composed)
     ref, sim = measure.posed(str(src), SKEL), measure.posed(str(composed), SKEL)
@@ -117,21 +128,24 @@ def gaze_before_lift(tmp: Path, src: Path, out: Path) -> list[StoneGaze]:
         if not prim.GetAttribute("userProperties:landing"):
             continue
         stone = positions(g.stage, str(prim.GetPath()), g.times)
-        found = [(toe, a) for toe in TOES for a, b in contacts(ref, toe, g.seconds)
-                 if np.linalg.norm(_flat(ref, ref.position(toe)[a:b].mean(0) - stone[0])) < 0.05]
+        footfall = stone[0] - np.asarray((shift or {}).get(prim.GetName(), np.zeros(3)))
+        found = [(toe, a, b) for toe in TOES for a, b in contacts(ref, toe, g.seconds)
+                 if np.linalg.norm(_flat(ref, ref.position(toe)[a:b].mean(0) - footfall)) < 0.05]
         if not found:
             continue
-        toe, ref_land = found[0]
-        spans = contacts(sim, toe, g.seconds)
+        toe, ref_land, ref_end = found[0]
+        spans = contacts(sim, toe, g.seconds, float((ref.position(toe) @ ref.up).min()))
         i = int(np.argmin([abs(a - ref_land) for a, _ in spans])) if spans else 0
         if i == 0 or abs(g.seconds[spans[i][0]] - g.seconds[ref_land]) > 0.3:
             continue  # on it from the start (or never lifted): no lift to look before
         a, b = spans[i]
         lift = spans[i - 1][1] - 1
         miss = float(np.linalg.norm(_flat(sim, sim.position(toe)[a:b] - stone[a:b]), axis=1).mean())
+        ref_miss = float(np.linalg.norm(_flat(sim, sim.position(toe)[ref_land:ref_end] - stone[ref_land:ref_end]),
+                                        axis=1).mean())
         ang = angle_to(g, stone)[: lift + 1]
         on = (ang < ON_DEG) | (np.linalg.norm(g.sight - stone, axis=1)[: lift + 1] < ON_M)
-        rows.append(StoneGaze(prim.GetName(), toe, float(g.seconds[lift]), float(g.seconds[a]), miss,
+        rows.append(StoneGaze(prim.GetName(), toe, float(g.seconds[lift]), float(g.seconds[a]), miss, ref_miss,
                               float(ang.min()), float(g.seconds[int(np.argmax(on))]) if on.any() else None,
                               bool(on.any())))
     return rows

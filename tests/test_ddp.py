@@ -174,6 +174,10 @@ def test_a_receding_horizon_restarts_after_the_ceiling_and_runs_more_iterations_
         u, sol = mpc.step(bad, bad, np.array([1.0, 0.0]), 0)
         assert sol.mu > opts.mu_max and len(sol.costs) == 1  # no step taken
         assert mpc.mu == expect
+    # carry_max: a solve that grew mu within itself hands the next window at most that much
+    mpc = ddp.RecedingHorizon(horizon=10, nu=1, options=opts, carry_max=1e-2)
+    u, sol = mpc.step(bad, bad, np.array([1.0, 0.0]), 0)
+    assert sol.mu > 1e-2 and mpc.mu == 1e-2
     good = LinearQuadratic(A, B, Q, R, P)
     mpc = ddp.RecedingHorizon(horizon=10, nu=1, options=ddp.Options(max_iter=1, tol=0.0),
                               first=ddp.Options(max_iter=4, tol=0.0), U_init=np.full((10, 1), 0.3))

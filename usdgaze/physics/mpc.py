@@ -24,6 +24,13 @@ from usdgaze.physics.model import BodyModel
 from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, resample, velocities
 
 FALL_RATIO = 0.8  # the issue's bar: pelvis below 80% of the reference's height is a fall
+# The most regularization a window starts from (``ddp.RecedingHorizon(carry_max=)``): a toe whose
+# contact starts within the 1.5 cm ground margin gets the contact's whole damping at once (its hinge
+# jumped 8-11 rad/s in one step on the stones walk), so line searches straddling that event fail at
+# every step size and mu grows 1e4-1e7 within a solve; carried on, the coupled stones walk's
+# solver took no real step for 0.4 s and fell (docs/physics.md). 1e-2 is small against the torque
+# cost's own curvature on the motors' controls, 2 w_eng gear^2 (0.008 at the toes, 1.25 at the hips).
+MU_CARRY_MAX = 1e-2
 
 
 @dataclass
@@ -172,7 +179,8 @@ class Shot:
 
         return ddp.RecedingHorizon(self.n, lead + self.plan.nu, ddp.Options(max_iter=options.iterations),
                                    U_init=np.array([self.pad(i, lead) for i in range(self.n)]),
-                                   first=ddp.Options(max_iter=options.first_iterations), restart_at_ceiling=True)
+                                   first=ddp.Options(max_iter=options.first_iterations), restart_at_ceiling=True,
+                                   carry_max=MU_CARRY_MAX)
 
 
 def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options,

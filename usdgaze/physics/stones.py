@@ -20,6 +20,10 @@ Ours, where the paper leaves room:
   for its whole span: the one closest, in the ground plane, to the reference's footfall (the toe's
   mean position over the contact). With stones displaced less than half their spacing this is
   the paper's choice, and the cost stays smooth.
+* A contact under way at the reference's first frame has no stone: that foot is already down, and
+  the planner could only drag it along the ground. On the walk's 4.0 s crop the standing foot's
+  nearest stone is 5 cm from it (the stance of a shuffle cut in two), and its term pulled the
+  standing foot from the first step.
 * Stones are flat marks on the ground (their height is not simulated), so the stone pulls the toe
   in the ground plane and its height target is the reference's toe height at that step.
 
@@ -100,7 +104,7 @@ class StoneTask:
             span = np.zeros(len(fs), dtype=int) - 1
             edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
             for a, b in zip(edges[::2], edges[1::2]):
-                if len(self.stones):
+                if len(self.stones) and a > 0:  # a foot already down at the start is not placed
                     span[a:b] = self.nearest(p[a:b].mean(axis=0))
             self.stone[f] = span[near]
             self.ref_height.append(xpos[:, toe, 2])

@@ -281,6 +281,10 @@ class RecedingHorizon:
     window from ``mu_init`` instead: the next window is another problem (a new state, one more
     reference step), and a ceiling kept would make every later solve take no step either.
     ``first``: the options of the first solve (e.g. more iterations from a cold start), else ``options``.
+    ``carry_max``: the most regularization the next window starts from. A line search that fails on a
+    discontinuity (a contact that starts inside the window) grows mu within one solve until its step is
+    tiny; carried on, that mu keeps the next windows' steps tiny too although their problems no longer
+    straddle the same event (the full-body loop then replays its warm start for tenths of a second).
 
     ``step`` takes the problem of the current window (the dynamics and cost may change between calls,
     e.g. when the set of tracked objects changes; only ``nu`` must stay the same), warm-starts from the
@@ -289,13 +293,14 @@ class RecedingHorizon:
 
     def __init__(self, horizon: int, nu: int, options: Options | None = None,
                  U_init: np.ndarray | None = None, first: Options | None = None,
-                 restart_at_ceiling: bool = False) -> None:
+                 restart_at_ceiling: bool = False, carry_max: float | None = None) -> None:
         if horizon < 2:
             raise ValueError("the receding horizon needs at least two steps")
         self.horizon = horizon
         self.options = options or Options()
         self.first = first
         self.restart_at_ceiling = restart_at_ceiling
+        self.carry_max = carry_max
         self.U = np.zeros((horizon, nu)) if U_init is None else np.array(U_init, dtype=float)
         self.last: Solution | None = None
         self.mu = (first or self.options).mu_init
@@ -308,6 +313,8 @@ class RecedingHorizon:
         self.mu = min(max(sol.mu, base.mu_min), base.mu_max)
         if self.restart_at_ceiling and self.mu >= self.options.mu_max:
             self.mu = self.options.mu_init
+        if self.carry_max is not None:
+            self.mu = min(self.mu, self.carry_max)
         self.U = shift_controls(sol.U)
         return sol.U[0].copy(), sol
 
