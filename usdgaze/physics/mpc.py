@@ -24,7 +24,9 @@ from usdgaze.physics.model import BodyModel
 from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, resample, velocities
 
 FALL_RATIO = 0.8  # the issue's bar: pelvis below 80% of the reference's height is a fall
-# The most regularization a window starts from (``ddp.RecedingHorizon(carry_max=)``): a toe whose
+# The most regularization a window of the coupled loop starts from (``ddp.RecedingHorizon(carry_max=)``,
+# ``physics.visuomotor``; the body-only loop carries mu as before: with this cap its whole CMU walk
+# kept 3.07 deg but its deepest foot went from 1.7 to 4.0 cm, docs/physics.md): a toe whose
 # contact starts within the 1.5 cm ground margin gets the contact's whole damping at once (its hinge
 # jumped 8-11 rad/s in one step on the stones walk), so line searches straddling that event fail at
 # every step size and mu grows 1e4-1e7 within a solve; carried on, the coupled stones walk's
@@ -172,15 +174,16 @@ class Shot:
         loop), then the target's inverse-dynamics torques (held past the end)."""
         return np.r_[np.zeros(lead), self.tail[min(k, self.steps)]]
 
-    def horizon(self, options: Options, lead: int = 0):
+    def horizon(self, options: Options, lead: int = 0, carry_max: float | None = None):
         """The receding-horizon solver: ``first_iterations`` on the cold first window, ``iterations``
-        after, the regularization restarted after a solve that ended at its ceiling."""
+        after, the regularization restarted after a solve that ended at its ceiling and, with
+        ``carry_max`` (the coupled loop's ``MU_CARRY_MAX``), carried to the next window at most that."""
         from usdgaze.planning import ddp
 
         return ddp.RecedingHorizon(self.n, lead + self.plan.nu, ddp.Options(max_iter=options.iterations),
                                    U_init=np.array([self.pad(i, lead) for i in range(self.n)]),
                                    first=ddp.Options(max_iter=options.first_iterations), restart_at_ceiling=True,
-                                   carry_max=MU_CARRY_MAX)
+                                   carry_max=carry_max)
 
 
 def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options,

@@ -117,7 +117,7 @@ class _Coupled:
                  vo: loop.LoopOptions) -> None:
         self.shot, self.eye, self.things, self.vo = shot, eye, things, vo
         self.filters = loop.Filters(things, vo)
-        self.solver = shot.horizon(bo, lead=self.eye.nu)
+        self.solver = shot.horizon(bo, lead=self.eye.nu, carry_max=mpc.MU_CARRY_MAX)
         self.e = np.array([0.0, 0.0, float(eyemod.zeta_for(vo.start_distance_m))])
         self.vis = _vision_result(shot.steps + 1, len(things))
         self.slots: list[int] = []
