@@ -8,6 +8,8 @@ stone 10 cm: four runs each), printing each reference contact's mean toe distanc
 toe landing's; ``stones-fk`` runs the stones test's own scene (the displacement turned 0/90/180/270
 deg about up) through the physics pass and measures by UsdSkel FK on the written layer; ``stones-walk``
 runs the walk itself (4.0-5.5 s, at ``--h``), the left foot's landing displaced 15 cm in four directions;
+``stones-bar`` the whole bar in one coupled shot (the test's: 4.0-5.5 s at ``--h``, eyes, belief, body and
+the stones' task, Stone10 displaced 15 cm toward the stage's +X/+Z/-X/-Z, ``--seeds`` observation seeds);
 ``stones-gaze`` runs the coupled loop (eyes, belief, body) on 4.0-6.0 s of the walk
 with stepping_stones.usda's stones as objects (each important until its foot lifts, or until it
 lands as authored; with and without the stones' physics task) and prints, by UsdSkel FK on the
@@ -210,12 +212,14 @@ def run_stones_fk(opts: mpc.Options, turn_deg: float) -> dict:
             "mean_joint_error_deg": round(report.mean_joint_error_deg, 2), "cpu_s": round(cpu, 1)}
 
 
-def run_stones_gaze(opts: mpc.Options, span: tuple[float, float], until_lift: bool, task: bool) -> dict:
+def run_stones_gaze(opts: mpc.Options, span: tuple[float, float], until_lift: bool, task: bool,
+                    shift: dict | None = None, seed: int = 0) -> dict:
     """The coupled loop (eyes, belief, body) on a crop of sample_stages/attend/stepping_stones.usda
     (stones as GazeObjectAPI objects; ``until_lift``: each important until its foot lifts, else until
     its landing as authored; ``task``: also physics stones), measured on the written layer by UsdSkel
     FK: per stone stepped on, when the written foot that steps on it lifts and whether the line of
-    sight reached the stone before then (tests/stone_stages.py)."""
+    sight reached the stone before then (tests/stone_stages.py); ``shift``: stones displaced (stage
+    units), ``seed``: the observation seed."""
     import tempfile
     from dataclasses import asdict
 
@@ -224,14 +228,15 @@ def run_stones_gaze(opts: mpc.Options, span: tuple[float, float], until_lift: bo
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        src = stone_stages.walk_stage(tmp / "walk.usda", *span, until_lift=until_lift, task=task)
+        src = stone_stages.walk_stage(tmp / "walk.usda", *span, until_lift=until_lift, task=task, shift=shift)
         cpu0, t0 = time.process_time(), time.perf_counter()
-        report = physics_pass.run(src, tmp / "out.usda", opts)[0]
+        report = physics_pass.run(src, tmp / "out.usda", opts, seed=seed)[0]
         cpu, wall = time.process_time() - cpu0, time.perf_counter() - t0
         rows = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(r).items()}
-                for r in stone_stages.gaze_before_lift(tmp, src, tmp / "out.usda")]
+                for r in stone_stages.gaze_before_lift(tmp, src, tmp / "out.usda", shift)]
     checked = [r for r in rows if r["lift_s"] >= 0.4]  # the planner's first 0.4 s left out, as attend's test
     return {"task": "stones-gaze", "span_s": list(span), "until_lift": until_lift, "stone_task": task,
+            "shift": {k: np.round(v, 3).tolist() for k, v in (shift or {}).items()}, "seed": seed,
             "fell_at_s": report.fell_at_s, "problems": report.problems,
             "cpu_s": round(cpu, 1), "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2),
             "wall_s": round(wall, 1), "stones": rows,
@@ -512,6 +517,13 @@ def main() -> None:
             opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
             for until_lift, task_on in ((True, False), (False, False), (True, True)):
                 print(json.dumps(run_stones_gaze(opts, (4.0, 6.0), until_lift, task_on)), flush=True)
+            continue
+        if task == "stones-bar":  # the whole bar in one coupled shot (the test's scene, four directions)
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
+            for seed in [int(s_) for s_ in (a.seeds or "0").split(",")]:
+                for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):  # the stage's +X, +Z, -X, -Z
+                    shift = {"Stone10": 0.15 * np.array([np.cos(turn), 0.0, np.sin(turn)])}
+                    print(json.dumps(run_stones_gaze(opts, (4.0, 5.5), True, True, shift, seed)), flush=True)
             continue
         if task == "stones-walk":  # the walk itself, 4.0-5.5 s: the left foot's 0.67 s landing displaced
             opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
