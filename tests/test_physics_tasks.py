@@ -135,9 +135,9 @@ def test_one_coupled_shot_stands_on_a_displaced_stone_after_looking_at_it(tmp_pa
     previous swing start until its own foot lifts (the paper's order), Stone10 displaced 15 cm from
     the right foot's footfall. By UsdSkel FK on the written layer: no fall; every stone stepped on is
     stood on within 5 cm (the written toe's mean ground-plane distance over the reference's contact:
-    Stone10 3.1 cm, Stone09 1.2 cm measured); for each stone whose written foot lifts at least 0.4 s
+    Stone10 2.3 cm, Stone09 1.0 cm measured); for each stone whose written foot lifts at least 0.4 s
     in (the planner's start, as attend's test) the line of sight comes within 5 deg of it (or the
-    point of sight within 0.3 m) before that lift (Stone10: 1.5 deg). h 0.02: at 0.03 the walk falls
+    point of sight within 0.3 m) before that lift (Stone10: 1.1 deg). h 0.02: at 0.03 the walk falls
     with the stones' task, body-only too."""
     src = stone_stages.walk_stage(tmp_path / "walk.usda", *BAR_SPAN, until_lift=True, task=True, shift=MOVED)
     out = tmp_path / "stepped.usda"
