@@ -162,9 +162,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     if total_mass <= 0:
         raise UsdGazeError(f"{where}: total mass must be positive, got {total_mass}")
     to_model = stage_to_model(up_axis, meters_per_unit)
-    world_rot = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
-    world = world_rot @ world_matrices(rest_local[None], parents)[0]
-    world_rot = world_rot[:3, :3]
+    skel_to_world0 = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
+    world = skel_to_world0 @ world_matrices(rest_local[None], parents)[0]
     base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2])
     idx = _subtree(base, parents)
     if len(idx) < 2:
@@ -190,7 +189,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
                        for b in range(1, n)]
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
-    forward = _forward([joints[j] for j in idx], rest4, roles, bparent, pos, hints, to_model @ world_rot, where)
+    forward = _forward([joints[j] for j in idx], rest4, roles, bparent, pos, hints,
+                       to_model @ skel_to_world0[:3, :3], where)
     axis, range_deg = _hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
         _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, weld_still)
@@ -232,7 +232,7 @@ def _forward(names, rest4, roles, bparent, pos, hints: Hints, skel_to_model, whe
         f = skel_to_model @ np.asarray(hints.forward, dtype=float)
     else:
         feet = [b for b in range(1, len(roles)) if roles[b] == "foot" and roles[bparent[b]] != "foot"]
-        toes = [(b, max(seg.descendants(b, bparent), key=lambda k: np.linalg.norm(pos[k] - pos[b]), default=b))
+        toes = [(b, max(_subtree(b, bparent)[1:], key=lambda k: np.linalg.norm(pos[k] - pos[b]), default=b))
                 for b in feet]
         f = sum((pos[t] - pos[b] for b, t in toes if t != b), np.zeros(3))
     f = np.array([f[0], f[1], 0.0])

@@ -78,24 +78,13 @@ def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
     n = len(joints)
     keys = [_key(j) for j in joints]
     roles = ["other"] * n
-    children = [[] for _ in range(n)]
-    for j, p in enumerate(parents):
-        if p >= 0:
-            children[p].append(j)
-
-    def subtree(j: int, role: str) -> None:
-        stack = [j]
-        while stack:
-            k = stack.pop()
-            roles[k] = role
-            stack.extend(children[k])
-
+    children = _children(parents)
     for limb, pattern, above in (("foot", _FOOT, ("shank", "thigh")), ("hand", _HAND, ("forearm", "upperArm"))):
         tops = {_topmost(j, parents, joints, pattern) for j in range(n) if pattern.search(keys[j])}
         # Only the topmost of nested matches starts a limb end (CMU: LeftWrist > lhand).
         tops = {t for t in tops if not any(a in tops for a in _ancestors(t, parents))}
         for t in tops:
-            subtree(t, limb)
+            _mark(roles, children, t, limb)
             p = int(parents[t])
             for role in above:
                 if p < 0 or roles[p] != "other":
@@ -104,7 +93,7 @@ def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
                 p = int(parents[p])
     for j in range(n):
         if roles[j] == "other" and _HEAD.search(keys[j]):
-            subtree(j, "head")
+            _mark(roles, children, j, "head")
             p = int(parents[j])
             while p >= 0 and _NECK.search(keys[p]) and roles[p] == "other":
                 roles[p] = "head"  # de Leva's head segment includes the neck
@@ -118,10 +107,7 @@ def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: in
     highest end joint). Only limbs with no named role are filled in, so a named rig is unchanged."""
     roles = list(roles)
     n = len(roles)
-    children = [[] for _ in range(n)]
-    for j, p in enumerate(parents):
-        if p >= 0:
-            children[p].append(j)
+    children = _children(parents)
     z = pos[:, 2] - pos[:, 2].min()
     leaves = [j for j in range(n) if not children[j]]
     legs: list[int] = []
@@ -146,7 +132,16 @@ def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: in
     return roles
 
 
+def _children(parents: np.ndarray) -> list[list[int]]:
+    children = [[] for _ in parents]
+    for j, p in enumerate(parents):
+        if p >= 0:
+            children[p].append(j)
+    return children
+
+
 def _mark(roles: list[str], children: list[list[int]], j: int, role: str) -> None:
+    """``role`` for ``j`` and everything below it."""
     stack = [j]
     while stack:
         k = stack.pop()
@@ -212,15 +207,6 @@ def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: floa
         _mark(roles, children, path[i + 2], "hand")
         roles[path[i + 1]], roles[path[i]] = "forearm", "upperArm"
     return [s for _, _, s in arms]
-
-
-def descendants(j: int, parents: np.ndarray) -> list[int]:
-    """Every joint below ``j``."""
-    children = [[] for _ in parents]
-    for k, p in enumerate(parents):
-        if p >= 0:
-            children[p].append(k)
-    return _subtree_of(children, j)[1:]
 
 
 def _ancestors(j: int, parents: np.ndarray) -> list[int]:
