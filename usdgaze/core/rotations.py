@@ -34,7 +34,7 @@ def normalize(q: np.ndarray) -> np.ndarray:
     """Unit quaternions (or unit vectors); zero-length inputs stay zero."""
     q = np.asarray(q, dtype=float)
     n = np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
-    if np.all(n > 0):  # the usual case: a plain division, the same values, without the masked one's cost
+    if (n > 0).all():  # the usual case: a plain division, the same values, without the masked one's cost
         return q / n
     return np.divide(q, n, out=np.zeros_like(q), where=n > 0)
 
@@ -51,12 +51,17 @@ def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=float)
     ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(_shape(a, b))
     out[..., 0] = aw * bx + ax * bw + ay * bz - az * by
     out[..., 1] = aw * by - ax * bz + ay * bw + az * bx
     out[..., 2] = aw * bz + ax * by - ay * bx + az * bw
     out[..., 3] = aw * bw - ax * bx - ay * by - az * bz
     return out
+
+
+def _shape(a: np.ndarray, b: np.ndarray) -> tuple[int, ...]:
+    # np.broadcast_shapes is Python code, and these products are called by the thousand.
+    return a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape)
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:
@@ -69,7 +74,7 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product of 3-vectors, broadcasting (np.cross copies its inputs; this is hot)."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(_shape(a, b))
     out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
     out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]

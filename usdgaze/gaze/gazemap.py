@@ -86,6 +86,7 @@ class ParametricGazeMap:
     def __init__(self, definition: GazeMapDefinition) -> None:
         self.definition = definition
         self.examples = definition.motions
+        self._table = motion.blend_table(self.examples)
         self.params = definition.params
         s = definition.settings
         rng = np.random.default_rng(s.seed)
@@ -101,9 +102,9 @@ class ParametricGazeMap:
     # -- measuring -------------------------------------------------------------------------
     def _measure(self, weights: np.ndarray) -> np.ndarray:
         """Measured (yaw, pitch) of blends; yaw unwrapped near the blend's mean example yaw."""
-        blended = motion.blend(self.examples, weights)
+        offsets = motion.blended_offsets(self._table, weights)
         hint = (weights / weights.sum(axis=1, keepdims=True)) @ self.params[:, 0]
-        return motion.achieved_gaze(blended.offsets, hint)
+        return motion.achieved_gaze(offsets, hint)
 
     # -- querying --------------------------------------------------------------------------
     def _interpolate(self, points: np.ndarray) -> np.ndarray:
@@ -194,7 +195,7 @@ class ParametricGazeMap:
             weights[part] = self._correct(weights[part], inside[part], self.definition.settings.refine)
         achieved = self._measure(weights)
 
-        blended = motion.blend(self.examples, weights)
+        blended = motion.blend(self.examples, weights, self._table)
         offsets, timing = blended.offsets, blended.timing
         if np.any(extrapolated):
             offsets, timing = offsets.copy(), timing.copy()

@@ -160,24 +160,40 @@ def transition(start: np.ndarray, target: np.ndarray, s: np.ndarray) -> np.ndarr
     return rot.multiply(start, rot.power(rot.relative(start, target), s))
 
 
-def blend(motions: GazeMotions, weights: np.ndarray) -> GazeMotions:
+def blend(motions: GazeMotions, weights: np.ndarray, table: np.ndarray | None = None) -> GazeMotions:
     """Lerp blend of ``E`` motions with non-negative weights ``(..., E)`` (rows are normalized).
 
     Quaternions are stored with w >= 0, so all offsets of one segment share a hemisphere and the
     normalized weighted sum is the lerp of section 5.2.2.2; the seven floats are lerped as well.
+    ``table`` is :func:`blend_table` of ``motions``, for a caller that blends the same motions often.
     """
+    mixed = _mix(blend_table(motions) if table is None else table, weights)
+    return GazeMotions(_mixed_offsets(mixed), mixed[..., 20:])
+
+
+def blend_table(motions: GazeMotions) -> np.ndarray:
+    """The ``(E, 5*4 + 7)`` rows :func:`blend` mixes: each motion's offsets, then its timing."""
+    return np.concatenate([motions.offsets.reshape(len(motions.offsets), -1), motions.timing], axis=1)
+
+
+def blended_offsets(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The unit offsets ``(..., 5, 4)`` of :func:`blend` (bit for bit, up to each quaternion's sign,
+    which no rotation of a vector sees), without building its motions."""
+    return _mixed_offsets(_mix(table, weights))
+
+
+def _mix(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
     w = np.asarray(weights, dtype=float)
     if np.any(w < 0):
         raise ValueError("blend weights must be non-negative")
     total = w.sum(axis=-1, keepdims=True)
     if np.any(total <= 0):
         raise ValueError("each blend needs at least one positive weight")
-    w = w / total
-    # One matrix product (BLAS) for all blends: (..., E) @ (E, 5*4 + 7).
-    table = np.concatenate([motions.offsets.reshape(len(motions.offsets), -1), motions.timing], axis=1)
-    mixed = w @ table
-    offsets = rot.normalize(mixed[..., :20].reshape(w.shape[:-1] + (5, 4)))
-    return GazeMotions(offsets, mixed[..., 20:])
+    return (w / total) @ table  # one matrix product (BLAS) for all blends
+
+
+def _mixed_offsets(mixed: np.ndarray) -> np.ndarray:
+    return rot.normalize(mixed[..., :20].reshape(mixed.shape[:-1] + (5, 4)))
 
 
 def chain_rotation(offsets: np.ndarray) -> np.ndarray:

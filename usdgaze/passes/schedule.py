@@ -112,11 +112,13 @@ class Scheduler:
             targets = self.map.query(requests[:, 0], requests[:, 1]).offsets
             targets[np.all(requests == 0.0, axis=1)] = rot.IDENTITY
             for k in range(n, len(shifts)):
-                self._append(shifts[k], requests[k], targets[k])
+                # A shift's frames end where the next known one starts (that one writes the rest).
+                until = shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
+                self._append(shifts[k], requests[k], targets[k], until)
         return Schedule(self.disp.copy(), self.wanted.copy(), self.settled.copy(), list(self.info),
                         self.progress.copy())
 
-    def _append(self, shift: Shift, request: np.ndarray, target: np.ndarray) -> None:
+    def _append(self, shift: Shift, request: np.ndarray, target: np.ndarray, until: float = np.inf) -> None:
         seconds, previous = self.seconds, self.last
         t0 = np.float64(shift.time_s)
         if self.info:  # the previous shift now ends where this one starts
@@ -135,7 +137,7 @@ class Scheduler:
             timing = np.array(timing, dtype=float)
             timing[motion.DURATION] = 0.0 if shift.cut else shift.min_duration_s
         segment = _Segment(float(t0), request, target, motion.GazeMotions(target, timing), previous, bool(inherit))
-        rows = np.flatnonzero(seconds >= t0)
+        rows = np.flatnonzero((seconds >= t0) & (seconds < until))
         if len(rows):
             d, w, tau, sigma = segment.evaluate(seconds[rows])
             self.disp[rows], self.wanted[rows], self.progress[rows] = d, w, sigma

@@ -147,6 +147,7 @@ def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "u
         for o in overrides:
             prim = Sdf.CreatePrimInLayer(layer, o.animation)
             prim.specifier = Sdf.SpecifierOver
+            codes = np.asarray(o.times, dtype=float).tolist()
             if o.write_joints:
                 _attr(prim, "joints", Sdf.ValueTypeNames.TokenArray, uniform=True).default = Vt.TokenArray(o.joints)
             columns = (
@@ -158,8 +159,9 @@ def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "u
                 if values is None:
                     continue
                 path = _attr(prim, name, type_name).path
-                for t, row in zip(o.times, values):
-                    layer.SetTimeSample(path, float(t), vt.FromNumpy(row))
+                set_sample, from_numpy = layer.SetTimeSample, vt.FromNumpy  # bound once: this loop is the writer's cost
+                for t, row in zip(codes, values):
+                    set_sample(path, t, from_numpy(row))
             if o.skeleton and o.skeleton_joints is not None:
                 skel = Sdf.CreatePrimInLayer(layer, o.skeleton)
                 skel.specifier = Sdf.SpecifierOver

@@ -86,11 +86,15 @@ def _read_sdf(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: 
     if len(stage_times) != len(times) or not np.array_equal(stage_times, times):
         return None  # other attributes add times: USD interpolates between these samples
     out = np.empty((len(times), count, width), dtype=dtype)
+    query = layer.QueryTimeSample
     for i, t in enumerate(own):
-        value = np.asarray(layer.QueryTimeSample(path, t))
-        if value.shape != (count, width):
-            _wrong_count(value, times[i], where, count)
-        out[i] = value
+        value = query(path, t)  # a Vt array: numpy copies it through the buffer protocol
+        try:
+            if len(value) != count:  # a shorter array would broadcast
+                raise ValueError
+            out[i] = value
+        except (TypeError, ValueError):
+            _wrong_count(np.asarray(value), times[i], where, count)
     return out
 
 
@@ -239,10 +243,9 @@ def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim,
 def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
     """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation."""
     attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
-    times = sorted({t for a in attrs if a for t in a.GetTimeSamples()})
-    if not times:
+    times = np.unique(np.concatenate([np.asarray(a.GetTimeSamples(), dtype=float) for a in attrs if a] or [[]]))
+    if not len(times):
         raise UsdGazeError(f"{where_anim}: no time samples on rotations, translations or scales; nothing is animated")
-    times = np.array(times, dtype=float)
     rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
     translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
