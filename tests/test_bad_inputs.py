@@ -389,6 +389,21 @@ def b_attend_window_too_short(d):
     return _attend(d, _edited(d, lambda layer, rig: _gaze_object(layer, "/Ball", "Sphere")), "--window", "0.03")
 
 
+def _ball(d: Path) -> Path:
+    return _edited(d, lambda layer, rig: _gaze_object(layer, "/Ball", "Sphere"))
+
+
+def b_attend_physics_out_symlink_to_input(d):
+    src = _ball(d)
+    (d / "gaze.usdc").symlink_to(src)
+    return _attend(d, src, "--physics")
+
+
+def b_attend_physics_out_read_only_folder(d):
+    bad_cases_files._read_only_folder(d)  # refused before the (long) simulation starts
+    return ["attend", str(_ball(d)), "--physics", "--out", str(d / "ro" / "gaze.usdc")]
+
+
 BUILDERS = {name[2:].replace("_", "-"): fn for module in (globals(), vars(bad_cases_files), vars(bad_cases_stage),
                                                            vars(bad_cases_values), vars(bad_cases_look))
             for name, fn in dict(module).items() if name.startswith("b_")}
