@@ -189,7 +189,9 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     plan = scheduler.plan(shifts)
     weight = gaze_weights(keys, seconds)
     full = weight >= 1.0
-    disp = np.where(full[:, None, None], plan.displacement, rot.power(plan.displacement, weight[:, None]))
+    part = np.flatnonzero(~full)  # most shots hold full weight throughout: scale only the other frames
+    disp = plan.displacement
+    disp[part] = rot.power(disp[part], weight[part, None])
     body = move_body(base, chain, frame, disp)
     eye_m = to_world(clip, body.eye_centre(rig))
     fixation = options.fixation_m / clip.meters_per_unit
@@ -206,7 +208,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
 
     # Partial gaze: toward the base line of sight (and the fixation distance) as the weight falls.
     direction, distance = _unit(sight.point - eye_m)
-    direction = np.where(full[:, None], direction, saccade.slerp(base.line_of_sight, direction, weight))
+    direction[part] = saccade.slerp(base.line_of_sight[part], direction[part], weight[part])
     inv = np.where(full, 1.0 / np.maximum(distance, 1e-12),
                    (1.0 - weight) / fixation + weight / np.maximum(distance, 1e-12))
     wanted_point = eye_m + direction / inv[:, None]
