@@ -243,7 +243,8 @@ def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim,
 def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
     """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation."""
     attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
-    times = np.unique(np.concatenate([np.asarray(a.GetTimeSamples(), dtype=float) for a in attrs if a] or [[]]))
+    times = np.sort(np.concatenate([np.asarray(a.GetTimeSamples(), dtype=float) for a in attrs if a] or [[]]))
+    times = times[np.r_[True, times[1:] != times[:-1]]] if len(times) else times  # np.unique would import numpy.ma
     if not len(times):
         raise UsdGazeError(f"{where_anim}: no time samples on rotations, translations or scales; nothing is animated")
     rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
