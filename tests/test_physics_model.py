@@ -137,6 +137,46 @@ def test_model_is_physically_plausible(case):
     assert 0.4 < com[2] / top < 0.7
 
 
+def _geom_extremes(mj, d, axis: np.ndarray) -> np.ndarray:
+    """Per geom, its farthest surface point along ``axis`` (MuJoCo's own geometry, world frame)."""
+    out = []
+    for g in range(mj.ngeom):
+        if mj.geom_bodyid[g] == 0:
+            continue  # the ground
+        half = mj.geom_size[g, 1] if mj.geom_type[g] == mujoco.mjtGeom.mjGEOM_CAPSULE else 0.0
+        along = d.geom_xmat[g].reshape(3, 3)[:, 2] @ axis
+        out.append(d.geom_xpos[g] @ axis + abs(along) * half + mj.geom_size[g, 0])
+    return np.array(out)
+
+
+def test_an_end_site_ends_its_segment_and_adds_no_shape_beyond_it(tmp_path):
+    """Mixamo's HeadTop_End and Toe_End mark where the head and the toes end: the body reaches them
+    with its segments' own radius and no farther (a continued bone there made a horn above the head
+    and toes 12 cm too long)."""
+    rig = syn.make_rig(tmp_path / "mixamo.usda", convention="mixamo", up_axis="Z", meters_per_unit=0.01,
+                       frames=6, mesh=False, walk_speed=0.0)
+    xml = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    posed = measure.posed(str(rig.path), rig.skeleton)
+    rest = to_mujoco((posed.rest_skel @ posed.skel_to_world)[:, 3, :3], "Z", 0.01)
+    base = rest[posed.index("mixamorig_Hips")]
+    at = lambda leaf: rest[posed.index(leaf)] - base + d.xpos[1]  # noqa: E731  (stood where the model stands)
+    radius = mj.geom_size[1:, 0].max()
+    top = _geom_extremes(mj, d, np.array([0.0, 0.0, 1.0])).max()
+    assert top <= at("mixamorig_HeadTop_End")[2] + radius + 1e-6, top - at("mixamorig_HeadTop_End")[2]
+    toe_tip = at("mixamorig_LeftToe_End")
+    forward = toe_tip - at("mixamorig_LeftFoot")
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+    front = _geom_extremes(mj, d, forward).max()
+    foot_radius = max(mj.geom_size[g, 0] for g in range(mj.ngeom)
+                      if "Toe" in (mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_GEOM, g) or ""))
+    assert front <= toe_tip @ forward + foot_radius + 1e-6, front - toe_tip @ forward
+
+
 def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "m.xml"
     assert main(["physics-model", str(tmp_path / "missing.usda"), "--out", str(out)]) == 2

@@ -181,7 +181,10 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     eyes = {body_of[e] for e in hints.eyes if e in body_of}
     eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
     children = [[c for c in range(n) if bparent[c] == b] for b in range(n)]
-    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height)
+    # An exporter end site marks where its parent's segment ends, and an eye is a point in the head:
+    # neither has a length, mass or shape of its own.
+    tips = {b for b in range(1, n) if not children[b] and (b in eyes or seg.is_end_joint(joints[idx[b]]))}
+    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips)
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = np.maximum(seg.segment_masses(roles, lengths, total_mass), 1e-3 * total_mass / n)
 
@@ -255,16 +258,17 @@ def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
     return pos, orient, rmat, offset, rel
 
 
-def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float) -> np.ndarray:
+def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float, tips=frozenset()) -> np.ndarray:
     """Per body, in its frame, the segment from its joint toward its main child (the largest
-    subtree); a leaf continues its bone by a role's share of the height, else points up."""
+    subtree); a leaf continues its bone by a role's share of the height, else points up; an end
+    site in ``tips`` has none (zero)."""
     n = len(pos)
     seg_vec = np.zeros((n, 3))
     for b in range(n):
         if children[b]:
             sizes = [len(_subtree(c, bparent)) for c in children[b]]
             seg_vec[b] = offset[children[b][int(np.argmax(sizes))]]
-        if np.linalg.norm(seg_vec[b]) < 1e-6:
+        if np.linalg.norm(seg_vec[b]) < 1e-6 and b not in tips:
             d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
             d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))
             seg_vec[b] = d / np.linalg.norm(d) * _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
@@ -360,7 +364,8 @@ def _inertials(roles, seg_vec, mass):
         com[b] = s.com * seg_vec[b]
         kt, kl = s.gyration_transverse * length, s.gyration_long * length
         inertia[b] = mass[b] * np.array([kt * kt, kt * kt, max(kl * kl, 1e-6)])
-        iquat[b] = rot.shortest_arc(np.array([0, 0, 1.0]), seg_vec[b] / length)
+        if length > 0:  # an end site's (zero) segment has no axis: its inertia stays in its frame
+            iquat[b] = rot.shortest_arc(np.array([0, 0, 1.0]), seg_vec[b] / length)
     return com, np.maximum(inertia, 1e-6), iquat
 
 
@@ -369,7 +374,7 @@ def _geoms(offset, children, seg_vec, roles, rmat, feet):
     for b in range(len(roles)):
         g = [("capsule", np.concatenate([np.zeros(3), offset[c]])) for c in children[b]
              if np.linalg.norm(offset[c]) > 0.01]
-        if not g:
+        if not g and np.linalg.norm(seg_vec[b]) > 0:  # an end site (zero) has no shape
             g = [("capsule", np.concatenate([np.zeros(3), seg_vec[b]]))] if roles[b] != "head" else \
                 [("sphere", 0.5 * seg_vec[b])]
         if b in feet and children[b]:  # a sole from below the heel to the toes
