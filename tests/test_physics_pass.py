@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import build, mpc
@@ -93,6 +93,34 @@ def test_stays_up_with_the_feet_on_the_ground_and_tracks(shot):
     assert drift.max() > 0.01
     report = shot["reports"][0]
     assert not report.fell and report.pushes == 1 and report.frames == len(sim.times)
+
+
+def test_a_reference_that_starts_in_the_floor_starts_on_it(tmp_path):
+    """The whole character lowered 6 cm, its feet 4 cm into the floor (as a capture whose floor is
+    off): the simulated body's first frame stands on the ground, not in it (MuJoCo's soft contact
+    would otherwise start by pushing it out), and the shot stays up. By UsdSkel FK of the model's
+    foot capsules."""
+    src = excerpt(tmp_path / "low.usda", 0.2)
+    layer = Sdf.Layer.FindOrOpen(str(src))
+    root = layer.GetPrimAtPath("/root")
+    op = Sdf.AttributeSpec(root, "xformOp:translate:floor", Sdf.ValueTypeNames.Double3)
+    op.default = Gf.Vec3d(0.0, -0.06, 0.0)  # stage Y up: 6 cm down, outside every other transform
+    order = root.attributes["xformOpOrder"]
+    order.default = Vt.TokenArray(["xformOp:translate:floor", *order.default])
+    layer.Save()
+    ref = measure.posed(str(src), SKEL)
+    assert lowest_foot_point(src, ref)[0] < -0.03  # the reference starts in the floor
+    out = tmp_path / "sim.usda"
+    report = physics_pass.run(src, out, mpc.Options(h=0.02, horizon_s=0.6))[0]
+    composed = tmp_path / "composed.usda"
+    top = Sdf.Layer.CreateNew(str(composed))
+    top.timeCodesPerSecond, top.framesPerSecond = layer.timeCodesPerSecond, layer.framesPerSecond
+    top.startTimeCode, top.endTimeCode = layer.startTimeCode, layer.endTimeCode
+    top.subLayerPaths[:] = [str(out), str(src)]
+    top.Save()
+    low = lowest_foot_point(src, measure.posed(str(composed), SKEL))
+    assert low[0] >= -0.002, low[0]
+    assert not report.fell and low.min() >= -0.02, low.min()
 
 
 def lowest_foot_point(src, posed: measure.Posed) -> np.ndarray:

@@ -144,6 +144,18 @@ def _foot_depth(mj, d, geoms: np.ndarray) -> float:
     return max(0.0, -low)
 
 
+def _start_lift(mj, d, qpos0: np.ndarray) -> float:
+    """How far to raise the first state so that no geom starts in the ground: a reference whose first
+    frame puts a foot (with the model's sole) below the floor would otherwise start with MuJoCo's soft
+    contact pushing it out at once, and the shot's report would open with that depth."""
+    import mujoco
+
+    d.qpos[:] = qpos0
+    mujoco.mj_kinematics(mj, d)
+    geoms = np.flatnonzero(mj.geom_bodyid > 0)
+    return _foot_depth(mj, d, geoms)
+
+
 @dataclass
 class Shot:
     """What a receding-horizon loop runs on, made once from the reference (``prepare``): the planner's
@@ -267,6 +279,7 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
     feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(shot.model)])
     depth = np.zeros(steps + 1)
     d = mujoco.MjData(plan.mj)
+    qpos[0, 2] += _start_lift(plan.mj, d, qpos[0])
     d.qpos[:] = qpos[0]
     mujoco.mj_kinematics(plan.mj, d)
     down, kk = 0, steps + 1
