@@ -404,6 +404,10 @@ def b_attend_physics_out_read_only_folder(d):
     return ["attend", str(_ball(d)), "--physics", "--out", str(d / "ro" / "gaze.usdc")]
 
 
+def b_physics_model_quadruped(d):
+    return ["physics-model", str(_rig(d, body="quadruped").path), "--out", str(d / "body.xml")]
+
+
 BUILDERS = {name[2:].replace("_", "-"): fn for module in (globals(), vars(bad_cases_files), vars(bad_cases_stage),
                                                            vars(bad_cases_values), vars(bad_cases_look))
             for name, fn in dict(module).items() if name.startswith("b_")}

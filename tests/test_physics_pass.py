@@ -276,3 +276,26 @@ def test_the_lunge_lands_with_no_foot_in_the_floor_where_the_reference_puts_one(
     at, said = near.any(axis=1), np.array(frames["footBelowGroundM"])[near.any(axis=0)]
     assert at.sum() >= 5 and np.abs(np.maximum(0.0, -low[at]) - said).max() < 1e-3
     assert abs(max(frames["footBelowGroundM"]) - max(0.0, -low.min())) < 2e-3  # between steps: interpolated
+
+
+def test_a_run_that_stops_early_without_a_fall_is_said_to_diverge_not_to_fall():
+    """The shot's verdict from its states: a pelvis below 80% of the reference is a fall at that
+    frame; a run cut short with the pelvis up (MuJoCo's step blew up) diverged; a whole run with
+    the pelvis up is neither. The report says which, in its own words."""
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    from usdgaze.physics import retarget
+
+    q = retarget.to_qpos(model, ref)[:10]
+    seconds = np.arange(len(q)) / 50.0
+    empty = dict(ctrl=np.zeros((len(q), 1)), depth=np.zeros(len(q)), costs=[], measured={}, h=0.02)
+    whole = mpc.shot_result(model, q, q, seconds, steps=len(q) - 1, **empty)
+    cut = mpc.shot_result(model, q[:6], q, seconds, steps=len(q) - 1, **empty)
+    low = q.copy()
+    low[4:, 2] *= 0.5
+    fell = mpc.shot_result(model, low, q, seconds, steps=len(q) - 1, **empty)
+    assert (whole.fell, whole.diverged) == (False, False)
+    assert (cut.fell, cut.diverged, cut.fell_at) == (True, True, seconds[5])
+    assert (fell.fell, fell.diverged, fell.fell_at) == (True, False, seconds[4])
+    said = lambda r: physics_pass.shot_summary(clip, r, len(r.seconds), 0, 0.0)[0].problems  # noqa: E731
+    assert said(whole) == [] and "diverged at 0.10 s" in said(cut)[0] and "fell at 0.08 s" in said(fell)[0]

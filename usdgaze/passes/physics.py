@@ -15,8 +15,9 @@ Tasks authored in the stage (read at this edge, then plain arrays):
   touching an obstacle, is reported as a problem of the shot.
 
 Honest failure: when the pelvis drops below 80% of the reference's height the shot is reported as a
-fall (time of the first such frame); the layer still holds what was simulated unless ``keep_failed``
-is False, in which case nothing is written and the command fails.
+fall (time of the first such frame), and a run MuJoCo's step blew up before that as diverged; the
+layer still holds what was simulated unless ``keep_failed`` is False, in which case nothing is
+written and the command fails.
 """
 
 from __future__ import annotations
@@ -185,7 +186,9 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
 def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float) -> tuple[ShotReport, dict]:
     """The shot's report (a fall said plainly) and its per-step measures for the layer."""
     problems = []
-    if result.fell:
+    if result.diverged:
+        problems.append(f"the simulation diverged at {result.fell_at:.2f} s (MuJoCo's step became unstable)")
+    elif result.fell:
         problems.append(f"fell at {result.fell_at:.2f} s (pelvis below {mpc.FALL_RATIO:.0%} of the reference)")
     problems += task_problems(result)
     report = ShotReport(skeleton=clip.skeleton, animation=clip.animation, frames=frames,

@@ -178,6 +178,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     hints = hints or Hints()
     head = body_of.get(hints.head) if hints.head is not None else None
     roles = seg.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
+    seg.check_biped(roles, pos, height, where)
     eyes = {body_of[e] for e in hints.eyes if e in body_of}
     eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
     children = [[c for c in range(n) if bparent[c] == b] for b in range(n)]

@@ -88,8 +88,9 @@ class Result:
     joint_error_deg: np.ndarray  # (K,) mean over simulated joints
     foot_below_ground_m: np.ndarray  # (K,) deepest foot point below z = 0 (0 if none)
     solve_costs: list[list[float]]
-    fell_at: float | None  # seconds of the first frame below FALL_RATIO
+    fell_at: float | None  # seconds of the first frame below FALL_RATIO, or of the last one a diverged run reached
     task_terms: dict[str, np.ndarray] = field(default_factory=dict)  # "task.measure" -> (K,), NaN at k = 0
+    diverged: bool = False  # MuJoCo's step blew up (the run stopped early without a fall)
 
     @property
     def fell(self) -> bool:
@@ -322,10 +323,11 @@ def shot_result(model: BodyModel, qpos, ref_q, ref_seconds, ctrl, depth, costs, 
     ratio = qpos[:, 2] / np.maximum(ref_q[:kk, 2], 1e-6)
     low = np.flatnonzero(ratio < FALL_RATIO)
     seconds = ref_seconds[0] + h * np.arange(kk)
-    fell = float(seconds[low[0]]) if len(low) else (None if kk == steps + 1 else float(seconds[-1]))
+    diverged = not len(low) and kk < steps + 1
+    fell = float(seconds[low[0]]) if len(low) else (float(seconds[-1]) if diverged else None)
     return Result(seconds=seconds, qpos=qpos, ref_qpos=ref_q[:kk], ctrl=ctrl[: kk - 1], pelvis_ratio=ratio,
                   joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth[:kk],
-                  solve_costs=costs, fell_at=fell,
+                  solve_costs=costs, fell_at=fell, diverged=bool(diverged),
                   task_terms={key: np.array(v + [np.nan] * (kk - len(v)))[:kk] for key, v in measured.items()})
 
 

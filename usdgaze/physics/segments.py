@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.core.rig import leaf
+from usdgaze.errors import UsdGazeError
 
 
 @dataclass(frozen=True)
@@ -249,3 +250,13 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float) -> 
     elif "other" not in present:
         masses *= 1.0 / max(masses.sum(), 1e-9)
     return masses * total_mass
+
+
+def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) -> None:
+    """The body is de Leva's human: a skeleton whose hands are on the ground at rest (a quadruped's
+    front feet) would be simulated as a person on all fours it cannot hold, so it is refused."""
+    hands = [b for b, r in enumerate(roles) if r == "hand"]
+    low = min((float(pos[b, 2] - pos[:, 2].min()) for b in hands), default=np.inf)
+    if low < 0.2 * height:
+        raise UsdGazeError(f"{where}: its hands are on the ground at rest ({low / height:.0%} of its height up): "
+                           "the physics body is a biped (de Leva's human segments); quadrupeds are not supported")
