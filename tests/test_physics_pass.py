@@ -299,3 +299,4 @@ def test_a_run_that_stops_early_without_a_fall_is_said_to_diverge_not_to_fall():
     assert (fell.fell, fell.diverged, fell.fell_at) == (True, False, seconds[4])
     said = lambda r: physics_pass.shot_summary(clip, r, len(r.seconds), 0, 0.0)[0].problems  # noqa: E731
     assert said(whole) == [] and "diverged at 0.10 s" in said(cut)[0] and "fell at 0.08 s" in said(fell)[0]
+    assert physics_pass.shot_summary(clip, cut, 6, 0, 0.0)[0].diverged

@@ -54,6 +54,7 @@ class ShotReport:
     pushes: int
     wall_s: float
     problems: list[str] = field(default_factory=list)
+    diverged: bool = False  # cut short by MuJoCo's step blowing up (``fell`` too: the shot failed)
 
 
 def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
@@ -196,7 +197,7 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         fell_at_s=result.fell_at, min_pelvis_ratio=float(result.pelvis_ratio.min()),
                         mean_joint_error_deg=float(result.joint_error_deg.mean()),
                         max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
-                        wall_s=wall, problems=problems)
+                        wall_s=wall, problems=problems, diverged=result.diverged)
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist()}
     terms.update({key: [float(v) for v in values] for key, values in result.task_terms.items()})  # NaN: no value
