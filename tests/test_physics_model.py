@@ -177,6 +177,49 @@ def test_an_end_site_ends_its_segment_and_adds_no_shape_beyond_it(tmp_path):
     assert front <= toe_tip @ forward + foot_radius + 1e-6, front - toe_tip @ forward
 
 
+def test_a_skeleton_without_names_gets_the_named_ones_shapes_and_fingers_end_at_their_tips(tmp_path):
+    """The Mixamo-style skeleton with every joint named ``bone_NNN`` and its chain bound by hand builds
+    the named rig's bodies: the same shapes, radii and masses (the skull's top, the toe tips and the
+    eyes found from the binding and the limbs' depth, not from ``_End``). With fingers: Mixamo's
+    fingertip joints (``LeftHandIndex4``) have no shape; a UE-style last phalanx (``index_03_l``, a
+    real joint) is as long as the phalanx before it, by UsdSkel FK, not a tenth of the body."""
+    from usdgaze.characters import bind
+    from usdgaze.core.hints import BindHints
+
+    named = syn.make_rig(tmp_path / "named.usda", convention="mixamo", frames=6, mesh=False)
+    bare = syn.make_rig(tmp_path / "bare.usda", convention="generic", frames=6, mesh=False)
+    by_name, _ = build.body_model(build.load_clip(named.path))
+    leaf = {j.rsplit("/", 1)[-1]: b.rsplit("/", 1)[-1] for j, b in zip(named.joints, bare.joints)}
+    roles = {"pelvis": "Hips", "lowerSpine": "Spine", "upperSpine": "Spine1", "neck": "Neck", "head": "Head",
+             "leftEye": "LeftEye", "rightEye": "RightEye"}
+    hints = BindHints(bindings=tuple((r, (leaf["mixamorig_" + j],)) for r, j in roles.items()),
+                      forward=tuple(bare.forward))
+    clip = build.load_clip(bare.path)
+    by_shape, _ = build.body_model(clip, chain_frame=bind(clip, None, hints))
+    assert by_shape.role == by_name.role and by_shape.kind == by_name.kind
+    assert [[k for k, _ in g] for g in by_shape.geoms] == [[k for k, _ in g] for g in by_name.geoms]
+    for a, b in zip(by_shape.geoms, by_name.geoms):
+        for (_, va), (_, vb) in zip(a, b):
+            np.testing.assert_allclose(va, vb, atol=1e-9)
+    np.testing.assert_allclose(by_shape.mass, by_name.mass, rtol=1e-9)
+    np.testing.assert_allclose(by_shape.radius, by_name.radius, rtol=1e-9)
+
+    for convention, tip, before in (("mixamo", "LeftHandIndex4", "LeftHandIndex3"), ("ue", "index_03_l", "index_02_l")):
+        rig = syn.make_rig(tmp_path / f"{convention}70.usda", convention=convention, frames=6, mesh=False, joints=70)
+        model, _ = build.body_model(build.load_clip(rig.path))
+        body = {model.joints[j].rsplit("/", 1)[-1].removeprefix("mixamorig_"): b for b, j in enumerate(model.bodies)}
+        geoms = model.geoms[body[tip]]
+        posed = measure.posed(str(rig.path), rig.skeleton)
+        prefix = "mixamorig_" if convention == "mixamo" else ""
+        bone = np.linalg.norm(posed.rest_skel[posed.index(prefix + tip), 3, :3]
+                              - posed.rest_skel[posed.index(prefix + before), 3, :3])
+        if convention == "mixamo":
+            assert geoms == []
+        else:
+            (kind, v), = geoms
+            assert kind == "capsule" and np.linalg.norm(v[3:] - v[:3]) == pytest.approx(bone, rel=1e-6)
+
+
 def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "m.xml"
     assert main(["physics-model", str(tmp_path / "missing.usda"), "--out", str(out)]) == 2

@@ -182,10 +182,13 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     eyes = {body_of[e] for e in hints.eyes if e in body_of}
     eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
     children = [[c for c in range(n) if bparent[c] == b] for b in range(n)]
-    # An exporter end site marks where its parent's segment ends, and an eye is a point in the head:
-    # neither has a length, mass or shape of its own.
-    tips = {b for b in range(1, n) if not children[b] and (b in eyes or seg.is_end_joint(joints[idx[b]]))}
-    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips)
+    # An end site marks where its parent's segment ends, and an eye is a point in the head: neither
+    # has a length, mass or shape of its own.
+    if head is None:  # the head joint by name (the gaze binding's otherwise)
+        head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(joints[idx[b]])), None)
+    tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head)
+    tips |= {b for b in eyes if not children[b]}
+    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges)
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = np.maximum(seg.segment_masses(roles, lengths, total_mass), 1e-3 * total_mass / n)
 
@@ -259,10 +262,11 @@ def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
     return pos, orient, rmat, offset, rel
 
 
-def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float, tips=frozenset()) -> np.ndarray:
+def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float, tips=frozenset(),
+                     phalanges=frozenset()) -> np.ndarray:
     """Per body, in its frame, the segment from its joint toward its main child (the largest
-    subtree); a leaf continues its bone by a role's share of the height, else points up; an end
-    site in ``tips`` has none (zero)."""
+    subtree); a leaf continues its bone by a role's share of the height (a last phalanx in
+    ``phalanges`` by its bone's own length), else points up; an end site in ``tips`` has none."""
     n = len(pos)
     seg_vec = np.zeros((n, 3))
     for b in range(n):
@@ -272,7 +276,8 @@ def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float,
         if np.linalg.norm(seg_vec[b]) < 1e-6 and b not in tips:
             d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
             d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))
-            seg_vec[b] = d / np.linalg.norm(d) * _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
+            length = np.linalg.norm(d) if b in phalanges else _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
+            seg_vec[b] = d / np.linalg.norm(d) * length
     return seg_vec
 
 

@@ -218,9 +218,43 @@ def _ancestors(j: int, parents: np.ndarray) -> list[int]:
     return out
 
 
+def is_head_joint(name: str) -> bool:
+    """The head joint by name (``Head``, ``mixamorig:Head``, ``Bip01 Head``, Rigify's ``spine.006``)."""
+    return bool(_HEAD.search(_key(name)))
+
+
 def is_end_joint(name: str) -> bool:
     """Exporter end sites (``HeadTop_End``, ``LeftToe_End``, ``..._nub``): no degrees of freedom."""
     return bool(_END.search(_key(name)))
+
+
+# A leaf this many joints below its limb's first foot or hand joint marks the limb's tip (Mixamo's
+# LeftToe_End below Foot and ToeBase; LeftHandIndex4 below Hand and three phalanges), not a joint
+# whose segment the skeleton leaves unmeasured (CMU's LeftToe below LeftAnkle, LFingers two below
+# LeftWrist; UE's ball_l).
+_TIP_DEPTH = {"foot": 2, "hand": 4}
+
+
+def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
+              head: int | None) -> tuple[set[int], set[int]]:
+    """Leaf joints whose segment the skeleton does measure: ``tips``, which mark where their parent's
+    segment ends (no length or shape of their own: exporter end sites by name, a leaf child of the
+    head, a foot's or a finger's leaf at least ``_TIP_DEPTH`` joints down its limb), and
+    ``phalanges``, a finger's last phalanx three joints down (UE's index_03_l): as long as the one
+    before it."""
+    tips, phalanges = set(), set()
+    for j in range(1, len(names)):
+        if children[j]:
+            continue
+        depth, top = 0, j
+        while parents[top] >= 0 and roles[int(parents[top])] == roles[j]:
+            top, depth = int(parents[top]), depth + 1
+        if (is_end_joint(names[j]) or (head is not None and parents[j] == head)
+                or depth >= _TIP_DEPTH.get(roles[j], 1 << 30)):
+            tips.add(j)
+        elif roles[j] == "hand" and depth == _TIP_DEPTH["hand"] - 1:
+            phalanges.add(j)
+    return tips, phalanges
 
 
 def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float) -> np.ndarray:
