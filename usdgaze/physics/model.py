@@ -190,7 +190,10 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     tips |= {b for b in eyes if not children[b]}
     seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges)
     lengths = np.linalg.norm(seg_vec, axis=1)
-    mass = np.maximum(seg.segment_masses(roles, lengths, total_mass), 1e-3 * total_mass / n)
+    share = seg.segment_masses(roles, lengths, total_mass)
+    mass = np.maximum(share, 1e-3 * total_mass / n)
+    for b in sorted(tips):  # a tip's token mass comes out of the segment it ends: the total stays
+        mass[bparent[b]] -= mass[b] - share[b]
 
     kind = ["free"] + ["weld" if b in eyes or _welded(joints[idx[b]], roles, bparent, b, children) else "ball"
                        for b in range(1, n)]
