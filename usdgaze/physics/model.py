@@ -205,7 +205,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     if reference is not None:
         _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, weld_still)
 
-    com, inertia, iquat = _inertials(roles, seg_vec, mass)
+    com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
     radius = np.clip(np.sqrt(mass / (1000.0 * np.pi * np.maximum(lengths, 0.05))), 0.015, 0.14) * (
         np.array([0.6 if r in ("trunk", "other") else 1.0 for r in roles]))
     radius[[b for b in range(n) if roles[b] == "foot"]] = 0.025 * height / 1.75
@@ -360,22 +360,6 @@ def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: n
             axis[b] = a / np.linalg.norm(a)
         theta = np.degrees(rv @ axis[b])
         rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))
-
-
-def _inertials(roles, seg_vec, mass):
-    n = len(roles)
-    com = np.zeros((n, 3))
-    inertia = np.zeros((n, 3))
-    iquat = np.tile(rot.IDENTITY, (n, 1))
-    for b in range(n):
-        s = seg.DE_LEVA.get(roles[b], seg.DE_LEVA["trunk"])
-        length = float(np.linalg.norm(seg_vec[b]))
-        com[b] = s.com * seg_vec[b]
-        kt, kl = s.gyration_transverse * length, s.gyration_long * length
-        inertia[b] = mass[b] * np.array([kt * kt, kt * kt, max(kl * kl, 1e-6)])
-        if length > 0:  # an end site's (zero) segment has no axis: its inertia stays in its frame
-            iquat[b] = rot.shortest_arc(np.array([0, 0, 1.0]), seg_vec[b] / length)
-    return com, np.maximum(inertia, 1e-6), iquat
 
 
 def _geoms(offset, children, seg_vec, roles, rmat, feet):

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usdgaze.core import rotations as rot
 from usdgaze.core.rig import leaf
 from usdgaze.errors import UsdGazeError
 
@@ -294,3 +295,20 @@ def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) ->
     if low < 0.2 * height:
         raise UsdGazeError(f"{where}: its hands are on the ground at rest ({low / height:.0%} of its height up): "
                            "the physics body is a biped (de Leva's human segments); quadrupeds are not supported")
+
+
+def inertials(roles: list[str], seg_vec: np.ndarray, mass: np.ndarray):
+    """Per body, de Leva's centre of mass, principal moments and their frame along its segment."""
+    n = len(roles)
+    com = np.zeros((n, 3))
+    inertia = np.zeros((n, 3))
+    iquat = np.tile(rot.IDENTITY, (n, 1))
+    for b in range(n):
+        s = DE_LEVA.get(roles[b], DE_LEVA["trunk"])
+        length = float(np.linalg.norm(seg_vec[b]))
+        com[b] = s.com * seg_vec[b]
+        kt, kl = s.gyration_transverse * length, s.gyration_long * length
+        inertia[b] = mass[b] * np.array([kt * kt, kt * kt, max(kl * kl, 1e-6)])
+        if length > 0:  # an end site's (zero) segment has no axis: its inertia stays in its frame
+            iquat[b] = rot.shortest_arc(np.array([0, 0, 1.0]), seg_vec[b] / length)
+    return com, np.maximum(inertia, 1e-6), iquat
