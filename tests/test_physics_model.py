@@ -220,6 +220,37 @@ def test_a_skeleton_without_names_gets_the_named_ones_shapes_and_fingers_end_at_
             assert kind == "capsule" and np.linalg.norm(v[3:] - v[:3]) == pytest.approx(bone, rel=1e-6)
 
 
+@pytest.mark.parametrize("convention", ["mixamo", "ue", "rigify"])
+def test_both_hands_catch_each_on_its_side_with_the_palm_before_the_knuckles(tmp_path, convention):
+    """The catch's hands on rigs with fingers: one per side, found by the character's left at rest
+    (UE's ``hand_r`` and Rigify's ``DEF-hand.R`` do not start with r), and each palm point halfway
+    from the wrist to the fingers' bases, by MuJoCo's own kinematics against UsdSkel's joints."""
+    from usdgaze.physics import catch
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention=convention, frames=6, mesh=False, joints=70)
+    model, _ = build.body_model(build.load_clip(rig.path))
+    sites = catch._hand_sites(model)
+    assert sorted(sites) == ["left", "right"]
+    xml = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    posed = measure.posed(str(rig.path), rig.skeleton)
+    rest = to_mujoco((posed.rest_skel @ posed.skel_to_world)[:, 3, :3], "Y", 1.0)
+    left = np.cross([0.0, 0.0, 1.0], model.forward)
+    hips = d.xpos[1]
+    for side, (body, palm) in sites.items():
+        wrist = d.xpos[body]
+        point = wrist + d.xmat[body].reshape(3, 3) @ palm
+        assert ((point - hips) @ left > 0.1) == (side == "left")
+        hand = model.bodies[body - 1]
+        bases = [i for i, p in enumerate(posed.joints) if p.rsplit("/", 1)[0] == posed.joints[hand]
+                 and any(f in p.rsplit("/", 1)[-1].lower() for f in ("index", "middle", "ring", "pinky"))]
+        knuckles = (rest[bases] - rest[hand]).mean(axis=0) + wrist  # the same offsets, stood where MuJoCo stands
+        assert np.linalg.norm(point - (wrist + 0.5 * (knuckles - wrist))) < 0.02
+
+
 def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "m.xml"
     assert main(["physics-model", str(tmp_path / "missing.usda"), "--out", str(out)]) == 2

@@ -63,17 +63,33 @@ class CatchOptions:
 
 def _hand_sites(model: BodyModel) -> dict[str, tuple[int, np.ndarray]]:
     """'left'/'right' -> (MuJoCo body id, palm point in that body's frame): the first simulated hand
-    body below each forearm, the palm halfway to its first child (else its centre of mass)."""
+    body below each forearm, the palm halfway to its fingers' bases (children with two joints or more
+    below them), else to its first child, else its centre of mass."""
     out = {}
+    n = len(model.role)
+    kids = [[c for c in range(n) if model.body_parent[c] == b] for b in range(n)]
+
+    def size(b: int) -> int:
+        return 1 + sum(size(c) for c in kids[b])
+
     for b, role in enumerate(model.role):
         parent = model.body_parent[b]
         if role != "hand" or parent < 0 or model.role[parent] != "forearm":
             continue
-        kids = [c for c in range(len(model.role)) if model.body_parent[c] == b]
-        palm = 0.5 * model.offset[kids[0]] if kids else model.com[b]
-        side = "right" if model.names[b].lower().startswith("r") else "left"
-        out.setdefault(side, (b + 1, palm))
+        fingers = [c for c in kids[b] if size(c) >= 3]
+        palm = (0.5 * model.offset[fingers].mean(axis=0) if fingers else
+                0.5 * model.offset[kids[b][0]] if kids[b] else model.com[b])
+        out.setdefault(_side(model, b), (b + 1, palm))
     return out
+
+
+def _side(model: BodyModel, b: int) -> str:
+    """Which side body ``b`` is on at rest: by the character's left where its forward is known (UE's
+    ``hand_r`` does not start with r), else by the name."""
+    if model.forward is None:
+        return "right" if model.names[b].lower().startswith("r") else "left"
+    left = np.cross([0.0, 0.0, 1.0], model.forward)
+    return "left" if (model.rest_pos[b] - model.rest_pos[0]) @ left > 0 else "right"
 
 
 class CatchTask:
