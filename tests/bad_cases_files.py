@@ -129,7 +129,7 @@ def b_preview_is_a_sublayer_of_the_input(d):
 
 
 def b_out_is_a_value_clip(d):
-    r = rig(d, "clip.usda")
+    rig(d, "clip.usda")
     _layer_file(d, "in.usda", (
         'def "Character" (\n    references = @./clip.usda@</Character>\n)\n{\n'
         '    over "Anim" (\n        clips = {\n            dictionary default = {\n'

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd
+from pxr import Gf, Sdf
 
 from tests import measure
 from tests.attend_support import ATTEND, angle_to, compose, gaze, positions

@@ -8,8 +8,6 @@ of the other command, or physics-only keys without physics, are one line naming 
 
 from __future__ import annotations
 
-import json
-
 import pytest
 from pxr import Sdf
 

@@ -180,7 +180,7 @@ def test_c1_velocity_jumps_shrink_with_step(offsets, starts, peak, beta):
     goal_angle = Rotation.from_quat(offsets).magnitude()
     for h in (4e-3, 2e-3, 1e-3, 5e-4):
         for phase in (0.0, 1.0 / 3.0):
-            worst_angle, worst_quat, bound_angle, bound_quat = 0.0, 0.0, 0.0, 0.0
+            worst_angle, worst_quat = 0.0, 0.0
             for j in range(5):
                 junctions = [all_starts[j], peak, 1.0]
                 grid, stencils = _sample_times(h, junctions, phase)

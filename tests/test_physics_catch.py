@@ -7,8 +7,6 @@ between wrist and hand joints) against the ball's true positions read from the s
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from pxr import Sdf

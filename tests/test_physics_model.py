@@ -149,19 +149,25 @@ def _geom_extremes(mj, d, axis: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def test_an_end_site_ends_its_segment_and_adds_no_shape_beyond_it(tmp_path):
-    """Mixamo's HeadTop_End and Toe_End mark where the head and the toes end: the body reaches them
-    with its segments' own radius and no farther (a continued bone there made a horn above the head
-    and toes 12 cm too long)."""
-    rig = syn.make_rig(tmp_path / "mixamo.usda", convention="mixamo", up_axis="Z", meters_per_unit=0.01,
-                       frames=6, mesh=False, walk_speed=0.0)
+def _at_rest(tmp_path, rig, up: str, mpu: float):
+    """The MJCF ``physics-model`` writes for ``rig``, posed at rest by MuJoCo, and the rig's rest joint
+    positions by UsdSkel in MuJoCo's axes: (mj, data, posed, rest)."""
     xml = tmp_path / "model.xml"
     assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
     mj = mujoco.MjModel.from_xml_path(str(xml))
     d = mujoco.MjData(mj)
     mujoco.mj_kinematics(mj, d)
     posed = measure.posed(str(rig.path), rig.skeleton)
-    rest = to_mujoco((posed.rest_skel @ posed.skel_to_world)[:, 3, :3], "Z", 0.01)
+    return mj, d, posed, to_mujoco((posed.rest_skel @ posed.skel_to_world)[:, 3, :3], up, mpu)
+
+
+def test_an_end_site_ends_its_segment_and_adds_no_shape_beyond_it(tmp_path):
+    """Mixamo's HeadTop_End and Toe_End mark where the head and the toes end: the body reaches them
+    with its segments' own radius and no farther (a continued bone there made a horn above the head
+    and toes 12 cm too long)."""
+    rig = syn.make_rig(tmp_path / "mixamo.usda", convention="mixamo", up_axis="Z", meters_per_unit=0.01,
+                       frames=6, mesh=False, walk_speed=0.0)
+    mj, d, posed, rest = _at_rest(tmp_path, rig, "Z", 0.01)
     base = rest[posed.index("mixamorig_Hips")]
     at = lambda leaf: rest[posed.index(leaf)] - base + d.xpos[1]  # noqa: E731  (stood where the model stands)
     radius = mj.geom_size[1:, 0].max()
@@ -231,13 +237,7 @@ def test_both_hands_catch_each_on_its_side_with_the_palm_before_the_knuckles(tmp
     model, _ = build.body_model(build.load_clip(rig.path))
     sites = catch._hand_sites(model)
     assert sorted(sites) == ["left", "right"]
-    xml = tmp_path / "model.xml"
-    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
-    mj = mujoco.MjModel.from_xml_path(str(xml))
-    d = mujoco.MjData(mj)
-    mujoco.mj_kinematics(mj, d)
-    posed = measure.posed(str(rig.path), rig.skeleton)
-    rest = to_mujoco((posed.rest_skel @ posed.skel_to_world)[:, 3, :3], "Y", 1.0)
+    mj, d, posed, rest = _at_rest(tmp_path, rig, "Y", 1.0)
     left = np.cross([0.0, 0.0, 1.0], model.forward)
     hips = d.xpos[1]
     for side, (body, palm) in sites.items():
