@@ -40,6 +40,7 @@ physics = true
 window = 0.3
 fd_stride = 2
 fd_reuse = 2
+mass = 60
 """
 
 
@@ -59,13 +60,18 @@ def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path):
     out = tmp_path / "out"
     assert main(["attend", str(scene), "--out", str(tmp_path / "cli_look.usdc"), "--window", "0.3", "--seed", "3"]) == 0
     assert main(["attend", str(still.path), "--physics", "--out", str(tmp_path / "cli_body.usdc"), "--window", "0.3",
-                 "--fd-stride", "2", "--fd-reuse", "2"]) == 0
+                 "--fd-stride", "2", "--fd-reuse", "2", "--mass", "60"]) == 0
     assert _samples(out / "look.usdc") == _samples(tmp_path / "cli_look.usdc")
     assert _samples(out / "body.usdc") == _samples(tmp_path / "cli_body.usdc")
     for name in ("look", "body"):
         data = Sdf.Layer.OpenAsAnonymous(str(out / f"{name}.usdc")).customLayerData["usdgaze"]
         assert len(data["batchKey"]) == 64
     assert "usdgaze:physics" in Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData
+    # The mass reaches the simulation: recorded, and the default's 75 kg body moves otherwise.
+    assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["massKg"] == 60.0
+    assert main(["attend", str(still.path), "--physics", "--out", str(tmp_path / "cli_75.usdc"), "--window", "0.3",
+                 "--fd-stride", "2", "--fd-reuse", "2"]) == 0
+    assert _samples(tmp_path / "cli_75.usdc") != _samples(tmp_path / "cli_body.usdc")
     angle = _angle_to_ball(compose(tmp_path, scene, out / "look.usdc", "composed.usda"), rig, ball)
     assert angle[-8:].max() < 5.0, angle  # the eyes on the ball by the last third of a second
 

@@ -60,6 +60,7 @@ def test_physics_output_may_not_be_a_layer_the_input_reads(tmp_path, capsys, tar
     (["--threads", "2"], "--threads is an option of --physics"),
     (["--discard-failed"], "--discard-failed is an option of --physics"),
     (["--fd-reuse", "3"], "--fd-reuse is an option of --physics"),
+    (["--mass", "60"], "--mass is an option of --physics"),
 ])
 def test_an_option_of_the_other_mode_is_refused_not_ignored(tmp_path, capsys, args, words):
     shot, anim = _shot(tmp_path)

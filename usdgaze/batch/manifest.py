@@ -200,6 +200,7 @@ KEYS: dict[str, Key] = {
     "fd_stride": Key(_integer("fd_stride", 1, 8), "fd_stride", commands=_ATTEND),
     "fd_reuse": Key(_integer("fd_reuse", 1, 8), "fd_reuse", commands=_ATTEND),
     "timestep": Key(_number("timestep", 0.01, 0.05), "timestep", commands=_ATTEND),
+    "mass": Key(_number("mass", 1.0, 500.0), "mass", commands=_ATTEND),
 }
 
 # Targets fed by several keys: built from all of them at once (and checked up front).
@@ -292,7 +293,7 @@ def attend_kwargs(shot: Shot) -> dict:
                       workers=v.get("threads", 1), fd_stride=v.get("fd_stride", 1), fd_reuse=v.get("fd_reuse", 1))
     check_window(options, f"{shot.where}: window = {options.horizon_s:g}")
     return {**common, "physics": True, "options": options, "seed": settings.get("seed", 0), "binding": binding,
-            "keep_failed": not v.get("discard_failed", False)}
+            "keep_failed": not v.get("discard_failed", False), "total_mass": v.get("mass", 75.0)}
 
 
 def _where(path: Path, index: int, name: str | None) -> str:

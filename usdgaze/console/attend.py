@@ -45,9 +45,11 @@ import click
 @click.option("--fd-reuse", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: keep a step's MuJoCo derivatives for up to N solves while its contacts "
                    "stay the same (faster; 3 saves about a quarter, feet sink deeper, docs/physics.md).")
+@click.option("--mass", default=75.0, show_default=True, type=click.FloatRange(1.0, 500.0),
+              help="With --physics: the body's total mass, kg (de Leva's segment shares of it; as physics-model).")
 @click.pass_context
 def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
-           physics, discard_failed, threads, fd_stride, timestep, fd_reuse) -> None:
+           physics, discard_failed, threads, fd_stride, timestep, fd_reuse, mass) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     from usdgaze.core.hints import parse_hints
 
@@ -58,7 +60,7 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
         options = Options(h=timestep, horizon_s=Options.horizon_s if window_s is None else window_s,
                           workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse)
         return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
-                        parse_hints(bind, forward))
+                        parse_hints(bind, forward), mass)
     from usdgaze.attend import AttendSettings, attend as run
 
     paths = [p.strip() for p in objects.split(",") if p.strip()] if objects else None
@@ -101,14 +103,14 @@ def _check_combination(ctx, physics: bool) -> None:
             raise UsdGazeError(f"{wrong[0]} is an option of --physics")
 
 
-def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed, binding) -> None:
+def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed, binding, mass) -> None:
     """``--physics``: the physics pass (usdgaze.passes.physics); one line per shot, a fall said plainly."""
     from dataclasses import asdict
 
     from usdgaze.passes.physics import run
 
     reports = run(input_path, out, options, skel_root=skel_root, keep_failed=not discard_failed, seed=seed,
-                  binding=binding)
+                  binding=binding, total_mass=mass)
     if as_json:
         click.echo(json.dumps({"output": str(out), "shots": [asdict(r) for r in reports]}, indent=2))
         return

@@ -304,7 +304,8 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
     info = _layer_info(stage)
     info.custom = {"usdgaze:physics": terms,
                    "usdgaze": {"version": __version__, "input": os.path.basename(source),
-                               "command": "attend --physics", "seed": seed, "planner": _planner_record(options),
+                               "command": "attend --physics", "seed": seed, "massKg": float(total_mass),
+                               "planner": _planner_record(options),
                                **(record or {})}}
     layer = build_override(overrides, info)
     for character, times, sight, eye_pose, paths, estimates, uncertainty in inspections:
