@@ -27,6 +27,8 @@ import numpy as np
 from usdgaze.physics import build, mpc, retarget, visuomotor
 from usdgaze.vision import loop
 
+import _physics_tasks as scenes  # benchmarks/ is on sys.path: run through bench_physics.py
+
 TASKS = ("track", "push", "catch", "stones", "obstacles", "stones-body", "obstacles-body")
 
 
@@ -75,18 +77,18 @@ def scene(task: str, h: float, seconds: float, bench):
         pushes = ()
         if task == "push":
             chest = next(b for b, n in enumerate(model.names) if n.lower() in ("chest2", "spine2", "chest", "spine1"))
-            pushes = (mpc.Push(chest, 150.0 * bench._left(model, qpos[0]), 0.5, 0.2),)
+            pushes = (mpc.Push(chest, 150.0 * scenes._left(model, qpos[0]), 0.5, 0.2),)
         return model, qpos, secs, None, [], pushes
     if task == "catch":
         return (*_catch_scene(h), ())
     steps = lambda secs: h * np.arange(int(np.ceil(secs[-1] / h - 1e-6)) + 1)  # noqa: E731
     if task.startswith("stones"):
         model, qpos, secs = _walk(1.0, 2.5, bench)
-        placed, _ = bench.stone_places(model, qpos, secs, {"RightAnkle": 0.15}, 0.0)
+        placed, _ = scenes.stone_places(model, qpos, secs, {"RightAnkle": 0.15}, 0.0)
         things = _objects(np.repeat(placed[None], len(steps(secs)), 0), 0.15)
         return model, qpos, secs, None if task.endswith("body") else things, [stones.factory(placed, (qpos, secs))], ()
     model, qpos, secs = _walk(1.0, 2.2, bench)
-    at, radii = bench.crossing(qpos, secs, 0)
+    at, radii = scenes.crossing(qpos, secs, 0)
     if task.endswith("body"):
         return model, qpos, secs, None, [obstacles.factory(at, radii)], ()
     things = _objects(at(steps(secs)), float(radii[0]))
