@@ -12,6 +12,17 @@ class UsdGazeError(Exception):
         super().__init__(" ".join(str(message).split()))
 
 
+class Interrupted(BaseException):
+    """SIGTERM or SIGINT arrived while a command held outputs (``files.transaction``); raised so that
+    cleanup runs."""
+
+    def __init__(self, signum: int) -> None:
+        import signal
+
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
 class GazeMapError(UsdGazeError):
     """A gaze map (on a prim or in memory) is malformed."""
 

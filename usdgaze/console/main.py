@@ -13,8 +13,7 @@ import traceback
 import click
 
 from usdgaze import __version__
-from usdgaze.errors import UsdGazeError
-from usdgaze.files.transaction import Interrupted
+from usdgaze.errors import Interrupted, UsdGazeError
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1

@@ -28,21 +28,13 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.errors import Interrupted, UsdGazeError, usd_failure  # noqa: F401  (Interrupted: raised here, named here)
 from usdgaze.files.identity import Identities, real_path
 
 TMP_PREFIX = ".usdgaze-tmp-"
 _STALE_FOREIGN_S = 24 * 3600.0  # another host's leftovers: we cannot ask whether its process lives
 _REASONS = (errno.ENOSPC, errno.EROFS, errno.EACCES, errno.EPERM, errno.EDQUOT, errno.EFBIG, errno.EIO,
             errno.ENAMETOOLONG, errno.ENOENT, errno.ENOTDIR, errno.EISDIR)
-
-
-class Interrupted(BaseException):
-    """SIGTERM or SIGINT arrived while a command held outputs; raised so that cleanup runs."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
 
 
 def os_reason(exc: BaseException) -> str:
