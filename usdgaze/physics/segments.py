@@ -238,11 +238,10 @@ _TIP_DEPTH = {"foot": 2, "hand": 4}
 
 def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
               head: int | None) -> tuple[set[int], set[int]]:
-    """Leaf joints whose segment the skeleton does measure: ``tips``, which mark where their parent's
-    segment ends (no length or shape of their own: exporter end sites by name, a leaf child of the
-    head, a foot's or a finger's leaf at least ``_TIP_DEPTH`` joints down its limb), and
-    ``phalanges``, a finger's last phalanx three joints down (UE's index_03_l): as long as the one
-    before it."""
+    """The leaves whose extent the skeleton itself gives: ``tips`` mark where their parent's segment
+    ends (exporter end sites by name, a leaf child of the head, a foot's or a finger's leaf at least
+    ``_TIP_DEPTH`` joints down its limb) and have no length or shape of their own; ``phalanges``,
+    a finger's last phalanx three joints down (UE's index_03_l), are as long as the one before."""
     tips, phalanges = set(), set()
     for j in range(1, len(names)):
         if children[j]:
