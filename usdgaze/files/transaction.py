@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from usdgaze.errors import Interrupted, UsdGazeError, usd_failure  # noqa: F401  (Interrupted: raised here, named here)
+from usdgaze.errors import Interrupted, UsdGazeError, usd_failure
 from usdgaze.files.identity import Identities, real_path
 
 TMP_PREFIX = ".usdgaze-tmp-"
