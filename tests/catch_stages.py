@@ -143,3 +143,42 @@ def catch_measures(src: Path, out: Path, tmp: Path, flight_s: float) -> dict:
     moved = np.max([np.linalg.norm(palms[s] - ref_palms[s], axis=1) for s in palms], axis=0)
     return {"posed": posed, "ball": ball, "secs": secs, "distance": dist, "at_arrival": float(dist[k]),
             "hand_moved": moved}
+
+
+def rig_throw_stage(d: Path, convention: str, side_m: float, flight_s: float = 1.2, tcps: float = 30.0):
+    """A synthetic standing rig with fingers (tests/synthetic.py, ``convention``) and a ball thrown
+    from 6 m ahead landing 35 cm in front of its shoulders and ``side_m`` toward its left (negative:
+    its right), its SkelRoot's ``usdgaze:physics:catch`` naming it. Returns (rig, arrival point)."""
+    from . import measure
+    from . import synthetic as syn
+
+    rig = syn.make_rig(d / f"{convention}.usda", convention=convention, frames=45, time_codes_per_second=tcps,
+                       mesh=False, walk_speed=0.0, joints=70)
+    posed = measure.posed(str(rig.path), rig.skeleton)
+    at = {j.rsplit("/", 1)[-1]: posed.world[0, i, 3, :3] for i, j in enumerate(posed.joints)}
+    shoulders = 0.5 * (at[rig.leaf["arm_l"]] + at[rig.leaf["arm_r"]])
+    left = at[rig.leaf["thigh_l"]] - at[rig.leaf["thigh_r"]]
+    left[1] = 0.0
+    left /= np.linalg.norm(left)
+    fwd = np.cross(left, UP)
+    arrival = shoulders + 0.35 * fwd - 0.1 * UP + side_m * left
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    codes = np.array(layer.ListTimeSamplesForPath(Sdf.Path(f"{rig.animation}.rotations")))
+    pos = flight(shoulders + 6.0 * fwd + 0.3 * left + 0.3 * UP, arrival, flight_s, (codes - codes[0]) / tcps)
+    for path, kind in (("/Objects", "Xform"), (BALL, "Sphere")):
+        spec = Sdf.CreatePrimInLayer(layer, path)
+        spec.specifier, spec.typeName = Sdf.SpecifierDef, kind
+    ball = layer.GetPrimAtPath(BALL)
+    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.11
+    Sdf.AttributeSpec(ball, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = 0.11
+    Sdf.AttributeSpec(ball, "gaze:object:kind", Sdf.ValueTypeNames.Token).default = "ballistic"
+    tr = Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3)
+    for c, p in zip(codes, pos):
+        layer.SetTimeSample(tr.path, float(c), Gf.Vec3d(*map(float, p)))
+    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    rel = Sdf.RelationshipSpec(layer.GetPrimAtPath(rig.skel_root), "usdgaze:physics:catch", custom=False)
+    rel.targetPathList.explicitItems = [Sdf.Path(BALL)]
+    layer.Save()
+    return rig, arrival

@@ -246,3 +246,24 @@ def test_a_catch_naming_no_object_is_one_line_and_writes_nothing(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "usdgaze:physics:catch" in err[0] and "</Objects> is not an object" in err[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.usda"]
+
+
+def test_a_ue_style_character_catches_a_ball_on_its_right_with_its_right_hand(tmp_path):
+    """The catch on a rig that is not CMU's: a UE-style standing character with fingers (its right hand
+    ``hand_r``), a ball landing 20 cm to its right. By UsdSkel FK on the written layer, the right palm
+    (midway between wrist and middle knuckle) is within the bar's 10 cm of the ball at arrival, and
+    the left hand stays away (before the hands' sides came from the rig, ``hand_r`` was taken for a
+    left hand and the left hand reached across the body for the ball: here the character fell at
+    1.08 s; in the same scene through the command, the left palm ended 8.9 cm off, the right 84 cm)."""
+    rig, arrival = cs.rig_throw_stage(tmp_path, "ue", -0.2)
+    out = tmp_path / "sim.usdc"
+    report = physics_pass.run(rig.path, out, mpc.Options(h=0.02, horizon_s=0.6))[0]  # the command's h
+    assert not report.fell
+    composed = cs.composed(rig.path, out, tmp_path / "composed.usda")
+    k = int(round(1.2 * 30))  # the first frame the ball is at its arrival
+    for stage, near in ((composed, True), (rig.path, False)):
+        posed = measure.posed(str(stage), rig.skeleton)
+        palm = {s: 0.5 * (posed.position(rig.leaf[f"hand_{s}"]) + posed.position(rig.leaf[f"middle1_{s}"]))[k]
+                for s in "lr"}
+        right, left = (np.linalg.norm(palm[s] - arrival) for s in "rl")
+        assert (right < 0.10) == near and left > 0.3, (stage, right, left)
