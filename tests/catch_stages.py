@@ -64,6 +64,14 @@ def throw_stage(path: Path, start, arrival, flight_s: float, seconds: float, cat
         codes = np.array([t for t in times if t <= end + 1e-6])
     layer.endTimeCode = float(codes[-1])
     pos = flight(start, arrival, flight_s, (codes - begin) / tcps)
+    _author_ball(layer, codes, pos, SKEL_ROOT if catch else None)
+    layer.Save()
+    return path
+
+
+def _author_ball(layer: Sdf.Layer, codes: np.ndarray, pos: np.ndarray, catcher: str | None) -> None:
+    """The ball (/Objects/Ball, a GazeObjectAPI sphere of 11 cm) at ``pos`` per time code; the
+    ``catcher`` SkelRoot's ``usdgaze:physics:catch`` names it."""
     group = Sdf.CreatePrimInLayer(layer, "/Objects")
     group.specifier, group.typeName = Sdf.SpecifierDef, "Xform"
     ball = Sdf.CreatePrimInLayer(layer, BALL)
@@ -77,12 +85,9 @@ def throw_stage(path: Path, start, arrival, flight_s: float, seconds: float, cat
         layer.SetTimeSample(tr.path, float(c), Gf.Vec3d(*map(float, p)))
     Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
                       variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
-    if catch:
-        root = Sdf.CreatePrimInLayer(layer, SKEL_ROOT)
-        rel = Sdf.RelationshipSpec(root, "usdgaze:physics:catch", custom=False)
+    if catcher is not None:
+        rel = Sdf.RelationshipSpec(Sdf.CreatePrimInLayer(layer, catcher), "usdgaze:physics:catch", custom=False)
         rel.targetPathList.explicitItems = [Sdf.Path(BALL)]
-    layer.Save()
-    return path
 
 
 def seeded_throw(seed: int, flight_s: tuple[float, float] = (1.0, 1.3)):
@@ -165,20 +170,6 @@ def rig_throw_stage(d: Path, convention: str, side_m: float, flight_s: float = 1
     layer = Sdf.Layer.FindOrOpen(str(rig.path))
     codes = np.array(layer.ListTimeSamplesForPath(Sdf.Path(f"{rig.animation}.rotations")))
     pos = flight(shoulders + 6.0 * fwd + 0.3 * left + 0.3 * UP, arrival, flight_s, (codes - codes[0]) / tcps)
-    for path, kind in (("/Objects", "Xform"), (BALL, "Sphere")):
-        spec = Sdf.CreatePrimInLayer(layer, path)
-        spec.specifier, spec.typeName = Sdf.SpecifierDef, kind
-    ball = layer.GetPrimAtPath(BALL)
-    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
-    Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.11
-    Sdf.AttributeSpec(ball, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = 0.11
-    Sdf.AttributeSpec(ball, "gaze:object:kind", Sdf.ValueTypeNames.Token).default = "ballistic"
-    tr = Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3)
-    for c, p in zip(codes, pos):
-        layer.SetTimeSample(tr.path, float(c), Gf.Vec3d(*map(float, p)))
-    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
-    rel = Sdf.RelationshipSpec(layer.GetPrimAtPath(rig.skel_root), "usdgaze:physics:catch", custom=False)
-    rel.targetPathList.explicitItems = [Sdf.Path(BALL)]
+    _author_ball(layer, codes, pos, rig.skel_root)
     layer.Save()
     return rig, arrival
