@@ -90,7 +90,8 @@ def _read_sdf(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: 
     for i, t in enumerate(own):
         value = query(path, t)  # a Vt array: numpy copies it through the buffer protocol
         try:
-            if len(value) != count:  # a shorter array would broadcast
+            # A shorter array would broadcast; the first sample's full shape stands for the attribute's type.
+            if len(value) != count or (i == 0 and np.asarray(value).shape != (count, width)):
                 raise ValueError
             out[i] = value
         except (TypeError, ValueError):
