@@ -251,6 +251,31 @@ def test_both_hands_catch_each_on_its_side_with_the_palm_before_the_knuckles(tmp
         assert np.linalg.norm(point - (wrist + 0.5 * (knuckles - wrist))) < 0.02
 
 
+def test_which_leaves_end_their_segment():
+    """By place, where names say nothing: every leaf below the head (a face's jaw and chin, an ear,
+    the skull's top) ends its segment; a foot's leaf one joint below the ankle is the toes' start
+    (CMU's), two below it the toes' tip (Mixamo's); a finger's leaf three below the hand is a last
+    phalanx (UE's), four below it a fingertip (Mixamo's)."""
+    from usdgaze.physics import segments
+
+    tree = [  # (name, parent, role)
+        ("pelvis", -1, "other"), ("spine", 0, "other"), ("neck", 1, "head"), ("head", 2, "head"),
+        ("jaw", 3, "head"), ("chin", 4, "head"), ("ear", 3, "head"), ("crown", 3, "head"),
+        ("ankle", 0, "foot"), ("toe", 8, "foot"),
+        ("ankle2", 0, "foot"), ("ball", 10, "foot"), ("tip", 11, "foot"),
+        ("hand", 1, "hand"), ("f1", 13, "hand"), ("f2", 14, "hand"), ("f3", 15, "hand"),
+        ("g1", 13, "hand"), ("g2", 17, "hand"), ("g3", 18, "hand"), ("g4", 19, "hand"),
+    ]
+    names, parents, roles = (list(c) for c in zip(*tree))
+    parents = np.array(parents)
+    children = [[c for c in range(len(tree)) if parents[c] == b] for b in range(len(tree))]
+    tips, phalanges = segments.leaf_ends(names, roles, parents, children, head=3)
+    assert {names[j] for j in tips} == {"chin", "ear", "crown", "tip", "g4"}
+    assert {names[j] for j in phalanges} == {"f3"}
+    tips, _ = segments.leaf_ends(names, roles, parents, children, head=None)  # no head known: names only
+    assert {names[j] for j in tips} == {"tip", "g4"}
+
+
 def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "m.xml"
     assert main(["physics-model", str(tmp_path / "missing.usda"), "--out", str(out)]) == 2

@@ -239,9 +239,10 @@ _TIP_DEPTH = {"foot": 2, "hand": 4}
 def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
               head: int | None) -> tuple[set[int], set[int]]:
     """The leaves whose extent the skeleton itself gives: ``tips`` mark where their parent's segment
-    ends (exporter end sites by name, a leaf child of the head, a foot's or a finger's leaf at least
-    ``_TIP_DEPTH`` joints down its limb) and have no length or shape of their own; ``phalanges``,
-    a finger's last phalanx three joints down (UE's index_03_l), are as long as the one before."""
+    ends (exporter end sites by name, any leaf below the head: the skull's top, eyes, a face's or
+    hair's joints; a foot's or a finger's leaf at least ``_TIP_DEPTH`` joints down its limb) and have
+    no length or shape of their own; ``phalanges``, a finger's last phalanx three joints down (UE's
+    index_03_l), are as long as the one before."""
     tips, phalanges = set(), set()
     for j in range(1, len(names)):
         if children[j]:
@@ -249,7 +250,7 @@ def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children:
         depth, top = 0, j
         while parents[top] >= 0 and roles[int(parents[top])] == roles[j]:
             top, depth = int(parents[top]), depth + 1
-        if (is_end_joint(names[j]) or (head is not None and parents[j] == head)
+        if (is_end_joint(names[j]) or (head is not None and head in _ancestors(j, parents))
                 or depth >= _TIP_DEPTH.get(roles[j], 1 << 30)):
             tips.add(j)
         elif roles[j] == "hand" and depth == _TIP_DEPTH["hand"] - 1:
