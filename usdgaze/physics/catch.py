@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody, _jr
+from usdgaze.physics import segments
 from usdgaze.physics.model import BodyModel
 from usdgaze.vision.belief import VisionParams
 
@@ -66,17 +67,12 @@ def _hand_sites(model: BodyModel) -> dict[str, tuple[int, np.ndarray]]:
     body below each forearm, the palm halfway to its fingers' bases (children with two joints or more
     below them), else to its first child, else its centre of mass."""
     out = {}
-    n = len(model.role)
-    kids = [[c for c in range(n) if model.body_parent[c] == b] for b in range(n)]
-
-    def size(b: int) -> int:
-        return 1 + sum(size(c) for c in kids[b])
-
+    kids = segments.children_of(model.body_parent)
     for b, role in enumerate(model.role):
         parent = model.body_parent[b]
         if role != "hand" or parent < 0 or model.role[parent] != "forearm":
             continue
-        fingers = [c for c in kids[b] if size(c) >= 3]
+        fingers = [c for c in kids[b] if len(segments.subtree_of(kids, c)) >= 3]
         palm = (0.5 * model.offset[fingers].mean(axis=0) if fingers else
                 0.5 * model.offset[kids[b][0]] if kids[b] else model.com[b])
         out.setdefault(_side(model, b), (b + 1, palm))
@@ -164,11 +160,7 @@ class CatchTask:
     def _forward(self, d) -> np.ndarray:
         """The character's horizontal forward: the body's left (shoulders or thighs) crossed with up."""
         m = self.dyn.model
-        thighs = [b for b, r in enumerate(m.role) if r == "thigh"]
-        if m.forward is not None and m.rest_pos is not None:  # left first, by where it is at rest
-            pair = sorted(thighs, key=lambda b: -float(m.rest_pos[b] @ np.cross([0.0, 0.0, 1.0], m.forward)))
-        else:
-            pair = sorted(thighs, key=lambda b: m.names[b].lower().startswith("r"))
+        pair = sorted((b for b, r in enumerate(m.role) if r == "thigh"), key=lambda b: _side(m, b) == "right")
         if len(pair) < 2:
             return np.array([1.0, 0.0, 0.0])
         left = d.xpos[pair[0] + 1] - d.xpos[pair[1] + 1]

@@ -7,6 +7,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from usdgaze.physics.model import BodyModel
+from usdgaze.physics.segments import children_of
 
 
 # Soft contacts at a 0.04 s time constant (two 0.02 s steps) settle about 2 cm deep under body
@@ -57,7 +58,7 @@ def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> s
            '    <light pos="0 0 4" dir="0 0 -1" directional="true"/>',
            f'    <geom name="ground" type="plane" size="0 0 0.05" contype="0" conaffinity="1" solref="{tc:.4g} 1" '
            f'margin="{GROUND_MARGIN}" rgba="0.45 0.5 0.55 1"/>']
-    children = [[c for c in range(len(m.bodies)) if m.body_parent[c] == b] for b in range(len(m.bodies))]
+    children = children_of(m.body_parent)
 
     def body(b: int, depth: int) -> None:
         pad = "  " * depth

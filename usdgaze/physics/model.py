@@ -127,10 +127,7 @@ def _base_joint(joints: list[str], parents: np.ndarray, heights: np.ndarray) -> 
 
 def _subtree(base: int, parents: np.ndarray) -> np.ndarray:
     """``base`` and its descendants in depth-first pre-order (MuJoCo's body order for nested XML)."""
-    children = [[] for _ in parents]
-    for j, p in enumerate(parents):
-        if p >= 0:
-            children[p].append(j)
+    children = seg.children_of(parents)
     out, stack = [], [base]
     while stack:
         j = stack.pop()
@@ -181,7 +178,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     seg.check_biped(roles, pos, height, where)
     eyes = {body_of[e] for e in hints.eyes if e in body_of}
     eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
-    children = [[c for c in range(n) if bparent[c] == b] for b in range(n)]
+    children = seg.children_of(bparent)
     # An end site marks where its parent's segment ends, and an eye is a point in the head: neither
     # has a length, mass or shape of its own.
     if head is None:  # the head joint by name (the gaze binding's otherwise)
@@ -199,7 +196,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
                        for b in range(1, n)]
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
-    forward = _forward([joints[j] for j in idx], rest4, roles, bparent, pos, hints,
+    feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]  # topmost foot bodies
+    forward = _forward([joints[j] for j in idx], rest4, feet, bparent, pos, hints,
                        to_model @ skel_to_world0[:3, :3], where)
     axis, range_deg = _hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
@@ -209,7 +207,6 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     radius = np.clip(np.sqrt(mass / (1000.0 * np.pi * np.maximum(lengths, 0.05))), 0.015, 0.14) * (
         np.array([0.6 if r in ("trunk", "other") else 1.0 for r in roles]))
     radius[[b for b in range(n) if roles[b] == "foot"]] = 0.025 * height / 1.75
-    feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]
     geoms = _geoms(offset, children, seg_vec, roles, rmat, feet)
     lowest = min(_lowest(pos, rmat, geoms, radius, b) for b in range(n))
     strength = _strengths(roles, bparent) * total_mass / 75.0
@@ -231,7 +228,7 @@ class Hints:
     forward: np.ndarray | None = None
 
 
-def _forward(names, rest4, roles, bparent, pos, hints: Hints, skel_to_model, where: str) -> np.ndarray | None:
+def _forward(names, rest4, feet, bparent, pos, hints: Hints, skel_to_model, where: str) -> np.ndarray | None:
     """The character's forward at rest, model world: from left/right names; else the binding's
     forward; else the feet (heel to toe, on the ground plane); None if nothing tells (no hinges then)."""
     try:
@@ -241,7 +238,6 @@ def _forward(names, rest4, roles, bparent, pos, hints: Hints, skel_to_model, whe
     if hints.forward is not None:
         f = skel_to_model @ np.asarray(hints.forward, dtype=float)
     else:
-        feet = [b for b in range(1, len(roles)) if roles[b] == "foot" and roles[bparent[b]] != "foot"]
         toes = [(b, max(_subtree(b, bparent)[1:], key=lambda k: np.linalg.norm(pos[k] - pos[b]), default=b))
                 for b in feet]
         f = sum((pos[t] - pos[b] for b, t in toes if t != b), np.zeros(3))

@@ -80,7 +80,7 @@ def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
     n = len(joints)
     keys = [_key(j) for j in joints]
     roles = ["other"] * n
-    children = _children(parents)
+    children = children_of(parents)
     for limb, pattern, above in (("foot", _FOOT, ("shank", "thigh")), ("hand", _HAND, ("forearm", "upperArm"))):
         tops = {_topmost(j, parents, joints, pattern) for j in range(n) if pattern.search(keys[j])}
         # Only the topmost of nested matches starts a limb end (CMU: LeftWrist > lhand).
@@ -109,7 +109,7 @@ def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: in
     highest end joint). Only limbs with no named role are filled in, so a named rig is unchanged."""
     roles = list(roles)
     n = len(roles)
-    children = _children(parents)
+    children = children_of(parents)
     z = pos[:, 2] - pos[:, 2].min()
     leaves = [j for j in range(n) if not children[j]]
     legs: list[int] = []
@@ -134,7 +134,8 @@ def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: in
     return roles
 
 
-def _children(parents: np.ndarray) -> list[list[int]]:
+def children_of(parents: np.ndarray) -> list[list[int]]:
+    """Each joint's children, in index order."""
     children = [[] for _ in parents]
     for j, p in enumerate(parents):
         if p >= 0:
@@ -159,7 +160,8 @@ def _main_path(children: list[list[int]], start: int, score) -> list[int]:
     return path
 
 
-def _subtree_of(children: list[list[int]], j: int) -> list[int]:
+def subtree_of(children: list[list[int]], j: int) -> list[int]:
+    """``j`` and everything below it."""
     out, stack = [], [j]
     while stack:
         k = stack.pop()
@@ -172,10 +174,10 @@ def _shape_legs(roles: list[str], children: list[list[int]], z: np.ndarray) -> l
     """The base's two branches that reach the ground are legs: the foot is the first joint down the
     leg below a fifth of the base's height (an ankle sits at 5-10% of hip height), above it the shank
     and the thigh."""
-    reach = {c: min(z[k] for k in _subtree_of(children, c)) for c in children[0]}
+    reach = {c: min(z[k] for k in subtree_of(children, c)) for c in children[0]}
     grounded = sorted((c for c in reach if reach[c] < 0.1 * max(z[0], 1e-9)), key=lambda c: reach[c])[:2]
     for c in grounded:
-        path = _main_path(children, c, lambda k: -min(z[i] for i in _subtree_of(children, k)))
+        path = _main_path(children, c, lambda k: -min(z[i] for i in subtree_of(children, k)))
         foot = next((i for i, j in enumerate(path) if z[j] < 0.2 * z[0]), None)
         if foot is None or foot < 2:
             continue
@@ -193,7 +195,7 @@ def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: floa
     and finger bones are shorter); the hand is where they end. Returns the spine joints the arms hang
     from."""
     def reach(k: int, start: int) -> float:
-        return max(float(np.linalg.norm(pos[i] - pos[start])) for i in _subtree_of(children, k))
+        return max(float(np.linalg.norm(pos[i] - pos[start])) for i in subtree_of(children, k))
 
     branches = [(reach(c, c), c, s) for s in spine if s != 0 for c in children[s]
                 if c not in spine and roles[c] == "other"]
