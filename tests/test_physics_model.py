@@ -272,8 +272,69 @@ def test_which_leaves_end_their_segment():
     tips, phalanges = segments.leaf_ends(names, roles, parents, children, head=3)
     assert {names[j] for j in tips} == {"chin", "ear", "crown", "tip", "g4"}
     assert {names[j] for j in phalanges} == {"f3"}
-    tips, _ = segments.leaf_ends(names, roles, parents, children, head=None)  # no head known: names only
-    assert {names[j] for j in tips} == {"tip", "g4"}
+    # No head known: the ear and the crown still sit beside the jaw, a joint the chain goes on through.
+    tips, _ = segments.leaf_ends(names, roles, parents, children, head=None)
+    assert {names[j] for j in tips} == {"tip", "g4", "ear", "crown"}
+
+
+def test_attachments_on_a_bone_or_beside_a_chain_end_no_segment():
+    """A twist joint halfway along a forearm whose hand is a leaf (UE's lowerarm_twist_01_l) and
+    helper leaves beside a joint the chain goes on through (a breast beside the chest, a pad beside
+    a hand with fingers) sit on their parent's segment; a leaf off the bone beside only leaves, a
+    hand's leaf beside its fingers (CMU's thumb) and the hands themselves do not."""
+    from usdgaze.physics import segments
+
+    tree = [  # (name, parent, role, position)
+        ("pelvis", -1, "other", (0, 0, 1.0)), ("spine", 0, "other", (0, 0, 1.2)), ("chest", 1, "other", (0, 0, 1.4)),
+        ("breast", 1, "other", (0, 0.1, 1.3)),
+        ("forearm_l", 2, "forearm", (0.3, 0, 1.4)), ("hand_l", 4, "hand", (0.55, 0, 1.4)),
+        ("twist_l", 4, "other", (0.42, 0.01, 1.4)), ("pad_l", 4, "other", (0.3, -0.1, 1.4)),
+        ("forearm_r", 2, "forearm", (-0.3, 0, 1.4)), ("hand_r", 8, "hand", (-0.55, 0, 1.4)),
+        ("pad_r", 8, "other", (-0.3, -0.1, 1.4)), ("fingers_r", 9, "hand", (-0.6, 0, 1.4)),
+        ("finger2_r", 11, "hand", (-0.65, 0, 1.4)), ("thumb_r", 9, "hand", (-0.58, 0.05, 1.4)),
+    ]
+    names, parents, roles, pos = (list(c) for c in zip(*tree))
+    parents, pos = np.array(parents), np.array(pos, dtype=float)
+    children = [[c for c in range(len(tree)) if parents[c] == b] for b in range(len(tree))]
+    tips, _ = segments.leaf_ends(names, roles, parents, children, head=None, pos=pos)
+    assert {names[j] for j in tips} == {"breast", "twist_l", "pad_r"}
+    tips, _ = segments.leaf_ends(names, roles, parents, children, head=None)  # no places: the chains alone
+    assert {names[j] for j in tips} == {"breast", "pad_r"}
+
+
+def test_twist_and_ik_joints_add_no_body_degrees_of_freedom_or_mass(tmp_path):
+    """UE5's helpers (a twist joint on each limb bone, animated; ``ik_foot_*`` and ``ik_hand_*``
+    under the root) change nothing a simulation feels: MuJoCo's compiled model has the plain rig's
+    degrees of freedom and motors, every plain body keeps its mass within 1% (the trunk had lent
+    1.5 kg to each of eight twist bodies, each a ball joint), the twist joints weigh under 0.1 kg
+    with no shape, and the catch's hands and the upper spine's segment are the plain rig's."""
+    from usdgaze.physics import catch, mjcf
+
+    from .rig_extras import add_joints, ue5_helpers
+
+    rigs = {}
+    for name in ("plain", "helpers"):
+        rig = syn.make_rig(tmp_path / f"{name}.usda", convention="ue", frames=24, mesh=False, joints=50)
+        if name == "helpers":
+            add_joints(rig.path, ue5_helpers(rig))
+        model, _ = build.body_model(build.load_clip(rig.path))
+        rigs[name] = (model, mujoco.MjModel.from_xml_string(mjcf.write(model)))
+    (plain, mj_plain), (full, mj_full) = rigs["plain"], rigs["helpers"]
+    assert (mj_full.nv, mj_full.nu) == (mj_plain.nv, mj_plain.nu)
+    assert mj_full.body_mass.sum() == pytest.approx(mj_plain.body_mass.sum(), abs=1e-4)  # MJCF writes 6 digits
+    mass = {mj_full.body(b).name: mj_full.body_mass[b] for b in range(1, mj_full.nbody)}
+    for b in range(1, mj_plain.nbody):
+        if mj_plain.body_mass[b] > 0.01:  # a tip's token mass is a share of the body count
+            assert mass[mj_plain.body(b).name] == pytest.approx(mj_plain.body_mass[b], rel=0.01), mj_plain.body(b).name
+    twists = [b for b in range(1, mj_full.nbody) if "twist" in mj_full.body(b).name]
+    assert len(twists) == 8
+    for b in twists:
+        assert mj_full.body_mass[b] < 0.1 and mj_full.body_geomnum[b] == 0 and mj_full.body_jntnum[b] == 0
+    chest = [b for b, n in enumerate(plain.names) if n == "spine_03"][0]
+    assert np.allclose(full.com[full.names.index("spine_03")], plain.com[chest])
+    hands_plain, hands_full = catch._hand_sites(plain), catch._hand_sites(full)
+    for side, (body, palm) in hands_plain.items():
+        assert full.names[hands_full[side][0]] == plain.names[body] and np.allclose(hands_full[side][1], palm)
 
 
 def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):

@@ -96,6 +96,16 @@ _NOT_AN_EYEBALL = _NOT_A_BODY_JOINT | {"lid", "lids", "lash", "lashes", "brow", 
                                        "outer", "highlight", "spec", "tear", "iris", "pupil"}
 
 
+_CONTROLS = frozenset({"ik", "fk", "ctrl", "ctl", "control", "target", "tgt", "aim", "pole", "helper", "mch",
+                       "null", "locator", "loc", "socket"})
+
+
+def is_control(joint: str) -> bool:
+    """A rig's control or helper joint by its name (UE's ``ik_foot_l``, ``ik_hand_gun``, ``MCH-...``):
+    whatever body word it carries, not that body part."""
+    return bool(set(tokens(joint)) & _CONTROLS)
+
+
 def is_head(joint: str) -> bool:
     words = set(tokens(joint))
     return "head" in words and not words & _NOT_A_BODY_JOINT and side(joint) == 0

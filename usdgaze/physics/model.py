@@ -183,17 +183,17 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     # has a length, mass or shape of its own.
     if head is None:  # the head joint by name (the gaze binding's otherwise)
         head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(joints[idx[b]])), None)
-    tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head)
+    tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
-    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges)
+    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges, head)
     lengths = np.linalg.norm(seg_vec, axis=1)
-    share = seg.segment_masses(roles, lengths, total_mass)
+    share = seg.segment_masses(roles, lengths, total_mass, tips)
     mass = np.maximum(share, 1e-3 * total_mass / n)
     for b in sorted(tips):  # a tip's token mass comes out of the segment it ends: the total stays
         mass[bparent[b]] -= mass[b] - share[b]
 
-    kind = ["free"] + ["weld" if b in eyes or _welded(joints[idx[b]], roles, bparent, b, children) else "ball"
-                       for b in range(1, n)]
+    kind = ["free"] + ["weld" if b in eyes or b in tips or _welded(joints[idx[b]], roles, bparent, b, children)
+                       else "ball" for b in range(1, n)]
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
     feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]  # topmost foot bodies
@@ -262,16 +262,18 @@ def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
 
 
 def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float, tips=frozenset(),
-                     phalanges=frozenset()) -> np.ndarray:
-    """Per body, in its frame, the segment from its joint toward its main child (the largest
-    subtree); a leaf continues its bone by a role's share of the height (a last phalanx in
-    ``phalanges`` by its bone's own length), else points up; an end site in ``tips`` has none."""
+                     phalanges=frozenset(), head: int | None = None) -> np.ndarray:
+    """Per body, in its frame, the segment from its joint toward its main child (the one on the way
+    to the head, else the largest subtree, else one that is no tip); a leaf continues its bone by a
+    role's share of the height (a last phalanx in ``phalanges`` by its bone's own length), else
+    points up; an end site in ``tips`` has none."""
     n = len(pos)
     seg_vec = np.zeros((n, 3))
     for b in range(n):
-        if children[b]:
-            sizes = [len(_subtree(c, bparent)) for c in children[b]]
-            seg_vec[b] = offset[children[b][int(np.argmax(sizes))]]
+        if children[b]:  # twist joints make an arm's subtree outnumber the neck's, beside a hand a tip's
+            below = [_subtree(c, bparent) for c in children[b]]
+            keys = [(head is not None and head in sub, len(sub), c not in tips) for c, sub in zip(children[b], below)]
+            seg_vec[b] = offset[children[b][max(range(len(keys)), key=keys.__getitem__)]]
         if np.linalg.norm(seg_vec[b]) < 1e-6 and b not in tips:
             d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
             d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.core import rotations as rot
+from usdgaze.core.names import is_control
 from usdgaze.core.rig import leaf
 from usdgaze.errors import UsdGazeError
 
@@ -78,7 +79,8 @@ def _topmost(j: int, parents: np.ndarray, names: list[str], pattern: re.Pattern)
 def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
     """A de Leva segment role (or ``"other"``) for the body of each joint."""
     n = len(joints)
-    keys = [_key(j) for j in joints]
+    # A control joint's body word names what it drives (UE's ik_foot_root), not a segment.
+    keys = ["" if is_control(j) else _key(j) for j in joints]
     roles = ["other"] * n
     children = children_of(parents)
     for limb, pattern, above in (("foot", _FOOT, ("shank", "thigh")), ("hand", _HAND, ("forearm", "upperArm"))):
@@ -238,12 +240,27 @@ def is_end_joint(name: str) -> bool:
 _TIP_DEPTH = {"foot": 2, "hand": 4}
 
 
+def _on_bone(j: int, parent: int, siblings: list[int], pos: np.ndarray) -> bool:
+    """Leaf ``j`` lies on the bone from ``parent`` to one of its ``siblings`` (a twist or roll joint)."""
+    at = pos[j] - pos[parent]
+    for c in siblings:
+        bone = pos[c] - pos[parent]
+        length = float(np.linalg.norm(bone))
+        if length < 1e-9:
+            continue
+        along = float(at @ bone) / length
+        if 0.05 * length < along < 0.95 * length and np.linalg.norm(at - along * bone / length) < 0.15 * length:
+            return True
+    return False
+
+
 def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
-              head: int | None) -> tuple[set[int], set[int]]:
+              head: int | None, pos: np.ndarray | None = None) -> tuple[set[int], set[int]]:
     """The leaves whose extent the skeleton itself gives: ``tips`` mark where their parent's segment
     ends (exporter end sites by name, any leaf below the head: the skull's top, eyes, a face's or
-    hair's joints; a foot's or a finger's leaf at least ``_TIP_DEPTH`` joints down its limb) and have
-    no length or shape of their own; ``phalanges``, a finger's last phalanx three joints down (UE's
+    hair's joints; a foot's or a finger's leaf at least ``_TIP_DEPTH`` joints down its limb) or sit
+    on it (a leaf beside a joint its parent's chain goes on through) and have no length, shape or
+    degrees of freedom of their own; ``phalanges``, a finger's last phalanx three joints down (UE's
     index_03_l), are as long as the one before."""
     tips, phalanges = set(), set()
     for j in range(1, len(names)):
@@ -252,7 +269,13 @@ def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children:
         depth, top = 0, j
         while parents[top] >= 0 and roles[int(parents[top])] == roles[j]:
             top, depth = int(parents[top]), depth + 1
-        if (is_end_joint(names[j]) or (head is not None and head in _ancestors(j, parents))
+        # A leaf beside a joint the chain goes on through is an attachment on its parent's bone (UE's
+        # and CC's twist joints, a breast or a tail helper), not a segment; a hand's leaves are
+        # judged by their depth (CMU's thumb is a leaf beside its fingers).
+        siblings = [c for c in children[int(parents[j])] if c != j]
+        aside = roles[j] != "hand" and (any(children[c] for c in siblings)
+                                        or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos)))
+        if (is_end_joint(names[j]) or (head is not None and head in _ancestors(j, parents)) or aside
                 or depth >= _TIP_DEPTH.get(roles[j], 1 << 30)):
             tips.add(j)
         elif roles[j] == "hand" and depth == _TIP_DEPTH["hand"] - 1:
@@ -260,10 +283,18 @@ def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children:
     return tips, phalanges
 
 
-def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float) -> np.ndarray:
+def _by_length(lengths: np.ndarray) -> np.ndarray:
+    """Shares in proportion to ``lengths``; equal ones where every length is zero (all tips)."""
+    total = lengths.sum()
+    return lengths / total if total > 0 else np.full(len(lengths), 1.0 / len(lengths))
+
+
+def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tips=frozenset()) -> np.ndarray:
     """Mass per joint body: each de Leva segment's share split over its bodies by length; the trunk's
-    share, plus that of segments the rig lacks, split over the ``other`` bodies by length."""
+    share, plus that of segments the rig lacks, split over the ``other`` bodies by length. ``tips``
+    (no segment of their own) get none."""
     lengths = np.maximum(np.asarray(lengths, dtype=float), 1e-3)
+    lengths[sorted(tips)] = 0.0
     masses = np.zeros(len(roles))
     present = set(roles)
     left_over = 1.0
@@ -277,13 +308,11 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float) -> 
         sides = 2 if role not in ("head",) else 1
         share = seg.mass * sides
         # Split per side by length; bodies of one role on both sides share the paired total.
-        w = lengths[members] / lengths[members].sum()
-        masses[members] = share * w
+        masses[members] = share * _by_length(lengths[members])
         left_over -= share
     others = [i for i, r in enumerate(roles) if r in ("other", "trunk")]
     if others:
-        w = lengths[others] / lengths[others].sum()
-        masses[others] = left_over * w
+        masses[others] = left_over * _by_length(lengths[others])
     elif "other" not in present:
         masses *= 1.0 / max(masses.sum(), 1e-9)
     return masses * total_mass

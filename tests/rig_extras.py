@@ -1,0 +1,74 @@
+"""Joints added to a synthetic rig after it is written: a production rig's helpers (UE5's twist and
+IK joints) on top of :mod:`tests.synthetic`'s body. Test support; pxr only."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Usd, UsdSkel, Vt
+
+
+def add_joints(path: str | Path, extra: list[tuple[str, str | None, tuple, bool]], twist_deg: float = 20.0) -> None:
+    """Append joints ``(name, parent leaf name or None, world position at bind, twists)`` to the rig's
+    Skeleton and SkelAnimation, saved in place: identity bind rotation, the bind offset as their
+    animated translation, and a rotation about their bone of up to ``twist_deg`` where ``twists``."""
+    stage = Usd.Stage.Open(str(path))
+    root = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Root))
+    skel = UsdSkel.Skeleton(next(p for p in Usd.PrimRange(root) if p.IsA(UsdSkel.Skeleton)))
+    anim = UsdSkel.Animation(next(p for p in Usd.PrimRange(root) if p.IsA(UsdSkel.Animation)))
+    joints = [str(j) for j in skel.GetJointsAttr().Get()]
+    by_leaf = {j.rsplit("/", 1)[-1]: j for j in joints}
+    bind = list(skel.GetBindTransformsAttr().Get())
+    rest = list(skel.GetRestTransformsAttr().Get())
+    anim_joints = [str(j) for j in anim.GetJointsAttr().Get()]
+    attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
+    times = attrs[0].GetTimeSamples()
+    rot, trans, scale = ([np.array(a.Get(t)) for t in times] for a in attrs)
+    for name, parent, world_pos, twists in extra:
+        parent_world = bind[joints.index(by_leaf[parent])] if parent else Gf.Matrix4d(1)
+        world = Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(*map(float, world_pos)))
+        local = (world * parent_world.GetInverse()).ExtractTranslation()
+        path_ = f"{by_leaf[parent]}/{name}" if parent else name
+        joints.append(path_)
+        anim_joints.append(path_)
+        by_leaf[name] = path_
+        bind.append(world)
+        rest.append(Gf.Matrix4d(1).SetTranslate(local))
+        axis = np.array(local) / (np.linalg.norm(local) or 1.0)
+        for k in range(len(times)):
+            a = np.radians(twist_deg) * np.sin(2 * np.pi * k / max(len(times), 2)) if twists else 0.0
+            rot[k] = np.vstack([rot[k], np.r_[np.sin(a / 2) * axis, np.cos(a / 2)][None].astype(np.float32)])
+            trans[k] = np.vstack([trans[k], np.array(local, dtype=np.float32)[None]])
+            scale[k] = np.vstack([scale[k], np.ones((1, 3), dtype=np.float16)])
+    skel.GetJointsAttr().Set(Vt.TokenArray(joints))
+    skel.GetBindTransformsAttr().Set(Vt.Matrix4dArray(bind))
+    skel.GetRestTransformsAttr().Set(Vt.Matrix4dArray(rest))
+    if skel.GetJointNamesAttr().HasAuthoredValue():
+        skel.GetJointNamesAttr().Set(Vt.TokenArray([j.rsplit("/", 1)[-1] for j in joints]))
+    anim.GetJointsAttr().Set(Vt.TokenArray(anim_joints))
+    for k, t in enumerate(times):
+        attrs[0].Set(Vt.QuatfArray.FromNumpy(rot[k].astype(np.float32)), t)
+        attrs[1].Set(Vt.Vec3fArray.FromNumpy(trans[k].astype(np.float32)), t)
+        attrs[2].Set(Vt.Vec3hArray.FromNumpy(scale[k].astype(np.float16)), t)
+    stage.GetRootLayer().Save()
+
+
+def ue5_helpers(rig) -> list[tuple[str, str | None, tuple, bool]]:
+    """UE5 mannequin-style helpers for a ``convention="ue"`` rig: a twist joint halfway along each
+    upper arm, forearm, thigh and calf (animated), and the IK joints under ``root`` (still)."""
+    stage = Usd.Stage.Open(str(rig.path))
+    skel = UsdSkel.Skeleton(next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton)))
+    bind = np.array(skel.GetBindTransformsAttr().Get())
+    pos = {str(j).rsplit("/", 1)[-1]: bind[i][3, :3] for i, j in enumerate(skel.GetJointsAttr().Get())}
+    extra = []
+    for s in "lr":
+        for bone, end in (("upperarm", "lowerarm"), ("lowerarm", "hand"), ("thigh", "calf"), ("calf", "foot")):
+            extra.append((f"{bone}_twist_01_{s}", f"{bone}_{s}", tuple(0.5 * (pos[f"{bone}_{s}"] + pos[f"{end}_{s}"])), True))
+    origin = (0.0, 0.0, 0.0)
+    extra += [("ik_foot_root", "root", origin, False), ("ik_foot_l", "ik_foot_root", tuple(pos["foot_l"]), False),
+              ("ik_foot_r", "ik_foot_root", tuple(pos["foot_r"]), False), ("ik_hand_root", "root", origin, False),
+              ("ik_hand_gun", "ik_hand_root", tuple(pos["hand_r"]), False),
+              ("ik_hand_r", "ik_hand_gun", tuple(pos["hand_r"]), False),
+              ("ik_hand_l", "ik_hand_gun", tuple(pos["hand_l"]), False)]
+    return extra
