@@ -72,3 +72,20 @@ def ue5_helpers(rig) -> list[tuple[str, str | None, tuple, bool]]:
               ("ik_hand_r", "ik_hand_gun", tuple(pos["hand_r"]), False),
               ("ik_hand_l", "ik_hand_gun", tuple(pos["hand_l"]), False)]
     return extra
+
+
+def secondary_chains(rig) -> list[tuple[str, str | None, tuple, bool]]:
+    """Chains off the body's frame on a ``convention="ue"`` rig (animated): a jaw with its chin and
+    a three-joint ponytail below the head, a three-joint skirt panel on the pelvis (VRoid's
+    ``J_Sec_*`` spring chains, a facial rig's jaw)."""
+    stage = Usd.Stage.Open(str(rig.path))
+    skel = UsdSkel.Skeleton(next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton)))
+    bind = np.array(skel.GetBindTransformsAttr().Get())
+    pos = {str(j).rsplit("/", 1)[-1]: bind[i][3, :3] for i, j in enumerate(skel.GetJointsAttr().Get())}
+    at = lambda joint, *d: tuple(pos[joint] + np.array(d))  # noqa: E731  (offsets in the rig's Y-up metres)
+    return [("jaw", "head", at("head", 0, 0.02, 0.03), True), ("chin", "jaw", at("head", 0, -0.05, 0.09), False),
+            ("hair_01", "head", at("head", 0, 0.1, -0.08), True), ("hair_02", "hair_01", at("head", 0, 0, -0.14), True),
+            ("hair_03", "hair_02", at("head", 0, -0.12, -0.16), True),
+            ("skirt_01", "pelvis", at("pelvis", 0.1, -0.1, 0.1), True),
+            ("skirt_02", "skirt_01", at("pelvis", 0.12, -0.3, 0.12), True),
+            ("skirt_03", "skirt_02", at("pelvis", 0.13, -0.45, 0.13), False)]

@@ -302,21 +302,23 @@ def test_attachments_on_a_bone_or_beside_a_chain_end_no_segment():
     assert {names[j] for j in tips} == {"breast", "pad_r"}
 
 
-def test_twist_and_ik_joints_add_no_body_degrees_of_freedom_or_mass(tmp_path):
+def test_twist_ik_and_secondary_joints_add_no_body_degrees_of_freedom_or_mass(tmp_path):
     """UE5's helpers (a twist joint on each limb bone, animated; ``ik_foot_*`` and ``ik_hand_*``
-    under the root) change nothing a simulation feels: MuJoCo's compiled model has the plain rig's
-    degrees of freedom and motors, every plain body keeps its mass within 1% (the trunk had lent
-    1.5 kg to each of eight twist bodies, each a ball joint), the twist joints weigh under 0.1 kg
-    with no shape, and the catch's hands and the upper spine's segment are the plain rig's."""
+    under the root) and chains off the body's frame (a jaw, a ponytail, a skirt panel) change
+    nothing a simulation feels: MuJoCo's compiled model has the plain rig's degrees of freedom and
+    motors, every plain body keeps its mass within 1% (the trunk had lent 1.5 kg to each of eight
+    twist bodies and 11 kg to the skirt, the head 2.1 kg to the hair, each a ball joint), the added
+    joints weigh under 0.1 kg with no shape, and the catch's hands and the upper spine's segment are
+    the plain rig's."""
     from usdgaze.physics import catch, mjcf
 
-    from .rig_extras import add_joints, ue5_helpers
+    from .rig_extras import add_joints, secondary_chains, ue5_helpers
 
     rigs = {}
     for name in ("plain", "helpers"):
         rig = syn.make_rig(tmp_path / f"{name}.usda", convention="ue", frames=24, mesh=False, joints=50)
         if name == "helpers":
-            add_joints(rig.path, ue5_helpers(rig))
+            add_joints(rig.path, ue5_helpers(rig) + secondary_chains(rig))
         model, _ = build.body_model(build.load_clip(rig.path))
         rigs[name] = (model, mujoco.MjModel.from_xml_string(mjcf.write(model)))
     (plain, mj_plain), (full, mj_full) = rigs["plain"], rigs["helpers"]
@@ -324,11 +326,11 @@ def test_twist_and_ik_joints_add_no_body_degrees_of_freedom_or_mass(tmp_path):
     assert mj_full.body_mass.sum() == pytest.approx(mj_plain.body_mass.sum(), abs=1e-4)  # MJCF writes 6 digits
     mass = {mj_full.body(b).name: mj_full.body_mass[b] for b in range(1, mj_full.nbody)}
     for b in range(1, mj_plain.nbody):
-        if mj_plain.body_mass[b] > 0.01:  # a tip's token mass is a share of the body count
-            assert mass[mj_plain.body(b).name] == pytest.approx(mj_plain.body_mass[b], rel=0.01), mj_plain.body(b).name
-    twists = [b for b in range(1, mj_full.nbody) if "twist" in mj_full.body(b).name]
-    assert len(twists) == 8
-    for b in twists:
+        if mj_plain.body_mass[b] > 0.01:  # token masses (tips) are shares of the body count: grams
+            assert mass[mj_plain.body(b).name] == pytest.approx(mj_plain.body_mass[b], rel=0.01, abs=0.002), mj_plain.body(b).name
+    added = [b for b in range(1, mj_full.nbody) if mj_full.body(b).name not in {mj_plain.body(c).name for c in range(mj_plain.nbody)}]
+    assert len(added) == 8 + 8
+    for b in added:
         assert mj_full.body_mass[b] < 0.1 and mj_full.body_geomnum[b] == 0 and mj_full.body_jntnum[b] == 0
     chest = [b for b, n in enumerate(plain.names) if n == "spine_03"][0]
     assert np.allclose(full.com[full.names.index("spine_03")], plain.com[chest])

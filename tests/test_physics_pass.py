@@ -302,27 +302,28 @@ def test_a_run_that_stops_early_without_a_fall_is_said_to_diverge_not_to_fall():
     assert physics_pass.shot_summary(clip, cut, 6, 0, 0.0)[0].diverged
 
 
-def test_a_rigs_twist_and_ik_joints_are_written_as_the_reference_has_them(tmp_path):
-    """UE5's helpers on a walk (tests/rig_extras.py): the twist joints are welded attachments and the
-    IK joints are not simulated, so the written layer holds their animated rotations bit for bit,
-    while the simulated joints' differ from the reference; the walk does not fall."""
+def test_a_rigs_helper_and_secondary_joints_are_written_as_the_reference_has_them(tmp_path):
+    """UE5's helpers and chains off the body's frame on a walk (tests/rig_extras.py): twist joints,
+    a jaw, a ponytail and a skirt ride welded and the IK joints are not simulated, so the written
+    layer holds their animated rotations bit for bit, while the simulated joints' differ from the
+    reference; the walk does not fall."""
     from . import synthetic as syn
-    from .rig_extras import add_joints, ue5_helpers
+    from .rig_extras import add_joints, secondary_chains, ue5_helpers
 
     rig = syn.make_rig(tmp_path / "ue.usda", convention="ue", frames=15, time_codes_per_second=30, mesh=False,
                        joints=50)
-    add_joints(rig.path, ue5_helpers(rig))
+    add_joints(rig.path, ue5_helpers(rig) + secondary_chains(rig))
     out = tmp_path / "walked.usda"
     report = physics_pass.run(rig.path, out, mpc.Options(h=0.02))[0]
     assert not report.fell
     src, written = Sdf.Layer.FindOrOpen(str(rig.path)), Sdf.Layer.FindOrOpen(str(out))
     anim = Sdf.Path("/Character/Anim")
     joints = [str(j).rsplit("/", 1)[-1] for j in src.GetAttributeAtPath(anim.AppendProperty("joints")).default]
-    helpers = [i for i, j in enumerate(joints) if "twist" in j or j.startswith("ik_")]
+    helpers = [i for i, j in enumerate(joints) if "twist" in j or j.startswith(("ik_", "jaw", "chin", "hair", "skirt"))]
     moved = [joints.index(j) for j in ("spine_02", "upperarm_l", "thigh_r")]
     path = anim.AppendProperty("rotations")
     times = written.ListTimeSamplesForPath(path)
-    assert len(helpers) == 15 and len(times) == 15
+    assert len(helpers) == 23 and len(times) == 15
     for t in times:
         a, b = np.array(written.QueryTimeSample(path, t)), np.array(src.QueryTimeSample(path, t))
         assert np.array_equal(a[helpers], b[helpers])

@@ -185,14 +185,13 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(joints[idx[b]])), None)
     tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
-    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges, head)
+    attached = seg.attachments(roles, bparent, children, head, tips)
+    passive = tips | attached  # no segment, mass or degrees of freedom of their own
+    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges, head, attached)
     lengths = np.linalg.norm(seg_vec, axis=1)
-    share = seg.segment_masses(roles, lengths, total_mass, tips)
-    mass = np.maximum(share, 1e-3 * total_mass / n)
-    for b in sorted(tips):  # a tip's token mass comes out of the segment it ends: the total stays
-        mass[bparent[b]] -= mass[b] - share[b]
+    mass = _masses(roles, lengths, total_mass, passive, bparent)
 
-    kind = ["free"] + ["weld" if b in eyes or b in tips or _welded(joints[idx[b]], roles, bparent, b, children)
+    kind = ["free"] + ["weld" if b in eyes or b in passive or _welded(joints[idx[b]], roles, bparent, b, children)
                        else "ball" for b in range(1, n)]
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
@@ -207,7 +206,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     radius = np.clip(np.sqrt(mass / (1000.0 * np.pi * np.maximum(lengths, 0.05))), 0.015, 0.14) * (
         np.array([0.6 if r in ("trunk", "other") else 1.0 for r in roles]))
     radius[[b for b in range(n) if roles[b] == "foot"]] = 0.025 * height / 1.75
-    geoms = _geoms(offset, children, seg_vec, roles, rmat, feet)
+    geoms = _geoms(offset, children, seg_vec, roles, rmat, feet, attached)
     lowest = min(_lowest(pos, rmat, geoms, radius, b) for b in range(n))
     strength = _strengths(roles, bparent) * total_mass / 75.0
     return BodyModel(
@@ -261,10 +260,23 @@ def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
     return pos, orient, rmat, offset, rel
 
 
+def _masses(roles: list[str], lengths: np.ndarray, total_mass: float, passive: set[int], bparent: np.ndarray):
+    """de Leva's segment masses; a ``passive`` body (tip, attachment) weighs a token mass taken from
+    the body it hangs from, so the total stays."""
+    share = seg.segment_masses(roles, lengths, total_mass, passive)
+    mass = np.maximum(share, 1e-3 * total_mass / len(roles))
+    for b in sorted(passive):
+        a = bparent[b]
+        while a in passive:
+            a = bparent[a]
+        mass[a] -= mass[b] - share[b]
+    return mass
+
+
 def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float, tips=frozenset(),
-                     phalanges=frozenset(), head: int | None = None) -> np.ndarray:
-    """Per body, in its frame, the segment from its joint toward its main child (the one on the way
-    to the head, else the largest subtree, else one that is no tip); a leaf continues its bone by a
+                     phalanges=frozenset(), head: int | None = None, attached=frozenset()) -> np.ndarray:
+    """Per body, in its frame, the segment from its joint toward its main child (no attachment; the
+    one on the way to the head, else the largest subtree, else one that is no tip); a leaf continues its bone by a
     role's share of the height (a last phalanx in ``phalanges`` by its bone's own length), else
     points up; an end site in ``tips`` has none."""
     n = len(pos)
@@ -272,7 +284,8 @@ def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float,
     for b in range(n):
         if children[b]:  # twist joints make an arm's subtree outnumber the neck's, beside a hand a tip's
             below = [_subtree(c, bparent) for c in children[b]]
-            keys = [(head is not None and head in sub, len(sub), c not in tips) for c, sub in zip(children[b], below)]
+            keys = [(c not in attached, head is not None and head in sub, len(sub), c not in tips)
+                    for c, sub in zip(children[b], below)]
             seg_vec[b] = offset[children[b][max(range(len(keys)), key=keys.__getitem__)]]
         if np.linalg.norm(seg_vec[b]) < 1e-6 and b not in tips:
             d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
@@ -360,11 +373,14 @@ def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: n
         rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))
 
 
-def _geoms(offset, children, seg_vec, roles, rmat, feet):
+def _geoms(offset, children, seg_vec, roles, rmat, feet, attached=frozenset()):
     geoms = []
     for b in range(len(roles)):
+        if b in attached:
+            geoms.append([])
+            continue
         g = [("capsule", np.concatenate([np.zeros(3), offset[c]])) for c in children[b]
-             if np.linalg.norm(offset[c]) > 0.01]
+             if np.linalg.norm(offset[c]) > 0.01 and c not in attached]
         if not g and np.linalg.norm(seg_vec[b]) > 0:  # an end site (zero) has no shape
             g = [("capsule", np.concatenate([np.zeros(3), seg_vec[b]]))] if roles[b] != "head" else \
                 [("sphere", 0.5 * seg_vec[b])]

@@ -289,6 +289,22 @@ def _by_length(lengths: np.ndarray) -> np.ndarray:
     return lengths / total if total > 0 else np.full(len(lengths), 1.0 / len(lengths))
 
 
+def attachments(roles: list[str], parents: np.ndarray, children: list[list[int]], head: int | None,
+                tips=frozenset()) -> set[int]:
+    """Bodies off the body's frame (the ways from the base to the head, the hands and the feet, and
+    the hands' and feet's own subtrees): a face's and the hair's chains below the head, a skirt's or
+    a bust's beside the trunk (VRoid's ``J_Sec_*``). They ride welded on the joint they hang from,
+    with a token mass and no shape; ``tips`` keep their own rules. None where no head is known."""
+    if head is None:
+        return set()
+    ends = [b for b, r in enumerate(roles) if r in ("hand", "foot") and (parents[b] < 0 or roles[int(parents[b])] != r)]
+    frame = {head, *_ancestors(head, parents)}
+    for b in ends:
+        frame.update(_ancestors(b, parents))
+        frame.update(subtree_of(children, b))
+    return {b for b in range(len(roles)) if b not in frame and b not in tips}
+
+
 def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tips=frozenset()) -> np.ndarray:
     """Mass per joint body: each de Leva segment's share split over its bodies by length; the trunk's
     share, plus that of segments the rig lacks, split over the ``other`` bodies by length. ``tips``
