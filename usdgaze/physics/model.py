@@ -275,14 +275,14 @@ def _masses(roles: list[str], lengths: np.ndarray, total_mass: float, passive: s
 
 def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float, tips=frozenset(),
                      phalanges=frozenset(), head: int | None = None, attached=frozenset()) -> np.ndarray:
-    """Per body, in its frame, the segment from its joint toward its main child (no attachment; the
-    one on the way to the head, else the largest subtree, else one that is no tip); a leaf continues its bone by a
-    role's share of the height (a last phalanx in ``phalanges`` by its bone's own length), else
-    points up; an end site in ``tips`` has none."""
+    """Per body, in its frame, the segment from its joint toward its main child (not one of the
+    ``attached``; the one on the way to the head, else the largest subtree, else one that is no
+    tip); a leaf continues its bone by a role's share of the height (a last phalanx in
+    ``phalanges`` by its bone's own length), else points up; an end site in ``tips`` has none."""
     n = len(pos)
     seg_vec = np.zeros((n, 3))
     for b in range(n):
-        if children[b]:  # twist joints make an arm's subtree outnumber the neck's, beside a hand a tip's
+        if children[b]:  # the head's way first: a fingered arm's subtree outnumbers the neck's
             below = [_subtree(c, bparent) for c in children[b]]
             keys = [(c not in attached, head is not None and head in sub, len(sub), c not in tips)
                     for c, sub in zip(children[b], below)]
