@@ -98,9 +98,10 @@ def test_stays_up_with_the_feet_on_the_ground_and_tracks(shot):
 def test_a_reference_that_starts_in_the_floor_starts_on_it(tmp_path):
     """The whole character lowered 6 cm, its feet 4 cm into the floor (as a capture whose floor is
     off): the simulated body's first frame stands on the ground, not in it (MuJoCo's soft contact
-    would otherwise start by pushing it out), and the shot stays up. By UsdSkel FK of the model's
-    foot capsules."""
-    src = excerpt(tmp_path / "low.usda", 0.2)
+    would otherwise start by pushing it out), and it tracks the reference raised as it started, so
+    the shot stays up with no foot 2 cm into the floor (tracked as it was, the body fell at 0.42 s
+    with its feet 6.2 cm in the floor). By UsdSkel FK of the model's foot capsules."""
+    src = excerpt(tmp_path / "low.usda", 0.6)
     layer = Sdf.Layer.FindOrOpen(str(src))
     root = layer.GetPrimAtPath("/root")
     op = Sdf.AttributeSpec(root, "xformOp:translate:floor", Sdf.ValueTypeNames.Double3)

@@ -204,6 +204,8 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
     """The :class:`Shot` of a reference (``qpos`` per frame at ``ref_seconds``), pushes and tasks;
     ``lead``: parts ahead of the body in the planner's state (the coupled loop's eye), stacked with it
     before the costs and tasks are made, so these see the body's slices of that state."""
+    import mujoco
+
     from usdgaze.planning.compose import Stacked
 
     h = options.h
@@ -213,6 +215,9 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
         Stacked([*lead, plan])
     ref_q = resample(ref_qpos_frames, ref_seconds, h, plan)
     target = clear_ground(plan, ref_q)  # what the planner tracks; the measures use the reference as is
+    # A reference whose first frame is in the floor is tracked raised as it starts: tracked as it is,
+    # a body started on one toe 5 cm up pushed itself off the ground (a 0.4 s flight at h 0.03).
+    target[:, 2] += _start_lift(plan.mj, mujoco.MjData(plan.mj), target[0])
     ref_v = velocities(target, h, plan.mj)
     tracking = BodyTracking(plan, target, ref_v, _head_body(model), options.weights)
     made = [factory(plan, target) for factory in tasks]
@@ -280,7 +285,6 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
     feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(shot.model)])
     depth = np.zeros(steps + 1)
     d = mujoco.MjData(plan.mj)
-    qpos[0, 2] += _start_lift(plan.mj, d, qpos[0])
     d.qpos[:] = qpos[0]
     mujoco.mj_kinematics(plan.mj, d)
     down, kk = 0, steps + 1
