@@ -292,14 +292,15 @@ def test_attachments_on_a_bone_or_beside_a_chain_end_no_segment():
         ("forearm_r", 2, "forearm", (-0.3, 0, 1.4)), ("hand_r", 8, "hand", (-0.55, 0, 1.4)),
         ("pad_r", 8, "other", (-0.3, -0.1, 1.4)), ("fingers_r", 9, "hand", (-0.6, 0, 1.4)),
         ("finger2_r", 11, "hand", (-0.65, 0, 1.4)), ("thumb_r", 9, "hand", (-0.58, 0.05, 1.4)),
+        ("weapon_r", 9, "hand", (-0.6, -0.05, 1.4)),
     ]
     names, parents, roles, pos = (list(c) for c in zip(*tree))
     parents, pos = np.array(parents), np.array(pos, dtype=float)
     children = [[c for c in range(len(tree)) if parents[c] == b] for b in range(len(tree))]
     tips, _ = segments.leaf_ends(names, roles, parents, children, head=None, pos=pos)
-    assert {names[j] for j in tips} == {"breast", "twist_l", "pad_r"}
-    tips, _ = segments.leaf_ends(names, roles, parents, children, head=None)  # no places: the chains alone
-    assert {names[j] for j in tips} == {"breast", "pad_r"}
+    assert {names[j] for j in tips} == {"breast", "twist_l", "pad_r", "weapon_r"}
+    tips, _ = segments.leaf_ends(names, roles, parents, children, head=None)  # no places: chains and names
+    assert {names[j] for j in tips} == {"breast", "pad_r", "weapon_r"}
 
 
 def test_twist_ik_and_secondary_joints_add_no_body_degrees_of_freedom_or_mass(tmp_path):

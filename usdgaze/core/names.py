@@ -106,6 +106,14 @@ def is_control(joint: str) -> bool:
     return bool(set(tokens(joint)) & _CONTROLS)
 
 
+_PROPS = frozenset({"prop", "props", "weapon", "attach", "attachment", "grip", "holster"})
+
+
+def is_prop(joint: str) -> bool:
+    """A joint a prop hangs from (UE's ``weapon_r``, ``prop_r``; ``RightHandGrip``): no body part."""
+    return bool(set(tokens(joint)) & _PROPS)
+
+
 def is_head(joint: str) -> bool:
     words = set(tokens(joint))
     return "head" in words and not words & _NOT_A_BODY_JOINT and side(joint) == 0

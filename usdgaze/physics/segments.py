@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.core import rotations as rot
-from usdgaze.core.names import is_control
+from usdgaze.core.names import is_control, is_prop
 from usdgaze.core.rig import leaf
 from usdgaze.errors import UsdGazeError
 
@@ -271,10 +271,10 @@ def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children:
             top, depth = int(parents[top]), depth + 1
         # A leaf beside a joint the chain goes on through is an attachment on its parent's bone (UE's
         # and CC's twist joints, a breast or a tail helper), not a segment; a hand's leaves are
-        # judged by their depth (CMU's thumb is a leaf beside its fingers).
+        # judged by their depth (CMU's thumb is a leaf beside its fingers) or named props.
         siblings = [c for c in children[int(parents[j])] if c != j]
-        aside = roles[j] != "hand" and (any(children[c] for c in siblings)
-                                        or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos)))
+        aside = is_prop(names[j]) or (roles[j] != "hand" and (
+            any(children[c] for c in siblings) or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos))))
         if (is_end_joint(names[j]) or (head is not None and head in _ancestors(j, parents)) or aside
                 or depth >= _TIP_DEPTH.get(roles[j], 1 << 30)):
             tips.add(j)
