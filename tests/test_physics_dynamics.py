@@ -104,9 +104,9 @@ def test_head_pose_jacobian_matches_central_differences(body):
 
 
 def test_window_linearization_threads_and_interpolation(body):
-    """The window's batch: two threads give the serial numbers bit for bit; with a stride the steps
-    MuJoCo differentiates are exact (checked above against central differences) and the others lie
-    on the straight line between their neighbours."""
+    """The window's batch: two threads give the serial numbers bit for bit, each step's alone as well
+    as the whole window's; with a stride the steps MuJoCo differentiates are exact (checked above
+    against central differences) and the others lie on the straight line between their neighbours."""
     model = body[0].model
     rng = np.random.default_rng(11)
     serial, threaded, strided = (MujocoBody(model, h=0.02, workers=w, stride=s) for w, s in ((1, 1), (2, 1), (2, 3)))
@@ -121,6 +121,9 @@ def test_window_linearization_threads_and_interpolation(body):
     A, B = serial.linearize_batch(X, U, 0)
     At, Bt = threaded.linearize_batch(X, U, 0)
     assert np.array_equal(A, At) and np.array_equal(B, Bt)
+    started = threaded.linearize_start(X, U, 0)  # the threads hand out steps one by one, last first
+    for i in range(6, -1, -1):
+        assert np.array_equal(started.step(i)[0], A[i]) and np.array_equal(started.step(i)[1], B[i])
     As, Bs = strided.linearize_batch(X, U, 0)
     for i in (0, 3, 6):  # differentiated: every third step and the last
         assert np.array_equal(As[i], A[i]) and np.array_equal(Bs[i], B[i])

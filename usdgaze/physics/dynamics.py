@@ -336,32 +336,20 @@ class MujocoBody:
 
     def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
         """``linearize_batch`` begun: with ``workers > 1`` the threads start now and the caller may do
-        other work (the cost's expansion) before calling the result for the matrices."""
+        other work (the cost's expansion) before calling the result for the matrices; at stride 1 with
+        nothing kept, the result's ``step(i)`` gives one step's rows as soon as they are made
+        (``fdpool.StepRows``: the threads take the window's steps last first)."""
+        from usdgaze.physics import fdpool
+
         n = len(U)
+        if self.stride <= 1 and self.kept is None:
+            return fdpool.StepRows(self, X, U, k0)
         at = np.unique(np.r_[np.arange(0, n, max(1, self.stride)), n - 1]) if n else np.zeros(0, int)
         if self.kept is not None:
             return self.kept.linearize_start(self, X, U, k0, at)
         work = lambda body, chunk: [body.linearize_body(X[i, self.xs], U[i, self.us], k0 + i) for i in chunk]  # noqa: E731
-        got = self._split(work, at)
-        return lambda: self._window_matrices([p for part in got() for p in part], at, n)
-
-    def _split(self, work: Callable, steps: np.ndarray) -> Callable[[], list]:
-        """``work(body, chunk)`` over ``steps``: here, or split over the threads' copies of the part
-        (started now); the result, called, gives each chunk's outcome in order."""
-        if self.workers <= 1 or len(steps) < 2:
-            done = [work(self, steps)]
-            return lambda: done
-        from concurrent.futures import ThreadPoolExecutor
-
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(self.workers)
-            self._clones = [self._clone() for _ in range(self.workers)]
-        futures = []
-        for c, chunk in zip(self._clones, np.array_split(steps, self.workers)):
-            c._same_anchor(self)
-            c.forces = self.forces
-            futures.append(self._pool.submit(work, c, chunk))
-        return lambda: [f.result() for f in futures]
+        got = fdpool.split(self, work, at)
+        return lambda: fdpool.window_matrices(self, [p for part in got() for p in part], at, n)
 
     def _next(self, xb: np.ndarray, ub: np.ndarray, k: int) -> np.ndarray:
         """The next body state's positions (velocities zero) under MuJoCo's step."""
@@ -370,31 +358,3 @@ class MujocoBody:
         self._load(xb, ub, k)
         mujoco.mj_step(self.mj, self.data)
         return self.to_state(self.data.qpos)
-
-    def _window_matrices(self, pairs, at: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-        """The window's (A, B) from those at steps ``at`` (interpolated between), as the stack's rows."""
-        A = np.stack([p[0] for p in pairs])
-        B = np.stack([p[1] for p in pairs])
-        if len(at) < n:  # interpolate between the differentiated steps
-            j = np.clip(np.searchsorted(at, np.arange(n), side="right") - 1, 0, len(at) - 2)
-            w = ((np.arange(n) - at[j]) / (at[j + 1] - at[j]))[:, None, None]
-            A = (1 - w) * A[j] + w * A[j + 1]
-            B = (1 - w) * B[j] + w * B[j + 1]
-        if self.stack is None:
-            return A, B
-        fx = np.zeros((n, self.nx, self.stack.nx))
-        fu = np.zeros((n, self.nx, self.stack.nu))
-        fx[:, :, self.xs] = A
-        fu[:, :, self.us] = B
-        return fx, fu
-
-    def _clone(self) -> "MujocoBody":
-        import copy
-        import mujoco
-
-        twin = copy.copy(self)
-        twin.data = mujoco.MjData(self.mj)
-        twin._qpos_cache = {}  # each thread its own
-        twin.workers, twin._pool, twin._clones = 1, None, []
-        twin.kept = None  # the part it works for keeps the matrices
-        return twin

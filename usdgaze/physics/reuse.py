@@ -17,6 +17,8 @@ from typing import Callable
 
 import numpy as np
 
+from usdgaze.physics import fdpool
+
 FD_FRESH = 5  # 0.1 s at h 0.02
 
 
@@ -60,7 +62,7 @@ class KeptDifferences:
                 out.append(((A.copy(), B.copy(), constraints(part.data)), part._minimal(A, B, xb, xn)))
             return out
 
-        got = body._split(work, at[fresh])
+        got = fdpool.split(body, work, at[fresh])
 
         def matrices():
             done = iter(p for part in got() for p in part)
@@ -76,7 +78,7 @@ class KeptDifferences:
                     xn = nxt if nxt is not None and np.all(np.isfinite(nxt)) else body._next(xb, U[i, us], k)
                     A, B = body._minimal(A_t.copy(), B_t.copy(), xb, xn)
                 pairs.append((A, B))
-            return body._window_matrices(pairs, at, len(U))
+            return fdpool.window_matrices(body, pairs, at, len(U))
 
         return matrices
 

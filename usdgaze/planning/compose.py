@@ -84,17 +84,13 @@ class Stacked:
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
         return self.linearize_start(X, U, k0)()
 
-    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int):
+    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int) -> "StackRows":
         """``linearize_batch`` begun: parts with a ``linearize_start`` (the MuJoCo body's threaded finite
-        differences) start first, the others' rows are made meanwhile; call the result for the rows."""
+        differences) start first, the others' rows are made meanwhile; call the result for the rows,
+        or its ``step(i)`` for one step's."""
         started = {i: p.linearize_start(X, U, k0) for i, p in enumerate(self.parts) if hasattr(p, "linearize_start")}
         done = {i: p.linearize_batch(X, U, k0) for i, p in enumerate(self.parts) if i not in started}
-
-        def rows():
-            got = [done[i] if i in done else started[i]() for i in range(len(self.parts))]
-            return np.concatenate([r[0] for r in got], axis=1), np.concatenate([r[1] for r in got], axis=1)
-
-        return rows
+        return StackRows([done[i] if i in done else started[i] for i in range(len(self.parts))], len(U))
 
     def forward_pass(self, X, U, kff, K, alpha, k0):
         """Roll out u = U + alpha kff + K (x - X) with the passive parts done last, in one batch.
@@ -134,6 +130,33 @@ class Stacked:
         for p in passive:
             Xn[:, p.xs] = p.rollout(Xn, k0)
         return Xn, Un
+
+
+class StackRows:
+    """A stack's started linearization: per part its window's rows (arrays) or a started one (called
+    for the arrays; with ``step(i)``, one step's rows as soon as they are made)."""
+
+    def __init__(self, parts: list, n: int) -> None:
+        self.parts, self.rows = parts, [None] * n
+
+    def _part(self, j: int, i: int):
+        p = self.parts[j]
+        if not callable(p):  # made already: (fx, fu) of the window
+            return p[0][i], p[1][i]
+        if hasattr(p, "step"):
+            return p.step(i)
+        self.parts[j] = p()  # a whole window at once (a strided or kept body)
+        return self._part(j, i)
+
+    def step(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        if self.rows[i] is None:
+            got = [self._part(j, i) for j in range(len(self.parts))]
+            self.rows[i] = np.concatenate([r[0] for r in got]), np.concatenate([r[1] for r in got])
+        return self.rows[i]
+
+    def __call__(self) -> tuple[np.ndarray, np.ndarray]:
+        got = [p() if callable(p) else p for p in self.parts]
+        return np.concatenate([r[0] for r in got], axis=1), np.concatenate([r[1] for r in got], axis=1)
 
 
 class LinearPart(Part):

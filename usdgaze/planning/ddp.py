@@ -151,25 +151,36 @@ def expand_cost(cost: Cost, X: np.ndarray, U: np.ndarray, k0: int = 0):
     return running, cost.terminal_derivs(X[n], k0 + n)
 
 
-def _backward(fx, fu, running, terminal, mu: float, state_reg: bool = False):
-    """Feedforward k, gains K and the predicted decrease terms; None if Quu + mu I is not PD."""
+def window_rows(pending) -> Callable[[int], tuple]:
+    """Step ``i`` -> its (fx, fu) from a started linearization: as each step is made where the
+    dynamics offers ``step`` (the MuJoCo body's threads), else from the whole window's."""
+    if hasattr(pending, "step"):
+        return pending.step
+    fx, fu = pending()
+    return lambda i: (fx[i], fu[i])
+
+
+def _backward(rows: Callable[[int], tuple], running, terminal, mu: float, state_reg: bool = False):
+    """Feedforward k, gains K and the predicted decrease terms; None if Quu + mu I is not PD.
+    ``rows(i)``: step ``i``'s (fx, fu), read from the window's end (``window_rows``)."""
     lx, lu, lxx, luu, lux = running
     vx, vxx = terminal
     n, nu = lu.shape
-    nx = fx.shape[1]
+    nx = lx.shape[1]
     kff = np.empty((n, nu))
     K = np.empty((n, nu, nx))
     rhs = np.empty((nu, 1 + nx))
     QU = np.empty((n, nu))  # kept for the predicted decrease, summed once after the pass
     QUU = np.empty((n, nu, nu))
     # One Cholesky factor serves as the positive-definiteness test and the solve of Quu_reg [k K] = -[qu qux].
-    fuT = fu.transpose(0, 2, 1)
-    fxT = fx.transpose(0, 2, 1)
     if state_reg:  # mu I on V_xx (Tassa et al. 2012): the same push in every control's own units
-        reg_uu = mu * (fuT @ fu)
-        reg_ux = mu * (fuT @ fx)
+        fx = np.stack([rows(i)[0] for i in range(n)])
+        fu = np.stack([rows(i)[1] for i in range(n)])
+        reg_uu = mu * (fu.transpose(0, 2, 1) @ fu)
+        reg_ux = mu * (fu.transpose(0, 2, 1) @ fx)
     for i in range(n - 1, -1, -1):
-        A, B, At, Bt = fx[i], fu[i], fxT[i], fuT[i]
+        A, B = rows(i)
+        At, Bt = A.T, B.T
         vxx_b = vxx @ B
         qx = lx[i] + At @ vx
         qu = lu[i] + Bt @ vx
@@ -221,6 +232,8 @@ def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0
     opt = options or Options()
     U = np.array(U0, dtype=float).reshape(-1, dyn.nu)
     X = rollout(dyn, np.asarray(x0, dtype=float), U, k0)
+    # threads, where the dynamics has them, differentiate the rollout while its cost is taken
+    pending = linearize_start(dyn, X, U, k0) if opt.max_iter >= 1 else None
     J = total_cost(cost, X, U, k0)
     costs = [J]
     mu = opt.mu_init
@@ -228,12 +241,13 @@ def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0
     converged = False
     it = 0
     for it in range(1, opt.max_iter + 1):
-        pending = linearize_start(dyn, X, U, k0)  # threads, where the dynamics has them, run meanwhile
+        if it > 1:
+            pending = linearize_start(dyn, X, U, k0)
         running, terminal = expand_cost(cost, X, U, k0)
-        fx, fu = pending()
+        rows = window_rows(pending)  # the backward pass starts on the steps made first
         accepted = False
         while mu <= opt.mu_max and not accepted:
-            back = _backward(fx, fu, running, terminal, mu, opt.regularization == "state")
+            back = _backward(rows, running, terminal, mu, opt.regularization == "state")
             if back is None:
                 mu = _grow(mu, opt)
                 continue
