@@ -124,6 +124,16 @@ def test_window_linearization_threads_and_interpolation(body):
     started = threaded.linearize_start(X, U, 0)  # the threads hand out steps one by one, last first
     for i in range(6, -1, -1):
         assert np.array_equal(started.step(i)[0], A[i]) and np.array_equal(started.step(i)[1], B[i])
+    # On a rollout, the next states the window gives (a blown-up one stepped anew) change no bit.
+    roll = X[:1].copy()
+    for i in range(7):
+        roll = np.vstack([roll, serial.step_body(roll[i], U[i], i)])
+    want = serial.linearize_batch(roll[:7], U, 0)
+    after = roll[1:].copy()
+    after[3] = np.nan
+    for dyn in (serial, threaded):
+        got = dyn.linearize_start(roll[:7], U, 0, after)()
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
     As, Bs = strided.linearize_batch(X, U, 0)
     for i in (0, 3, 6):  # differentiated: every third step and the last
         assert np.array_equal(As[i], A[i]) and np.array_equal(Bs[i], B[i])

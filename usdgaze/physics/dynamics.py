@@ -306,13 +306,22 @@ class MujocoBody:
 
     def _minimal(self, A: np.ndarray, B: np.ndarray, xb: np.ndarray, xn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tangent-space (A, B) of the step from ``xb`` to ``xn`` in the state's coordinates (in place)."""
-        out_map = self._tangent_map(xn, inverse=False)  # Jr^-1(r'), (blocks, 3, 3)
-        in_map = self._tangent_map(xb, inverse=True)  # Jr(r)
+        # Jr^-1(r') at the next state for the rows, Jr(r) at this one for the columns
+        return self._to_minimal(A, B, self._tangent_map(xn, inverse=False), self._tangent_map(xb, inverse=True))
+
+    def _to_minimal(self, A: np.ndarray, B: np.ndarray, out_map: np.ndarray, in_map: np.ndarray):
+        """``_minimal`` with its tangent maps ``(blocks, 3, 3)`` given (in place)."""
         idx = self._rot_x
         A[idx] = np.einsum("bij,bjn->bin", out_map, A[idx])
         B[idx] = np.einsum("bij,bjn->bin", out_map, B[idx])
         A[:, idx] = np.einsum("nbi,bij->nbj", A[:, idx], in_map)
         return A, B
+
+    def window_maps(self, Xb: np.ndarray, inverse: bool) -> np.ndarray:
+        """``_tangent_map`` of each body state ``Xb`` ``(n, 2nv)`` in one call: ``(n, blocks, 3, 3)``, the
+        same numbers element by element."""
+        r = Xb[:, self._rot_x]
+        return _jr(r.reshape(-1, 3), inverse=not inverse).reshape(r.shape + (3,))
 
     def linearize(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         A, B = self.linearize_body(x[self.xs], u[self.us], k)
@@ -334,16 +343,19 @@ class MujocoBody:
         functions)."""
         return self.linearize_start(X, U, k0)()
 
-    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
+    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int,
+                        after: np.ndarray | None = None) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
         """``linearize_batch`` begun: with ``workers > 1`` the threads start now and the caller may do
         other work (the cost's expansion) before calling the result for the matrices; at stride 1 with
         nothing kept, the result's ``step(i)`` gives one step's rows as soon as they are made
-        (``fdpool.StepRows``: the threads take the window's steps last first)."""
+        (``fdpool.StepRows``: the threads take the window's steps last first). ``after``: the state
+        each step led to where ``X`` is the rollout of ``U`` (``ddp.solve``'s), so that no step is
+        stepped again for its next state (None: each is)."""
         from usdgaze.physics import fdpool
 
         n = len(U)
         if self.stride <= 1 and self.kept is None:
-            return fdpool.StepRows(self, X, U, k0)
+            return fdpool.StepRows(self, X, U, k0, after)
         at = np.unique(np.r_[np.arange(0, n, max(1, self.stride)), n - 1]) if n else np.zeros(0, int)
         if self.kept is not None:
             return self.kept.linearize_start(self, X, U, k0, at)

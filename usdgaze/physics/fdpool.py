@@ -83,33 +83,51 @@ class StepRows:
     ``step(i)`` waits for step ``i`` alone and gives its rows of the stack; called, the object gives
     the whole window's ``(fx, fu)`` (``linearize_batch``'s)."""
 
-    def __init__(self, body, X: np.ndarray, U: np.ndarray, k0: int) -> None:
+    def __init__(self, body, X: np.ndarray, U: np.ndarray, k0: int, after: np.ndarray | None = None) -> None:
         n = len(U)
         self.body, self.n = body, n
         self.A = np.empty((n, body.nx, body.nx))
         self.B = np.empty((n, body.nx, body.nu))
         self.rows: list = [None] * n
         self.error: BaseException | None = None
-        args = [(X[i, body.xs], U[i, body.us], k0 + i) for i in range(n)]
+        self.args = [(X[i, body.xs], U[i, body.us], k0 + i) for i in range(n)]
+        # The tangent maps of the window's states (and, where ``after`` gives them, of the next states)
+        # in one call here, not one per step on the threads, where numpy's small calls hold the GIL.
+        self.maps_in = body.window_maps(X[:n, body.xs], inverse=True)
+        self.maps_out: list = [None] * n
+        if after is not None:
+            nxt = after[:n, body.xs]
+            known = np.flatnonzero(np.all(np.isfinite(nxt), axis=1))  # a blown-up step: stepped anew
+            for i, m in zip(known, body.window_maps(nxt[known], inverse=False)):
+                self.maps_out[i] = m
         if body.workers <= 1 or n < 2:
             self.ready = None
             for i in range(n):
-                self.A[i], self.B[i] = body.linearize_body(*args[i])
+                self._one(body, i)
             return
         self.ready = [threading.Event() for _ in range(n)]
         order = iter(range(n - 1, -1, -1))  # the backward pass reads the last step first
         lock = threading.Lock()
         for c in threads(body):
-            body._pool.submit(self._work, c, order, lock, args)
+            body._pool.submit(self._work, c, order, lock)
 
-    def _work(self, part, order, lock, args) -> None:
+    def _one(self, part, i: int) -> None:
+        """Step ``i`` differentiated by ``part`` (the body or a thread's copy): ``linearize_body``'s numbers."""
+        xb, ub, k = self.args[i]
+        A, B = part._fd(xb, ub, k)
+        out = self.maps_out[i]
+        if out is None:
+            out = part._tangent_map(part._next(xb, ub, k), inverse=False)
+        self.A[i], self.B[i] = part._to_minimal(A, B, out, self.maps_in[i])
+
+    def _work(self, part, order, lock) -> None:
         while True:
             with lock:
                 i = next(order, None)
             if i is None:
                 return
             try:
-                self.A[i], self.B[i] = part.linearize_body(*args[i])
+                self._one(part, i)
             except BaseException as e:  # handed to the reader of the step, not lost in the pool
                 self.error = e
             self.ready[i].set()

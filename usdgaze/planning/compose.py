@@ -84,11 +84,11 @@ class Stacked:
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
         return self.linearize_start(X, U, k0)()
 
-    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int) -> "StackRows":
+    def linearize_start(self, X: np.ndarray, U: np.ndarray, k0: int, after: np.ndarray | None = None) -> "StackRows":
         """``linearize_batch`` begun: parts with a ``linearize_start`` (the MuJoCo body's threaded finite
         differences) start first, the others' rows are made meanwhile; call the result for the rows,
-        or its ``step(i)`` for one step's."""
-        started = {i: p.linearize_start(X, U, k0) for i, p in enumerate(self.parts) if hasattr(p, "linearize_start")}
+        or its ``step(i)`` for one step's. ``after``: as ``ddp.linearize_start``'s, for those parts."""
+        started = {i: p.linearize_start(X, U, k0, after) for i, p in enumerate(self.parts) if hasattr(p, "linearize_start")}
         done = {i: p.linearize_batch(X, U, k0) for i, p in enumerate(self.parts) if i not in started}
         return StackRows([done[i] if i in done else started[i] for i in range(len(self.parts))], len(U))
 

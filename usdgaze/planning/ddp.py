@@ -124,11 +124,16 @@ def linearize_trajectory(dyn: Dynamics, X: np.ndarray, U: np.ndarray, k0: int = 
     return linearize_start(dyn, X, U, k0)()
 
 
-def linearize_start(dyn: Dynamics, X: np.ndarray, U: np.ndarray, k0: int = 0) -> Callable[[], tuple]:
+def linearize_start(dyn: Dynamics, X: np.ndarray, U: np.ndarray, k0: int = 0, rollout: bool = False) -> Callable[[], tuple]:
     """``linearize_trajectory`` begun: a dynamics with ``linearize_start`` (threads) runs it while the
-    caller expands the cost; the result, called, gives (fx, fu)."""
+    caller expands the cost; the result, called, gives (fx, fu). ``rollout``: ``X`` (``N + 1`` states)
+    is the rollout of ``U``, so its states after each step are the steps' next states, which such a
+    dynamics may take instead of stepping again (``after``)."""
     if hasattr(dyn, "linearize_start"):
-        return dyn.linearize_start(X[: len(U)], U, k0)
+        n = len(U)
+        if rollout and len(X) > n:
+            return dyn.linearize_start(X[:n], U, k0, X[1:n + 1])
+        return dyn.linearize_start(X[:n], U, k0)
     result = _linearize_now(dyn, X, U, k0)
     return lambda: result
 
@@ -233,7 +238,7 @@ def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0
     U = np.array(U0, dtype=float).reshape(-1, dyn.nu)
     X = rollout(dyn, np.asarray(x0, dtype=float), U, k0)
     # threads, where the dynamics has them, differentiate the rollout while its cost is taken
-    pending = linearize_start(dyn, X, U, k0) if opt.max_iter >= 1 else None
+    pending = linearize_start(dyn, X, U, k0, rollout=True) if opt.max_iter >= 1 else None
     J = total_cost(cost, X, U, k0)
     costs = [J]
     mu = opt.mu_init
@@ -242,7 +247,7 @@ def solve(dyn: Dynamics, cost: Cost, x0: np.ndarray, U0: np.ndarray, k0: int = 0
     it = 0
     for it in range(1, opt.max_iter + 1):
         if it > 1:
-            pending = linearize_start(dyn, X, U, k0)
+            pending = linearize_start(dyn, X, U, k0, rollout=True)
         running, terminal = expand_cost(cost, X, U, k0)
         rows = window_rows(pending)  # the backward pass starts on the steps made first
         accepted = False
