@@ -132,19 +132,21 @@ class StepRows:
                 self.error = e
             self.ready[i].set()
 
+    def block(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Step ``i``'s (A, B) in the body's own coordinates, once it is made."""
+        if self.ready is not None:
+            self.ready[i].wait()
+        if self.error is not None:
+            raise self.error
+        return self.A[i], self.B[i]
+
     def step(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Step ``i``'s rows of the stack, once it is made."""
         if self.rows[i] is None:
-            if self.ready is not None:
-                self.ready[i].wait()
-            if self.error is not None:
-                raise self.error
-            self.rows[i] = stack_rows(self.body, self.A[i], self.B[i])
+            self.rows[i] = stack_rows(self.body, *self.block(i))
         return self.rows[i]
 
     def __call__(self) -> tuple[np.ndarray, np.ndarray]:
         for i in range(self.n):
-            if self.ready is not None:
-                self.ready[i].wait()
-        if self.error is not None:
-            raise self.error
+            self.block(i)
         return stack_rows(self.body, self.A, self.B)

@@ -90,7 +90,7 @@ class Stacked:
         or its ``step(i)`` for one step's. ``after``: as ``ddp.linearize_start``'s, for those parts."""
         started = {i: p.linearize_start(X, U, k0, after) for i, p in enumerate(self.parts) if hasattr(p, "linearize_start")}
         done = {i: p.linearize_batch(X, U, k0) for i, p in enumerate(self.parts) if i not in started}
-        return StackRows([done[i] if i in done else started[i] for i in range(len(self.parts))], len(U))
+        return StackRows(self, [done[i] if i in done else started[i] for i in range(len(self.parts))], len(U))
 
     def forward_pass(self, X, U, kff, K, alpha, k0):
         """Roll out u = U + alpha kff + K (x - X) with the passive parts done last, in one batch.
@@ -133,30 +133,35 @@ class Stacked:
 
 
 class StackRows:
-    """A stack's started linearization: per part its window's rows (arrays) or a started one (called
-    for the arrays; with ``step(i)``, one step's rows as soon as they are made)."""
+    """A stack's started linearization, as the whole window's rows ``fx`` ``(n, NX, NX)``, ``fu``: the
+    parts' rows made already are written at once; a part started with ``block(i)`` (the MuJoCo body's
+    threads) writes step ``i``'s when ``step(i)`` first asks for it."""
 
-    def __init__(self, parts: list, n: int) -> None:
-        self.parts, self.rows = parts, [None] * n
-
-    def _part(self, j: int, i: int):
-        p = self.parts[j]
-        if not callable(p):  # made already: (fx, fu) of the window
-            return p[0][i], p[1][i]
-        if hasattr(p, "step"):
-            return p.step(i)
-        self.parts[j] = p()  # a whole window at once (a strided or kept body)
-        return self._part(j, i)
+    def __init__(self, stack: Stacked, parts: list, n: int) -> None:
+        self.fx, self.fu = np.zeros((n, stack.nx, stack.nx)), np.zeros((n, stack.nx, stack.nu))
+        self.lazy, self.made = [], [False] * n
+        self.whole = [(part, got) for part, got in zip(stack.parts, parts) if callable(got) and not hasattr(got, "block")]
+        for part, got in zip(stack.parts, parts):
+            if hasattr(got, "block"):
+                self.lazy.append((part, got))
+            elif not callable(got):
+                self.fx[:, part.xs], self.fu[:, part.xs] = got
 
     def step(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        if self.rows[i] is None:
-            got = [self._part(j, i) for j in range(len(self.parts))]
-            self.rows[i] = np.concatenate([r[0] for r in got]), np.concatenate([r[1] for r in got])
-        return self.rows[i]
+        while self.whole:  # a started part without steps of its own (a strided body): all at once
+            part, got = self.whole.pop()
+            self.fx[:, part.xs], self.fu[:, part.xs] = got()
+        if not self.made[i]:
+            for part, got in self.lazy:
+                A, B = got.block(i)
+                self.fx[i, part.xs, part.xs], self.fu[i, part.xs, part.us] = A, B
+            self.made[i] = True
+        return self.fx[i], self.fu[i]
 
     def __call__(self) -> tuple[np.ndarray, np.ndarray]:
-        got = [p() if callable(p) else p for p in self.parts]
-        return np.concatenate([r[0] for r in got], axis=1), np.concatenate([r[1] for r in got], axis=1)
+        for i in range(len(self.made)):
+            self.step(i)
+        return self.fx, self.fu
 
 
 class LinearPart(Part):
