@@ -193,10 +193,10 @@ class CatchTask:
         jh, jf, jl = (np.zeros((n, 3, nv)), np.zeros((n, 3, nv)), np.zeros((n, nv))) if jac else (None, None, None)
         j = np.zeros((3, nv))
         for i in range(n):
-            d.qpos[:], _ = dyn.to_mujoco(Xb[i])
+            d.qpos[:] = dyn.qpos_of(Xb[i])
             mujoco.mj_kinematics(dyn.mj, d)
             p_hand[i] = d.xpos[body] + d.xmat[body].reshape(3, 3) @ palm
-            feet[i] = d.xpos[self.feet].mean(axis=0)
+            feet[i] = np.add.reduce(d.xpos[self.feet], axis=0) / len(self.feet)  # mean's own sum and division
             lat[i] = float((self.arrival[1] - feet[i]) @ self.left)
             if jac:
                 mujoco.mj_comPos(dyn.mj, d)

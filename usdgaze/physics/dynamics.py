@@ -187,9 +187,9 @@ class MujocoBody:
 
     def to_mujoco(self, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``qpos``, ``qvel`` of one body state (new arrays)."""
-        return self._qpos_of(xb).copy(), xb[self.nv:2 * self.nv].copy()
+        return self.qpos_of(xb).copy(), xb[self.nv:2 * self.nv].copy()
 
-    def _qpos_of(self, xb: np.ndarray) -> np.ndarray:
+    def qpos_of(self, xb: np.ndarray) -> np.ndarray:
         """``qpos`` of one body state, from the cache (not to be written to)."""
         key = xb[:self.nv].tobytes()
         qpos = self._qpos_cache.get(key)
@@ -240,7 +240,7 @@ class MujocoBody:
         d = self.data
         p, R = np.zeros((len(X), 3)), np.zeros((len(X), 3, 3))
         for i, x in enumerate(X):
-            d.qpos[:], _ = self.to_mujoco(x[self.xs])
+            d.qpos[:] = self.qpos_of(x[self.xs])
             mujoco.mj_kinematics(self.mj, d)
             xm = d.xmat[body].reshape(3, 3)
             p[i], R[i] = d.xpos[body] + xm @ offset, xm @ axes
@@ -259,7 +259,7 @@ class MujocoBody:
         maps = _jr(X[:, self.xs][:, rot].reshape(-1, 3), inverse=False).reshape(len(X), len(rot), 3, 3)  # d tangent / d x
         jp, jr = np.zeros((3, self.nv)), np.zeros((3, self.nv))
         for i, x in enumerate(X):
-            d.qpos[:], _ = self.to_mujoco(x[self.xs])
+            d.qpos[:] = self.qpos_of(x[self.xs])
             mujoco.mj_kinematics(self.mj, d)
             mujoco.mj_comPos(self.mj, d)
             xm = d.xmat[body].reshape(3, 3)
@@ -284,7 +284,7 @@ class MujocoBody:
     # -- dynamics ---------------------------------------------------------------------------------
     def _load(self, xb: np.ndarray, ub: np.ndarray, k: int) -> None:
         d = self.data
-        d.qpos[:] = self._qpos_of(xb)
+        d.qpos[:] = self.qpos_of(xb)
         d.qvel[:] = xb[self.nv:2 * self.nv]
         d.ctrl[:] = ub
         d.qacc_warmstart[:] = 0.0

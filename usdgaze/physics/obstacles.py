@@ -79,6 +79,8 @@ class ObstacleTask:
         nv = dyn.nv
         self._p = slice(0, 2)  # root position (ground plane) in the body state
         self._v = slice(nv, nv + 2)  # root linear velocity (MuJoCo's free joint: world frame)
+        self._offsets = {tail: np.arange(self.ahead + 1 if tail else 1) for tail in (False, True)}
+        self._lead = {tail: dyn.h * steps for tail, steps in self._offsets.items()}
         if form == "body":
             self.caps = Capsules(dyn)
             self.s2g = (self.radii[:, None] + self.caps.radius[None] + margin) ** 2  # (J, G)
@@ -149,9 +151,11 @@ class ObstacleTask:
             return (0.0, np.zeros(nv + 2), np.zeros((nv + 2, nv + 2))) if derivs else 0.0
         caps = self.caps
         c, axis = caps.segments(xb)
-        lead = self.dyn.h * np.arange(self.ahead + 1 if tail else 1)  # seconds extrapolated, per time
-        steps = np.clip(k + np.arange(len(lead)), 0, len(self.centres) - 1)
-        v = np.r_[xb[self._v], 0.0]
+        lead = self._lead[tail]  # seconds extrapolated, per time
+        # (integer clip and ground-plane velocity without np.clip's and np.r_'s wrappers: one call a step)
+        steps = np.minimum(np.maximum(k + self._offsets[tail], 0), len(self.centres) - 1)
+        v = np.zeros(3)
+        v[:2] = xb[self._v]
         centres = self.centres[steps] - lead[:, None, None] * v  # relative to the body carried along
         rel = centres[:, :, None, :] - c  # (T, J, G, 3)
         t = np.clip(np.einsum("tjgk,gk->tjg", rel, axis), -caps.half, caps.half)
@@ -179,7 +183,7 @@ class ObstacleTask:
         # The gradient is sum_i gp_i J_i = sum_i (-a e |r|) n_i J_i: one projection gives both.
         nq = caps.project(xb, gi, c[gi] + t[ti, ji, gi][:, None] * axis[gi], n)
         scale = -a * es * np.sqrt(d2s)
-        grad = np.r_[scale @ nq, lead[ti] @ gp[:, :2]]
+        grad = np.concatenate([scale @ nq, lead[ti] @ gp[:, :2]])
         rows = np.hstack([nq, lead[ti, None] * n[:, :2]])
         return float(e.sum()), grad, rows.T @ (lam[:, None] * rows)
 

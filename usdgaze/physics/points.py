@@ -26,11 +26,15 @@ class Points:
 
     def pose(self, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Body origins ``(nbody, 3)`` and frames ``(nbody, 3, 3)`` at body state ``xb``."""
+        self.kinematics(xb)
+        return self.data.xpos.copy(), self.data.xmat.reshape(-1, 3, 3).copy()
+
+    def kinematics(self, xb: np.ndarray) -> None:
+        """MuJoCo's kinematics at body state ``xb`` on this buffer (``data``)."""
         import mujoco
 
-        self.data.qpos[:], _ = self.dyn.to_mujoco(xb)
+        self.data.qpos[:] = self.dyn.qpos_of(xb)
         mujoco.mj_kinematics(self.dyn.mj, self.data)
-        return self.data.xpos.copy(), self.data.xmat.reshape(-1, 3, 3).copy()
 
     def jacobian(self, xb: np.ndarray, body: int, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """d point / d q and the body's angular Jacobian ``(3, nv)`` each, in the state's coordinates.
@@ -80,7 +84,7 @@ class Capsules:
 
     def segments(self, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Centres and axes ``(G, 3)`` at body state ``xb`` (kinematics left for :meth:`jacobians`)."""
-        self.points.pose(xb)
+        self.points.kinematics(xb)
         d = self.points.data
         return d.geom_xpos[self.geoms].copy(), d.geom_xmat[self.geoms].reshape(-1, 3, 3)[:, :, 2].copy()
 

@@ -170,7 +170,7 @@ class BodyTracking:
         J = np.zeros((n, 3, dyn.nv)) if jac else None
         jr = np.zeros((3, dyn.nv))
         for i in range(n):
-            d.qpos[:], _ = dyn.to_mujoco(Xb[i])
+            d.qpos[:] = dyn.qpos_of(Xb[i])
             mujoco.mj_kinematics(dyn.mj, d)
             o[i] = d.xpos[self.head] - d.xpos[1]
             if jac:
