@@ -139,12 +139,13 @@ class StackRows:
 
     def __init__(self, stack: Stacked, parts: list, n: int) -> None:
         self.fx, self.fu = np.zeros((n, stack.nx, stack.nx)), np.zeros((n, stack.nx, stack.nu))
-        self.lazy, self.made = [], [False] * n
-        self.whole = [(part, got) for part, got in zip(stack.parts, parts) if callable(got) and not hasattr(got, "block")]
+        self.lazy, self.whole, self.made = [], [], [False] * n
         for part, got in zip(stack.parts, parts):
             if hasattr(got, "block"):
                 self.lazy.append((part, got))
-            elif not callable(got):
+            elif callable(got):
+                self.whole.append((part, got))
+            else:
                 self.fx[:, part.xs], self.fu[:, part.xs] = got
 
     def step(self, i: int) -> tuple[np.ndarray, np.ndarray]:

@@ -19,7 +19,10 @@ Dynamics and costs are protocols. Per-step methods are required; a batched metho
 (``linearize_batch``, ``derivs_batch``, ``cost_batch``) is used when present, because the
 linearization of a whole window vectorizes over steps while the rollout cannot. A dynamics may
 also offer ``forward_pass(X, U, kff, K, alpha, k0) -> (X_new, U_new) | None`` to roll a policy out
-its own way (``compose.Stacked`` does, for parts that no other part reads).
+its own way (``compose.Stacked`` does, for parts that no other part reads), and
+``linearize_start(X, U, k0[, after])`` to linearize on threads while the solver takes the costs:
+its result, called, gives the window's (fx, fu), and with ``step(i)`` one step's as soon as it is
+made, which the backward pass reads from the window's end.
 """
 
 from __future__ import annotations
