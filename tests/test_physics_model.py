@@ -281,7 +281,8 @@ def test_attachments_on_a_bone_or_beside_a_chain_end_no_segment():
     """A twist joint halfway along a forearm whose hand is a leaf (UE's lowerarm_twist_01_l) and
     helper leaves beside a joint the chain goes on through (a breast beside the chest, a pad beside
     a hand with fingers) sit on their parent's segment; a leaf off the bone beside only leaves, a
-    hand's leaf beside its fingers (CMU's thumb) and the hands themselves do not."""
+    hand's leaf beside its fingers (CMU's thumb), a foot beside a twist chain and the hands
+    themselves do not."""
     from usdgaze.physics import segments
 
     tree = [  # (name, parent, role, position)
@@ -293,6 +294,9 @@ def test_attachments_on_a_bone_or_beside_a_chain_end_no_segment():
         ("pad_r", 8, "other", (-0.3, -0.1, 1.4)), ("fingers_r", 9, "hand", (-0.6, 0, 1.4)),
         ("finger2_r", 11, "hand", (-0.65, 0, 1.4)), ("thumb_r", 9, "hand", (-0.58, 0.05, 1.4)),
         ("weapon_r", 9, "hand", (-0.6, -0.05, 1.4)),
+        # A foot that ends its leg beside a two-joint twist chain is the foot, not an attachment.
+        ("calf", 0, "shank", (0.1, 0, 0.5)), ("foot", 15, "foot", (0.1, 0, 0.08)),
+        ("calf_twist_01", 15, "other", (0.1, 0.01, 0.35)), ("calf_twist_02", 17, "other", (0.1, 0.01, 0.2)),
     ]
     names, parents, roles, pos = (list(c) for c in zip(*tree))
     parents, pos = np.array(parents), np.array(pos, dtype=float)

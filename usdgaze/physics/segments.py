@@ -270,10 +270,12 @@ def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children:
         while parents[top] >= 0 and roles[int(parents[top])] == roles[j]:
             top, depth = int(parents[top]), depth + 1
         # A leaf beside a joint the chain goes on through is an attachment on its parent's bone (UE's
-        # and CC's twist joints, a breast or a tail helper), not a segment; a hand's leaves are
-        # judged by their depth (CMU's thumb is a leaf beside its fingers) or named props.
+        # and CC's twist joints, a breast or a tail helper), not a segment; a hand's and a foot's
+        # leaves are judged by their depth (CMU's thumb is a leaf beside its fingers) or named props,
+        # and a leaf head (CMU's) is the head, whatever hangs beside it.
         siblings = [c for c in children[int(parents[j])] if c != j]
-        aside = is_prop(names[j]) or (roles[j] != "hand" and (
+        judged = roles[j] in ("hand", "foot") or j == head
+        aside = is_prop(names[j]) or (not judged and (
             any(children[c] for c in siblings) or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos))))
         if (is_end_joint(names[j]) or (head is not None and head in _ancestors(j, parents)) or aside
                 or depth >= _TIP_DEPTH.get(roles[j], 1 << 30)):
