@@ -339,6 +339,11 @@ def test_twist_ik_and_secondary_joints_add_no_body_degrees_of_freedom_or_mass(tm
         assert mj_full.body_mass[b] < 0.1 and mj_full.body_geomnum[b] == 0 and mj_full.body_jntnum[b] == 0
     chest = [b for b, n in enumerate(plain.names) if n == "spine_03"][0]
     assert np.allclose(full.com[full.names.index("spine_03")], plain.com[chest])
+    # The upper spine's segment runs to the neck (MuJoCo's body frames), not to a fingered arm's clavicle.
+    neck = mj_plain.body("neck_01").id
+    to_neck = mj_plain.body_pos[neck] / np.linalg.norm(mj_plain.body_pos[neck])
+    com = mj_plain.body_ipos[mj_plain.body("spine_03").id]
+    assert com @ to_neck > 0.999 * np.linalg.norm(com)
     hands_plain, hands_full = catch._hand_sites(plain), catch._hand_sites(full)
     for side, (body, palm) in hands_plain.items():
         assert full.names[hands_full[side][0]] == plain.names[body] and np.allclose(hands_full[side][1], palm)
