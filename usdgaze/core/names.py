@@ -88,16 +88,12 @@ def mirror_key(joint: str, numbers: bool = True) -> str:
 
 # -- what a name says about its role --------------------------------------------------------------
 
-_NOT_A_BODY_JOINT = frozenset({
-    "end", "nub", "tip", "top", "ik", "fk", "ctrl", "ctl", "control", "target", "tgt", "aim", "look", "helper",
-    "mch", "jaw", "null", "locator", "loc", "pole", "socket", "hair", "hat", "cap",
-})
-_NOT_AN_EYEBALL = _NOT_A_BODY_JOINT | {"lid", "lids", "lash", "lashes", "brow", "blink", "upper", "lower", "inner",
-                                       "outer", "highlight", "spec", "tear", "iris", "pupil"}
-
-
+# A rig's control and helper joints, whatever body word they carry.
 _CONTROLS = frozenset({"ik", "fk", "ctrl", "ctl", "control", "target", "tgt", "aim", "pole", "helper", "mch",
                        "null", "locator", "loc", "socket"})
+_NOT_A_BODY_JOINT = _CONTROLS | {"end", "nub", "tip", "top", "look", "jaw", "hair", "hat", "cap"}
+_NOT_AN_EYEBALL = _NOT_A_BODY_JOINT | {"lid", "lids", "lash", "lashes", "brow", "blink", "upper", "lower", "inner",
+                                       "outer", "highlight", "spec", "tear", "iris", "pupil"}
 
 
 def is_control(joint: str) -> bool:

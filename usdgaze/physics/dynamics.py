@@ -343,14 +343,9 @@ class MujocoBody:
         return _jr(r.reshape(-1, 3), inverse=not inverse).reshape(r.shape + (3,))
 
     def linearize(self, x: np.ndarray, u: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        A, B = self.linearize_body(x[self.xs], u[self.us], k)
-        if self.stack is None:
-            return A, B
-        fx = np.zeros((self.nx, self.stack.nx))
-        fu = np.zeros((self.nx, self.stack.nu))
-        fx[:, self.xs] = A
-        fu[:, self.us] = B
-        return fx, fu
+        from usdgaze.physics import fdpool
+
+        return fdpool.stack_rows(self, *self.linearize_body(x[self.xs], u[self.us], k))
 
     def linearize_batch(self, X: np.ndarray, U: np.ndarray, k0: int) -> tuple[np.ndarray, np.ndarray]:
         """The window's linearizations. With ``stride > 1`` MuJoCo's finite differences are taken at
