@@ -54,13 +54,18 @@ def add_joints(path: str | Path, extra: list[tuple[str, str | None, tuple, bool]
     stage.GetRootLayer().Save()
 
 
-def ue5_helpers(rig) -> list[tuple[str, str | None, tuple, bool]]:
-    """UE5 mannequin-style helpers for a ``convention="ue"`` rig: a twist joint halfway along each
-    upper arm, forearm, thigh and calf (animated), and the IK joints under ``root`` (still)."""
+def _bind_positions(rig) -> dict[str, np.ndarray]:
+    """Each joint's (leaf name's) position at bind, in the rig's skeleton space."""
     stage = Usd.Stage.Open(str(rig.path))
     skel = UsdSkel.Skeleton(next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton)))
     bind = np.array(skel.GetBindTransformsAttr().Get())
-    pos = {str(j).rsplit("/", 1)[-1]: bind[i][3, :3] for i, j in enumerate(skel.GetJointsAttr().Get())}
+    return {str(j).rsplit("/", 1)[-1]: bind[i][3, :3] for i, j in enumerate(skel.GetJointsAttr().Get())}
+
+
+def ue5_helpers(rig) -> list[tuple[str, str | None, tuple, bool]]:
+    """UE5 mannequin-style helpers for a ``convention="ue"`` rig: a twist joint halfway along each
+    upper arm, forearm, thigh and calf (animated), and the IK joints under ``root`` (still)."""
+    pos = _bind_positions(rig)
     extra = []
     for s in "lr":
         for bone, end in (("upperarm", "lowerarm"), ("lowerarm", "hand"), ("thigh", "calf"), ("calf", "foot")):
@@ -78,10 +83,7 @@ def secondary_chains(rig) -> list[tuple[str, str | None, tuple, bool]]:
     """Chains off the body's frame on a ``convention="ue"`` rig (animated): a jaw with its chin and
     a three-joint ponytail below the head, a three-joint skirt panel on the pelvis (VRoid's
     ``J_Sec_*`` spring chains, a facial rig's jaw)."""
-    stage = Usd.Stage.Open(str(rig.path))
-    skel = UsdSkel.Skeleton(next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton)))
-    bind = np.array(skel.GetBindTransformsAttr().Get())
-    pos = {str(j).rsplit("/", 1)[-1]: bind[i][3, :3] for i, j in enumerate(skel.GetJointsAttr().Get())}
+    pos = _bind_positions(rig)
     at = lambda joint, *d: tuple(pos[joint] + np.array(d))  # noqa: E731  (offsets in the rig's Y-up metres)
     return [("jaw", "head", at("head", 0, 0.02, 0.03), True), ("chin", "jaw", at("head", 0, -0.05, 0.09), False),
             ("hair_01", "head", at("head", 0, 0.1, -0.08), True), ("hair_02", "hair_01", at("head", 0, 0, -0.14), True),
