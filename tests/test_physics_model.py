@@ -307,6 +307,23 @@ def test_attachments_on_a_bone_or_beside_a_chain_end_no_segment():
     assert {names[j] for j in tips} == {"breast", "pad_r", "weapon_r"}
 
 
+def test_a_catch_model_frees_the_still_arms_but_not_the_pelvis_bones():
+    """Without welding still joints (a catch: the standing reference holds the arms still), the CMU
+    rig's pelvis pieces between the hips and the thighs, held still by the walk, stay welded: the
+    pelvis is one bone. The collars, also still, get their ball joints; MuJoCo's own count of the
+    degrees of freedom drops by the two pieces' six."""
+    from usdgaze.physics import mjcf
+
+    clip = build.load_clip(CMU)
+    still, _ = build.body_model(clip)
+    free, _ = build.body_model(clip, weld_still=False)
+    kind = dict(zip(free.names, free.kind))
+    assert dict(zip(still.names, still.kind))["LeftCollar"] == "weld"
+    assert (kind["LHipJoint"], kind["RHipJoint"], kind["LeftCollar"], kind["RightCollar"]) == ("weld", "weld", "ball", "ball")
+    nv_still, nv_free = (mujoco.MjModel.from_xml_string(mjcf.write(m)).nv for m in (still, free))
+    assert nv_free == nv_still + 2 * 3  # the collars' balls; 66 with the pelvis pieces too
+
+
 def test_twist_ik_and_secondary_joints_add_no_body_degrees_of_freedom_or_mass(tmp_path):
     """UE5's helpers (a twist joint on each limb bone, animated; ``ik_foot_*`` and ``ik_hand_*``
     under the root) and chains off the body's frame (a jaw, a ponytail, a skirt panel) change

@@ -223,8 +223,13 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     data = Sdf.Layer.FindOrOpen(str(coarse)).customLayerData
     steps = np.diff(list(data["usdgaze:physics"][SKEL]["frames"]["seconds"]))
     assert len(steps) >= 5 and np.allclose(steps, 0.03)
-    assert dict(data["usdgaze"]["planner"]) == {"timestep": 0.03, "window": 0.6, "iterations": 1,
+    assert dict(data["usdgaze"]["planner"]) == {"timestep": 0.03, "window": 0.6, "iterations": 1, "taskIterations": 2,
                                                 "firstIterations": 5, "fdStride": 1, "fdReuse": 1}
+    # --iterations sets the solver's iterations a step for every shot, task or not (test_physics_tasks
+    # checks that a task shot's solves take two by default).
+    assert main(["attend", str(src), "--out", str(coarse), "--physics", "--timestep", "0.03", "--iterations", "3"]) == 0
+    data = Sdf.Layer.FindOrOpen(str(coarse)).customLayerData
+    assert (data["usdgaze"]["planner"]["iterations"], data["usdgaze"]["planner"]["taskIterations"]) == (3, 3)
 
 
 def test_two_tasks_of_one_kind_report_under_their_own_keys():

@@ -45,11 +45,14 @@ import click
 @click.option("--fd-reuse", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: keep a step's MuJoCo derivatives for up to N solves while its contacts "
                    "stay the same (faster; 3 saves about a quarter, feet sink deeper, docs/physics.md).")
+@click.option("--iterations", default=None, type=click.IntRange(1, 10),
+              help="With --physics: solver iterations per planner step.  [default: 1; 2 in a shot with a task "
+                   "(catch, stones, obstacles), where one let 3 of 12 stepping-stone shots fall]")
 @click.option("--mass", default=75.0, show_default=True, type=click.FloatRange(1.0, 500.0),
               help="With --physics: the body's total mass, kg (de Leva's segment shares of it; as physics-model).")
 @click.pass_context
 def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
-           physics, discard_failed, threads, fd_stride, timestep, fd_reuse, mass) -> None:
+           physics, discard_failed, threads, fd_stride, timestep, fd_reuse, iterations, mass) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     from usdgaze.core.hints import parse_hints
 
@@ -59,6 +62,8 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
 
         options = Options(h=timestep, horizon_s=Options.horizon_s if window_s is None else window_s,
                           workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse)
+        if iterations is not None:
+            options.iterations = options.task_iterations = iterations
         return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                         parse_hints(bind, forward), mass)
     from usdgaze.attend import AttendSettings, attend as run

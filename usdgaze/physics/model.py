@@ -153,7 +153,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
           hints: Hints | None = None) -> BodyModel:
     """The body model of a skeleton; ``reference`` (``(F, J, 4)`` local xyzw rotations) fits hinge axes
     and widens joint ranges to what the motion uses. ``weld_still``: weld the joints the reference holds
-    at rest throughout (off where a task must move what the reference does not, e.g. arms to catch).
+    at rest throughout (off where a task must move what the reference does not, e.g. arms to catch;
+    the pelvis's bones, ``segments.pelvis_bones``, weld where held even then).
     ``hints``: the gaze binding's head, eyes and forward, for rigs whose names say nothing."""
     parents = np.asarray(parents, dtype=int)
     if total_mass <= 0:
@@ -200,7 +201,9 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
                        to_model @ skel_to_world0[:3, :3], where)
     axis, range_deg = _hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
-        _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, weld_still)
+        # Without weld_still the pelvis's own bones still weld where held: the pelvis is one rigid segment.
+        still = range(n) if weld_still else seg.pelvis_bones(roles, bparent)
+        _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still))
 
     com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
     radius = np.clip(np.sqrt(mass / (1000.0 * np.pi * np.maximum(lengths, 0.05))), 0.015, 0.14) * (
@@ -349,15 +352,16 @@ def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) 
 
 
 def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray,
-                      weld_still: bool = True) -> None:
-    """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses."""
+                      weldable: set[int]) -> None:
+    """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses;
+    the ``weldable`` bodies the reference holds at rest welded."""
     for b in range(1, len(kind)):
         if kind[b] not in ("ball", "hinge"):
             continue
         q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
         rv = rot.to_rotvec(q)
         ang = np.degrees(np.linalg.norm(rv, axis=1))
-        if ang.max() < _STILL_DEG and weld_still:
+        if ang.max() < _STILL_DEG and b in weldable:
             # A joint the motion holds at rest throughout (CMU's hip and collar joints) is welded:
             # no degrees of freedom the controller would have to hold still.
             kind[b] = "weld"

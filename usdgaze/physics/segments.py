@@ -361,3 +361,16 @@ def inertials(roles: list[str], seg_vec: np.ndarray, mass: np.ndarray):
         if length > 0:  # an end site's (zero) segment has no axis: its inertia stays in its frame
             iquat[b] = rot.shortest_arc(np.array([0, 0, 1.0]), seg_vec[b] / length)
     return com, np.maximum(inertia, 1e-6), iquat
+
+
+def pelvis_bones(roles: list[str], bparent: np.ndarray) -> set[int]:
+    """Bodies between the base and a thigh that lead to neither the head nor a hand: bones inside the
+    pelvis (CMU's ``LHipJoint``), which is one rigid segment (de Leva's lower trunk)."""
+    above: dict[str, set[int]] = {"thigh": set(), "upper": set()}
+    for b, role in enumerate(roles):
+        key = "thigh" if role == "thigh" else "upper" if role in ("head", "hand") else None
+        p = int(bparent[b]) if key else -1
+        while p > 0:
+            above[key].add(p)
+            p = int(bparent[p])
+    return {b for b in above["thigh"] - above["upper"] if roles[b] == "other"}
