@@ -214,8 +214,8 @@ def _head(ref, n: int):
 def _planner_record(options: mpc.Options) -> dict:
     """The settings that decide the simulated motion, for the layer (threads do not: same bytes)."""
     return {"timestep": options.h, "window": options.horizon_s, "iterations": options.iterations,
-            "taskIterations": options.task_iterations, "firstIterations": options.first_iterations, "fdStride": options.fd_stride,
-            "fdReuse": options.fd_reuse}
+            "taskIterations": options.task_iterations, "firstIterations": options.first_iterations,
+            "fdStride": options.fd_stride, "fdReuse": options.fd_reuse}
 
 
 def check_window(options: mpc.Options, label: str) -> None:
