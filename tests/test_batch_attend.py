@@ -89,6 +89,7 @@ def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path):
     ('command = "attend"\nfd_stride = 2', ["job 0 'x'", "fd_stride: a key of physics jobs"]),
     ('command = "attend"\nphysics = true\nfd_reuse = 0', ["job 0 'x'", "fd_reuse"]),
     ('command = "attend"\nphysics = true\niterations = 0', ["job 0 'x'", "iterations"]),
+    ('command = "attend"\nphysics = true\nretry_iterations = 11', ["job 0 'x'", "retry_iterations"]),
     ('command = "attend"\niterations = 2', ["job 0 'x'", "iterations: a key of physics jobs"]),
     ('command = "attend"\nphysics = true\nalpha = 0.4', ["job 0 'x'", "alpha: not taken by physics jobs"]),
     ('command = "attend"\nwindow = 9', ["job 0 'x'", "window = 9", "from 0.05 to 5"]),

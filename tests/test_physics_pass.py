@@ -223,13 +223,19 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     data = Sdf.Layer.FindOrOpen(str(coarse)).customLayerData
     steps = np.diff(list(data["usdgaze:physics"][SKEL]["frames"]["seconds"]))
     assert len(steps) >= 5 and np.allclose(steps, 0.03)
-    assert dict(data["usdgaze"]["planner"]) == {"timestep": 0.03, "window": 0.6, "iterations": 1, "taskIterations": 2,
+    assert dict(data["usdgaze"]["planner"]) == {"timestep": 0.03, "window": 0.6, "iterations": 1, "retryIterations": 2,
                                                 "firstIterations": 5, "fdStride": 1, "fdReuse": 1}
-    # --iterations sets the solver's iterations a step for every shot, task or not (test_physics_tasks
-    # checks that a task shot's solves take two by default).
-    assert main(["attend", str(src), "--out", str(coarse), "--physics", "--timestep", "0.03", "--iterations", "3"]) == 0
+    # The fall was simulated again with two iterations a step (it fell again, as early: that one is
+    # kept), and the report says so; --retry-iterations 0 simulates once, --iterations sets the first.
+    shot = layer.customLayerData["usdgaze:physics"][SKEL]
+    assert shot["report"]["iterations"] == 2 and shot["problems"][0].startswith("fell at")
+    assert list(shot["otherAttempt"])[0].startswith("with 1 iteration(s) a step: fell at")
+    assert "simulated again" in printed
+    assert main(["attend", str(src), "--out", str(coarse), "--physics", "--timestep", "0.03", "--iterations", "3",
+                 "--retry-iterations", "0"]) == 0
     data = Sdf.Layer.FindOrOpen(str(coarse)).customLayerData
-    assert (data["usdgaze"]["planner"]["iterations"], data["usdgaze"]["planner"]["taskIterations"]) == (3, 3)
+    assert data["usdgaze"]["planner"]["iterations"] == 3 and data["usdgaze"]["planner"]["retryIterations"] == 0
+    assert data["usdgaze:physics"][SKEL]["report"]["iterations"] == 3 and "otherAttempt" not in data["usdgaze:physics"][SKEL]
 
 
 def test_two_tasks_of_one_kind_report_under_their_own_keys():
@@ -335,3 +341,36 @@ def test_a_rigs_helper_and_secondary_joints_are_written_as_the_reference_has_the
         assert np.array_equal(a[helpers], b[helpers])
     assert any(not np.array_equal(np.array(written.QueryTimeSample(path, t))[moved],
                                   np.array(src.QueryTimeSample(path, t))[moved]) for t in times)
+
+
+def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
+    """The choice between two attempts (``_simulate_shot``), on reports made here: a shot without a
+    problem is simulated once; a fall is simulated again with ``retry_iterations`` and the retry kept
+    when it stands, or when it fails no worse; a retry that falls where the first only missed a
+    stone is dropped. The kept report names the other attempt's problems."""
+    from usdgaze.passes.physics import ShotReport, _simulate_shot
+
+    def attempts(outcomes: dict[int, list[str]]):
+        calls = []
+
+        def attempt(opts):
+            calls.append(opts.iterations)
+            problems = outcomes[opts.iterations]
+            report = ShotReport("s", "a", 10, 1.0, any(p.startswith("fell") for p in problems), None, 1.0, 1.0,
+                                0.0, 0, 1.0, list(problems))
+            return report, f"override {opts.iterations}", {}, None
+        return attempt, calls
+
+    opts = mpc.Options()
+    attempt, calls = attempts({1: [], 2: ["fell at 0.5 s"]})
+    assert _simulate_shot(attempt, opts)[1] == "override 1" and calls == [1]
+    attempt, calls = attempts({1: ["fell at 1.5 s"], 2: []})
+    report, override, _, _ = _simulate_shot(attempt, opts)
+    assert (override, calls, report.iterations) == ("override 2", [1, 2], 2)
+    assert report.other_attempt == ["with 1 iteration(s) a step: fell at 1.5 s"] and report.wall_s == 2.0
+    attempt, calls = attempts({1: ["toe 6 cm from its stone"], 2: ["fell at 0.9 s"]})
+    report, override, _, _ = _simulate_shot(attempt, opts)
+    assert (override, report.iterations, report.problems) == ("override 1", 1, ["toe 6 cm from its stone"])
+    assert report.other_attempt == ["with 2 iteration(s) a step: fell at 0.9 s"]
+    attempt, calls = attempts({1: ["fell at 1.5 s"], 2: []})
+    assert _simulate_shot(attempt, mpc.Options(retry_iterations=0))[1] == "override 1" and calls == [1]

@@ -305,9 +305,6 @@ def test_each_solve_with_both_tasks_decreases_the_cost(body):
     for costs in result.solve_costs:
         assert all(b <= a for a, b in zip(costs, costs[1:]))
     assert result.solve_costs[0][-1] < 0.9 * result.solve_costs[0][0]
-    # A shot with a task takes two iterations a step after the first window (mpc.Options.task_iterations;
-    # one fell in 3 of 12 stone shots): each solve's costs are its start and one per accepted iteration.
-    assert max(len(c) for c in result.solve_costs[1:]) == 3
     assert {"stones.LeftAnkle.stoneDistanceM", "obstacles.proximity", "obstacles.clearanceM"} <= set(result.task_terms)
 
 

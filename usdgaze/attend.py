@@ -22,7 +22,8 @@ if TYPE_CHECKING:
 # Options of one mode of ``usdgaze attend`` only (the CLI's parameter names, the manifest's keys): given
 # in the other mode they would be ignored, so the CLI and ``usdgaze batch`` refuse them.
 KINEMATIC_ONLY = ("objects", "alpha", "cost", "realize")
-PHYSICS_ONLY = ("discard_failed", "threads", "fd_stride", "fd_reuse", "iterations", "timestep", "mass")
+PHYSICS_ONLY = ("discard_failed", "threads", "fd_stride", "fd_reuse", "iterations", "retry_iterations",
+                "timestep", "mass")
 
 
 @dataclass

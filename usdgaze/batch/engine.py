@@ -103,7 +103,8 @@ def _run(shot: Shot, key: dict) -> dict:
         shots = run(**kwargs, record=key, make_folders=True)
         # A fall or a missed task is the shot's result, written and said (discard_failed: bad input).
         return {"characters": [r.skeleton for r in shots], "frames": sum(r.frames for r in shots),
-                "warnings": [f"{r.skeleton}: {p}" for r in shots for p in r.problems]}
+                "warnings": [f"{r.skeleton}: {p}" for r in shots for p in r.problems]
+                + [f"{r.skeleton}: simulated again, {p}" for r in shots for p in r.other_attempt]}
     from usdgaze.attend import attend
 
     report = attend(**kwargs, record=key, make_folders=True)

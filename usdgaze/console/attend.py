@@ -45,14 +45,18 @@ import click
 @click.option("--fd-reuse", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: keep a step's MuJoCo derivatives for up to N solves while its contacts "
                    "stay the same (faster; 3 saves about a quarter, feet sink deeper, docs/physics.md).")
-@click.option("--iterations", default=None, type=click.IntRange(1, 10),
-              help="With --physics: solver iterations per planner step.  [default: 1; 2 in a shot with a task "
-                   "(catch, stones, obstacles), where one let 3 of 12 stepping-stone shots fall]")
+@click.option("--iterations", default=1, show_default=True, type=click.IntRange(1, 10),
+              help="With --physics: solver iterations per planner step.")
+@click.option("--retry-iterations", default=2, show_default=True, type=click.IntRange(0, 10),
+              help="With --physics: simulate a shot that fell or missed a task again with this many iterations "
+                   "per step, and keep that unless it is worse (0: never; one iteration let 3 of 12 "
+                   "stepping-stone shots fall, docs/physics.md).")
 @click.option("--mass", default=75.0, show_default=True, type=click.FloatRange(1.0, 500.0),
               help="With --physics: the body's total mass, kg (de Leva's segment shares of it; as physics-model).")
 @click.pass_context
 def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
-           physics, discard_failed, threads, fd_stride, timestep, fd_reuse, iterations, mass) -> None:
+           physics, discard_failed, threads, fd_stride, timestep, fd_reuse, iterations, retry_iterations,
+           mass) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     from usdgaze.core.hints import parse_hints
 
@@ -61,9 +65,8 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
         from usdgaze.physics.mpc import Options
 
         options = Options(h=timestep, horizon_s=Options.horizon_s if window_s is None else window_s,
-                          workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse)
-        if iterations is not None:
-            options.iterations = options.task_iterations = iterations
+                          workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse, iterations=iterations,
+                          retry_iterations=retry_iterations)
         return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                         parse_hints(bind, forward), mass)
     from usdgaze.attend import AttendSettings, attend as run
@@ -121,6 +124,8 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
         return
     for r in reports:
         state = "; ".join(r.problems) if r.problems else "stayed up"
+        if r.other_attempt:  # simulated twice (``passes.physics._simulate_shot``)
+            state += f" with {r.iterations} iteration(s) a step (simulated again; {'; '.join(r.other_attempt)})"
         click.echo(f"{r.skeleton}: {state}; pelvis >= {r.min_pelvis_ratio:.0%} of the reference, mean joint error "
                    f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground, "
                    f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s")

@@ -65,10 +65,12 @@ TaskFactory = Callable[[MujocoBody, np.ndarray], Task]
 class Options:
     h: float = 0.02
     horizon_s: float = 0.6
-    iterations: int = 1  # solver iterations a step after the first window, where the shot has no task term
-    # ... and where it has one (catch, stones, obstacles): with one, 3 of 12 stepping-stone shots fell and
-    # throws fell in 1 of 5 in some configurations; with two, none (docs/physics.md, "Two iterations")
-    task_iterations: int = 2
+    iterations: int = 1  # solver iterations a step after the first window
+    # The physics pass simulates a shot with a problem (a fall, a stone missed, an obstacle touched) again
+    # with this many (none where it is <= iterations): with one, 3 of 12 stepping-stone shots fell, and
+    # throws fell in 1 of 5 in some configurations; with two, none (docs/physics.md, "A shot with a
+    # problem is simulated again").
+    retry_iterations: int = 2
     first_iterations: int = 5
     workers: int = 1  # threads for the window's finite differences
     fd_stride: int = 1  # finite differences every this many steps of the window, interpolated between
@@ -192,13 +194,11 @@ class Shot:
 
     def horizon(self, options: Options, lead: int = 0, carry_max: float | None = None):
         """The receding-horizon solver: ``first_iterations`` on the cold first window, ``iterations``
-        after (``task_iterations`` where the shot has a task term), the regularization restarted after a
-        solve that ended at its ceiling and, with ``carry_max`` (the coupled loop's ``MU_CARRY_MAX``),
-        carried to the next window at most that."""
+        after, the regularization restarted after a solve that ended at its ceiling and, with
+        ``carry_max`` (the coupled loop's ``MU_CARRY_MAX``), carried to the next window at most that."""
         from usdgaze.planning import ddp
 
-        every = options.task_iterations if self.tasks else options.iterations
-        return ddp.RecedingHorizon(self.n, lead + self.plan.nu, ddp.Options(max_iter=every),
+        return ddp.RecedingHorizon(self.n, lead + self.plan.nu, ddp.Options(max_iter=options.iterations),
                                    U_init=np.array([self.pad(i, lead) for i in range(self.n)]),
                                    first=ddp.Options(max_iter=options.first_iterations), restart_at_ceiling=True,
                                    carry_max=carry_max)
