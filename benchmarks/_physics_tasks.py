@@ -309,16 +309,6 @@ def coupled_obstacles_one(seed: int, opts: mpc.Options, toward: bool = False, se
                 "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2), "problems": report.problems}
 
 
-def _iterations(n: int | None) -> dict:
-    """``mpc.Options`` keywords for ``--iterations``: none (the defaults), or ``n`` for every shot."""
-    return {} if n is None else {"iterations": n, "task_iterations": n}
-
-
-def _iterations_arg(opts: mpc.Options) -> list[str]:
-    """``--iterations`` for a worker process, where ``opts`` set one number for every shot."""
-    return ["--iterations", str(opts.iterations)] if opts.iterations == opts.task_iterations else []
-
-
 def run_coupled_obstacles(opts: mpc.Options, seeds, toward: bool = False, seen: bool = True,
                           form: str = "body") -> list[dict]:
     """The obstacle test's scenes, each in a fresh process (as the catch throws)."""
@@ -327,7 +317,7 @@ def run_coupled_obstacles(opts: mpc.Options, seeds, toward: bool = False, seen: 
     rows = []
     for seed in seeds:
         cmd = [sys.executable, str(BENCH), "--obstacle-scene", str(seed), "--h", str(opts.h), "--horizon",
-               str(opts.horizon_s), *_iterations_arg(opts), "--obstacle-form", form]
+               str(opts.horizon_s), "--iterations", str(opts.iterations), "--obstacle-form", form]
         cmd += (["--toward"] if toward else []) + ([] if seen else ["--known"])
         rows.append(json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.splitlines()[-1]))
         print(json.dumps(rows[-1]), flush=True)

@@ -60,8 +60,8 @@ from usdgaze.physics import build, mpc, retarget  # noqa: E402
 
 CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 
-from _physics_tasks import (_iterations, _iterations_arg, _left, coupled_obstacles_one, fk_foot_heights,  # noqa: E402
-                            run_coupled_obstacles, run_obstacles, run_stones, run_stones_fk, run_stones_gaze)
+from _physics_tasks import (_left, coupled_obstacles_one, fk_foot_heights, run_coupled_obstacles,  # noqa: E402
+                            run_obstacles, run_stones, run_stones_fk, run_stones_gaze)
 
 
 def _track_through_pass(opts: mpc.Options, model) -> tuple:
@@ -154,7 +154,7 @@ def run_catch(opts: mpc.Options, seeds=range(5)) -> list[dict]:
     rows = []
     for seed in [*map(str, seeds), "behind"]:
         cmd = [sys.executable, __file__, "--throw", seed, "--h", str(opts.h), "--horizon", str(opts.horizon_s),
-               *_iterations_arg(opts)]
+               "--iterations", str(opts.iterations)]
         rows.append(json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.splitlines()[-1]))
         print(json.dumps(rows[-1]), flush=True)
     near = [r for r in rows if r["throw"] != "behind" and r["hand_to_ball_at_arrival_cm"] <= 10.0]
@@ -169,8 +169,7 @@ def main() -> None:
     ap.add_argument("--cores", default="1,2")
     ap.add_argument("--h", type=float, default=0.02)
     ap.add_argument("--horizon", type=float, default=0.6)
-    ap.add_argument("--iterations", type=int, default=None,
-                    help="solver iterations a planner step, tasks or not (default: mpc.Options's, 1 and 2 with a task)")
+    ap.add_argument("--iterations", type=int, default=1)
     ap.add_argument("--seeds", default=None, help="obstacles: 0,1,2,3,4; obstacles-coupled: 0,2,4,7,8 (--toward: 0,2,5,6,7)")
     ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--reuse", type=int, default=1, help="finite differences kept up to REUSE solves (mpc.Options.fd_reuse)")
@@ -188,10 +187,10 @@ def main() -> None:
 
     obstacles.FORM = a.obstacle_form
     if a.throw is not None:
-        print(json.dumps(catch_one(a.throw, mpc.Options(h=a.h, horizon_s=a.horizon, **_iterations(a.iterations)))))
+        print(json.dumps(catch_one(a.throw, mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))))
         return
     if a.obstacle_scene is not None:
-        opts = mpc.Options(h=0.03, horizon_s=a.horizon, **_iterations(a.iterations))
+        opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
         print(json.dumps(coupled_obstacles_one(a.obstacle_scene, opts, a.toward, not a.known)))
         return
     from threadpoolctl import threadpool_limits
@@ -203,38 +202,38 @@ def main() -> None:
     rows = []
     for task in a.tasks.split(","):
         if task == "catch":
-            run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, **_iterations(a.iterations)))
+            run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))
             continue
         if task == "stones-fk":
-            opts = mpc.Options(h=0.03, horizon_s=a.horizon, **_iterations(a.iterations))
+            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
             for turn in (0.0, 90.0, 180.0, 270.0):
                 print(json.dumps(run_stones_fk(opts, turn)), flush=True)
             continue
         if task == "stones-gaze":
-            opts = mpc.Options(h=0.03, horizon_s=a.horizon, **_iterations(a.iterations))
+            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
             for until_lift, task_on in ((True, False), (False, False), (True, True)):
                 print(json.dumps(run_stones_gaze(opts, (4.0, 6.0), until_lift, task_on)), flush=True)
             continue
         if task == "stones-bar":  # the whole bar in one coupled shot (the test's scene, four directions)
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, **_iterations(a.iterations))
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
             for seed in [int(s_) for s_ in (a.seeds or "0").split(",")]:
                 for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):  # the stage's +X, +Z, -X, -Z
                     shift = {"Stone10": 0.15 * np.array([np.cos(turn), 0.0, np.sin(turn)])}
                     print(json.dumps(run_stones_gaze(opts, (4.0, 5.5), True, True, shift, seed)), flush=True)
             continue
         if task == "stones-walk":  # the walk itself, 4.0-5.5 s: the left foot's 0.67 s landing displaced
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, **_iterations(a.iterations))
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
             for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):
                 print(json.dumps(run_stones(opts, {"LeftAnkle": 0.15}, turn, (4.0, 5.5))), flush=True)
             continue
         if task in ("obstacles-coupled", "obstacles-known"):
             default = "0,2,5,6,7" if a.toward else "0,2,4,7,8"  # the first five the reference touches
-            run_coupled_obstacles(mpc.Options(h=0.03, horizon_s=a.horizon, **_iterations(a.iterations)),
+            run_coupled_obstacles(mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations),
                                   [int(s_) for s_ in (a.seeds or default).split(",")], a.toward,
                                   task == "obstacles-coupled", a.obstacle_form)
             continue
         if task in ("stones", "stones10", "obstacles"):
-            opts = mpc.Options(h=0.03, horizon_s=a.horizon, **_iterations(a.iterations))
+            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
             shifts = {"RightAnkle": 0.15} | ({"LeftAnkle": 0.10} if task == "stones10" else {})
             runs = ([run_obstacles(opts, int(s_)) for s_ in (a.seeds or "0,1,2,3,4").split(",")] if task == "obstacles" else
                     [run_stones(opts, shifts, turn) for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi)])
@@ -243,7 +242,7 @@ def main() -> None:
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, **_iterations(a.iterations), workers=cores,
+            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores,
                                fd_stride=a.stride, fd_reuse=a.reuse)
             with threadpool_limits(1):
                 row = run_task(task, a.seconds, opts, a.fk) | {"cores": cores}
@@ -270,7 +269,7 @@ def speed_table(a, cpus: list[int]) -> None:
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
             h = 0.03 if task.startswith(("stones", "obstacles")) else a.h  # as the task runs above
-            opts = mpc.Options(h=h, horizon_s=a.horizon, **_iterations(a.iterations), workers=cores, fd_stride=a.stride,
+            opts = mpc.Options(h=h, horizon_s=a.horizon, iterations=a.iterations, workers=cores, fd_stride=a.stride,
                                fd_reuse=a.reuse)
             with threadpool_limits(1):
                 rows.append(speed.run(task, cores, opts, a.seconds, sys.modules[__name__]))
