@@ -17,7 +17,8 @@ Tasks authored in the stage (read at this edge, then plain arrays):
 Honest failure: when the pelvis drops below 80% of the reference's height the shot is reported as a
 fall (time of the first such frame), and a run MuJoCo's step blew up before that as diverged; the
 layer still holds what was simulated unless ``keep_failed`` is False, in which case nothing is
-written and the command fails.
+written and the command fails. A shot with a problem is first simulated again with more solver
+iterations a step, and the report says which simulation was kept (``_simulate_shot``).
 """
 
 from __future__ import annotations
