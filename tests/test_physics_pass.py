@@ -374,3 +374,21 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
     assert report.other_attempt == ["with 2 iteration(s) a step: fell at 0.9 s"]
     attempt, calls = attempts({1: ["fell at 1.5 s"], 2: []})
     assert _simulate_shot(attempt, mpc.Options(retry_iterations=0))[1] == "override 1" and calls == [1]
+
+
+def test_the_simulated_steps_are_a_bar_on_a_terminal_and_nothing_in_a_log(tmp_path):
+    """``attend --physics``'s step bar (``StepBar``) through the pass: a crushed shot falls, is
+    simulated again, and the bar shows both simulations; off a terminal nothing is written."""
+    import io
+
+    from usdgaze.batch.progress import StepBar
+
+    src = excerpt(tmp_path / "crushed.usda", 0.2, (0.0, 0.2, 0.0), vector=(0.0, -10000.0, 0.0))
+    term, log = io.StringIO(), io.StringIO()
+    for stream, on in ((term, True), (log, None)):
+        bar = StepBar(stream, bar=on)
+        report = physics_pass.run(src, tmp_path / f"out{on}.usda", mpc.Options(horizon_s=0.3), progress=bar)[0]
+        bar.close()
+        assert report.fell and report.other_attempt and bar.runs == (2 if on else 0)
+    assert "simulation 1" in term.getvalue() and "simulation 2" in term.getvalue() and "step" in term.getvalue()
+    assert log.getvalue() == ""

@@ -1,4 +1,5 @@
-"""Progress of a batch: a tqdm bar on a terminal, one plain line per shot otherwise (farm logs)."""
+"""Progress of a batch: a tqdm bar on a terminal, one plain line per shot otherwise (farm logs); and
+of one physics simulation's steps (``StepBar``: a bar on a terminal, nothing otherwise)."""
 
 from __future__ import annotations
 
@@ -47,3 +48,33 @@ class Progress:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
+
+
+class StepBar:
+    """``progress(k, steps)`` of a physics simulation (``passes.physics.run``) as a tqdm bar on a
+    terminal; a call with a smaller ``k`` than the last starts the next simulation (another shot, or
+    a shot simulated again) on the same bar. Off a terminal it writes nothing: a farm's log gets the
+    command's one line per shot."""
+
+    def __init__(self, stream: TextIO | None = None, bar: bool | None = None) -> None:
+        self.stream = stream or sys.stderr
+        self.on = self.stream.isatty() if bar is None else bar
+        self.bar, self.last, self.runs = None, 0, 0
+
+    def __call__(self, k: int, steps: int) -> None:
+        if not self.on:
+            return
+        if self.bar is None or k < self.last:
+            from tqdm import tqdm
+
+            self.close()
+            self.runs += 1
+            self.bar = tqdm(total=steps, unit="step", desc=f"simulation {self.runs}", file=self.stream,
+                            dynamic_ncols=True, leave=False)
+        self.bar.update(k - self.bar.n)
+        self.last = k
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None

@@ -115,10 +115,15 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
     """``--physics``: the physics pass (usdgaze.passes.physics); one line per shot, a fall said plainly."""
     from dataclasses import asdict
 
+    from usdgaze.batch.progress import StepBar
     from usdgaze.passes.physics import run
 
-    reports = run(input_path, out, options, skel_root=skel_root, keep_failed=not discard_failed, seed=seed,
-                  binding=binding, total_mass=mass)
+    bar = StepBar()  # a bar of the simulated steps on a terminal: a long shot takes minutes
+    try:
+        reports = run(input_path, out, options, skel_root=skel_root, keep_failed=not discard_failed, seed=seed,
+                      binding=binding, total_mass=mass, progress=bar)
+    finally:
+        bar.close()
     if as_json:
         click.echo(json.dumps({"output": str(out), "shots": [asdict(r) for r in reports]}, indent=2))
         return
