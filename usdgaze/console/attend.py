@@ -49,8 +49,8 @@ import click
               help="With --physics: solver iterations per planner step.")
 @click.option("--retry-iterations", default=2, show_default=True, type=click.IntRange(0, 10),
               help="With --physics: simulate a shot that fell or missed a task again with this many iterations "
-                   "per step, and keep that unless it is worse (0: never; one iteration let 3 of 12 "
-                   "stepping-stone shots fall, docs/physics.md).")
+                   "per step, and keep that unless it is worse (never where it is not more than "
+                   "--iterations, e.g. 0; one iteration let 3 of 12 stepping-stone shots fall, docs/physics.md).")
 @click.option("--mass", default=75.0, show_default=True, type=click.FloatRange(1.0, 500.0),
               help="With --physics: the body's total mass, kg (de Leva's segment shares of it; as physics-model).")
 @click.pass_context
