@@ -286,7 +286,7 @@ def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float,
     seg_vec = np.zeros((n, 3))
     for b in range(n):
         if children[b]:  # the head's way first: a fingered arm's subtree outnumbers the neck's
-            below = [_subtree(c, bparent) for c in children[b]]
+            below = [seg.subtree_of(children, c) for c in children[b]]
             keys = [(c not in attached, head is not None and head in sub, len(sub), c not in tips)
                     for c, sub in zip(children[b], below)]
             seg_vec[b] = offset[children[b][max(range(len(keys)), key=keys.__getitem__)]]

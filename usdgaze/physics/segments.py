@@ -366,11 +366,7 @@ def inertials(roles: list[str], seg_vec: np.ndarray, mass: np.ndarray):
 def pelvis_bones(roles: list[str], bparent: np.ndarray) -> set[int]:
     """Bodies between the base and a thigh that lead to neither the head nor a hand: bones inside the
     pelvis (CMU's ``LHipJoint``), which is one rigid segment (de Leva's lower trunk)."""
-    above: dict[str, set[int]] = {"thigh": set(), "upper": set()}
-    for b, role in enumerate(roles):
-        key = "thigh" if role == "thigh" else "upper" if role in ("head", "hand") else None
-        p = int(bparent[b]) if key else -1
-        while p > 0:
-            above[key].add(p)
-            p = int(bparent[p])
-    return {b for b in above["thigh"] - above["upper"] if roles[b] == "other"}
+    def above(kinds: tuple[str, ...]) -> set[int]:
+        return {a for b, r in enumerate(roles) if r in kinds for a in _ancestors(b, bparent)}
+
+    return {b for b in above(("thigh",)) - above(("head", "hand")) if b > 0 and roles[b] == "other"}
