@@ -54,7 +54,7 @@ def _tree(tmp_path):
     return manifest, rig, scene, ball, still
 
 
-def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path):
+def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path, monkeypatch):
     manifest, rig, scene, ball, still = _tree(tmp_path)
     assert main(["batch", str(manifest)]) == 0
     assert _status(_summary(manifest)) == {"look": "done", "body": "done"}
@@ -82,6 +82,13 @@ def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path):
     manifest.write_text(JOBS.replace("seed = 3", "seed = 4"))
     assert main(["batch", str(manifest)]) == 0
     assert _status(_summary(manifest)) == {"look": "done", "body": "skipped"}
+    # Another MuJoCo release simulates other bits: the physics job is redone, the kinematic one not.
+    import mujoco
+
+    monkeypatch.setattr(mujoco, "__version__", "3.0.0.other")
+    assert main(["batch", str(manifest)]) == 0
+    assert _status(_summary(manifest)) == {"look": "skipped", "body": "done"}
+    assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["planner"]["mujoco"] == "3.0.0.other"
 
 
 @pytest.mark.parametrize("job, words", [

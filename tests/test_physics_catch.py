@@ -213,6 +213,9 @@ def test_a_ball_from_the_front_is_watched_and_the_hand_goes_to_it(tmp_path):
 def test_a_ball_from_behind_is_neither_looked_at_nor_reached_for_before_it_is_in_view(tmp_path):
     throw = cs.behind_throw()
     src, out, report, m = _shot(tmp_path, throw, throw[2] + 0.1)
+    # Said, but not simulated again: a second simulation would not see the ball any sooner.
+    assert not report.fell and len(report.problems) == 1 and "never reached for" in report.problems[0]
+    assert report.iterations == 1 and not report.other_attempt
     posed, ball = m["posed"], m["ball"]
     fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
     head_fwd = posed.axis("Head", measure.local_forward(posed, "Head", fwd))

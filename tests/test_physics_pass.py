@@ -8,6 +8,7 @@ local rotations, welded joints bit-identical, the input untouched.
 
 from __future__ import annotations
 
+import importlib.metadata
 from pathlib import Path
 
 import numpy as np
@@ -223,7 +224,8 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     data = Sdf.Layer.FindOrOpen(str(coarse)).customLayerData
     steps = np.diff(list(data["usdgaze:physics"][SKEL]["frames"]["seconds"]))
     assert len(steps) >= 5 and np.allclose(steps, 0.03)
-    assert dict(data["usdgaze"]["planner"]) == {"timestep": 0.03, "window": 0.6, "iterations": 1, "retryIterations": 2,
+    assert dict(data["usdgaze"]["planner"]) == {"mujoco": importlib.metadata.version("mujoco"), "timestep": 0.03,
+                                                "window": 0.6, "iterations": 1, "retryIterations": 2,
                                                 "firstIterations": 5, "fdStride": 1, "fdReuse": 1}
     # The fall was simulated again with two iterations a step (it fell again, as early: that one is
     # kept), and the report says so; --retry-iterations 0 simulates once, --iterations sets the first.
@@ -347,7 +349,8 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
     """The choice between two attempts (``_simulate_shot``), on reports made here: a shot without a
     problem is simulated once; a fall is simulated again with ``retry_iterations`` and the retry kept
     when it stands, or when it fails no worse; a retry that falls where the first only missed a
-    stone is dropped. The kept report names the other attempt's problems."""
+    stone is dropped. The kept report names the other attempt's problems. A problem another simulation
+    cannot mend is not simulated again."""
     from usdgaze.passes.physics import ShotReport, _simulate_shot
 
     def attempts(outcomes: dict[int, list[str]]):
@@ -357,7 +360,7 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
             calls.append(opts.iterations)
             problems = outcomes[opts.iterations]
             report = ShotReport("s", "a", 10, 1.0, any(p.startswith("fell") for p in problems), None, 1.0, 1.0,
-                                0.0, 0, 1.0, list(problems))
+                                0.0, 0, 1.0, list(problems), unmendable=[p for p in problems if "never" in p])
             return report, f"override {opts.iterations}", {}, None
         return attempt, calls
 
@@ -374,6 +377,12 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
     assert report.other_attempt == ["with 2 iteration(s) a step: fell at 0.9 s"]
     attempt, calls = attempts({1: ["fell at 1.5 s"], 2: []})
     assert _simulate_shot(attempt, mpc.Options(retry_iterations=0))[1] == "override 1" and calls == [1]
+    # A problem another simulation cannot mend (a ball never reached for) is not simulated again,
+    # unless a mendable one comes with it.
+    attempt, calls = attempts({1: ["ball never reached for"], 2: []})
+    assert _simulate_shot(attempt, opts)[1] == "override 1" and calls == [1]
+    attempt, calls = attempts({1: ["ball never reached for", "fell at 1.5 s"], 2: ["ball never reached for"]})
+    assert _simulate_shot(attempt, opts)[1] == "override 2" and calls == [1, 2]
 
 
 def test_the_simulated_steps_are_a_bar_on_a_terminal_and_nothing_in_a_log(tmp_path):

@@ -1,8 +1,8 @@
 """Resume keys: a shot is redone only when something its result depends on changed.
 
-The key hashes the tool version, the shot's parameters, and the *contents* of every layer the
-input composes (root layer, sublayers, references, payloads, value clips: what
-``UsdUtils.ComputeAllDependencies`` finds) and of the map file and its layers. It is recorded in the
+The key hashes the tool version (and for a physics shot MuJoCo's), the shot's parameters, and the
+*contents* of every layer the input composes (root layer, sublayers, references, payloads, value
+clips: what ``UsdUtils.ComputeAllDependencies`` finds) and of the map file and its layers. It is recorded in the
 override layer's ``customLayerData`` (``usdgaze.batchKey``); a shot whose outputs exist and whose
 recorded key matches is skipped.
 """
@@ -53,6 +53,8 @@ def shot_key(shot: Shot) -> tuple[str, list]:
     h = hashlib.sha256()
     h.update(f"usdgaze {__version__}\n".encode())
     h.update(json.dumps(shot.parameters(), sort_keys=True).encode() + b"\n")
+    if shot.values.get("physics"):  # another MuJoCo release simulates other bits
+        h.update(f"mujoco {_mujoco_version()}\n".encode())
     sources = [("input", shot.values["input"])]
     if "map" in shot.values:
         file, _, prim = shot.values["map"].partition(":/")
@@ -68,6 +70,14 @@ def shot_key(shot: Shot) -> tuple[str, list]:
         for u in unresolved:
             h.update(f"{role} unresolved {u}\n".encode())
     return h.hexdigest(), opened
+
+
+def _mujoco_version() -> str:
+    try:
+        import mujoco
+    except ImportError:  # the shot fails with its own one line when it runs
+        return "none"
+    return mujoco.__version__
 
 
 def recorded_key(out: str) -> str | None:

@@ -59,6 +59,8 @@ class ShotReport:
     iterations: int = 1  # the solver's iterations a step of the simulation kept
     # A retried shot (``_simulate_shot``): the problems of the attempt not kept, each with its iterations.
     other_attempt: list[str] = field(default_factory=list)
+    # Problems another simulation cannot mend (a ball never within reach in time): not simulated again.
+    unmendable: list[str] = field(default_factory=list)
 
 
 def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
@@ -217,7 +219,8 @@ def _head(ref, n: int):
 
 def _simulate_shot(attempt, options: mpc.Options) -> tuple:
     """``attempt(options)`` (a shot's report, override, per-frame terms, inspection or None); a shot with
-    a problem (a fall, a stone missed, an obstacle touched, a ball not reached) is simulated again with
+    a problem (a fall, a stone missed, an obstacle touched, a ball not reached; not one that another
+    simulation cannot mend, ``ShotReport.unmendable``) is simulated again with
     ``options.retry_iterations`` solver iterations a step, and that kept unless it is worse (it fell
     where the first stood, or it has more problems). With one iteration 3 of 12 stepping-stone shots
     fell; with two none did (docs/physics.md), at twice the cost, spent only where the first failed."""
@@ -225,7 +228,8 @@ def _simulate_shot(attempt, options: mpc.Options) -> tuple:
 
     first = attempt(options)
     first[0].iterations = options.iterations
-    if not first[0].problems or options.retry_iterations <= options.iterations:
+    mendable = set(first[0].problems) - set(first[0].unmendable)
+    if not mendable or options.retry_iterations <= options.iterations:
         return first
     second = attempt(dataclasses.replace(options, iterations=options.retry_iterations))
     second[0].iterations = options.retry_iterations
@@ -249,8 +253,12 @@ def _attempt(shot: tuple, options: mpc.Options, total_mass: float, progress, see
 
 
 def _planner_record(options: mpc.Options) -> dict:
-    """The settings that decide the simulated motion, for the layer (threads do not: same bytes)."""
-    return {"timestep": options.h, "window": options.horizon_s, "iterations": options.iterations,
+    """The settings that decide the simulated motion, for the layer (threads do not: same bytes), and
+    the MuJoCo release that simulated it: another release simulates other bits."""
+    import mujoco
+
+    return {"mujoco": mujoco.__version__,
+            "timestep": options.h, "window": options.horizon_s, "iterations": options.iterations,
             "retryIterations": options.retry_iterations, "firstIterations": options.first_iterations,
             "fdStride": options.fd_stride, "fdReuse": options.fd_reuse}
 
@@ -330,7 +338,7 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
         overrides.append(override)
         # wall_s stays out of the layer: the same inputs and seed must give the same bytes.
         kept = {k: v for k, v in asdict(report).items() if v is not None and k not in ("problems", "wall_s",
-                                                                                         "other_attempt")}
+                                                                                         "other_attempt", "unmendable")}
         terms[report.skeleton] = {"report": kept, "problems": report.problems or ["none"], "frames": shot_terms}
         if report.other_attempt:
             terms[report.skeleton]["otherAttempt"] = report.other_attempt

@@ -117,13 +117,29 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
         written.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
     override = AnimOverride.of(clip, written, move_roots=True)
     report, terms = body_pass.shot_summary(clip, result, n, len(pushes), wall)  # stones, obstacles said there
-    for i, j in enumerate(catches):  # the catch tasks come first, in this order
-        miss = result.task_terms.get(f"{mpc.task_prefix(['catch'] * len(catches), i)}.handToBallM")
-        if miss is not None and np.all(np.isnan(miss) | (miss > 0.1)):
-            near = np.nanmin(miss) if np.any(~np.isnan(miss)) else np.nan
-            report.problems.append(f"catch {paths[j]}: the hand came no nearer than {100 * near:.0f} cm to the ball")
+    _catch_problems(report, result.task_terms, [paths[j] for j in catches])  # the catch tasks come first
     inspection = (clip.skel_root, clip.times, sight, eye_deg, paths, est, written.uncertainty)
     return report, override, terms, inspection
+
+
+def _catch_problems(report, task_terms: dict, balls: list[str]) -> None:
+    """A ball the hand came no nearer than 10 cm to is a problem of the shot. One whose catch never
+    reached its proactive phase (no arrival within reach was ever expected in time: thrown from
+    behind, or out of reach) is one that another simulation cannot mend, so it is not simulated again."""
+    from usdgaze.physics.catch import CatchOptions
+
+    for i, path in enumerate(balls):
+        prefix = mpc.task_prefix(["catch"] * len(balls), i)
+        miss = task_terms.get(f"{prefix}.handToBallM")
+        if miss is None or not np.all(np.isnan(miss) | (miss > 0.1)):
+            continue
+        near = np.nanmin(miss) if np.any(~np.isnan(miss)) else np.nan
+        said = f"catch {path}: the hand came no nearer than {100 * near:.0f} cm to the ball"
+        weight = np.nan_to_num(task_terms.get(f"{prefix}.weight", np.zeros(1)))
+        if weight.max() < CatchOptions().w_proactive:
+            said += " (never reached for: no arrival within reach was expected in time)"
+            report.unmendable.append(said)
+        report.problems.append(said)
 
 
 def _at(t_new: np.ndarray, t: np.ndarray, v: np.ndarray) -> np.ndarray:
