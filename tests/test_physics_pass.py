@@ -295,7 +295,7 @@ def test_the_lunge_lands_with_no_foot_in_the_floor_where_the_reference_puts_one(
 def test_a_run_that_stops_early_without_a_fall_is_said_to_diverge_not_to_fall():
     """The shot's verdict from its states: a pelvis below 80% of the reference is a fall at that
     frame; a run cut short with the pelvis up (MuJoCo's step blew up) diverged; a whole run with
-    the pelvis up is neither. The report says which, in its own words."""
+    the pelvis up is neither. The report says which, in its own words, and a foot deeper than 2 cm."""
     clip = build.load_clip(CMU)
     model, ref = build.body_model(clip)
     from usdgaze.physics import retarget
@@ -314,6 +314,13 @@ def test_a_run_that_stops_early_without_a_fall_is_said_to_diverge_not_to_fall():
     said = lambda r: physics_pass.shot_summary(clip, r, len(r.seconds), 0, 0.0)[0].problems  # noqa: E731
     assert said(whole) == [] and "diverged at 0.10 s" in said(cut)[0] and "fell at 0.08 s" in said(fell)[0]
     assert physics_pass.shot_summary(clip, cut, 6, 0, 0.0)[0].diverged
+    # A foot more than 2 cm below the ground is a problem: its depth, when, and on how many steps.
+    depth = np.zeros(len(q))
+    depth[5:8] = [0.021, 0.025, 0.012]
+    sunk = mpc.shot_result(model, q, q, seconds, steps=len(q) - 1, **{**empty, "depth": depth})
+    assert said(sunk) == ["a foot 2.5 cm below the ground at 0.12 s (over 2 cm on 2 step(s))"]
+    depth[5:8] = 0.0199
+    assert said(mpc.shot_result(model, q, q, seconds, steps=len(q) - 1, **{**empty, "depth": depth})) == []
 
 
 def test_a_rigs_helper_and_secondary_joints_are_written_as_the_reference_has_them(tmp_path):

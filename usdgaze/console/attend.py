@@ -34,7 +34,8 @@ import click
                    "included; pushes authored on the SkelRoot act on it). With objects in the stage the eyes and "
                    "belief are simulated with the body, and balls the SkelRoot's usdgaze:physics:catch names are "
                    "caught.")
-@click.option("--discard-failed", is_flag=True, help="With --physics: when a shot falls, write nothing and exit 2.")
+@click.option("--discard-failed", is_flag=True, help="With --physics: when a shot has a problem (a fall, a foot over 2 cm "
+              "below the ground, a task missed), write nothing and exit 2.")
 @click.option("--threads", default=1, show_default=True, type=click.IntRange(1, 64),
               help="With --physics: threads for the planner's finite differences (results identical to one).")
 @click.option("--fd-stride", default=1, show_default=True, type=click.IntRange(1, 8),
@@ -48,8 +49,8 @@ import click
 @click.option("--iterations", default=1, show_default=True, type=click.IntRange(1, 10),
               help="With --physics: solver iterations per planner step.")
 @click.option("--retry-iterations", default=2, show_default=True, type=click.IntRange(0, 10),
-              help="With --physics: simulate a shot that fell or missed a task again with this many iterations "
-                   "per step, and keep that unless it is worse (never where it is not more than "
+              help="With --physics: simulate a shot that fell, sank a foot over 2 cm or missed a task again "
+                   "with this many iterations per step, and keep that unless it is worse (never where it is not more than "
                    "--iterations, e.g. 0; one iteration let 3 of 12 stepping-stone shots fall, docs/physics.md).")
 @click.option("--mass", default=75.0, show_default=True, type=click.FloatRange(1.0, 500.0),
               help="With --physics: the body's total mass, kg (de Leva's segment shares of it; as physics-model).")

@@ -15,7 +15,8 @@ Tasks authored in the stage (read at this edge, then plain arrays):
   touching an obstacle, is reported as a problem of the shot.
 
 Honest failure: when the pelvis drops below 80% of the reference's height the shot is reported as a
-fall (time of the first such frame), and a run MuJoCo's step blew up before that as diverged; the
+fall (time of the first such frame), and a run MuJoCo's step blew up before that as diverged; a
+foot more than 2 cm below the ground is a problem too (its depth and when). The
 layer still holds what was simulated unless ``keep_failed`` is False, in which case nothing is
 written and the command fails. A shot with a problem is first simulated again with more solver
 iterations a step, and the report says which simulation was kept (``_simulate_shot``).
@@ -39,6 +40,7 @@ PUSH_JOINT = "usdgaze:physics:pushJoint"
 TASK = "usdgaze:physics:task"
 TASKS = ("stone", "obstacle")
 STONE_TOLERANCE_M = 0.05
+FOOT_TOLERANCE_M = 0.02  # a foot deeper than this below the ground is a problem (the issue's bar)
 
 
 @dataclass
@@ -126,6 +128,18 @@ def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: l
     return factories
 
 
+def foot_problems(result: mpc.Result) -> list[str]:
+    """A foot deeper than ``FOOT_TOLERANCE_M`` below the ground (soft contacts give under a hard
+    landing or a loaded toe): the deepest, when, and on how many steps."""
+    depth = result.foot_below_ground_m
+    deep = int(np.sum(depth > FOOT_TOLERANCE_M))
+    if not deep:
+        return []
+    k = int(np.argmax(depth))
+    return [f"a foot {100 * depth[k]:.1f} cm below the ground at {result.seconds[k]:.2f} s "
+            f"(over {100 * FOOT_TOLERANCE_M:.0f} cm on {deep} step(s))"]
+
+
 def task_problems(result: mpc.Result) -> list[str]:
     """What a task failed to do, in words: stones missed (a contact's mean distance over 5 cm) and
     obstacles touched (first time and the deepest overlap)."""
@@ -197,7 +211,7 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
         problems.append(f"the simulation diverged at {result.fell_at:.2f} s (MuJoCo's step became unstable)")
     elif result.fell:
         problems.append(f"fell at {result.fell_at:.2f} s (pelvis below {mpc.FALL_RATIO:.0%} of the reference)")
-    problems += task_problems(result)
+    problems += foot_problems(result) + task_problems(result)
     report = ShotReport(skeleton=clip.skeleton, animation=clip.animation, frames=frames,
                         simulated_s=float(result.seconds[-1] - result.seconds[0]), fell=result.fell,
                         fell_at_s=result.fell_at, min_pelvis_ratio=float(result.pelvis_ratio.min()),
