@@ -2,9 +2,9 @@
 
 The key hashes the tool version (and for a physics shot MuJoCo's), the shot's parameters, and the
 *contents* of every layer the input composes (root layer, sublayers, references, payloads, value
-clips: what ``UsdUtils.ComputeAllDependencies`` finds) and of the map file and its layers. It is recorded in the
-override layer's ``customLayerData`` (``usdgaze.batchKey``); a shot whose outputs exist and whose
-recorded key matches is skipped.
+clips: what ``UsdUtils.ComputeAllDependencies`` finds) and of the map file and its layers. It is
+recorded in the override layer's ``customLayerData`` (``usdgaze.batchKey``); a shot whose outputs
+exist and whose recorded key matches is skipped.
 """
 
 from __future__ import annotations

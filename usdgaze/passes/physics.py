@@ -233,8 +233,8 @@ def _head(ref, n: int):
 
 def _simulate_shot(attempt, options: mpc.Options) -> tuple:
     """``attempt(options)`` (a shot's report, override, per-frame terms, inspection or None); a shot with
-    a problem (a fall, a stone missed, an obstacle touched, a ball not reached; not one that another
-    simulation cannot mend, ``ShotReport.unmendable``) is simulated again with
+    a problem (a fall, a foot sunk over 2 cm, a stone missed, an obstacle touched, a ball not reached;
+    not one that another simulation cannot mend, ``ShotReport.unmendable``) is simulated again with
     ``options.retry_iterations`` solver iterations a step, and that kept unless it is worse (it fell
     where the first stood, or it has more problems). With one iteration 3 of 12 stepping-stone shots
     fell; with two none did (docs/physics.md), at twice the cost, spent only where the first failed."""
