@@ -256,3 +256,37 @@ guides = false
     batch_out = _samples(tmp_path / "out" / "look.usdc")
     assert batch_out == _samples(tmp_path / "direct.usdc")
     assert batch_out != _samples(tmp_path / "saccade.usdc")
+
+
+
+_THREADS = """
+import json, os
+import usdgaze  # registers usdgaze's schema plugin, as every usdgaze process does first
+from pxr import Work
+from usdgaze.batch import engine
+
+before = Work.GetConcurrencyLimit()
+with engine.one_thread():  # the in-process worker
+    inside = Work.GetConcurrencyLimit()
+r, w = os.pipe()
+pid = os.fork()
+if pid == 0:  # a pool worker
+    engine.limit_threads(forked=True)
+    os.write(w, str(Work.GetConcurrencyLimit()).encode())
+    os._exit(0)
+os.waitpid(pid, 0)
+print(json.dumps({"before": before, "tbb": len(os.listdir("/proc/self/task")) > 1, "inside": inside,
+                  "child": int(os.read(r, 20))}))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="counts threads in /proc and forks")
+def test_usd_work_threads_are_lowered_only_in_forked_workers():
+    # Once TBB has started a worker (USD reads its plugins in parallel), lowering the limit leaves that
+    # worker spinning beside every crate write: a 1-worker batch took 10.0 CPU s for 5.4 s of wall time.
+    proc = _run([sys.executable, "-c", _THREADS], OMP_NUM_THREADS="1")
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout)
+    assert got["tbb"] == (got["before"] > 1)  # TBB's worker, started when USD read its plugins
+    assert got["inside"] == got["before"]  # kept: lowering it would not stop that worker
+    assert got["child"] == 1  # a forked worker has no TBB worker: one USD work thread

@@ -1,8 +1,8 @@
 """Running shots: one shot never raises, a pool or a dask cluster runs many, results stream back.
 
 Every shot is independent: a bad shot (exit 2) or a crash (exit 1) is reported with its one line and
-the others complete. Worker processes use one BLAS thread and one USD work thread each, so N workers
-on N cores do not oversubscribe them.
+the others complete. Workers use one BLAS thread each, and pool workers one USD work thread (see
+``limit_threads``), so N workers on N cores do not oversubscribe them.
 """
 
 from __future__ import annotations
@@ -25,8 +25,17 @@ EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
 _limited = False
 
 
-def limit_threads() -> None:
-    """One BLAS thread and one USD work thread for this process (once); freed memory kept for reuse."""
+def limit_threads(forked: bool = False) -> None:
+    """One BLAS thread for this process (once), and one USD work thread if it is a ``forked`` pool
+    worker; freed memory kept for reuse.
+
+    USD reads its plugins in parallel (``import usdgaze`` makes it), so unless its limit was 1 already
+    (``PXR_WORK_THREAD_LIMIT=1``) TBB has started a worker thread by then, and lowering the limit later
+    does not stop it: it spins (sched_yield) beside every crate write. Measured, a 1-worker batch of 20
+    shots of 100 joints x 6,000 frames: 10.0 CPU s for 5.4 s of wall time with the limit lowered, 5.5
+    for 5.1 without. A forked process has no TBB worker (fork copies the calling thread only), so a
+    forked pool worker lowers it before its first USD work; any other process keeps it.
+    """
     global _limited
     if _limited:
         return
@@ -38,7 +47,8 @@ def limit_threads() -> None:
     tune_allocator()  # a dask worker runs shot after shot: see usdgaze.process
 
     threadpool_limits(limits=1)  # stays in force: the returned context is never exited
-    Work.SetConcurrencyLimit(1)
+    if forked and Work.GetConcurrencyLimit() != 1:
+        Work.SetConcurrencyLimit(1)
     _limited = True
 
 
@@ -122,22 +132,17 @@ def _pool_context():
 
 @contextmanager
 def one_thread():
-    """One BLAS thread and one USD work thread in this process while the block runs, as before after."""
+    """One BLAS thread in this process while the block runs (USD's limit is kept: see
+    ``limit_threads``), as before after."""
     from threadpoolctl import threadpool_limits
-    from pxr import Work
 
-    before = Work.GetConcurrencyLimit()
     with threadpool_limits(limits=1):
-        Work.SetConcurrencyLimit(1)
-        try:
-            yield
-        finally:
-            Work.SetConcurrencyLimit(before)
+        yield
 
 
 def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
-    """Records as shots finish: in this process for one worker, else in a process pool; either way
-    each worker runs on one thread (one BLAS thread, one USD work thread)."""
+    """Records as shots finish: in this process for one worker (one BLAS thread), else in a process
+    pool of workers with one BLAS thread and, forked, one USD work thread each."""
     with one_thread():
         if workers <= 1 or len(shots) <= 1:
             for shot in shots:
@@ -146,10 +151,10 @@ def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
         context = _pool_context()
         if context.get_start_method() == "fork":
             # Forked workers inherit the pass's modules (UsdSkel, UsdGeom, the model: ~0.1 s of CPU
-            # each) instead of importing them again; one thread here, so no USD thread pool is forked.
+            # each) instead of importing them again.
             import usdgaze.api  # noqa: F401
-        with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context,
-                                 initializer=limit_threads) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context, initializer=limit_threads,
+                                 initargs=(context.get_start_method() == "fork",)) as pool:
             futures = [pool.submit(run_shot, shot, force) for shot in shots]
             for future in as_completed(futures):
                 yield future.result()
