@@ -32,9 +32,9 @@ def limit_threads(forked: bool = False) -> None:
     USD reads its plugins in parallel (``import usdgaze`` makes it), so unless its limit was 1 already
     (``PXR_WORK_THREAD_LIMIT=1``) TBB has started a worker thread by then, and lowering the limit later
     does not stop it: it spins (sched_yield) beside every crate write. Measured, a 1-worker batch of 20
-    shots of 100 joints x 6,000 frames: 10.0 CPU s for 5.4 s of wall time with the limit lowered, 5.5
-    for 5.1 without. A forked process has no TBB worker (fork copies the calling thread only), so a
-    forked pool worker lowers it before its first USD work; any other process keeps it.
+    shots of 100 joints x 6,000 frames: 10.0 CPU s for 5.4 s of wall time with the limit lowered,
+    4.9-5.3 for 4.6-5.0 s without. A forked process has no TBB worker (fork copies the calling thread
+    only), so a forked pool worker lowers it before its first USD work; any other process keeps it.
     """
     global _limited
     if _limited:
