@@ -149,12 +149,13 @@ def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
                 yield run_shot(shot, force)
             return
         context = _pool_context()
-        if context.get_start_method() == "fork":
+        forked = context.get_start_method() == "fork"
+        if forked:
             # Forked workers inherit the pass's modules (UsdSkel, UsdGeom, the model: ~0.1 s of CPU
             # each) instead of importing them again.
             import usdgaze.api  # noqa: F401
-        with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context, initializer=limit_threads,
-                                 initargs=(context.get_start_method() == "fork",)) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context,
+                                 initializer=limit_threads, initargs=(forked,)) as pool:
             futures = [pool.submit(run_shot, shot, force) for shot in shots]
             for future in as_completed(futures):
                 yield future.result()
