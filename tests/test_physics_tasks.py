@@ -244,6 +244,37 @@ def test_stone_cost_gradient_matches_central_differences(body):
         assert np.all(np.linalg.eigvalsh(lxx) > -1e-9)
 
 
+def test_a_foot_held_over_its_stone_is_not_down_though_its_ground_distance_is_a_hit(body):
+    """The run's verdict (``StoneTask.problems``): the reference itself comes down for each of its
+    contacts; the same motion raised 15 cm never does, and each contact on a stone is said once, by
+    foot and stone, although its toe's ground-plane distance (the per-step measure) is unchanged."""
+    import mujoco
+
+    dyn, ref_q, frames = body
+    spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
+    task = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
+    seconds = 10.0 + dyn.h * np.arange(len(ref_q))
+    assert task.problems(ref_q, seconds) == []
+    raised = ref_q.copy()
+    raised[:, 2] += 0.15
+    said = task.problems(raised, seconds)
+    starts = [(f, a) for f in range(len(task.feet)) for a in np.flatnonzero(np.diff(np.r_[-1, task.stone[f]]) != 0)
+              if task.stone[f, a] >= 0]
+    assert len(starts) >= 3 and len(said) == len(starts), said
+    for (f, a), line in zip(starts, said):
+        assert line.startswith(f"{task.feet[f][0]} not down on /{'ABC'[task.stone[f, a]]} ")
+        assert f"of {seconds[a]:.2f} s" in line
+    d = mujoco.MjData(dyn.mj)
+
+    def measured(q, k):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(dyn.mj, d)
+        return task.measure(k, d)
+
+    k = starts[-1][1]
+    assert measured(raised[k], k) == pytest.approx(measured(ref_q[k], k), abs=1e-9)
+
+
 @pytest.mark.parametrize("form", ["body", "root"])
 def test_obstacle_cost_derivatives_match_central_differences(body, form):
     """Both forms (ours on every capsule, the paper's on the root), six obstacles (the four nearest

@@ -11,8 +11,9 @@ Tasks authored in the stage (read at this edge, then plain arrays):
   ``token usdgaze:physics:task = "stone"`` or ``"obstacle"``. A stone's position is its world
   translation at the clip's start; an obstacle's is its animated world translation, its size the
   object's ``gaze:object:radius`` (``usdgaze.physics.stones``, ``usdgaze.physics.obstacles``). A
-  reference contact whose toe ends up on average more than 5 cm from its stone, or a body geom
-  touching an obstacle, is reported as a problem of the shot.
+  reference contact whose toe ends up on average more than 5 cm from its stone, or whose foot never
+  comes down within 0.3 s of it, or a body geom touching an obstacle, is reported as a problem of
+  the shot.
 
 Honest failure: when the pelvis drops below 80% of the reference's height the shot is reported as a
 fall (time of the first such frame), and a run MuJoCo's step blew up before that as diverged; a
@@ -114,7 +115,8 @@ def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: l
         objs = read_objects(stage, source, found, clip.times, clip.meters_per_unit)
         if kind == "stone":
             frames = (ref_qpos, clip.seconds - clip.seconds[0])
-            factories.append(stones.factory(np.array([rot @ o.positions[0] for o in objs]), frames))
+            factories.append(stones.factory(np.array([rot @ o.positions[0] for o in objs]), frames,
+                                            names=[str(o.path) for o in objs]))
             continue
         paths = np.stack([o.positions @ rot.T for o in objs], axis=1)  # (F, J, 3)
         secs = clip.seconds - clip.seconds[0]
@@ -141,8 +143,9 @@ def foot_problems(result: mpc.Result) -> list[str]:
 
 
 def task_problems(result: mpc.Result) -> list[str]:
-    """What a task failed to do, in words: stones missed (a contact's mean distance over 5 cm) and
-    obstacles touched (first time and the deepest overlap)."""
+    """What a task failed to do, in words: stones missed (a contact's mean distance over 5 cm, or no
+    touchdown near the reference's: ``StoneTask.problems``) and obstacles touched (first time and the
+    deepest overlap)."""
     out = []
     for key, values in result.task_terms.items():
         if key.endswith(".stoneDistanceM"):
@@ -157,7 +160,7 @@ def task_problems(result: mpc.Result) -> list[str]:
             hit = np.flatnonzero(np.nan_to_num(values, nan=np.inf) < 0)
             if len(hit):
                 out.append(f"touched an obstacle at {result.seconds[hit[0]]:.2f} s (overlap up to {-np.nanmin(values) * 100:.1f} cm)")
-    return out
+    return out + result.task_problems
 
 
 def _frames_from_steps(result: mpc.Result, seconds: np.ndarray, dyn_quats: list[int]) -> tuple[np.ndarray, int]:

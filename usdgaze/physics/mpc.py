@@ -96,6 +96,7 @@ class Result:
     fell_at: float | None  # seconds of the first frame below FALL_RATIO, or of the last one a diverged run reached
     task_terms: dict[str, np.ndarray] = field(default_factory=dict)  # "task.measure" -> (K,), NaN at k = 0
     diverged: bool = False  # MuJoCo's step blew up (the run stopped early without a fall)
+    task_problems: list[str] = field(default_factory=list)  # what the tasks judged on the whole run, in words
 
     @property
     def fell(self) -> bool:
@@ -321,7 +322,14 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
                 kk = k + 2
                 controller.sense(k + 1, plan.to_state(qpos[k + 1], qvel), d)
                 break
-    return shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
+    result = shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
+    result.task_problems = judge_tasks(shot.tasks, result)
+    return result
+
+
+def judge_tasks(tasks, result: Result) -> list[str]:
+    """The problems each task with a ``problems(qpos, seconds)`` finds in the simulated states."""
+    return [p for task in tasks if hasattr(task, "problems") for p in task.problems(result.qpos, result.seconds)]
 
 
 def shot_result(model: BodyModel, qpos, ref_q, ref_seconds, ctrl, depth, costs, measured, steps: int,

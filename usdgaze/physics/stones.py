@@ -50,6 +50,7 @@ CONTACT_SPEED = 0.6  # m/s
 CONTACT_MIN_S = 0.05
 POSITION_SCALE = 3.0  # the position residual in thirds of a metre (see the module docstring)
 START_ON_M = 0.01  # a contact under way at the first frame keeps a stone only this close to its footfall
+LANDING_S = 0.3  # a simulated foot must come down this close in time to the reference's footfall
 
 
 def feet(dyn: MujocoBody) -> list[tuple[str, int, int]]:
@@ -84,11 +85,12 @@ class StoneTask:
     name = "stones"
 
     def __init__(self, dyn: MujocoBody, ref_qpos: np.ndarray, stones: np.ndarray, weight: float = W_TSK,
-                 frames: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+                 frames: tuple[np.ndarray, np.ndarray] | None = None, names: list[str] | None = None) -> None:
         """``ref_qpos``: the reference at the planner's steps; ``frames``: the reference at its own
         frames and their seconds from the start (contacts are found there: a shuffle's 80 ms lift is
-        two steps of the planner), else the steps themselves."""
+        two steps of the planner), else the steps themselves; ``names``: the stones' names in reports."""
         self.dyn, self.w = dyn, float(weight)
+        self.names = list(names) if names is not None else [f"stone {i}" for i in range(len(stones))]
         self.stones = np.asarray(stones, dtype=float).reshape(-1, 3)
         self.points = Points(dyn)
         self.feet = feet(dyn)
@@ -99,7 +101,7 @@ class StoneTask:
         step_s = dyn.h * np.arange(len(ref_qpos))
         near = np.clip(np.searchsorted(fs, step_s), 0, len(fs) - 1)
         near = np.where((near > 0) & (np.abs(fs[near - 1] - step_s) < np.abs(fs[near] - step_s)), near - 1, near)
-        self.ref_height, self.ref_frame = [], []
+        self.ref_height, self.ref_frame, self.ref_low = [], [], []
         self.stone = np.full((len(self.feet), len(ref_qpos)), -1)  # the stone of each contact step
         for f, (_, ankle, toe) in enumerate(self.feet):
             p = fpos[:, toe]
@@ -116,6 +118,7 @@ class StoneTask:
                     span[a:b] = stone  # (a foot down at the start off its stone: none, see above)
             self.stone[f] = span[near]
             self.ref_height.append(xpos[:, toe, 2])
+            self.ref_low.append(float(p[:, 2].min()))
             self.ref_frame.append(xmat[:, ankle])
 
     def _poses(self, qpos: np.ndarray):
@@ -193,7 +196,34 @@ class StoneTask:
         return out
 
 
-def factory(stones: np.ndarray, frames: tuple[np.ndarray, np.ndarray] | None = None, weight: float = W_TSK):
-    """A ``mpc.TaskFactory`` for stones at model-world positions ``(S, 3)``; ``frames`` as for
-    :class:`StoneTask` (the reference ``qpos`` at its frames, seconds from the start)."""
-    return lambda plan, ref_q: StoneTask(plan, ref_q, stones, weight, frames)
+    # -- the whole run's verdict -----------------------------------------------------------------
+    def problems(self, qpos: np.ndarray, seconds: np.ndarray) -> list[str]:
+        """Footfalls on a stone the simulated foot did not make, at the simulated steps ``qpos``: per
+        reference contact on a stone, no step within ``LANDING_S`` of its start with the toe down (low
+        against the reference toe's lowest, slower than ``CONTACT_SPEED`` to the next step). The mean
+        ground-plane distance over the reference's contact (``measure``) ignores height, so a foot
+        held over its stone would count as a hit there."""
+        h, n = self.dyn.h, len(qpos)
+        toes = np.array([self.points.pose(self.dyn.to_state(q))[0][[t for _, _, t in self.feet]] for q in qpos])
+        reach = int(round(LANDING_S / h))
+        out = []
+        for f, (name, _, _) in enumerate(self.feet):
+            p = toes[:, f]
+            speed = np.r_[np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) / h, np.inf]
+            down = (p[:, 2] < self.ref_low[f] + CONTACT_HEIGHT_M) & (speed < CONTACT_SPEED)
+            ref = self.stone[f, :n]
+            for a in np.flatnonzero(np.diff(np.r_[-1, ref]) != 0):
+                if ref[a] < 0 or seconds[a] + CONTACT_MIN_S > seconds[-1] + 1e-9:
+                    continue  # no stone, or the shot ends before the reference is down
+                if not down[max(a - reach, 0): a + reach + 1].any():
+                    out.append(f"{name} not down on {self.names[ref[a]]} within {LANDING_S:.1f} s of "
+                               f"{seconds[a]:.2f} s (the reference's contact)")
+        return out
+
+
+def factory(stones: np.ndarray, frames: tuple[np.ndarray, np.ndarray] | None = None, weight: float = W_TSK,
+            names: list[str] | None = None):
+    """A ``mpc.TaskFactory`` for stones at model-world positions ``(S, 3)``; ``frames`` and ``names``
+    as for :class:`StoneTask` (the reference ``qpos`` at its frames, seconds from the start; the
+    stones' prim paths, for reports)."""
+    return lambda plan, ref_q: StoneTask(plan, ref_q, stones, weight, frames, names)
