@@ -30,6 +30,10 @@ Ours, where the paper leaves room:
 * Stones are flat marks on the ground (their height is not simulated), so the stone pulls the toe
   in the ground plane and its height target is the reference's toe height at that step.
 
+* The verdict on a whole run (``StoneTask.problems``): a reference contact on a stone whose foot is
+  not down at any simulated step within ``LANDING_S`` of the contact's start. The per-step distance
+  (``measure``) is taken in the ground plane, so a foot held over its stone would pass it.
+
 Contact frames come from the reference: the toe within 6 cm of its lowest height over the clip and
 slower than 0.6 m/s, for at least 50 ms (the rule ``make_stages.py`` found the sample stones with).
 
