@@ -241,11 +241,13 @@ def b_batch_out_equals_preview(d):
 
 
 def b_batch_report_is_the_manifest(d):
-    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "manifest.toml"))
+    (d / "summary.json").symlink_to("manifest.toml")  # a summary must end in .json
+    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "summary.json"))
 
 
 def b_batch_report_is_a_jobs_out(d):
-    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "gaze.usdc"))
+    (d / "summary.json").symlink_to("gaze.usdc")
+    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "summary.json"))
 
 
 def b_batch_out_is_the_manifest(d):

@@ -12,6 +12,7 @@ import dataclasses
 import io
 import os
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
@@ -148,6 +149,8 @@ def snapshot(d: Path) -> dict[str, tuple]:
             kind = ("link", os.readlink(p))
         elif p.is_dir():
             kind = ("dir",)
+        elif not stat.S_ISREG(st.st_mode):  # a named pipe: reading it would wait for a writer
+            kind = ("special", stat.S_IFMT(st.st_mode))
         else:
             kind = ("file", measure.sha256(p))
         out[str(p.relative_to(d))] = (*kind, st.st_mode & 0o7777)

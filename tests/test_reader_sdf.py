@@ -39,9 +39,19 @@ def _union_times(path: Path) -> np.ndarray:
 
 
 STRONGER = """#usda 1.0
-over "root" { over "Body" { over "BodySkel" { over "scaled_131_01" {
-    quatf[] rotations.timeSamples = { %s }
-} } } }
+over "root"
+{
+    over "Body"
+    {
+        over "BodySkel"
+        {
+            over "scaled_131_01"
+            {
+                quatf[] rotations.timeSamples = { %s }
+            }
+        }
+    }
+}
 """
 
 

@@ -157,6 +157,41 @@ def test_broken_bind_transforms_are_refused(tmp_path, kind):
     assert not (tmp_path / "gaze.usdc").exists()
 
 
+def test_a_mirrored_skelroot_turns_head_and_eyes_the_same_way(tmp_path):
+    """A SkelRoot scaled (-1, 1, 1), as a mirrored crowd copy is: its skeleton's left is the world's
+    right. A yaw is toward the character's left as the world sees it, for the eyes and the head alike."""
+    from pxr import Gf, Usd, UsdGeom
+
+    rig = syn.make_rig(tmp_path / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False)
+    stage = Usd.Stage.Open(str(rig.path))
+    UsdGeom.Xformable(stage.GetPrimAtPath(rig.skel_root)).AddScaleOp().Set(Gf.Vec3f(-1.0, 1.0, 1.0))
+    stage.GetRootLayer().Save()
+    report = api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
+    base, new, error = _measured(rig, report, tmp_path / "preview.usda")
+    assert error <= 0.5, error  # the line of sight: both shifts reached, eyes within their range
+    head = rig.leaf["head"]
+    axis = measure.local_forward(base, head, rig.forward)
+    turn = measure.wrap(measure.az_el(new.axis(head, axis), new.up)[:, 0] - measure.az_el(base.axis(head, axis), base.up)[:, 0])
+    for s, hold in hold_windows(dict(rig=rig, base=base, report=report)):
+        assert np.all(np.sign(turn[hold]) == np.sign(s["yaw"])) and np.abs(turn[hold]).min() > 5.0, (s, turn[hold])
+
+
+def test_an_animation_bound_on_the_skelroot_is_the_skeletons(tmp_path):
+    """``skel:animationSource`` authored on the SkelRoot: UsdSkel's binding inherits it down to the
+    Skeleton, and so does the pass."""
+    from pxr import Usd, UsdSkel
+
+    rig = syn.make_rig(tmp_path / "in.usda", frames=int(SECONDS * RATE), time_codes_per_second=RATE, mesh=False)
+    stage = Usd.Stage.Open(str(rig.path))
+    UsdSkel.BindingAPI(stage.GetPrimAtPath(rig.skeleton)).GetAnimationSourceRel().ClearTargets(True)
+    UsdSkel.BindingAPI.Apply(stage.GetPrimAtPath(rig.skel_root)).CreateAnimationSourceRel().SetTargets([rig.animation])
+    stage.GetRootLayer().Save()
+    report = api.apply(rig.path, SHIFTS, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
+    base, new, error = _measured(rig, report, tmp_path / "preview.usda")
+    assert error <= 0.5, error
+    assert not np.allclose(base.world, new.world)  # UsdSkel poses the skeleton with the override
+
+
 # -- hints ------------------------------------------------------------------------------------------
 
 def _numbered(d: Path) -> syn.Rig:
@@ -180,6 +215,20 @@ def test_an_unnamed_rig_binds_with_hints(tmp_path):
     assert np.allclose(c.forward, rig.forward)
     _, _, error = _measured(rig, report, tmp_path / "preview.usda")
     assert error <= 0.5, error
+
+
+@pytest.mark.parametrize("scale", [1e300, 1e-300])
+def test_a_forward_of_any_length_is_its_direction(tmp_path, scale):
+    """``--forward`` is a direction: 1e300 or 1e-300 times it gives the layer the unit vector gives
+    (its squared length would overflow or vanish if taken as given)."""
+    rig = _numbered(tmp_path)
+    leaf = rig.leaf
+    bind = [f"pelvis={leaf['pelvis']}", f"head={leaf['head']}", f"leftEye={leaf['eye_l']}", f"rightEye={leaf['eye_r']}"]
+    unit = rig.forward / np.linalg.norm(rig.forward)
+    for name, vec in (("unit", unit), ("scaled", unit * scale)):
+        api.apply(rig.path, SHIFTS, tmp_path / f"{name}.usdc",
+                  options=PassOptions(binding=parse_hints(bind, ",".join(repr(float(v)) for v in vec))))
+    assert (tmp_path / "unit.usdc").read_bytes() == (tmp_path / "scaled.usdc").read_bytes()
 
 
 @pytest.mark.parametrize("bind, forward, message", [

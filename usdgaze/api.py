@@ -32,6 +32,7 @@ from usdgaze.usd.layers import (
     write_preview,
 )
 from usdgaze.values import ShiftRequest, check_pass_options, cli_label
+from usdgaze.files.kinds import not_a_file
 
 # The Python API: these names are imported from here (usdgaze.api.bind, select_roots, ApplyRequest, ...).
 __all__ = ["ApplyReport", "ApplyRequest", "CharacterReport", "ShiftRequest", "apply", "bind", "built_map",
@@ -82,8 +83,9 @@ def check_request(req: ApplyRequest, label=cli_label) -> list[DirectiveRequest]:
 
 
 def _claim_outputs(tx: Outputs, req: ApplyRequest) -> None:
-    if not Path(req.source).is_file():
-        raise UsdGazeError(f"{req.source}: no such file")
+    problem = not_a_file(req.source)
+    if problem:
+        raise UsdGazeError(f"{req.source}: {problem}")
     tx.read(req.source)  # first, so a clash names the input as such
     if req.make_folders:
         for path in (req.out, req.preview, req.plot):
@@ -116,12 +118,13 @@ def _open_input(tx: Outputs, source: str):
 
 def _run_pass(stage, roots, forced, requests, req):
     """Read every skeleton under ``roots``, run the gaze pass, collect overrides and the report."""
-    from usdgaze.usd.skelio import read_clip, skeletons_under
+    from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     source = req.source
     report = ApplyReport(output=str(req.out), input=req.source)
     overrides: list[AnimOverride] = []
     seen_anims: dict[str, str] = {}
+    others = animations_elsewhere(stage, roots)
     for root in roots:
         root_requests = root_directives(root, source, requests)
         report.directives[str(root.GetPath())] = [r.flag for r in root_requests]
@@ -138,8 +141,9 @@ def _run_pass(stage, roots, forced, requests, req):
             if clip.animation in seen_anims:
                 raise UsdGazeError(
                     f"{source}:{clip.animation}: drives both {seen_anims[clip.animation]} and {clip.skeleton}; "
-                    "give each skeleton its own SkelAnimation or pick one with --skel-root"
+                    "an override of it would move both alike: give each skeleton its own SkelAnimation"
                 )
+            check_not_shared(others, clip.animation, source)
             seen_anims[clip.animation] = clip.skeleton
             chain, frame = bind(clip, own, req.options.binding)
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
@@ -205,7 +209,7 @@ def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
     """Stage the override, then the preview, plot or sublayer edit; the caller's ``with`` commits them."""
     animations = [c.animation for c in report.characters]
     if req.sublayer_into is not None:  # refuse before anything is staged
-        check_sublayer_target(req.sublayer_into, animations)
+        check_sublayer_target(req.sublayer_into, animations, req.source)
     out = Path(req.out)
     layer = build_override(overrides, info, fmt=out.suffix.lstrip("."))
     if req.guides:

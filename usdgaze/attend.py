@@ -14,6 +14,7 @@ from usdgaze import __version__
 from usdgaze.errors import UsdGazeError
 from usdgaze.vision import loop
 from usdgaze.vision.costs import Weights
+from usdgaze.files.kinds import not_a_file
 
 if TYPE_CHECKING:
     from usdgaze.core.hints import BindHints
@@ -84,8 +85,9 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
     settings = settings or AttendSettings()
     settings.check()
     source = str(input_path)
-    if not Path(source).is_file():
-        raise UsdGazeError(f"{source}: no such file")
+    problem = not_a_file(source)
+    if problem:
+        raise UsdGazeError(f"{source}: {problem}")
     with Outputs(no_clobber=no_clobber) as tx:
         from usdgaze.api import _open_input
         from usdgaze.usd.layers import check_output_path
@@ -106,10 +108,16 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
     from usdgaze.usd.objects import object_prims, read_objects
-    from usdgaze.usd.skelio import read_clip, skeletons_under
+    from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     prims = object_prims(stage, source, objects)
     roots = select_roots(stage, source, skel_root)
+    others = animations_elsewhere(stage, roots)
+    for prim in prims:  # the character's own SkelRoot, or a prim holding it, moves with it: no object
+        for root in roots:
+            if root.GetPath().HasPrefix(prim.GetPath()):
+                raise UsdGazeError(f"{source}:{prim.GetPath()}: is the character {root.GetPath()} or holds it; "
+                                   "an object to look at must be another prim")
     report = AttendReport(output=str(out_path))
     overrides, inspections, info = [], [], None
     t_start, cpu_start = time.perf_counter(), time.process_time()
@@ -119,6 +127,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
         clip = read_clip(stage, skels[0], root, source)
+        check_not_shared(others, clip.animation, source)
         chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
         h = settings.h
         t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)

@@ -16,11 +16,13 @@ class Interrupted(BaseException):
     """SIGTERM or SIGINT arrived while a command held outputs (``files.transaction``); raised so that
     cleanup runs."""
 
-    def __init__(self, signum: int) -> None:
+    def __init__(self, signum: int, detail: str = "nothing was written") -> None:
         import signal
 
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
+        self.detail = detail
+        """What the stop left behind, for the command's one line."""
 
 
 class GazeMapError(UsdGazeError):

@@ -23,6 +23,8 @@ DONE, SKIPPED, BAD, INTERNAL = "done", "skipped", "bad input", "internal error"
 EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
 
 _limited = False
+STOP_GRACE_S = 10.0
+"""How long a stopped pool worker has to clean up before it is killed."""
 
 
 def limit_threads(forked: bool = False) -> None:
@@ -155,10 +157,39 @@ def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
             # each) instead of importing them again.
             import usdgaze.api  # noqa: F401
         with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context,
-                                 initializer=limit_threads, initargs=(forked,)) as pool:
+                                 initializer=_pool_worker, initargs=(forked,)) as pool:
             futures = [pool.submit(run_shot, shot, force) for shot in shots]
-            for future in as_completed(futures):
-                yield future.result()
+            try:
+                for future in as_completed(futures):
+                    yield future.result()
+            except BaseException:  # SIGTERM or SIGINT here: stop the workers' shots too (each cleans up)
+                _stop_workers(pool)
+                raise
+
+
+def _pool_worker(forked: bool) -> None:
+    """A pool worker's start: its threads (``limit_threads``), and between shots SIGTERM ends it at
+    once and SIGINT is the parent's to handle (a shot's writer handles both while it runs)."""
+    import signal
+
+    limit_threads(forked)
+    signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Cancel the shots not started and SIGTERM the workers: a shot stopped mid-way removes its
+    temporaries (its writer's handler), one in its final renames completes them."""
+    import multiprocessing
+
+    pool.shutdown(wait=False, cancel_futures=True)
+    children = multiprocessing.active_children()
+    for child in children:
+        child.terminate()
+    for child in children:  # one that cannot run its handler (stuck in C) is killed: its folder is swept later
+        child.join(timeout=STOP_GRACE_S)
+        if child.is_alive():
+            child.kill()
 
 
 def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
@@ -173,6 +204,8 @@ def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
         client = Client(address)  # connect timeout: distributed.comm.timeouts.connect
     except (OSError, TimeoutError) as exc:
         raise UsdGazeError(f"--dask {address}: cannot connect to the scheduler ({exc})") from None
+    except ValueError as exc:  # distributed's parse of the address
+        raise UsdGazeError(f"--dask {address!r}: not a scheduler address such as tcp://host:8786 ({exc})") from None
     with client:
         futures = [client.submit(run_shot, shot, force, True, key=f"usdgaze-{shot.name}-{uuid.uuid4().hex[:8]}",
                                  pure=False) for shot in shots]

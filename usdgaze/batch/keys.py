@@ -15,6 +15,7 @@ import os
 
 from usdgaze.batch.manifest import Shot
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.kinds import not_a_file
 
 KEY_FIELD = "batchKey"
 
@@ -34,8 +35,9 @@ def composed_files(root: str) -> tuple[list[str], list[str], list]:
 
     from usdgaze.errors import usd_failure
 
-    if not os.path.isfile(root):
-        raise UsdGazeError(f"{root}: no such file")
+    problem = not_a_file(root)
+    if problem:
+        raise UsdGazeError(f"{root}: {problem}")
     try:
         layers, _assets, unresolved = UsdUtils.ComputeAllDependencies(root)
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text

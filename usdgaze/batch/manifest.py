@@ -40,6 +40,8 @@ def _text(key: str):
     def check(value: Any, label: Label, base: Path) -> str:
         if not isinstance(value, str) or not value.strip():
             raise UsdGazeError(f"{label(key, repr(value))}: expected a non-empty string")
+        if not value.isprintable():  # a newline or tab would split the farm log's one line per shot
+            raise UsdGazeError(f"{label(key, repr(value))}: holds a control character (newline, tab, ...)")
         return value
     return check
 

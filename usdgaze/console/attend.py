@@ -6,6 +6,8 @@ import json
 
 import click
 
+from usdgaze.console.types import FiniteRange
+
 
 @click.command()
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
@@ -18,7 +20,8 @@ import click
               help="Attention cost: the paper's uncertainty, the distance-sum baseline, or one object after another.")
 @click.option("--window", "window_s", default=None, type=float,
               help="Planner window, seconds.  [default: 0.8; with --physics 0.6]")
-@click.option("--seed", default=0, show_default=True, type=int, help="Seed of the simulated observation noise.")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(0, 2**32 - 1),
+              help="Seed of the simulated observation noise.")
 @click.option("--realize", default="direct", show_default=True, type=click.Choice(["direct", "map"]),
               help="direct: write the planner's eyes, neck and spine; map: turn its fixations into look-at "
                    "directives realized through the gaze map (cascade, overshoot, saccades).")
@@ -41,7 +44,7 @@ import click
 @click.option("--fd-stride", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: MuJoCo derivatives every N planner steps, interpolated between (faster; "
                    "2 roughly halves the time, docs/physics.md).")
-@click.option("--timestep", default=0.02, show_default=True, type=click.FloatRange(0.01, 0.05),
+@click.option("--timestep", default=0.02, show_default=True, type=FiniteRange(0.01, 0.05),
               help="With --physics: the simulation's and the planner's step h, seconds (the paper: 0.02-0.03).")
 @click.option("--fd-reuse", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: keep a step's MuJoCo derivatives for up to N solves while its contacts "
@@ -52,7 +55,7 @@ import click
               help="With --physics: simulate a shot that fell, sank a foot over 2 cm or missed a task again "
                    "with this many iterations per step, and keep that unless it is worse (never where it is not more than "
                    "--iterations, e.g. 0; one iteration let 3 of 12 stepping-stone shots fall, docs/physics.md).")
-@click.option("--mass", default=75.0, show_default=True, type=click.FloatRange(1.0, 500.0),
+@click.option("--mass", default=75.0, show_default=True, type=FiniteRange(1.0, 500.0),
               help="With --physics: the body's total mass, kg (de Leva's segment shares of it; as physics-model).")
 @click.pass_context
 def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
@@ -72,7 +75,7 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
                         parse_hints(bind, forward), mass)
     from usdgaze.attend import AttendSettings, attend as run
 
-    paths = [p.strip() for p in objects.split(",") if p.strip()] if objects else None
+    paths = [p.strip() for p in objects.split(",") if p.strip()] if objects is not None else None
     settings = AttendSettings(alpha=alpha, cost=cost, seed=seed, realize=realize,
                               window_s=AttendSettings.window_s if window_s is None else window_s,
                               binding=parse_hints(bind, forward))

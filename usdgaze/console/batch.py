@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from usdgaze.errors import UsdGazeError
+from usdgaze.errors import Interrupted, UsdGazeError
 
 
 @click.command()
@@ -34,12 +34,16 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
     from usdgaze.batch.manifest import load_manifest, register
     from usdgaze.files.transaction import Outputs
 
+    if dask_address is not None and not dask_address.strip():
+        raise UsdGazeError("--dask '': expected the scheduler's address, such as tcp://host:8786")
     if dask_address and workers > 1:
         raise UsdGazeError("--dask and --workers are alternatives: the cluster's workers run the shots")
     flag, given = ("--report", report_path) if report_path else ("--summary", summary_path)
     with Outputs() as tx:
         # The summary is checked before any shot runs: it may not be the manifest or any shot's file.
         summary = Path(given) if given else _default_summary(Path(manifest), task_index)
+        if summary.suffix.lower() != ".json":
+            raise UsdGazeError(f"{summary}: {flag} is written as JSON; name it FILE.json")
         if given or not emit:
             tx.claim(summary, flag)
         shots = load_manifest(manifest)
@@ -71,6 +75,11 @@ def _run(shots, manifest, workers, dask_address, force, task_index) -> dict:
     progress = Progress(len(shots))
     try:
         records = engine.run_shots(shots, workers=workers, dask=dask_address, force=force, on_record=progress)
+    except Interrupted as exc:
+        # A shot may finish between its last rename and its report: the count is of the reported ones.
+        exc.detail = (f"{progress.done} of {len(shots)} shots were reported finished; finished shots keep their "
+                      "outputs (a rerun skips them), no shot is half-written, no summary was written")
+        raise
     finally:
         progress.close()
     return engine.summary(records, manifest, mode, time.perf_counter() - t0, started, task_index)

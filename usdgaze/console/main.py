@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         _fail(str(exc))
         return EXIT_BAD_INPUT
     except Interrupted as exc:  # SIGTERM: the writer has removed every temporary
-        _fail(f"interrupted by {exc}; nothing was written")
+        _fail(f"interrupted by {exc}; {exc.detail}")
         return 128 + exc.signum
     except KeyboardInterrupt:
         _fail("interrupted by SIGINT; nothing was written")

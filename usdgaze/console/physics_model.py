@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import click
 
+from usdgaze.console.types import FiniteRange
+
 
 @click.command("physics-model")
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option("--out", "out", required=True, type=click.Path(dir_okay=False), help="MJCF file to write (.xml).")
-@click.option("--mass", "mass", default=75.0, show_default=True, type=float, help="Total body mass, kg.")
+@click.option("--mass", "mass", default=75.0, show_default=True, type=FiniteRange(1.0, 500.0),
+              help="Total body mass, kg.")
 @click.option("--timestep", default=0.02, show_default=True, type=float, help="Simulation step h, seconds.")
 @click.option("--skel-root", default=None, help="SkelRoot prim path when the stage has several.")
 def physics_model(input_path, out, mass, timestep, skel_root) -> None:

@@ -6,6 +6,8 @@ import time
 
 import click
 
+from usdgaze.console.types import FiniteRange
+
 
 @click.command()
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
@@ -17,7 +19,8 @@ import click
 @click.option("--camera", default="front", show_default=True, metavar="front|side|top|PRIM",
               help="A named camera following the character, or a Camera prim of the stage.")
 @click.option("--layout", default="side-by-side", show_default=True, type=click.Choice(["side-by-side", "overlay"]))
-@click.option("--fps", default=24.0, show_default=True, type=float, help="Frames per second of the animation.")
+@click.option("--fps", default=24.0, show_default=True, type=FiniteRange(1.0, 240.0),
+              help="Frames per second of the animation.")
 @click.option("--size", default=360, show_default=True, type=click.IntRange(64, 2048), help="Panel size in pixels.")
 @click.option("--sheet-count", default=12, show_default=True, type=click.IntRange(1, 200))
 @click.option("--skel-root", default=None, help="Only this SkelRoot (default: every one the layer animates).")

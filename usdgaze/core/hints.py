@@ -57,7 +57,10 @@ def _forward(value, label: str) -> tuple[float, float, float]:
         raise UsdGazeError(f"{label} {value!r}: expected three finite numbers X,Y,Z (skeleton space), e.g. 0,0,1")
     if not any(vec):
         raise UsdGazeError(f"{label} {value!r}: the zero vector is no direction")
-    return vec  # type: ignore[return-value]
+    big = max(abs(v) for v in vec)  # scaled first: 1e300 or 1e-320 would overflow or vanish when squared
+    scaled = [v / big for v in vec]
+    norm = math.sqrt(sum(v * v for v in scaled))
+    return tuple(v / norm for v in scaled)  # type: ignore[return-value]
 
 
 def parse_hints(bind: Iterable[str] | Mapping[str, object] | None = None, forward=None,
@@ -78,6 +81,8 @@ def parse_hints(bind: Iterable[str] | Mapping[str, object] | None = None, forwar
     elif bind is not None:
         if isinstance(bind, str):
             bind = [bind]
+        if not isinstance(bind, (list, tuple)):
+            raise UsdGazeError(f"{bind_label} {bind!r}: expected ROLE=JOINT strings or a table of role = joint(s)")
         items = [_bind_item(t, bind_label) for t in bind]
     seen = set()
     for role, _ in items:

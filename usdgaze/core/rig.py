@@ -96,9 +96,43 @@ def _explicit(joints: list[str], bindings, labels, where: str) -> tuple[dict[str
         label = labels.get(role, f"gaze:binding:{role}")
         if role not in ROLES:
             raise RigError(f"{where}: {label}: unknown gaze role '{role}' (roles: {', '.join(ROLES)})")
-        found[role] = sorted({resolve_joint(n, joints, f"{where}: {label}") for n in wanted})
+        picked = [resolve_joint(n, joints, f"{where}: {label}") for n in wanted]
+        twice = sorted({j for j in picked if picked.count(j) > 1})
+        if twice:
+            raise RigError(f"{where}: {label}: names joint '{names.leaf(joints[twice[0]])}' twice")
+        found[role] = sorted(picked)
         reasons[role] = label
+    owner: dict[int, str] = {}
+    for role, js in found.items():
+        for j in js:
+            if j in owner:
+                raise RigError(f"{where}: joint '{names.leaf(joints[j])}' is bound to two roles, {owner[j]} and "
+                               f"{role}; a joint plays one role")
+            owner[j] = role
     return found, reasons
+
+
+def _check_bound_places(path: list[int], head: int, joints, parents, found, bindings, labels, where: str) -> None:
+    """Explicitly bound joints where their roles can be: the body's on the pelvis-to-head path, in
+    that order, and the eyes below the head."""
+    place = {j: i for i, j in enumerate(path)}
+    body = ("pelvis", "lowerSpine", "upperSpine", "neck", "head")
+    for role in bindings:
+        label = labels.get(role, f"gaze:binding:{role}")
+        for j in found.get(role, []):
+            if role in body and j not in place:
+                raise RigError(f"{where}: {label}: joint '{names.leaf(joints[j])}' is not on the chain from pelvis "
+                               f"'{names.leaf(joints[path[0]])}' to head '{names.leaf(joints[head])}'; {_HINT}")
+            if role in ("leftEye", "rightEye") and head not in _path_to_root(j, parents)[:-1]:
+                raise RigError(f"{where}: {label}: joint '{names.leaf(joints[j])}' is not below head "
+                               f"'{names.leaf(joints[head])}'")
+    spans = [(r, [place[j] for j in found.get(r, []) if j in place]) for r in body]
+    spans = [(r, at) for r, at in spans if at]
+    for (r0, a0), (r1, a1) in zip(spans, spans[1:]):
+        if max(a0) >= min(a1) and (r0 in bindings or r1 in bindings):
+            raise RigError(f"{where}: {r1} '{names.leaf(joints[path[min(a1)]])}' is not above {r0} "
+                           f"'{names.leaf(joints[path[max(a0)]])}' on the chain (pelvis, lowerSpine, upperSpine, "
+                           f"neck, head from the root up); {_HINT}")
 
 
 def _below(j: int, parents: np.ndarray) -> list[int]:
@@ -253,6 +287,7 @@ def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple
     path = path[path.index(pelvis_first):]
     if "pelvis" not in bindings:
         _legs_off_the_spine(path, joints, parents, found, reasons)
+    _check_bound_places(path, head, joints, parents, found, bindings, labels or {}, where)
     _split_spine(path, joints, found, reasons, fixed=set(bindings))
     for role in _SPINE_ROLES:
         if not found.get(role):
@@ -271,6 +306,13 @@ def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple
         raise RigError(f"{where}: found only one eye joint; considered {_listed(joints, considered)}; "
                        f"{_described(joints, found)}; {_HINT}")
 
+    owner: dict[int, str] = {}
+    for role in ROLES:  # a binding may have taken a joint the names gave another role
+        for j in found.get(role, []):
+            if j in owner:
+                raise RigError(f"{where}: joint '{names.leaf(joints[j])}' would play two roles, {owner[j]} and {role} "
+                               f"(one of them bound); {_described(joints, found)}; {_HINT}")
+            owner[j] = role
     pelvis = found["pelvis"][-1]
     on_chain = set(path)
     legs = tuple(i for i in range(len(joints)) if parents[i] == pelvis and i not in on_chain)

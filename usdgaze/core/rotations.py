@@ -64,6 +64,12 @@ def _shape(a: np.ndarray, b: np.ndarray) -> tuple[int, ...]:
     return a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape)
 
 
+def mirror_left_right(q: np.ndarray) -> np.ndarray:
+    """The rotations a left-right mirror image makes of ``q`` in the canonical frame (x = left): a
+    turn toward the left becomes one toward the right, pitch stays, roll flips."""
+    return np.asarray(q, dtype=float) * np.array([1.0, -1.0, -1.0, 1.0])
+
+
 def conjugate(q: np.ndarray) -> np.ndarray:
     """Inverse of a unit quaternion."""
     q = np.asarray(q, dtype=float)

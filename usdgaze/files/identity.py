@@ -27,7 +27,8 @@ class FileId:
         try:
             st = os.stat(path, follow_symlinks=follow)
         except FileNotFoundError:
-            parent, name = os.path.split(os.path.abspath(path))
+            # A dangling symlink is written through: the file it names is the one to be created.
+            parent, name = os.path.split(os.path.realpath(path) if follow else os.path.abspath(path))
             try:
                 pst = os.stat(parent)
             except OSError:

@@ -114,6 +114,8 @@ class Outputs:
         self._old_handlers: dict[int, object] = {}
         self._made: list[Path] = []
         self._done = False
+        self._committing = False
+        self._pending: int | None = None
 
     # -- context: signals and cleanup --------------------------------------------------------------
     def __enter__(self) -> "Outputs":
@@ -132,8 +134,10 @@ class Outputs:
                 signal.signal(sig, handler)
             self._old_handlers.clear()
 
-    @staticmethod
-    def _on_signal(signum, frame) -> None:
+    def _on_signal(self, signum, frame) -> None:
+        if self._committing:  # the renames run to their end (or their rollback): all or none
+            self._pending = signum
+            return
         raise Interrupted(signum)  # not KeyboardInterrupt: click would turn that into "Aborted!"
 
     # -- reads and claims --------------------------------------------------------------------------
@@ -162,6 +166,9 @@ class Outputs:
             raise UsdGazeError(f"{shown}: cannot write ({os.strerror(errno.ENAMETOOLONG)})")
         if target.is_dir():
             raise UsdGazeError(f"{shown}: {flag} names a folder, expected a file")
+        kind = _special_kind(target)
+        if kind:  # the rename would put a plain file where a device, pipe or socket was
+            raise UsdGazeError(f"{shown}: {flag} names {kind}, not a regular file")
         keep_mode = None
         if target.exists() and not target.is_symlink():
             st = target.stat()
@@ -239,16 +246,26 @@ class Outputs:
         if tmpdir is None:
             sweep(folder)
             tmpdir = folder / f"{TMP_PREFIX}{_host()}-{os.getpid()}-{secrets.token_hex(4)}"
+            self._tmpdirs[folder] = tmpdir  # first: a signal right after the mkdir still finds it to remove
             try:
                 tmpdir.mkdir(mode=0o700)
             except OSError as exc:
+                del self._tmpdirs[folder]
                 raise UsdGazeError(f"{shown}: cannot write into {Path(shown).parent} ({os_reason(exc)})") from None
-            self._tmpdirs[folder] = tmpdir
         return tmpdir
 
     # -- commit / abort ----------------------------------------------------------------------------
     def commit(self) -> None:
         """Rename every staged output into place; on a failure, restore what was replaced."""
+        self._committing = True
+        try:
+            self._rename_all()
+        finally:
+            self._committing = False
+        if self._pending is not None:
+            raise Interrupted(self._pending, "every output had been written when it stopped")
+
+    def _rename_all(self) -> None:
         items = [i for i in self._claims.values() if i.temp is not None]
         done: list[tuple[_Staged, Path | None]] = []
         try:
@@ -262,15 +279,16 @@ class Outputs:
                         backup = None  # no hard links here: the rename alone is still atomic
                 os.replace(item.temp, item.target)
                 done.append((item, backup))
-        except OSError as exc:
-            failed = item.target
+        except BaseException as exc:  # an OS failure, or a signal where no handler defers it
             for put, backup in reversed(done):
                 with contextlib.suppress(OSError):
                     if backup is not None:
                         os.replace(backup, put.target)
                     elif put.keep_mode is None:
                         os.unlink(put.target)
-            raise UsdGazeError(f"{failed}: cannot write ({os_reason(exc)})") from None
+            if isinstance(exc, OSError):
+                raise UsdGazeError(f"{item.target}: cannot write ({os_reason(exc)})") from None
+            raise
         for folder in self._tmpdirs:
             with contextlib.suppress(OSError):
                 fd = os.open(folder, os.O_RDONLY)
@@ -290,6 +308,21 @@ class Outputs:
                 with contextlib.suppress(OSError):
                     folder.rmdir()
         self._made.clear()
+
+
+def _special_kind(path: Path) -> str | None:
+    """What ``path`` is when it exists and is neither a regular file nor a symlink (followed or not)."""
+    import stat
+
+    try:
+        mode = path.lstat().st_mode
+    except OSError:
+        return None
+    for test, kind in ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return kind
+    return None
 
 
 def _unfollowed(path: str | os.PathLike) -> Path:

@@ -72,9 +72,20 @@ def _frame(value, key: str, where: str) -> int:
     return int(x)
 
 
+_KEYS = ("file", "yaw", "pitch", "trial", "crop", "crop_start", "crop_end", "skeleton")
+_TOP_KEYS = ("trial", "trials", "markers", "skeleton")
+
+
+def _unknown(keys, known, what: str, where: str) -> None:
+    extra = [k for k in keys if k not in known]
+    if extra:
+        raise SheetError(f"{where}: unknown {what} '{extra[0]}' (known: {', '.join(known)})")
+
+
 def _trial(row: dict, index: int, base: Path, where: str, seen: set[str]) -> Trial:
     row = {_ALIASES.get(str(k).strip().lower(), str(k).strip().lower()): v for k, v in row.items() if k is not None}
     row = {k: (v.strip() if isinstance(v, str) else v) for k, v in row.items()}
+    _unknown(row, _KEYS, "key", where)
     for key in ("file", "yaw", "pitch"):
         if row.get(key) in (None, ""):
             raise SheetError(f"{where}: no {key}")
@@ -89,9 +100,9 @@ def _trial(row: dict, index: int, base: Path, where: str, seen: set[str]) -> Tri
     if not -180.0 <= yaw <= 180.0 or not -90.0 <= pitch <= 90.0:
         raise SheetError(f"{where}: target ({yaw:g}, {pitch:g}) is outside yaw -180..180, pitch -90..90")
     crop = None
-    if isinstance(row.get("crop"), (list, tuple)):
-        if len(row["crop"]) != 2:
-            raise SheetError(f"{where}: crop must be [start, end]")
+    if row.get("crop") is not None:
+        if not isinstance(row["crop"], (list, tuple)) or len(row["crop"]) != 2:
+            raise SheetError(f"{where}: crop must be [start, end] (frames), got {row['crop']!r}")
         row["crop_start"], row["crop_end"] = row["crop"]
     start, end = row.get("crop_start"), row.get("crop_end")
     if start not in (None, "") or end not in (None, ""):
@@ -115,6 +126,7 @@ def load_sheet(path: str | Path) -> Sheet:
     binding = SkeletonBinding()
     if path.suffix.lower() == ".toml":
         data = load_toml(path, SheetError)
+        _unknown(data, _TOP_KEYS, "key", str(path))
         rows = data.get("trial", data.get("trials", []))
         if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
             raise SheetError(f"{path}: trials must be [[trial]] tables")
@@ -135,7 +147,12 @@ def load_sheet(path: str | Path) -> Sheet:
         reader = csv.DictReader(lines)
         if not reader.fieldnames:
             raise SheetError(f"{path}: empty sheet (expected a header with file, yaw, pitch)")
-        header = {_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in reader.fieldnames if h}
+        named = [_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in reader.fieldnames if h]
+        twice = [h for k, h in enumerate(named) if h in named[:k]]
+        if twice:
+            raise SheetError(f"{path}: column '{twice[0]}' appears twice in the header")
+        _unknown(named, tuple(k for k in _KEYS if k != "crop"), "column", str(path))
+        header = set(named)
         missing = [k for k in ("file", "yaw", "pitch") if k not in header]
         if missing:
             raise SheetError(f"{path}: the header lacks column {missing[0]} (has {', '.join(reader.fieldnames)})")

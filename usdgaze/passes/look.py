@@ -45,6 +45,8 @@ from usdgaze.passes.schedule import Schedule, Scheduler, schedule
 from usdgaze.passes.sight import azimuth_elevation, direction_from
 
 EYE_TIMINGS = ("saccade", "model")
+# Beyond this a target is only a direction; its distance in stage units would overflow squared.
+MAX_TARGET_DISTANCE_M = 1e9
 
 
 @dataclass(frozen=True)
@@ -129,10 +131,14 @@ def _check_distance(clip: SkelClip, directives: list[Directive], targets, eye: n
             continue
         end = directives[k + 1].time_s if k + 1 < len(directives) else np.inf
         rows = (seconds >= d.time_s) & (seconds < end)
-        dist = np.linalg.norm(targets[d.target][rows] - eye[rows], axis=-1)
+        with np.errstate(over="ignore", invalid="ignore"):  # 1e300 away: the distance overflows, said below
+            dist = np.linalg.norm(targets[d.target][rows] - eye[rows], axis=-1)
+        name = names[d.target] if names else f"target {d.target}"
+        if len(dist) and not dist.max() * clip.meters_per_unit <= MAX_TARGET_DISTANCE_M:
+            raise UsdGazeError(f"{clip.where()}: look target {name} lies over {MAX_TARGET_DISTANCE_M:g} m "
+                               "from the eyes; aim at a point nearer than that in the same direction")
         if len(dist) and dist.min() < near:
             i = np.flatnonzero(rows)[np.argmin(dist)]
-            name = names[d.target] if names else f"target {d.target}"
             raise UsdGazeError(f"{clip.where()}: look target {name} lies at the eyes at time code "
                                f"{clip.times[i]:g} ({dist.min() * clip.meters_per_unit * 100:.1f} cm away); "
                                "nothing to look at")

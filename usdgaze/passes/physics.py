@@ -35,6 +35,7 @@ import numpy as np
 from usdgaze.core.hints import BindHints
 from usdgaze.errors import UsdGazeError
 from usdgaze.physics import mpc
+from usdgaze.files.kinds import not_a_file
 
 PUSH_FORCE = "usdgaze:physics:pushForce"
 PUSH_JOINT = "usdgaze:physics:pushJoint"
@@ -305,8 +306,9 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
 
     require_mujoco()  # before any work: a missing extra is one line, exit 2
     source = str(input_path)
-    if not Path(source).is_file():
-        raise UsdGazeError(f"{source}: no such file")
+    problem = not_a_file(source)
+    if problem:
+        raise UsdGazeError(f"{source}: {problem}")
     check_window(options, f"--window {options.horizon_s:g} s")
     with Outputs(no_clobber=no_clobber) as tx:
         tx.read(source)  # first, so a clash names the input as such
@@ -325,12 +327,15 @@ def _read_shots(stage, source: str, skel_root: str | None, h: float, binding) ->
     """(root, clip, scene, chain and frame) of every skeleton: all read and bound before any work."""
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes import visuomotor
-    from usdgaze.usd.skelio import read_clip, skeletons_under
+    from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     shots = []
-    for root in select_roots(stage, source, skel_root):
+    roots = select_roots(stage, source, skel_root)
+    others = animations_elsewhere(stage, roots)
+    for root in roots:
         for skel in skeletons_under(root):
             clip = read_clip(stage, skel, root, source)
+            check_not_shared(others, clip.animation, source)
             scene = visuomotor.read_scene(root, clip, source, h)
             shots.append((root, clip, scene, bind_root(clip, root, binding)))
     if not shots:

@@ -28,6 +28,9 @@ def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outpu
     return read_clip(stage, skels[0], roots[0], source)
 
 
+MIN_MASS_KG, MAX_MASS_KG = 1.0, 500.0
+
+
 def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_frame=None):
     """The body model of a clip's skeleton, hinge axes and ranges fitted to its animation (``weld_still``:
     see :func:`usdgaze.physics.model.build`); ``chain_frame``, the gaze binding's (Chain, CharacterFrame),
@@ -35,6 +38,8 @@ def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_fr
     from usdgaze.physics.model import Hints, build
     from usdgaze.physics.retarget import Reference
 
+    if not MIN_MASS_KG <= total_mass <= MAX_MASS_KG:  # NaN included
+        raise UsdGazeError(f"--mass {total_mass:g}: expected {MIN_MASS_KG:g} to {MAX_MASS_KG:g} kg")
     hints = None
     if chain_frame is not None:
         chain, frame = chain_frame

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -18,6 +17,8 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.usd.stage import check_composition
+from usdgaze.files.kinds import not_a_file
 
 EYE_RANGE_KEY = "eyeRange"
 """``customLayerData["usdgaze"]["eyeRange"]``: the eye-in-head limits the pass used (degrees)."""
@@ -116,8 +117,9 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
     in_memory = isinstance(layer_path, Sdf.Layer)  # apply --plot: staged, not yet written
     layer_file = layer_path.identifier if in_memory else str(layer_path)
     for path, what in ((source, "input"), (layer_file, "--layer"))[: 1 if in_memory else 2]:
-        if not Path(path).is_file():
-            raise UsdGazeError(f"{path}: no such file ({what})")
+        problem = not_a_file(path)
+        if problem:
+            raise UsdGazeError(f"{path}: {problem} ({what})")
     if not in_memory and os.path.abspath(source) == os.path.abspath(layer_file):
         raise UsdGazeError(f"{layer_file}: --layer names the input itself; pass the override layer usdgaze wrote")
     layers = []
@@ -144,6 +146,7 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
         root.subLayerPaths.append(gaze_layer.identifier)
         root.subLayerPaths.append(base_layer.identifier)
     stage = Usd.Stage.Open(root)
+    check_composition(stage, source)
     if not UsdGeom.GetStageUpAxis(stage):
         raise UsdGazeError(f"{source}: the stage has no up axis")
     return stage, gaze_layer

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.kinds import not_a_file
 
 
 def inspect_stage(path: str, hints=None) -> dict:
@@ -20,8 +20,9 @@ def inspect_stage(path: str, hints=None) -> dict:
     from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
     from usdgaze.usd.stage import open_stage
 
-    if not Path(path).is_file():
-        raise UsdGazeError(f"{path}: no such file")
+    problem = not_a_file(path)
+    if problem:
+        raise UsdGazeError(f"{path}: {problem}")
     stage = open_stage(path)
     check_stage(stage, str(path))
     info = {

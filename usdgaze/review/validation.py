@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.kinds import not_a_file
 
 _SEVERITY = {"Error": "error", "Warn": "warning", "Info": "info"}
 
@@ -14,8 +14,9 @@ def _open(stage_path: str, layer: str | None):
     from usdgaze.review.composed import composed_stage
     from usdgaze.usd.stage import open_stage
 
-    if not Path(stage_path).is_file():
-        raise UsdGazeError(f"{stage_path}: no such file")
+    problem = not_a_file(stage_path)
+    if problem:
+        raise UsdGazeError(f"{stage_path}: {problem}")
     if layer is not None:
         return composed_stage(stage_path, layer)[0]
     return open_stage(stage_path)

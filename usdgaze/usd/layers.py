@@ -197,11 +197,13 @@ def write_preview(preview: str | os.PathLike, override: str | os.PathLike, input
     atomic_export(layer, preview, outputs, flag="--preview")
 
 
-def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str]) -> Sdf.Layer:
+def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
+                          input_path: str | os.PathLike | None = None) -> Sdf.Layer:
     """A copy of the layer ``root`` if the override can go in as its strongest sublayer, else a one-line error.
 
     Refuses when ``root`` itself holds opinions on the animations, since a sublayer is weaker than
-    its root layer's own opinions. Called before anything is written. The copy is anonymous, so a
+    its root layer's own opinions, and when ``root`` does not compose ``input_path`` (given). Called
+    before anything is written. The copy is anonymous, so a
     failed command leaves the layer registry's ``root`` as it was.
     """
     if Path(root).suffix.lower() not in _FORMATS:
@@ -214,6 +216,14 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str]) -> Sdf
         raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into ({usd_failure(exc)})") from None
     if layer is None:
         raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into")
+    if input_path is not None:
+        from usdgaze.usd.stage import layer_dependencies
+
+        # The edit goes to the file a symlinked root names, so its sublayers are read from there.
+        composed = {os.path.realpath(f) for f in layer_dependencies(os.path.realpath(root))}
+        if os.path.realpath(input_path) not in composed:
+            raise UsdGazeError(f"{root}: does not compose {input_path} (no sublayer, reference or payload brings "
+                               "it in), so the override would change nothing there; use the shot layer that does")
     for path in anim_paths:
         for name in ("rotations", "translations", "scales"):
             spec = layer.GetAttributeAtPath(Sdf.Path(path).AppendProperty(name))

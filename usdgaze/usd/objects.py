@@ -120,7 +120,10 @@ def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches) -> np.ndarray:
 
 def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list[Usd.Prim]:
     """The prims named by ``paths``, else every prim with GazeObjectAPI; one-line errors otherwise."""
-    if paths:
+    if paths is not None:
+        if not paths:
+            raise UsdGazeError(f"{source}: --objects names no prim; give PATH,... or leave it out for every "
+                               f"prim with {API_NAME}")
         prims = []
         for p in paths:
             if not Sdf.Path.IsValidPathString(p) or not Sdf.Path(p).IsAbsolutePath():

@@ -26,14 +26,40 @@ def _animation_of(skel: Usd.Prim) -> Usd.Prim | None:
     binding = UsdSkel.BindingAPI(skel)
     rel = binding.GetAnimationSourceRel()
     targets = rel.GetForwardedTargets() if rel else []
-    if not targets:
-        return None
-    prim = skel.GetStage().GetPrimAtPath(targets[0])
+    if targets:
+        prim = skel.GetStage().GetPrimAtPath(targets[0])
+    else:  # bound on an ancestor (the SkelRoot, say), which UsdSkel's binding inherits down to the Skeleton
+        prim = binding.GetInheritedAnimationSource()
     return prim if prim and prim.IsA(UsdSkel.Animation) else None
+
+
+def animations_elsewhere(stage: Usd.Stage, roots: list[Usd.Prim]) -> dict[str, str]:
+    """Animation path -> a Skeleton it drives under a SkelRoot not in ``roots``."""
+    chosen = {r.GetPath() for r in roots}
+    out: dict[str, str] = {}
+    for root in skel_roots(stage):
+        if root.GetPath() in chosen:
+            continue
+        for skel in skeletons_under(root):
+            anim = _animation_of(skel)
+            if anim is not None:
+                out.setdefault(str(anim.GetPath()), str(skel.GetPath()))
+    return out
+
+
+def check_not_shared(others: dict[str, str], animation: str, source: str) -> None:
+    """An animation that also drives a character not being written (``animations_elsewhere``)
+    would move that one too: one line."""
+    if animation in others:
+        raise UsdGazeError(f"{source}:{animation}: also drives {others[animation]}, which is not selected; "
+                           "an override of it would move both alike: give each character its own SkelAnimation")
 
 
 def _joint_parents(joints: list[str], where: str) -> np.ndarray:
     index = {j: i for i, j in enumerate(joints)}
+    if len(index) < len(joints):
+        twice = next(j for i, j in enumerate(joints) if index[j] != i)
+        raise UsdGazeError(f"{where}.joints: joint '{twice}' is listed twice")
     parents = np.full(len(joints), -1, dtype=int)
     for i, j in enumerate(joints):
         if not Sdf.Path.IsValidPathString(j) or Sdf.Path(j).IsAbsolutePath():
@@ -195,6 +221,9 @@ def _bound_animation(skel: Usd.Prim, where_skel: str, source: str) -> tuple[Usd.
     if anim_prim is None:
         raise UsdGazeError(f"{where_skel}: no skel:animationSource bound to a SkelAnimation; nothing to add gaze to")
     where_anim = f"{source}:{anim_prim.GetPath()}"
+    if not anim_prim.IsActive():
+        raise UsdGazeError(f"{where_anim}: the bound animation is inactive (active = false), so UsdSkel poses "
+                           "the skeleton without it; activate it or bind another")
     checks.check_not_instanced(anim_prim, where_anim)
     checks.check_types(anim_prim, checks.ANIMATION_TYPES, where_anim)
     return anim_prim, where_anim
@@ -235,6 +264,9 @@ def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim,
     if not anim_joints:
         raise UsdGazeError(f"{where_anim}.joints: the animation names no joints")
     index = {j: i for i, j in enumerate(joints)}
+    twice = [j for k, j in enumerate(anim_joints) if j in anim_joints[:k]]
+    if twice:
+        raise UsdGazeError(f"{where_anim}.joints: joint '{twice[0]}' is listed twice")
     missing = [j for j in anim_joints if j not in index]
     if missing:
         raise UsdGazeError(f"{where_anim}.joints: '{missing[0]}' is not a joint of {skel.GetPath()}")

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import re
+import sys
+import tempfile
 
 from pxr import Sdf, Usd
 
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.files.kinds import not_a_file
 
 
 def open_stage(path: str | os.PathLike, where: str | None = None,
@@ -17,17 +22,60 @@ def open_stage(path: str | os.PathLike, where: str | None = None,
     """
     path = os.fspath(path)
     where = where or path
-    if os.path.isdir(path):
-        raise error(f"{where}: is a folder, expected a USD file")
-    if not os.path.isfile(path):
-        raise error(f"{where}: no such file")
-    try:
-        stage = Usd.Stage.Open(path)
-    except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
-        raise error(f"{where}: cannot open as a USD stage ({usd_failure(exc)})") from None
-    if stage is None:
-        raise error(f"{where}: cannot open as a USD stage")
+    problem = not_a_file(path)
+    if problem:
+        raise error(f"{where}: {problem}")
+    with _usd_warnings() as said:
+        try:
+            stage = Usd.Stage.Open(path)
+        except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
+            raise error(f"{where}: cannot open as a USD stage ({usd_failure(exc)})") from None
+        if stage is None:
+            raise error(f"{where}: cannot open as a USD stage")
+        check_composition(stage, where, error)
+        said.keep = True
     return stage
+
+
+def check_composition(stage: Usd.Stage, where: str, error: type[UsdGazeError] = UsdGazeError) -> None:
+    """A stage whose composition failed (a missing sublayer, reference or payload, a cycle) is one
+    ``error`` line: the shot would otherwise be computed on what USD skipped."""
+    problems = stage.GetCompositionErrors()
+    if not problems:
+        return
+    first = " ".join(str(problems[0]).split())
+    first = re.sub(r",@anon:[^@]*@", "", first).removesuffix("; skipping.")  # and USD's session layer
+    more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+    raise error(f"{where}: composition failed: {first[:300]}{more}")
+
+
+class _Said:
+    keep = False
+
+
+@contextlib.contextmanager
+def _usd_warnings():
+    """USD's C++ warnings while a stage opens, held back: dropped when the open turns into our own
+    one-line error, passed on to stderr otherwise."""
+    said = _Said()
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to hold back
+        yield said
+        return
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        try:
+            yield said
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            if said.keep:
+                held.seek(0)
+                text = held.read()
+                if text:
+                    os.write(2, text)
 
 
 def layer_dependencies(path: str | os.PathLike) -> list[str]:

@@ -1,0 +1,143 @@
+"""Catalogue builders for what an adversarial sweep found (2026-12-03): outputs that are pipes,
+bindings off the chain or shared by two roles, composition that failed, joints listed twice, an
+inactive animation, far look-at targets, loose option and sheet values."""
+
+from __future__ import annotations
+
+import os
+
+from pxr import Sdf, Vt
+
+from .bad_common import JOB, apply_argv, edited, manifest, rig
+
+SAMPLE_BALLS = os.path.join(os.path.dirname(__file__), "..", "sample_stages", "attend", "two_balls.usda")
+
+
+def b_out_is_a_named_pipe(d):
+    os.mkfifo(d / "gaze.usdc")
+    return apply_argv(d, rig(d).path)
+
+
+def b_bind_spine_off_the_chain(d):
+    return apply_argv(d, rig(d).path, "--bind", "upperSpine=mixamorig_LeftArm")
+
+
+def b_bind_eye_that_is_the_head(d):
+    return apply_argv(d, rig(d).path, "--bind", "leftEye=mixamorig_Head")
+
+
+def b_bind_one_joint_two_roles(d):
+    return apply_argv(d, rig(d).path, "--bind", "leftEye=mixamorig_RightEye")
+
+
+def b_bind_joint_twice(d):
+    return apply_argv(d, rig(d).path, "--bind", "head=mixamorig_Head+mixamorig_Head")
+
+
+def b_bind_neck_above_head(d):
+    return apply_argv(d, rig(d).path, "--bind", "neck=mixamorig_Head", "--bind", "head=mixamorig_Neck")
+
+
+def b_batch_bind_not_a_list(d):
+    return manifest(d, f"[[job]]\n{JOB}bind = 7\n")
+
+
+def b_look_at_too_far(d):
+    return apply_argv(d, rig(d).path, "--look-at", "1,2,1e300@10", shifts=[])
+
+
+def _sublayer(layer: Sdf.Layer, r) -> None:
+    layer.subLayerPaths.append("./nothere.usda")
+
+
+def b_missing_sublayer(d):
+    return apply_argv(d, edited(d, _sublayer))
+
+
+def _cycle(layer: Sdf.Layer, r) -> None:
+    layer.GetPrimAtPath("/Character").referenceList.Prepend(Sdf.Reference("./in.usda", "/Character"))
+
+
+def b_reference_cycle(d):
+    return apply_argv(d, edited(d, _cycle))
+
+
+def _joints_twice(attr: str):
+    def edit(layer: Sdf.Layer, r) -> None:
+        spec = layer.GetAttributeAtPath(attr.format(skel=r.skeleton, anim=r.animation))
+        tokens = list(spec.default)
+        spec.default = Vt.TokenArray(tokens[:-1] + [tokens[1]])
+    return edit
+
+
+def b_skeleton_joint_twice(d):
+    return apply_argv(d, edited(d, _joints_twice("{skel}.joints")))
+
+
+def b_animation_joint_twice(d):
+    return apply_argv(d, edited(d, _joints_twice("{anim}.joints")))
+
+
+def b_animation_inactive(d):
+    return apply_argv(d, edited(d, lambda layer, r: setattr(layer.GetPrimAtPath(r.animation), "active", False)))
+
+
+def b_attend_seed_negative(d):
+    return ["attend", SAMPLE_BALLS, "--out", str(d / "gaze.usdc"), "--seed", "-1"]
+
+
+def b_attend_objects_empty(d):
+    return ["attend", SAMPLE_BALLS, "--out", str(d / "gaze.usdc"), "--objects", ""]
+
+
+def b_attend_object_holds_the_character(d):
+    return ["attend", SAMPLE_BALLS, "--out", str(d / "gaze.usdc"), "--objects", "/root"]
+
+
+def b_physics_model_mass_nan(d):
+    return ["physics-model", str(rig(d).path), "--out", str(d / "body.xml"), "--mass", "nan"]
+
+
+def b_preview_fps_too_high(d):
+    return ["preview", str(rig(d).path), "--layer", str(d / "gaze.usdc"), "--out", str(d / "p.gif"), "--fps", "1e9"]
+
+
+def b_batch_dask_not_an_address(d):
+    return manifest(d, f"[[job]]\n{JOB}", "--dask", "not an address")
+
+
+def b_batch_summary_not_json(d):
+    return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "summary.txt"))
+
+
+def b_batch_name_with_a_newline(d):
+    return manifest(d, f'[[job]]\n{JOB}name = "walk\\n01"\n')
+
+
+def b_sublayer_into_a_layer_without_the_input(d):
+    shot = d / "shot.usda"
+    Sdf.Layer.CreateNew(str(shot)).Save()
+    return apply_argv(d, rig(d).path, "--sublayer-into", str(shot))
+
+
+def b_build_map_sheet_unknown_column(d):
+    (d / "a.c3d").write_bytes(b"trial")
+    (d / "sheet.csv").write_text("file,yaw,pitch,colour\na.c3d,0,0,red\n")
+    return ["build-map", str(d / "sheet.csv"), "--out", str(d / "map.usda")]
+
+
+def b_build_map_sheet_crop_not_a_list(d):
+    (d / "a.c3d").write_bytes(b"trial")
+    (d / "sheet.toml").write_text('[[trial]]\nfile = "a.c3d"\nyaw = 0\npitch = 0\ncrop = "1-5"\n')
+    return ["build-map", str(d / "sheet.toml"), "--out", str(d / "map.usda")]
+
+
+def _second_character_on_the_same_animation(layer: Sdf.Layer, r) -> None:
+    Sdf.CopySpec(layer, r.skel_root, layer, "/Character2")
+    skel = layer.GetPrimAtPath("/Character2/Skel")
+    skel.relationships["skel:animationSource"].targetPathList.ClearEditsAndMakeExplicit()
+    skel.relationships["skel:animationSource"].targetPathList.explicitItems = [r.animation]
+
+
+def b_skel_root_animation_shared(d):
+    return apply_argv(d, edited(d, _second_character_on_the_same_animation), "--skel-root", "/Character")
