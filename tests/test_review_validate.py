@@ -165,6 +165,19 @@ def test_schedule_validator_catches_late_shifts_and_missing_characters(tmp_path)
     assert found == [("GazeLayerSchedule", "MissingCharacter"), ("GazeLayerSchedule", "ShiftOutOfRange")]
 
 
+def test_a_shift_past_the_playback_range_but_inside_the_animation_passes_both(tmp_path):
+    """``apply`` takes a shift anywhere the animation has samples; the schedule validator agrees, even
+    where the stage's playback range ends earlier (handles kept beyond it)."""
+    shot = tmp_path / "shot.usda"
+    layer = Sdf.Layer.CreateNew(str(shot))
+    layer.subLayerPaths.append(str(SAMPLES[0]))
+    layer.startTimeCode, layer.endTimeCode = 1.0, 200.0  # the walk's samples run to 994
+    layer.timeCodesPerSecond = layer.framesPerSecond = Usd.Stage.Open(str(SAMPLES[0])).GetTimeCodesPerSecond()
+    layer.Save()
+    api.apply(shot, ["600:60:0"], tmp_path / "g.usda", preview=tmp_path / "preview.usda")
+    assert _ours(Usd.Stage.Open(str(tmp_path / "preview.usda"))) == []
+
+
 def _scheduled(tmp_path):
     from usdgaze.passes.requests import DirectiveRequest
     from usdgaze.usd.schedule import write_schedule

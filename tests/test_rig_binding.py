@@ -147,6 +147,21 @@ def test_a_bind_pose_that_says_nothing_falls_back_to_the_rest_pose(tmp_path, kin
         assert np.abs(change[hold] - [s["yaw"], s["pitch"]]).max() <= 0.5
 
 
+def test_added_eyes_extend_only_the_poses_the_input_authors(tmp_path):
+    """A rest-only skeleton without eyes: the layer adds the eye joints and extends restTransforms,
+    but authors no bindTransforms (a bind pose the input lacks would change how meshes skin)."""
+    rig = syn.make_rig(tmp_path / "in.usda", eyes=False, frames=int(SECONDS * RATE), time_codes_per_second=RATE,
+                       mesh=False)
+    _edit_bind(rig, "missing")
+    api.apply(rig.path, SHIFTS, tmp_path / "gaze.usda")
+    layer = Sdf.Layer.FindOrOpen(str(tmp_path / "gaze.usda"))
+    skel = layer.GetPrimAtPath(rig.skeleton)
+    joints = list(skel.attributes["joints"].default)
+    assert len(joints) == len(rig.joints) + 2 and joints[:len(rig.joints)] == rig.joints
+    assert len(skel.attributes["restTransforms"].default) == len(joints)
+    assert "bindTransforms" not in skel.attributes
+
+
 @pytest.mark.parametrize("kind", ["short", "singular", "nan"])
 def test_broken_bind_transforms_are_refused(tmp_path, kind):
     rig = syn.make_rig(tmp_path / "in.usda", frames=30, mesh=False)

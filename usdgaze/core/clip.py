@@ -46,6 +46,8 @@ class SkelClip:
     its eyes look straight ahead: the bind pose, or the rest pose where bindTransforms is unusable."""
     neutral_source: str = "restTransforms"
     """Which pose :meth:`neutral` is, and why (``bindTransforms``, ``restTransforms (...)``)."""
+    authored_poses: tuple[bool, bool] = (True, True)
+    """Whether the input authors (restTransforms, bindTransforms): a layer adding joints extends only those."""
     owns_arrays: bool = False
     """The animation arrays belong to this clip alone (a fresh read nobody else holds), so a pass may
     write its result into them instead of into copies: one copy of the animation less at the peak."""

@@ -66,9 +66,11 @@ def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae:
         at_limit = np.any(np.abs(angles[..., 0]) >= limits.yaw - 1e-6) or np.any(
             (angles[..., 1] >= limits.up - 1e-6) | (angles[..., 1] <= -limits.down + 1e-6))
         if np.any(np.abs(base_ae[hold, 1] + plan.requested[hold, 1]) > 89.0):
-            way = "down" if base_ae[hold, 1].mean() < 0 else "up"
-            why = (f"the base line of sight already points {np.abs(base_ae[hold, 1]).max():.0f} deg {way}, "
-                   f"and the gaze cannot pass straight {way}")
+            wanted = base_ae[hold, 1] + plan.requested[hold, 1]
+            way = "down" if wanted.mean() < 0 else "up"  # where the request points, not where the base does
+            base = base_ae[hold, 1].mean()
+            why = (f"the base line of sight points {abs(base):.0f} deg {'down' if base < 0 else 'up'}, and the gaze "
+                   f"cannot pass straight {way}")
         elif at_limit:
             why = f"the eyes reach their range (yaw +-{limits.yaw:g}, up {limits.up:g}, down {limits.down:g} deg)"
         else:

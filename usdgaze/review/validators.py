@@ -282,10 +282,11 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
                 errors.append(_stage_error(stage, "BadShift", f"{name}: customLayerData usdgaze.shifts: {exc}"))
                 continue
             code = start + shift.time * tcps if shift.seconds else shift.time
-            if stage.HasAuthoredTimeCodeRange() and not start <= code <= end:
+            lo, hi = _sampled_range(stage, record.get("characters", []), start, end)
+            if (stage.HasAuthoredTimeCodeRange() or lo < hi) and not lo <= code <= hi:
                 errors.append(_stage_error(stage, "ShiftOutOfRange",
                                            f"{name}: shift {text} starts at time code {code:g}, outside the stage's "
-                                           f"range [{start:g}, {end:g}]"))
+                                           f"range and its characters' animation [{lo:g}, {hi:g}]"))
         for path in record.get("characters", []):
             prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
             if not prim or not prim.IsA(UsdSkel.Root):
@@ -293,6 +294,22 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
                                            f"{name}: customLayerData usdgaze.characters names {path}, which is not a "
                                            f"SkelRoot on this stage"))
     return errors
+
+
+def _sampled_range(stage, characters, start: float, end: float) -> tuple[float, float]:
+    """The stage's time range widened to its characters' animation samples: ``apply`` takes a shift
+    anywhere the animation has samples, the stage's playback range or not."""
+    lo, hi = (start, end) if stage.HasAuthoredTimeCodeRange() else (np.inf, -np.inf)
+    for path in characters:
+        prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
+        if not prim or not prim.IsA(UsdSkel.Root):
+            continue
+        for skel in (p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)):
+            anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
+            times = UsdSkel.Animation(anim).GetRotationsAttr().GetTimeSamples() if anim else []
+            if times:
+                lo, hi = min(lo, times[0]), max(hi, times[-1])
+    return float(lo), float(hi)
 
 
 def _stage_error(stage, name: str, message: str):

@@ -84,8 +84,11 @@ class AnimOverride:
         if result.added_joints:
             override.skeleton = clip.skeleton
             override.skeleton_joints = clip.joints + result.added_joints
-            override.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
-            override.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
+            rest, bind = clip.authored_poses  # no opinion the input did not have (a bind pose sets up skinning)
+            if rest:
+                override.rest_transforms = np.concatenate([clip.rest_local, result.added_rest_local])
+            if bind:
+                override.bind_transforms = np.concatenate([clip.bind_world, result.added_bind_world])
             if clip.joint_names is not None:
                 override.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
         return override

@@ -233,6 +233,7 @@ def _poses(skeleton: UsdSkel.Skeleton, joints: list[str], parents: np.ndarray, w
     """Rest (local), bind (world) and neutral (world) poses, and which authored pose the neutral came from."""
     rest_local = _matrices(skeleton.GetRestTransformsAttr())
     bind_authored = _matrices(skeleton.GetBindTransformsAttr())
+    rest_authored = rest_local is not None
     # Broken numbers are refused (the file needs fixing); a bind pose that is merely unusable as the
     # neutral (not authored, every joint at one point) falls back to the rest pose.
     for name, m in (("restTransforms", rest_local), ("bindTransforms", bind_authored)):
@@ -255,7 +256,7 @@ def _poses(skeleton: UsdSkel.Skeleton, joints: list[str], parents: np.ndarray, w
     neutral_source = f"restTransforms ({problem})" if problem else "bindTransforms"
     # Written back (extended) when eyes are added: the input's own values where they fit the joints.
     bind_world = bind_authored if bind_authored is not None and len(bind_authored) == len(joints) else rest_world
-    return rest_local, bind_world, neutral_world, neutral_source
+    return rest_local, bind_world, neutral_world, neutral_source, (rest_authored, bind_authored is not None)
 
 
 def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim, where_anim: str):
@@ -304,7 +305,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     joints, parents = _skeleton_joints(skeleton, where_skel)
     anim_prim, where_anim = _bound_animation(skel, where_skel, source)
     anim = UsdSkel.Animation(anim_prim)
-    rest_local, bind_world, neutral_world, neutral_source = _poses(skeleton, joints, parents, where_skel)
+    rest_local, bind_world, neutral_world, neutral_source, authored = _poses(skeleton, joints, parents, where_skel)
     anim_joints, anim_to_skel = _animated_joints(anim, joints, skel, where_anim)
     times, rotations, translations, scales = _animation_samples(anim, len(anim_joints), where_anim)
     joint_names = _joint_names(skeleton)
@@ -319,6 +320,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         bind_world=bind_world,
         neutral_world=neutral_world,
         neutral_source=neutral_source,
+        authored_poses=authored,
         anim_joints=anim_joints,
         anim_to_skel=anim_to_skel,
         times=times,
