@@ -141,3 +141,26 @@ def _second_character_on_the_same_animation(layer: Sdf.Layer, r) -> None:
 
 def b_skel_root_animation_shared(d):
     return apply_argv(d, edited(d, _second_character_on_the_same_animation), "--skel-root", "/Character")
+
+
+def b_up_axis_only_in_a_sublayer(d):
+    rig(d, "char.usda", up_axis="Z")
+    shot = Sdf.Layer.CreateNew(str(d / "shot.usda"))
+    shot.subLayerPaths.append("./char.usda")
+    shot.Save()
+    return apply_argv(d, d / "shot.usda")
+
+
+def _start_after_end(layer: Sdf.Layer, r) -> None:
+    layer.startTimeCode, layer.endTimeCode = 89.0, 0.0
+
+
+def b_start_after_end(d):
+    return apply_argv(d, edited(d, _start_after_end))
+
+
+def b_map_prim_path_not_absolute(d):
+    from .bad_common import dump_map
+
+    dump_map(d / "map.usda")
+    return apply_argv(d, rig(d).path, "--map", f"{d / 'map.usda'}:GazeMap")

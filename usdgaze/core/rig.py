@@ -102,14 +102,18 @@ def _explicit(joints: list[str], bindings, labels, where: str) -> tuple[dict[str
             raise RigError(f"{where}: {label}: names joint '{names.leaf(joints[twice[0]])}' twice")
         found[role] = sorted(picked)
         reasons[role] = label
-    owner: dict[int, str] = {}
-    for role, js in found.items():
-        for j in js:
-            if j in owner:
-                raise RigError(f"{where}: joint '{names.leaf(joints[j])}' is bound to two roles, {owner[j]} and "
-                               f"{role}; a joint plays one role")
-            owner[j] = role
+    _one_role_each(joints, found, where, "a joint plays one role")
     return found, reasons
+
+
+def _one_role_each(joints: list[str], found: dict[str, list[int]], where: str, advice: str) -> None:
+    owner: dict[int, str] = {}
+    for role in ROLES:
+        for j in found.get(role, []):
+            if j in owner:
+                raise RigError(f"{where}: joint '{names.leaf(joints[j])}' would play two roles, {owner[j]} and "
+                               f"{role}; {advice}")
+            owner[j] = role
 
 
 def _check_bound_places(path: list[int], head: int, joints, parents, found, bindings, labels, where: str) -> None:
@@ -306,13 +310,8 @@ def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple
         raise RigError(f"{where}: found only one eye joint; considered {_listed(joints, considered)}; "
                        f"{_described(joints, found)}; {_HINT}")
 
-    owner: dict[int, str] = {}
-    for role in ROLES:  # a binding may have taken a joint the names gave another role
-        for j in found.get(role, []):
-            if j in owner:
-                raise RigError(f"{where}: joint '{names.leaf(joints[j])}' would play two roles, {owner[j]} and {role} "
-                               f"(one of them bound); {_described(joints, found)}; {_HINT}")
-            owner[j] = role
+    # A binding may have taken a joint the names gave another role.
+    _one_role_each(joints, found, where, f"one of them is bound; {_described(joints, found)}; {_HINT}")
     pelvis = found["pelvis"][-1]
     on_chain = set(path)
     legs = tuple(i for i in range(len(joints)) if parents[i] == pelvis and i not in on_chain)

@@ -20,6 +20,13 @@ def not_a_file(path: str | os.PathLike) -> str | None:
         return None
     if stat.S_ISDIR(mode):
         return "is a folder, expected a file"
-    kind = ("a character device" if stat.S_ISCHR(mode) else "a block device" if stat.S_ISBLK(mode)
-            else "a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "not a file")
-    return f"is {kind}, not a regular file"
+    return f"is {special_kind(mode) or 'not a file'}, not a regular file"
+
+
+def special_kind(mode: int) -> str | None:
+    """A device, pipe or socket's kind in words, from its ``st_mode``; ``None`` for anything else."""
+    for test, kind in ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return kind
+    return None

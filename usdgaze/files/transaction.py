@@ -30,6 +30,7 @@ from typing import Callable
 
 from usdgaze.errors import Interrupted, UsdGazeError, usd_failure
 from usdgaze.files.identity import Identities, real_path
+from usdgaze.files.kinds import special_kind
 
 TMP_PREFIX = ".usdgaze-tmp-"
 _STALE_FOREIGN_S = 24 * 3600.0  # another host's leftovers: we cannot ask whether its process lives
@@ -311,18 +312,11 @@ class Outputs:
 
 
 def _special_kind(path: Path) -> str | None:
-    """What ``path`` is when it exists and is neither a regular file nor a symlink (followed or not)."""
-    import stat
-
+    """What ``path`` is when it exists and is a device, pipe or socket (not followed)."""
     try:
-        mode = path.lstat().st_mode
+        return special_kind(path.lstat().st_mode)
     except OSError:
         return None
-    for test, kind in ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-                       (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket")):
-        if test(mode):
-            return kind
-    return None
 
 
 def _unfollowed(path: str | os.PathLike) -> Path:

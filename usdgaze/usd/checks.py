@@ -24,12 +24,22 @@ def check_stage(stage: Usd.Stage, source: str) -> None:
     up = stage.GetMetadata("upAxis") if stage.HasAuthoredMetadata("upAxis") else "Y"
     if str(up) not in ("Y", "Z"):
         raise UsdGazeError(f"{source}: upAxis is '{up}', expected Y or Z (UsdGeom knows no other up axis)")
+    if not stage.HasAuthoredMetadata("upAxis"):
+        # Stage metadata comes from the root layer alone; a sublayer's own up axis is ignored.
+        for layer in stage.GetLayerStack(includeSessionLayers=False)[1:]:
+            if layer.pseudoRoot.HasInfo("upAxis") and layer.pseudoRoot.GetInfo("upAxis") != "Y":
+                raise UsdGazeError(
+                    f"{source}: authors no upAxis, so USD takes Y, but its sublayer {layer.identifier} says "
+                    f"{layer.pseudoRoot.GetInfo('upAxis')}; author upAxis on {source} itself")
     for key, what in (("metersPerUnit", "a length"), ("timeCodesPerSecond", "a rate"), ("framesPerSecond", "a rate")):
         if not stage.HasAuthoredMetadata(key):
             continue
         value = stage.GetMetadata(key)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
             raise UsdGazeError(f"{source}: {key} is {value!r}, expected {what} > 0")
+    if stage.HasAuthoredTimeCodeRange() and stage.GetStartTimeCode() > stage.GetEndTimeCode():
+        raise UsdGazeError(f"{source}: startTimeCode {stage.GetStartTimeCode():g} is after endTimeCode "
+                           f"{stage.GetEndTimeCode():g}")
 
 
 def check_types(prim: Usd.Prim, expected: dict[str, str], where: str) -> None:

@@ -320,6 +320,8 @@ def _split_spec(spec: str) -> tuple[str, str | None]:
     file, sep, prim_path = spec.rpartition(":")
     if sep and file and prim_path.startswith("/"):
         return file, prim_path
+    if sep and file and prim_path and os.path.exists(file):
+        raise GazeMapError(f"{spec}: the prim path after ':' must be absolute, as in {file}:/{prim_path}")
     return spec, None
 
 

@@ -6,7 +6,6 @@ import contextlib
 import os
 import re
 import sys
-import tempfile
 
 from pxr import Sdf, Usd
 
@@ -60,22 +59,39 @@ def _usd_warnings():
     said = _Said()
     sys.stderr.flush()
     try:
-        saved = os.dup(2)
-    except OSError:  # no stderr to hold back
+        held = _scratch()
+    except OSError:  # nowhere to hold them: USD prints as it goes
         yield said
         return
-    with tempfile.TemporaryFile() as held:
-        os.dup2(held.fileno(), 2)
-        try:
-            yield said
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            if said.keep:
-                held.seek(0)
-                text = held.read()
-                if text:
-                    os.write(2, text)
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to hold back
+        os.close(held)
+        yield said
+        return
+    os.dup2(held, 2)
+    try:
+        yield said
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        if said.keep:
+            os.lseek(held, 0, os.SEEK_SET)
+            text = os.read(held, 1 << 20)
+            if text:
+                os.write(2, text)
+        os.close(held)
+
+
+def _scratch() -> int:
+    """A file descriptor of an unnamed scratch file (in memory on Linux: no tempfile import)."""
+    if hasattr(os, "memfd_create"):
+        return os.memfd_create("usdgaze-usd-warnings")
+    import tempfile
+
+    fd, name = tempfile.mkstemp(prefix="usdgaze-")
+    os.unlink(name)
+    return fd
 
 
 def layer_dependencies(path: str | os.PathLike) -> list[str]:
