@@ -164,3 +164,12 @@ def b_map_prim_path_not_absolute(d):
 
     dump_map(d / "map.usda")
     return apply_argv(d, rig(d).path, "--map", f"{d / 'map.usda'}:GazeMap")
+
+
+def b_meters_per_unit_only_in_a_sublayer(d):
+    rig(d, "char.usda", meters_per_unit=1.0)
+    shot = Sdf.Layer.CreateNew(str(d / "shot.usda"))
+    shot.subLayerPaths.append("./char.usda")
+    shot.pseudoRoot.SetInfo("upAxis", "Y")
+    shot.Save()
+    return apply_argv(d, d / "shot.usda")

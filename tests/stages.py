@@ -59,6 +59,7 @@ def with_targets(path: Path, base: Path, centre, radius: float, deg_per_s: float
     Xform at (1, 0, 0) with a pivot at (0, 2, 0) local)."""
     stage = Usd.Stage.CreateNew(str(path))
     stage.GetRootLayer().subLayerPaths.append(str(base))
+    UsdGeom.SetStageMetersPerUnit(stage, UsdGeom.GetStageMetersPerUnit(Usd.Stage.Open(str(base))))
     stage.SetTimeCodesPerSecond(tcps)
     stage.SetStartTimeCode(1)
     stage.SetEndTimeCode(frames)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pxr import Gf, Sdf, Vt
 
 from tests import measure
 from tests.attend_support import ATTEND, angle_to, compose, episodes, gaze, inspection, positions
@@ -275,3 +276,31 @@ def test_realize_map_looks_at_the_planners_fixations_through_the_gaze_map(tmp_pa
     head = plain.index("Head")
     turn = measure.rotation_angle_deg(moved.world[:, head, :3, :3], plain.world[:, head, :3, :3])
     assert turn.max() > 2.0  # the head took part (the ball comes from nearly straight ahead)
+
+
+def test_a_mirrored_character_looks_at_the_balls_as_the_plain_one_does(tmp_path):
+    """The character's SkelRoot parent scaled (-1, 1, 1) (a mirrored copy): the planner's world turns
+    and eye yaw are carried into the skeleton with their sense reversed, so the eyes still find the
+    balls (measured by UsdSkel FK on the written layer against the balls' true positions)."""
+    stage = ATTEND / "two_balls.usda"
+    mirrored = tmp_path / "mirrored.usda"
+    layer = Sdf.Layer.CreateNew(str(mirrored))
+    layer.subLayerPaths.append(str(stage))
+    src = Sdf.Layer.FindOrOpen(str(stage))
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(layer, key, getattr(src, key))
+    for key in ("upAxis", "metersPerUnit"):  # stage metadata is the root layer's alone
+        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    root = Sdf.CreatePrimInLayer(layer, "/root")
+    root.specifier = Sdf.SpecifierOver
+    Sdf.AttributeSpec(root, "xformOp:scale", Sdf.ValueTypeNames.Float3).default = Gf.Vec3f(-1.0, 1.0, 1.0)
+    order = Sdf.AttributeSpec(root, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform)
+    order.default = Vt.TokenArray(["xformOp:scale", "xformOp:rotateXYZ"])  # the walk's own rotation kept
+    layer.Save()
+    medians = []
+    for name, src_stage in (("plain.usdc", stage), ("mirrored.usdc", mirrored)):
+        _, g = _run(tmp_path, src_stage, name=name)
+        near = np.min([angle_to(g, positions(g.stage, b, g.times)) for b in ("/Objects/BallLeft", "/Objects/BallRight")],
+                      axis=0)
+        medians.append(np.median(near))
+    assert max(medians) <= FIX_DEG, medians  # the plain one beside it (unfixed, the mirrored one was 53-78 deg)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Usd, UsdSkel
+from pxr import Usd, UsdGeom, UsdSkel
 
 from usdgaze import api
 from usdgaze.errors import UsdGazeError
@@ -39,6 +39,9 @@ def _with_schedule(d, root, requests, name):
     stage = Usd.Stage.CreateNew(str(path))
     stage.GetRootLayer().subLayerPaths.append(str(root))
     stage.SetTimeCodesPerSecond(TCPS)  # as the layers below: no rescaled samples
+    below = Usd.Stage.Open(str(root))  # and their units: a stage's are its root layer's
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.GetStageUpAxis(below))
+    UsdGeom.SetStageMetersPerUnit(stage, UsdGeom.GetStageMetersPerUnit(below))
     prim = stage.OverridePrim("/root/Body")
     schedule.write_schedule(prim, requests)
     stage.GetRootLayer().Save()

@@ -29,7 +29,8 @@ def _tree(tmp_path: Path, body: str) -> Path:
     shutil.copy(CMU / "cmu_131_02.usdc", tmp_path / "walk2.usdc")
     # A root layer composing walk1 and a small sublayer: editing either must redo the shot.
     (tmp_path / "notes.usda").write_text('#usda 1.0\ndef "Notes" {\n    custom string note = "take 1"\n}\n')
-    (tmp_path / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./notes.usda@, @./walk1.usdc@]\n)\n')
+    (tmp_path / "shot.usda").write_text('#usda 1.0\n(\n    metersPerUnit = 1\n    subLayers = [@./notes.usda@, @./walk1.usdc@]\n'
+                                        '    upAxis = "Y"\n)\n')  # a stage's units are its root layer's
     manifest = tmp_path / "jobs.toml"
     manifest.write_text(body)
     return manifest

@@ -71,7 +71,8 @@ def test_reader_matches_usd_value_resolution(tmp_path, case):
     # Same time codes per second as the walk, so the offset is the only time mapping.
     tcps = Usd.Stage.Open(str(CMU)).GetTimeCodesPerSecond()
     (tmp_path / "shot.usda").write_text(
-        f"#usda 1.0\n(\n    timeCodesPerSecond = {tcps!r}\n    subLayers = [{', '.join(layers)}]\n)\n")
+        f"#usda 1.0\n(\n    timeCodesPerSecond = {tcps!r}\n    metersPerUnit = 1\n    upAxis = \"Y\"\n"
+        f"    subLayers = [{', '.join(layers)}]\n)\n")
 
     clip = _read(tmp_path / "shot.usda")
     expected_times = _union_times(tmp_path / "shot.usda")

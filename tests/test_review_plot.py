@@ -43,7 +43,8 @@ def composed_root(layer: Path | None, base: Path = CMU) -> Sdf.Layer:
     root = Sdf.Layer.CreateAnonymous(".usda")
     root.timeCodesPerSecond, root.framesPerSecond = src.timeCodesPerSecond, src.framesPerSecond
     root.startTimeCode, root.endTimeCode = src.startTimeCode, src.endTimeCode
-    root.pseudoRoot.SetInfo("upAxis", src.pseudoRoot.GetInfo("upAxis"))
+    for key in ("upAxis", "metersPerUnit"):  # a stage's units are its root layer's
+        root.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
     root.subLayerPaths = [str(layer), str(base)] if layer is not None else [str(base)]
     return root
 

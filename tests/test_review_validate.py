@@ -171,6 +171,8 @@ def test_a_shift_past_the_playback_range_but_inside_the_animation_passes_both(tm
     shot = tmp_path / "shot.usda"
     layer = Sdf.Layer.CreateNew(str(shot))
     layer.subLayerPaths.append(str(SAMPLES[0]))
+    layer.pseudoRoot.SetInfo("upAxis", "Y")
+    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
     layer.startTimeCode, layer.endTimeCode = 1.0, 200.0  # the walk's samples run to 994
     layer.timeCodesPerSecond = layer.framesPerSecond = Usd.Stage.Open(str(SAMPLES[0])).GetTimeCodesPerSecond()
     layer.Save()

@@ -24,13 +24,7 @@ def check_stage(stage: Usd.Stage, source: str) -> None:
     up = stage.GetMetadata("upAxis") if stage.HasAuthoredMetadata("upAxis") else "Y"
     if str(up) not in ("Y", "Z"):
         raise UsdGazeError(f"{source}: upAxis is '{up}', expected Y or Z (UsdGeom knows no other up axis)")
-    if not stage.HasAuthoredMetadata("upAxis"):
-        # Stage metadata comes from the root layer alone; a sublayer's own up axis is ignored.
-        for layer in stage.GetLayerStack(includeSessionLayers=False)[1:]:
-            if layer.pseudoRoot.HasInfo("upAxis") and layer.pseudoRoot.GetInfo("upAxis") != "Y":
-                raise UsdGazeError(
-                    f"{source}: authors no upAxis, so USD takes Y, but its sublayer {layer.identifier} says "
-                    f"{layer.pseudoRoot.GetInfo('upAxis')}; author upAxis on {source} itself")
+    _check_root_metadata(stage, source)
     for key, what in (("metersPerUnit", "a length"), ("timeCodesPerSecond", "a rate"), ("framesPerSecond", "a rate")):
         if not stage.HasAuthoredMetadata(key):
             continue
@@ -40,6 +34,19 @@ def check_stage(stage: Usd.Stage, source: str) -> None:
     if stage.HasAuthoredTimeCodeRange() and stage.GetStartTimeCode() > stage.GetEndTimeCode():
         raise UsdGazeError(f"{source}: startTimeCode {stage.GetStartTimeCode():g} is after endTimeCode "
                            f"{stage.GetEndTimeCode():g}")
+
+
+def _check_root_metadata(stage: Usd.Stage, source: str) -> None:
+    """Stage metadata comes from the root layer alone: a sublayer's own up axis or unit is ignored, so
+    a root that authors none over a sublayer that says otherwise is read in USD's fallback."""
+    for key, fallback in (("upAxis", "Y"), ("metersPerUnit", 0.01)):
+        if stage.HasAuthoredMetadata(key):
+            continue
+        for layer in stage.GetLayerStack(includeSessionLayers=False)[1:]:
+            if layer.pseudoRoot.HasInfo(key) and layer.pseudoRoot.GetInfo(key) != fallback:
+                raise UsdGazeError(
+                    f"{source}: authors no {key}, so USD takes {fallback}, but its sublayer {layer.identifier} says "
+                    f"{layer.pseudoRoot.GetInfo(key)}; author {key} on {source} itself")
 
 
 def check_types(prim: Usd.Prim, expected: dict[str, str], where: str) -> None:
