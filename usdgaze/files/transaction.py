@@ -5,8 +5,9 @@ name, ``--no-clobber``, and identity against every file read, see :mod:`.identit
 files it reads, stages each output (a USD layer, a plot, text) into a temporary folder
 ``.usdgaze-tmp-<host>-<pid>-<token>`` beside the output, and commits at the end. The commit renames
 every staged file over its target, and if one rename fails, puts back what the earlier ones
-replaced. On any error, SIGTERM or SIGINT nothing of the command remains, USD's own temporaries
-included (they go into the same folder). After SIGKILL the targets are untouched and the leftover
+replaced; a SIGTERM or SIGINT that arrives during the renames waits for them. Otherwise, on any
+error, SIGTERM or SIGINT nothing of the command remains, USD's own temporaries included (they go
+into the same folder). After SIGKILL the targets are untouched and the leftover
 folder is removed by the next run that writes into that folder.
 
 New files get mode ``0666 & ~umask``; a replaced file keeps its mode. Symlinks are written through
