@@ -265,9 +265,10 @@ def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim,
     if not anim_joints:
         raise UsdGazeError(f"{where_anim}.joints: the animation names no joints")
     index = {j: i for i, j in enumerate(joints)}
-    twice = [j for k, j in enumerate(anim_joints) if j in anim_joints[:k]]
-    if twice:
-        raise UsdGazeError(f"{where_anim}.joints: joint '{twice[0]}' is listed twice")
+    if len(set(anim_joints)) < len(anim_joints):
+        seen: set[str] = set()
+        twice = next(j for j in anim_joints if j in seen or seen.add(j))
+        raise UsdGazeError(f"{where_anim}.joints: joint '{twice}' is listed twice")
     missing = [j for j in anim_joints if j not in index]
     if missing:
         raise UsdGazeError(f"{where_anim}.joints: '{missing[0]}' is not a joint of {skel.GetPath()}")
