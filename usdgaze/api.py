@@ -32,7 +32,7 @@ from usdgaze.usd.layers import (
     write_preview,
 )
 from usdgaze.values import ShiftRequest, check_pass_options, cli_label
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 # The Python API: these names are imported from here (usdgaze.api.bind, select_roots, ApplyRequest, ...).
 __all__ = ["ApplyReport", "ApplyRequest", "CharacterReport", "ShiftRequest", "apply", "bind", "built_map",
@@ -83,9 +83,7 @@ def check_request(req: ApplyRequest, label=cli_label) -> list[DirectiveRequest]:
 
 
 def _claim_outputs(tx: Outputs, req: ApplyRequest) -> None:
-    problem = not_a_file(req.source)
-    if problem:
-        raise UsdGazeError(f"{req.source}: {problem}")
+    require_file(req.source)
     tx.read(req.source)  # first, so a clash names the input as such
     if req.make_folders:
         for path in (req.out, req.preview, req.plot):

@@ -14,7 +14,7 @@ from usdgaze import __version__
 from usdgaze.errors import UsdGazeError
 from usdgaze.vision import loop
 from usdgaze.vision.costs import Weights
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 if TYPE_CHECKING:
     from usdgaze.core.hints import BindHints
@@ -85,9 +85,7 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
     settings = settings or AttendSettings()
     settings.check()
     source = str(input_path)
-    problem = not_a_file(source)
-    if problem:
-        raise UsdGazeError(f"{source}: {problem}")
+    require_file(source)
     with Outputs(no_clobber=no_clobber) as tx:
         from usdgaze.api import _open_input
         from usdgaze.usd.layers import check_output_path

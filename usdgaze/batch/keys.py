@@ -15,7 +15,7 @@ import os
 
 from usdgaze.batch.manifest import Shot
 from usdgaze.errors import UsdGazeError
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 KEY_FIELD = "batchKey"
 
@@ -35,9 +35,7 @@ def composed_files(root: str) -> tuple[list[str], list[str], list]:
 
     from usdgaze.errors import usd_failure
 
-    problem = not_a_file(root)
-    if problem:
-        raise UsdGazeError(f"{root}: {problem}")
+    require_file(root)
     try:
         layers, _assets, unresolved = UsdUtils.ComputeAllDependencies(root)
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text

@@ -65,6 +65,12 @@ class SkelClip:
     def world_up(self) -> np.ndarray:
         return np.array([0.0, 0.0, 1.0]) if self.up_axis == "Z" else np.array([0.0, 1.0, 0.0])
 
+    @property
+    def handedness(self) -> np.ndarray:
+        """Per frame ``(F,)``: +1, or -1 where skeleton -> world mirrors (a negative scale on the
+        SkelRoot or above), so the skeleton's left is the world's right."""
+        return np.sign(np.linalg.det(self.skel_to_world[:, :3, :3]))
+
     def rest_world(self) -> np.ndarray:
         """Skeleton-space rest transforms ``(J, 4, 4)``."""
         from usdgaze.core.kinematics import world_matrices

@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 import stat
 
+from usdgaze.errors import UsdGazeError
+
 
 def not_a_file(path: str | os.PathLike) -> str | None:
     """``None`` for a regular file (through symlinks); else why it cannot be read as one."""
@@ -21,6 +23,13 @@ def not_a_file(path: str | os.PathLike) -> str | None:
     if stat.S_ISDIR(mode):
         return "is a folder, expected a file"
     return f"is {special_kind(mode) or 'not a file'}, not a regular file"
+
+
+def require_file(path: str | os.PathLike, error: type[UsdGazeError] = UsdGazeError, where: str | None = None) -> None:
+    """One ``error`` line, ``WHERE: why``, unless ``path`` is a regular file (``where``: the path)."""
+    problem = not_a_file(path)
+    if problem:
+        raise error(f"{where or path}: {problem}")
 
 
 def special_kind(mode: int) -> str | None:

@@ -21,7 +21,7 @@ from usdgaze.ingest.markers import MarkerSet, SkeletonBinding, load_markerset
 from usdgaze.ingest.series import TrialSeries, read_marker_series
 from usdgaze.ingest.settings import BuildSettings
 from usdgaze.ingest.sheet import Sheet, Trial, load_sheet
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 
 LANDMARK_NAMES = ("pelvis", "lowerSpine", "upperSpine", "head")
@@ -119,9 +119,7 @@ class BuildResult:
 
 def load_series(trial: Trial, markerset: MarkerSet | None, binding: SkeletonBinding, where: str) -> TrialSeries:
     """Read one trial's file into a :class:`TrialSeries` (C3D markers or a UsdSkel clip)."""
-    problem = not_a_file(trial.file)
-    if problem:
-        raise TrialError(f"{where}: {problem}")
+    require_file(trial.file, TrialError, where)
     if trial.is_skeletal:
         from usdgaze.ingest.skelclips import read_skeleton_series  # pxr only for skeletal sessions
 

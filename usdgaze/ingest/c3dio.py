@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from usdgaze.errors import UsdGazeError
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 MM_PER_UNIT = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "cm": 10.0, "dm": 100.0, "m": 1000.0,
                "meter": 1000.0, "metre": 1000.0, "in": 25.4, "inch": 25.4, "ft": 304.8}
@@ -74,9 +74,7 @@ def _units(values, path: str, n_markers: int) -> tuple[str, float, np.ndarray]:
 def read_c3d(path: str | Path) -> MarkerCapture:
     """Read the points of a C3D file (analogs are ignored)."""
     path = str(path)
-    problem = not_a_file(path)
-    if problem:
-        raise C3DError(f"{path}: {problem}")
+    require_file(path, C3DError)
     ezc3d = _ezc3d()
     try:
         c3d = ezc3d.c3d(path)

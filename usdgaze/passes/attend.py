@@ -136,7 +136,7 @@ def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local,
     to_rest = rot.multiply(moved.rotation[head], rot.conjugate(rig.rest_q[head]))
     f, l, u = (rot.rotate(to_rest, np.broadcast_to(v, (n, 3))) for v in (frame.forward, frame.left, frame.up))
     # The eye pose's yaw is toward the world's left; a mirrored SkelRoot puts the skeleton's left on the world's right.
-    l = l * _handedness(clip)[:, None]
+    l = l * clip.handedness[:, None]
     ct, st, cp, sp = np.cos(e[:, 0]), np.sin(e[:, 0]), np.cos(e[:, 1]), np.sin(e[:, 1])
     direction = (cp * ct)[:, None] * f + (cp * st)[:, None] * l + sp[:, None] * u
     mid = 0.5 * sum(moved.place(int(rig.parents[j]), rig.local(j)[0]) for j in rig.eyes)
@@ -145,11 +145,6 @@ def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local,
     sight_skel = mid + dist[:, None] * direction
     eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP)
     return eyes.rotations, _world(clip.skel_to_world, sight_skel)
-
-
-def _handedness(clip: SkelClip) -> np.ndarray:
-    """Per frame +1, or -1 where skeleton -> world mirrors (a negative scale on the SkelRoot)."""
-    return np.sign(np.linalg.det(clip.skel_to_world[:, :3, :3]))
 
 
 def _drive(clip: SkelClip, rig, base: Pose, spine: int, neck: int, q: np.ndarray, left_w: np.ndarray
@@ -164,7 +159,7 @@ def _drive(clip: SkelClip, rig, base: Pose, spine: int, neck: int, q: np.ndarray
         return rot.multiply(rot.from_axis_angle(up_s, yaw), rot.from_axis_angle(left_s, pitch))
 
     # World turns in skeleton space: a mirroring skel_to_world reverses every rotation's sense.
-    q = q * _handedness(clip)[:, None]
+    q = q * clip.handedness[:, None]
     gs, gn = g(q[:, 0], q[:, 1]), g(q[:, 2], q[:, 3])
     ident = np.tile(rot.IDENTITY, (len(q), 1))
     out = {}

@@ -183,10 +183,11 @@ class Body:
 def move_body(base: Base, chain: Chain, frame: CharacterFrame, displacement: np.ndarray) -> Body:
     """Drive the chain with per-frame segment offsets; legs keep their world pose; FK to the eyes."""
     rig = base.rig
-    if np.linalg.det(base.skel_to_world[0]) < 0.0:
+    mirrored = rig.clip.handedness < 0.0
+    if mirrored.any():
         # A mirrored SkelRoot (a negative scale): the skeleton's left is the world's right, and a
         # request's yaw is toward the character's left as the world sees it.
-        displacement = rot.mirror_left_right(displacement)
+        displacement = np.where(mirrored[:, None, None], rot.mirror_left_right(displacement), displacement)
     new_rot, new_world = _drive_chain(rig, chain, frame, displacement, base.pose)
     leg_rot, new_trans = _counter_rotate_legs(rig, chain, base.pose, new_world)
     new_rot.update(leg_rot)

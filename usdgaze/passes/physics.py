@@ -35,7 +35,7 @@ import numpy as np
 from usdgaze.core.hints import BindHints
 from usdgaze.errors import UsdGazeError
 from usdgaze.physics import mpc
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 PUSH_FORCE = "usdgaze:physics:pushForce"
 PUSH_JOINT = "usdgaze:physics:pushJoint"
@@ -306,9 +306,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
 
     require_mujoco()  # before any work: a missing extra is one line, exit 2
     source = str(input_path)
-    problem = not_a_file(source)
-    if problem:
-        raise UsdGazeError(f"{source}: {problem}")
+    require_file(source)
     check_window(options, f"--window {options.horizon_s:g} s")
     with Outputs(no_clobber=no_clobber) as tx:
         tx.read(source)  # first, so a clash names the input as such

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-
 from usdgaze.errors import UsdGazeError
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 
 def inspect_stage(path: str, hints=None) -> dict:
@@ -20,9 +19,7 @@ def inspect_stage(path: str, hints=None) -> dict:
     from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
     from usdgaze.usd.stage import open_stage
 
-    problem = not_a_file(path)
-    if problem:
-        raise UsdGazeError(f"{path}: {problem}")
+    require_file(path)
     stage = open_stage(path)
     check_stage(stage, str(path))
     info = {

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 
 from usdgaze.errors import UsdGazeError
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 _SEVERITY = {"Error": "error", "Warn": "warning", "Info": "info"}
 
@@ -14,9 +14,7 @@ def _open(stage_path: str, layer: str | None):
     from usdgaze.review.composed import composed_stage
     from usdgaze.usd.stage import open_stage
 
-    problem = not_a_file(stage_path)
-    if problem:
-        raise UsdGazeError(f"{stage_path}: {problem}")
+    require_file(stage_path)
     if layer is not None:
         return composed_stage(stage_path, layer)[0]
     return open_stage(stage_path)

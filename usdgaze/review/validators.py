@@ -275,6 +275,7 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
         if not isinstance(record, dict) or "shifts" not in record:
             continue
         name = layer.GetDisplayName()
+        lo, hi = _sampled_range(stage, record.get("characters", []), start, end)
         for text in record.get("shifts", []):
             try:
                 shift = ShiftRequest.parse(str(text))
@@ -282,7 +283,6 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
                 errors.append(_stage_error(stage, "BadShift", f"{name}: customLayerData usdgaze.shifts: {exc}"))
                 continue
             code = start + shift.time * tcps if shift.seconds else shift.time
-            lo, hi = _sampled_range(stage, record.get("characters", []), start, end)
             if (stage.HasAuthoredTimeCodeRange() or lo < hi) and not lo <= code <= hi:
                 errors.append(_stage_error(stage, "ShiftOutOfRange",
                                            f"{name}: shift {text} starts at time code {code:g}, outside the stage's "

@@ -10,7 +10,7 @@ import sys
 from pxr import Sdf, Usd
 
 from usdgaze.errors import UsdGazeError, usd_failure
-from usdgaze.files.kinds import not_a_file
+from usdgaze.files.kinds import require_file
 
 
 def open_stage(path: str | os.PathLike, where: str | None = None,
@@ -21,9 +21,7 @@ def open_stage(path: str | os.PathLike, where: str | None = None,
     """
     path = os.fspath(path)
     where = where or path
-    problem = not_a_file(path)
-    if problem:
-        raise error(f"{where}: {problem}")
+    require_file(path, error, where)
     with _usd_warnings() as said:
         try:
             stage = Usd.Stage.Open(path)
