@@ -430,6 +430,25 @@ def b_sublayer_into_with_own_opinion(d):
     return apply_argv(d, r.path, "--sublayer-into", str(d / "shot.usda"))
 
 
+def b_sublayer_into_with_own_binding(d):
+    r = rig(d)
+    layer = Sdf.Layer.FindOrOpen(str(r.path))
+    layer.Reload(force=True)
+    skel = layer.GetPrimAtPath(r.skeleton)
+    del skel.properties["skel:animationSource"]  # unbound: the override defines and binds an animation
+    layer.Save()
+    shot = Sdf.Layer.CreateNew(str(d / "shot.usda"))
+    for key in ("upAxis", "metersPerUnit"):
+        if layer.pseudoRoot.HasInfo(key):
+            shot.pseudoRoot.SetInfo(key, layer.pseudoRoot.GetInfo(key))
+    shot.subLayerPaths.append("./in.usda")
+    over = Sdf.CreatePrimInLayer(shot, r.skeleton)
+    over.specifier = Sdf.SpecifierOver
+    Sdf.RelationshipSpec(over, "skel:animationSource", custom=False).targetPathList.explicitItems = []
+    shot.Save()
+    return apply_argv(d, r.path, "--sublayer-into", str(d / "shot.usda"))
+
+
 def b_sublayer_into_disk_full(d):
     rig(d)
     full = _full_folder(d, lambda f: (f / "shot.usda").write_text("#usda 1.0\n(\n    subLayers = [@../in.usda@]\n)\n"))

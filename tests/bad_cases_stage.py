@@ -245,12 +245,6 @@ def b_bind_transforms_count(d):
     return apply_argv(d, edited(d, short))
 
 
-def b_animation_source_without_targets(d):
-    def empty(layer, r):
-        layer.GetRelationshipAtPath(r.skeleton + ".skel:animationSource").targetPathList.explicitItems = []
-    return apply_argv(d, edited(d, empty))
-
-
 def b_input_map_samples_huge(d):
     def huge(layer, r):
         from usdgaze.gaze.defaults import default_definition

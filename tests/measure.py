@@ -48,8 +48,9 @@ class Posed:
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def posed(stage_path: str, skeleton: str, mute: list[str] | None = None, neutral: str = "bind") -> Posed:
-    """World transforms of every joint at every animation time sample, by UsdSkel.
+def posed(stage_path: str, skeleton: str, mute: list[str] | None = None, neutral: str = "bind",
+          times=None) -> Posed:
+    """World transforms of every joint at every animation time sample (or at ``times``), by UsdSkel.
 
     ``neutral="rest"`` takes head and eye axes from the rest pose even where a bind pose exists.
     """
@@ -62,7 +63,7 @@ def posed(stage_path: str, skeleton: str, mute: list[str] | None = None, neutral
     cache.Populate(root, Usd.PrimDefaultPredicate)
     query = cache.GetSkelQuery(skel)
     xf = UsdGeom.Xformable(skel.GetPrim())
-    times = np.array(query.GetAnimQuery().GetJointTransformTimeSamples())
+    times = np.array(query.GetAnimQuery().GetJointTransformTimeSamples() if times is None else times, dtype=float)
     world = np.stack([
         np.array(query.ComputeJointSkelTransforms(Usd.TimeCode(t)))
         @ np.array(xf.ComputeLocalToWorldTransform(Usd.TimeCode(t)))

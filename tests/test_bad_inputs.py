@@ -120,7 +120,11 @@ def b_skelroot_without_skeleton(d):
 
 
 def b_skeleton_without_animation_source(d):
-    return _apply(d, _edited(d, lambda layer, rig: _remove(layer, rig.skeleton + ".skel:animationSource")))
+    def unbound_without_range(layer, rig):
+        _remove(layer, rig.skeleton + ".skel:animationSource")
+        layer.ClearStartTimeCode()
+        layer.ClearEndTimeCode()
+    return _apply(d, _edited(d, unbound_without_range))
 
 
 def b_animation_source_not_an_animation(d):
@@ -134,15 +138,30 @@ def b_two_skeletons_one_animation(d):
     return _apply(d, _edited(d, lambda layer, rig: Sdf.CopySpec(layer, rig.skeleton, layer, rig.skel_root + "/Skel2")))
 
 
+def _still(layer, rig):
+    """The animation's first pose as defaults: no time samples left."""
+    for name in ("rotations", "translations", "scales"):
+        spec = layer.GetAttributeAtPath(f"{rig.animation}.{name}")
+        first = layer.QueryTimeSample(spec.path, float(rig.times[0]))
+        for t in rig.times:
+            layer.EraseTimeSample(spec.path, float(t))
+        spec.default = first
+
+
 def b_animation_without_time_samples(d):
-    def still(layer, rig):
-        for name in ("rotations", "translations", "scales"):
-            spec = layer.GetAttributeAtPath(f"{rig.animation}.{name}")
-            first = layer.QueryTimeSample(spec.path, float(rig.times[0]))
-            for t in rig.times:
-                layer.EraseTimeSample(spec.path, float(t))
-            spec.default = first
-    return _apply(d, _edited(d, still))
+    def still_without_range(layer, rig):
+        _still(layer, rig)
+        layer.ClearStartTimeCode()
+        layer.ClearEndTimeCode()
+    return _apply(d, _edited(d, still_without_range))
+
+
+def b_still_pose_range_too_long(d):
+    def still_for_ever(layer, rig):
+        _still(layer, rig)
+        layer.timeCodesPerSecond = layer.framesPerSecond = 24.0
+        layer.startTimeCode, layer.endTimeCode = 0.0, 1e8
+    return _apply(d, _edited(d, still_for_ever))
 
 
 def b_rotations_length_not_joints(d):

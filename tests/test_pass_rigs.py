@@ -408,3 +408,37 @@ def test_sublayer_into_the_input_itself_is_refused_before_writing(tmp_path):
     assert not (tmp_path / "gaze.usdc").exists()
     assert measure.sha256(rig.path) == src_hash
     assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.usda"]
+
+
+def test_generic_joint_tokens_bind_by_the_skeletons_joint_names(tmp_path):
+    # Tokens that say nothing (j0/j1/...), with the DCC's names in Skeleton.jointNames: the chain is
+    # found by those names, and the gaze reaches the request by UsdSkel FK.
+    rig = syn.make_rig(tmp_path / "in.usda", frames=90, mesh=False, time_codes_per_second=30)
+    parent = {j: (j.rsplit("/", 1)[0] if "/" in j else None) for j in rig.joints}
+    token: dict[str, str] = {}
+    for i, j in enumerate(rig.joints):
+        token[j] = f"{token[parent[j]]}/j{i}" if parent[j] else f"j{i}"
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    for prim in (rig.skeleton, rig.animation):
+        spec = layer.GetAttributeAtPath(f"{prim}.joints")
+        spec.default = [token[str(j)] for j in spec.default]
+    layer.Save()
+    names = list(layer.GetAttributeAtPath(f"{rig.skeleton}.jointNames").default)
+    assert "mixamorig:Head" in names
+    report = api.apply(rig.path, ["0.5s:40:0"], tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
+    chain = report.characters[0].chain
+    assert chain["head"] == [token[rig.joint("head")]] and chain["pelvis"] == [token[rig.joint("pelvis")]]
+
+    leaf = lambda key: token[rig.joint(key)].rsplit("/", 1)[-1]  # noqa: E731
+    base = measure.posed(str(rig.path), rig.skeleton)
+    new = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton)
+    fwd = rig.forward
+    head_dir = base.axis(leaf("head"), measure.local_forward(base, leaf("head"), fwd))
+    l, r = leaf("eye_l"), leaf("eye_r")
+    sight = sight_line(new, l, r, measure.local_forward(new, l, fwd), measure.local_forward(new, r, fwd))
+    a, b = measure.az_el(sight, new.up), measure.az_el(head_dir, base.up)
+    change = np.column_stack([measure.wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]])
+    s = report.characters[0].result.shift_timing[0]
+    hold = base.times >= rig.start_time + (s["time_s"] + s["duration"]) * rig.time_codes_per_second + 1
+    assert hold.sum() > 30
+    assert np.abs(change[hold] - [40.0, 0.0]).max() <= 0.5

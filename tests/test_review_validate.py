@@ -151,6 +151,17 @@ def test_validate_is_silent_on_a_clean_result_and_lints_a_bad_one(tmp_path, caps
     assert main(["validate", str(tmp_path / "missing.usda")]) == 2
 
 
+def test_the_override_alone_names_the_inputs_default_prim_and_says_to_validate_it_over_the_input(tmp_path, capsys):
+    layer = tmp_path / "g.usdc"
+    api.apply(SAMPLES[0], ["2s:60:0"], layer)
+    assert Sdf.Layer.FindOrOpen(str(layer)).defaultPrim == Sdf.Layer.FindOrOpen(str(SAMPLES[0])).defaultPrim == "root"
+    capsys.readouterr()
+    assert main(["validate", str(layer)]) == 3
+    (line,) = capsys.readouterr().out.splitlines()  # no MissingDefaultPrim: one line, with what to do
+    assert "names /root/Body, which this stage only overrides (no def)" in line
+    assert f"usdgaze validate INPUT --layer {layer.name}" in line and "MissingCharacter" in line
+
+
 def test_schedule_validator_catches_late_shifts_and_missing_characters(tmp_path):
     layer = tmp_path / "g.usda"
     api.apply(SAMPLES[0], ["2s:60:0"], layer, preview=tmp_path / "preview.usda")

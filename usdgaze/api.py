@@ -166,7 +166,8 @@ def _layer_info(stage) -> LayerInfo:
 
     return LayerInfo(float(stage.GetTimeCodesPerSecond()), float(stage.GetFramesPerSecond()),
                      float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode()),
-                     str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)))
+                     str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)),
+                     default_prim=stage.GetRootLayer().defaultPrim or None)
 
 
 def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_source: str,
@@ -207,7 +208,8 @@ def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
     """Stage the override, then the preview, plot or sublayer edit; the caller's ``with`` commits them."""
     animations = [c.animation for c in report.characters]
     if req.sublayer_into is not None:  # refuse before anything is staged
-        check_sublayer_target(req.sublayer_into, animations, req.source)
+        check_sublayer_target(req.sublayer_into, animations, req.source,
+                              bound=tuple(o.skeleton for o in overrides if o.define))
     out = Path(req.out)
     layer = build_override(overrides, info, fmt=out.suffix.lstrip("."))
     if req.guides:

@@ -148,7 +148,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         report.objects = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]
         if info is None:
             info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time, clip.end_time,
-                             clip.up_axis, clip.meters_per_unit)
+                             clip.up_axis, clip.meters_per_unit, default_prim=stage.GetRootLayer().defaultPrim or None)
     report.planner = _planner_summary(report.results, steps, frames, time.perf_counter() - t_start,
                                       time.process_time() - cpu_start, settings)
     info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",

@@ -9,7 +9,7 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.hints import BindHints
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
-from usdgaze.errors import UsdGazeError
+from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes.directives import Directive
@@ -79,11 +79,27 @@ def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
     return gaze_map
 
 
-def _character_frame(clip: SkelClip, forward, label: str) -> CharacterFrame:
+def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> CharacterFrame:
     sw = clip.skel_to_world[0, :3, :3]
     up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
-    return character_frame(clip.joints, clip.neutral(), up_s, forward, where=f"{clip.source}:{clip.skeleton}",
+    return character_frame(joints, clip.neutral(), up_s, forward, where=f"{clip.source}:{clip.skeleton}",
                            forward_label=label)
+
+
+def _by_names_too(clip: SkelClip, fn):
+    """``fn(joints)`` on the joint paths, and where their words tell nothing (a RigError) on the
+    paths spelled with the skeleton's jointNames (generic tokens such as ``j0/j1`` named Hips and
+    Spine); the first error when neither serves."""
+    try:
+        return fn(clip.joints)
+    except RigError as first:
+        named = clip.named_joints()
+        if named is None:
+            raise
+        try:
+            return fn(named)
+        except RigError:
+            raise first from None
 
 
 def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints | None = None
@@ -96,8 +112,9 @@ def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints 
         bindings[role], labels[role] = joints, f"{hints.bind_label} {role}={'+'.join(joints)}"
     forward, label = (hints.forward, hints.forward_label) if hints.forward is not None else (
         definition.forward if definition else None, "gaze:binding:forward")
-    chain = bind_chain(clip.joints, clip.parents, bindings, where=f"{clip.source}:{clip.skeleton}", labels=labels)
-    return chain, _character_frame(clip, forward, label)
+    where = f"{clip.source}:{clip.skeleton}"
+    chain = _by_names_too(clip, lambda joints: bind_chain(joints, clip.parents, bindings, where=where, labels=labels))
+    return chain, _by_names_too(clip, lambda joints: _character_frame(clip, joints, forward, label))
 
 
 def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list[DirectiveRequest]:

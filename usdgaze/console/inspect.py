@@ -31,7 +31,15 @@ def inspect(input_path, bind, forward, as_json) -> None:
             if s.get("error"):
                 click.echo(f"    cannot bind: {s['error']}")
                 continue
-            click.echo(f"    animation {s['animation']}  {s['frames']} samples, time codes {s['first']:g}..{s['last']:g}")
+            span = f"time codes {s['first']:g}..{s['last']:g}"
+            if not s["animation_bound"]:
+                click.echo(f"    animation: none bound (UsdSkel shows the rest pose); the layer defines {s['animation']} "
+                           f"holding it, {s['frames']} frames of the stage's range, {span}")
+            elif s["held_pose"]:
+                click.echo(f"    animation {s['animation']}  one held pose (no time samples): {s['frames']} frames of "
+                           f"the stage's range, {span}")
+            else:
+                click.echo(f"    animation {s['animation']}  {s['frames']} samples, {span}")
             click.echo(f"    neutral pose: {s['neutral']}")
             for role, joints in s["chain"].items():
                 if joints:

@@ -48,6 +48,12 @@ class SkelClip:
     """Which pose :meth:`neutral` is, and why (``bindTransforms``, ``restTransforms (...)``)."""
     authored_poses: tuple[bool, bool] = (True, True)
     """Whether the input authors (restTransforms, bindTransforms): a layer adding joints extends only those."""
+    held_pose: bool = False
+    """The animation holds one pose (defaults only, or none is bound): ``times`` are the frames of the
+    stage's playback range, not time samples of the input."""
+    animation_bound: bool = True
+    """False for a Skeleton with no animation bound: ``animation`` is the path the layer defines (and
+    binds), and the arrays hold the rest pose at every frame of the stage's range."""
     owns_arrays: bool = False
     """The animation arrays belong to this clip alone (a fresh read nobody else holds), so a pass may
     write its result into them instead of into copies: one copy of the animation less at the peak."""
@@ -55,6 +61,18 @@ class SkelClip:
     def where(self, attribute: str = "") -> str:
         """``file:/prim/path.attribute`` of the animation, for messages."""
         return f"{self.source}:{self.animation}{'.' + attribute if attribute else ''}"
+
+    def named_joints(self) -> list[str] | None:
+        """The joint paths spelled with the skeleton's ``jointNames`` (``Hips/Spine`` for tokens
+        ``j0/j1`` named Hips and Spine), or None when it authors none, not one per joint, or the same."""
+        names = self.joint_names
+        if names is None or len(names) != len(self.joints):
+            return None
+        spelled: list[str] = []
+        for i, name in enumerate(names):
+            leaf = str(name).replace("/", "_") or self.joints[i].rsplit("/", 1)[-1]
+            spelled.append(f"{spelled[self.parents[i]]}/{leaf}" if self.parents[i] >= 0 else leaf)
+        return None if spelled == self.joints else spelled
 
     @property
     def seconds(self) -> np.ndarray:

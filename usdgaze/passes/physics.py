@@ -187,7 +187,6 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     """Simulate one clip; its :class:`ShotReport`, the override and the per-frame measures
     (``chain_frame``: the gaze binding, for rigs whose joint names do not tell the body's segments)."""
     from usdgaze.physics import build, retarget
-    from usdgaze.usd.layers import AnimOverride
 
     model, ref = build.body_model(clip, total_mass, chain_frame=chain_frame)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
@@ -200,12 +199,31 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     quats = [3] + [int(qadr[b]) for b, k in enumerate(model.kind) if k == "ball"]
     qpos, n = _frames_from_steps(result, clip.seconds, quats)
     rotations, translations = retarget.from_qpos(model, qpos, _head(ref, n))
-    cols = clip.anim_to_skel
-    override = AnimOverride(animation=clip.animation, times=clip.times[:n], joints=clip.anim_joints,
-                            rotations=rotations[:, cols].astype(np.float32),
-                            translations=translations[:, cols].astype(np.float32))
     report, terms = shot_summary(clip, result, n, len(pushes), wall)
-    return report, override, terms
+    return report, _body_override(clip, n, rotations, translations), terms
+
+
+def _body_override(clip, n: int, rotations: np.ndarray, translations: np.ndarray):
+    """Every joint of the simulated body over the first ``n`` frames: the animation's own joints in
+    its order, then those it does not list (all of them for a skeleton with no animation), appended
+    with their rest scales so every existing index stays valid."""
+    from usdgaze.core import rotations as rot
+    from usdgaze.usd.layers import AnimOverride
+
+    cols = [int(j) for j in clip.anim_to_skel]
+    listed = set(cols)
+    extra = [j for j in range(len(clip.joints)) if j not in listed]
+    grow = bool(extra) or not clip.animation_bound
+    scales = None
+    if grow:
+        rest_scales = rot.decompose_tr(clip.rest_local[extra])[2].astype(np.float16)
+        scales = np.concatenate([clip.scales[:n], np.broadcast_to(rest_scales, (n, len(extra), 3))], axis=1)
+    idx = cols + extra
+    return AnimOverride(animation=clip.animation, times=clip.times[:n],
+                        joints=list(clip.anim_joints) + [clip.joints[j] for j in extra],
+                        rotations=rotations[:, idx].astype(np.float32),
+                        translations=translations[:, idx].astype(np.float32), scales=scales, write_joints=grow,
+                        skeleton=None if clip.animation_bound else clip.skeleton, define=not clip.animation_bound)
 
 
 def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float) -> tuple[ShotReport, dict]:

@@ -100,7 +100,10 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     t_sim = result.seconds - result.seconds[0]
     eye = _at(t_rel, t_sim, res.vision.eye)
     new_local = lambda j: (translations[:, j], rotations[:, j], ref.scales[:, j])  # noqa: E731
-    eye_rot, sight = eyes_on(clip, chain, frame, rig, new_local, eye)
+    # The model of a mirrored character is its right-handed mirror image (physics.model), where the
+    # eyes' yaw is toward the skeleton's left; eyes_on takes it toward the stage world's left.
+    sense = np.broadcast_to(clip.handedness, (len(eye),))
+    eye_rot, sight = eyes_on(clip, chain, frame, rig, new_local, eye * np.column_stack([sense, np.ones((len(eye), 2))]))
     new_rot = {j: rotations[:, j] for j in range(len(clip.joints))}
     new_rot.update(eye_rot)
     new_trans = {j: translations[:, j] for j in range(len(clip.joints))}

@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
 from usdgaze.errors import UsdGazeError
 
 
@@ -45,6 +47,10 @@ def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_fr
         chain, frame = chain_frame
         hints = Hints(head=chain.head, eyes=tuple(chain.eyes or ()), forward=frame.forward)
     ref = Reference.from_clip(clip)
+    if len(ref.rotations) and np.array_equal(ref.rotations, np.broadcast_to(ref.rotations[:1], ref.rotations.shape)):
+        # One held pose (a still character, or the rest pose) tells nothing about which joints are
+        # rigid: welding those at rest would leave nothing to balance with.
+        weld_still = False
     model = build(clip.joints, clip.parents, clip.rest_local, clip.skel_to_world, clip.up_axis,
                   clip.meters_per_unit, total_mass=total_mass, reference=ref.rotations, where=clip.where(),
                   weld_still=weld_still, hints=hints)

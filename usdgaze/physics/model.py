@@ -3,7 +3,11 @@
 Coordinates. MuJoCo works Z-up in metres. A point ``p`` in skeleton space goes to the model's world
 as ``p_mj = metersPerUnit * C @ (skel_to_world @ p)``, with ``C`` the identity on Z-up stages and, on
 Y-up stages, the rotation of +90 degrees about X, ``(x, y, z) -> (x, -z, y)``: the stage's up becomes
-+Z, its X stays X, and handedness is kept. The ground plane is the stage's ``up = 0`` plane.
++Z, its X stays X, and handedness is kept. The ground plane is the stage's ``up = 0`` plane. A
+mirrored character (``skel_to_world`` of negative determinant: a SkelRoot scaled -1 along an axis)
+is simulated as its mirror image, ``C`` followed by the mirror of the model's X: every stage point
+and direction (the body, pushes, balls, stones, obstacles) goes through the same ``to_model``, so
+the model's world is the stage's mirrored and its bodies are right-handed.
 
 Bodies. One body per skeleton joint from the floating base (the first pelvis/hips joint, else the
 joint where the two legs meet: the common ancestor of the lowest end joints at rest) down; its frame
@@ -161,6 +165,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         raise UsdGazeError(f"{where}: total mass must be positive, got {total_mass}")
     to_model = stage_to_model(up_axis, meters_per_unit)
     skel_to_world0 = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
+    if np.linalg.det(skel_to_world0[:3, :3]) < 0.0:
+        to_model = np.diag([-1.0, 1.0, 1.0]) @ to_model  # the mirror image: right-handed bodies
     world = skel_to_world0 @ world_matrices(rest_local[None], parents)[0]
     base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2])
     idx = _subtree(base, parents)

@@ -45,7 +45,8 @@ def inspect_stage(path: str, hints=None) -> dict:
             except UsdGazeError as exc:
                 s["error"] = str(exc)
             else:
-                s.update(animation=clip.animation, frames=len(clip.times), first=float(clip.times[0]),
+                s.update(animation=clip.animation, animation_bound=clip.animation_bound, held_pose=clip.held_pose,
+                         frames=len(clip.times), first=float(clip.times[0]),
                          last=float(clip.times[-1]),
                          chain={r: [clip.joints[j].rsplit("/", 1)[-1] for j in idx] for r, idx in chain.roles.items()},
                          why={r: chain.reasons.get(r, "") for r in chain.roles},

@@ -289,7 +289,12 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
                                            f"range and its characters' animation [{lo:g}, {hi:g}]"))
         for path in record.get("characters", []):
             prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
-            if not prim or not prim.IsA(UsdSkel.Root):
+            if prim and not prim.IsDefined():  # the override layer on its own: overs, no defs
+                errors.append(_stage_error(stage, "MissingCharacter",
+                                           f"{name}: customLayerData usdgaze.characters names {path}, which this stage "
+                                           f"only overrides (no def); validate the layer over its input: "
+                                           f"usdgaze validate INPUT --layer {name}"))
+            elif not prim or not prim.IsA(UsdSkel.Root):
                 errors.append(_stage_error(stage, "MissingCharacter",
                                            f"{name}: customLayerData usdgaze.characters names {path}, which is not a "
                                            f"SkelRoot on this stage"))

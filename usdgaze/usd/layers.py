@@ -65,13 +65,17 @@ class AnimOverride:
     rest_transforms: np.ndarray | None = None
     bind_transforms: np.ndarray | None = None
     joint_names: list[str] | None = None
+    define: bool = False
+    """The animation is new (the skeleton had none bound): defined, every array written, and bound
+    to ``skeleton`` by ``skel:animationSource``."""
 
     @classmethod
     def of(cls, clip, result, move_roots: bool = False) -> "AnimOverride":
         """The arrays a pass result overrides for ``clip``'s animation (and its skeleton, if eyes
         were added). Translations are written where the joint set grew or ``move_roots`` (the
         pass moved the leg roots); otherwise the input's stay."""
-        grew = len(result.anim_joints) > len(clip.anim_joints)
+        new = not clip.animation_bound
+        grew = len(result.anim_joints) > len(clip.anim_joints) or new
         override = cls(
             animation=clip.animation,
             times=clip.times,
@@ -80,6 +84,8 @@ class AnimOverride:
             translations=result.translations if (move_roots or result.added_joints or grew) else None,
             scales=result.scales if grew else None,
             write_joints=grew,
+            skeleton=clip.skeleton if new else None,
+            define=new,
         )
         if result.added_joints:
             override.skeleton = clip.skeleton
@@ -105,6 +111,9 @@ class LayerInfo:
     up_axis: str | None = None
     meters_per_unit: float | None = None
     custom: dict = field(default_factory=dict)
+    default_prim: str | None = None
+    """The input's defaultPrim: the override names it too where it holds opinions under it, so the
+    layer on its own passes the checks that want one (usdchecker's MissingDefaultPrim)."""
 
 
 def _attr(prim: Sdf.PrimSpec, name: str, type_name, uniform: bool = False) -> Sdf.AttributeSpec:
@@ -149,7 +158,10 @@ def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "u
         _set_info(layer, info)
         for o in overrides:
             prim = Sdf.CreatePrimInLayer(layer, o.animation)
-            prim.specifier = Sdf.SpecifierOver
+            prim.specifier = Sdf.SpecifierDef if o.define else Sdf.SpecifierOver
+            if o.define:
+                prim.typeName = "SkelAnimation"
+                _bind_animation(layer, o.skeleton, o.animation)
             codes = np.asarray(o.times, dtype=float).tolist()
             if o.write_joints:
                 _attr(prim, "joints", Sdf.ValueTypeNames.TokenArray, uniform=True).default = Vt.TokenArray(o.joints)
@@ -175,7 +187,18 @@ def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "u
                         _attr(skel, name, Sdf.ValueTypeNames.Matrix4dArray, True).default = Vt.Matrix4dArray.FromNumpy(usd)
                 if o.joint_names is not None:
                     _attr(skel, "jointNames", Sdf.ValueTypeNames.TokenArray, True).default = Vt.TokenArray(o.joint_names)
+        if info.default_prim and layer.GetPrimAtPath(Sdf.Path.absoluteRootPath.AppendChild(info.default_prim)):
+            layer.defaultPrim = info.default_prim
     return layer
+
+
+def _bind_animation(layer: Sdf.Layer, skeleton: str, animation: str) -> None:
+    """``skel:animationSource`` on ``skeleton`` (an over applying SkelBindingAPI) targeting ``animation``."""
+    skel = Sdf.CreatePrimInLayer(layer, skeleton)
+    skel.specifier = Sdf.SpecifierOver
+    skel.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"]))
+    rel = Sdf.RelationshipSpec(skel, "skel:animationSource", custom=False)
+    rel.targetPathList.explicitItems = [Sdf.Path(animation)]
 
 
 def relative_asset_path(target: str | os.PathLike, from_layer: str | os.PathLike) -> str:
@@ -201,11 +224,12 @@ def write_preview(preview: str | os.PathLike, override: str | os.PathLike, input
 
 
 def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
-                          input_path: str | os.PathLike | None = None) -> Sdf.Layer:
+                          input_path: str | os.PathLike | None = None, bound: tuple[str, ...] = ()) -> Sdf.Layer:
     """A copy of the layer ``root`` if the override can go in as its strongest sublayer, else a one-line error.
 
     Refuses when ``root`` itself holds opinions on the animations, since a sublayer is weaker than
-    its root layer's own opinions, and when ``root`` does not compose ``input_path`` (given). Called
+    its root layer's own opinions (on ``bound``, skeletons the override binds a new animation to,
+    their ``skel:animationSource``), and when ``root`` does not compose ``input_path`` (given). Called
     before anything is written. The copy is anonymous, so a
     failed command leaves the layer registry's ``root`` as it was.
     """
@@ -235,6 +259,12 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
                     f"{root}:{path}.{name}: this layer's own opinion would win over any sublayer; "
                     "use --preview, or insert into a layer that sublayers this one"
                 )
+    for path in bound:
+        if layer.GetRelationshipAtPath(Sdf.Path(path).AppendProperty("skel:animationSource")) is not None:
+            raise UsdGazeError(
+                f"{root}:{path}.skel:animationSource: this layer's own opinion would win over the sublayer's "
+                "binding of the new animation; use --preview, or insert into a layer that sublayers this one"
+            )
     return layer
 
 

@@ -215,11 +215,30 @@ def _skeleton_joints(skeleton: UsdSkel.Skeleton, where_skel: str) -> tuple[list[
     return joints, _joint_parents(joints, where_skel)
 
 
+def _binds_nothing(skel: Usd.Prim) -> bool:
+    """No ``skel:animationSource`` targets anything for ``skel``, on it or inherited: UsdSkel shows
+    the rest pose (a target that is not a SkelAnimation is a broken binding, not this)."""
+    binding = UsdSkel.BindingAPI(skel)
+    rel = binding.GetAnimationSourceRel()
+    return not (rel and rel.GetForwardedTargets()) and not binding.GetInheritedAnimationSource()
+
+
+NEW_ANIMATION = "gazeAnimation"  # the child of an unanimated Skeleton that the layer defines and binds
+
+
+def _new_animation_path(skel: Usd.Prim) -> str:
+    name, k = NEW_ANIMATION, 1
+    while skel.GetChild(name):
+        name, k = f"{NEW_ANIMATION}{k}", k + 1
+    return str(skel.GetPath().AppendChild(name))
+
+
 def _bound_animation(skel: Usd.Prim, where_skel: str, source: str) -> tuple[Usd.Prim, str]:
     """The SkelAnimation bound to ``skel`` (checked like the skeleton) and its location for messages."""
     anim_prim = _animation_of(skel)
     if anim_prim is None:
-        raise UsdGazeError(f"{where_skel}: no skel:animationSource bound to a SkelAnimation; nothing to add gaze to")
+        raise UsdGazeError(f"{where_skel}: skel:animationSource targets no SkelAnimation; bind one, or remove the "
+                           "relationship to add gaze to the rest pose")
     where_anim = f"{source}:{anim_prim.GetPath()}"
     if not anim_prim.IsActive():
         raise UsdGazeError(f"{where_anim}: the bound animation is inactive (active = false), so UsdSkel poses "
@@ -275,13 +294,51 @@ def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim,
     return anim_joints, np.array([index[j] for j in anim_joints], dtype=int)
 
 
+_MOST_STILL_FRAMES = 1_000_000  # a still pose spread over more frames than this is a typo in the range
+
+
+_HOLDS_ONE_POSE = "the animation holds one pose (no time samples on rotations, translations or scales)"
+
+
+def _still_times(stage: Usd.Stage, where: str, what: str = _HOLDS_ONE_POSE) -> np.ndarray:
+    """The frames of the stage's playback range, for a character that holds one pose (an animation
+    of defaults only, or none): UsdSkel shows that pose at every time, so the gaze is added over the
+    range the shot plays."""
+    if not stage.HasAuthoredTimeCodeRange():
+        raise UsdGazeError(f"{where}: {what} and the stage authors no startTimeCode/endTimeCode; author the "
+                           "shot's range to add gaze to a still character")
+    start, end = float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())
+    step = float(stage.GetTimeCodesPerSecond()) / float(stage.GetFramesPerSecond())
+    count = int(np.floor((end - start) / step + 1e-9)) + 1
+    if count > _MOST_STILL_FRAMES:
+        raise UsdGazeError(f"{where}: {what.split(' (')[0]} and the stage's range [{start:g}, {end:g}] spans "
+                           f"{count} frames (at most {_MOST_STILL_FRAMES}); check startTimeCode/endTimeCode")
+    return start + step * np.arange(count, dtype=float)
+
+
+def _rest_pose_samples(stage: Usd.Stage, rest_local: np.ndarray, where_skel: str):
+    """Times and every joint's rest transform at each, as the arrays of an animation that holds the
+    rest pose: what UsdSkel shows for a Skeleton with no animation bound."""
+    times = _still_times(stage, where_skel, "the skeleton has no animation bound (UsdSkel shows its rest pose)")
+    t, q, s = rot.decompose_tr(rest_local)
+    shape = (len(times),) + t.shape
+    return (times, np.broadcast_to(q.astype(np.float32), shape[:2] + (4,)).copy(),
+            np.broadcast_to(t.astype(np.float32), shape).copy(), np.broadcast_to(s.astype(np.float16), shape).copy())
+
+
+def _has_samples(anim: UsdSkel.Animation) -> bool:
+    return any(a and a.GetNumTimeSamples() for a in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(),
+                                                     anim.GetScalesAttr()))
+
+
 def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
-    """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation."""
+    """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation;
+    one held pose (defaults only) is sampled at every frame of the stage's range."""
     attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
     times = np.sort(np.concatenate([np.asarray(a.GetTimeSamples(), dtype=float) for a in attrs if a] or [[]]))
     times = times[np.r_[True, times[1:] != times[:-1]]] if len(times) else times  # np.unique would import numpy.ma
     if not len(times):
-        raise UsdGazeError(f"{where_anim}: no time samples on rotations, translations or scales; nothing is animated")
+        times = _still_times(anim.GetPrim().GetStage(), where_anim)
     rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
     translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
@@ -304,17 +361,26 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     checks.check_not_instanced(skel, where_skel)
     checks.check_types(skel, checks.SKELETON_TYPES, where_skel)
     joints, parents = _skeleton_joints(skeleton, where_skel)
-    anim_prim, where_anim = _bound_animation(skel, where_skel, source)
-    anim = UsdSkel.Animation(anim_prim)
     rest_local, bind_world, neutral_world, neutral_source, authored = _poses(skeleton, joints, parents, where_skel)
-    anim_joints, anim_to_skel = _animated_joints(anim, joints, skel, where_anim)
-    times, rotations, translations, scales = _animation_samples(anim, len(anim_joints), where_anim)
+    bound = not _binds_nothing(skel)
+    if bound:
+        anim_prim, where_anim = _bound_animation(skel, where_skel, source)
+        anim = UsdSkel.Animation(anim_prim)
+        animation = str(anim_prim.GetPath())
+        anim_joints, anim_to_skel = _animated_joints(anim, joints, skel, where_anim)
+        times, rotations, translations, scales = _animation_samples(anim, len(anim_joints), where_anim)
+    else:  # the layer defines an animation holding the rest pose, with the gaze in it, and binds it
+        animation = _new_animation_path(skel)
+        anim_joints, anim_to_skel = list(joints), np.arange(len(joints))
+        times, rotations, translations, scales = _rest_pose_samples(stage, rest_local, where_skel)
     joint_names = _joint_names(skeleton)
     return SkelClip(
         source=source,
         skel_root=str(root.GetPath()),
         skeleton=str(skel.GetPath()),
-        animation=str(anim_prim.GetPath()),
+        animation=animation,
+        animation_bound=bound,
+        held_pose=not bound or not _has_samples(anim),
         joints=joints,
         parents=parents,
         rest_local=rest_local,

@@ -1,0 +1,106 @@
+"""``attend --physics`` on a character with no animation bound, and on an animation that lists only
+some of the skeleton's joints.
+
+UsdSkel poses an unbound Skeleton at its rest pose (CMU's: Blender's export frame, a standing
+pose). The physics pass must keep that character standing under its own controller, define the
+animation it writes and bind it, and leave the input unbound when the layer is muted. Measured by
+UsdSkel's forward kinematics on the composed stage.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Sdf, Usd, UsdSkel
+
+from usdgaze.core import rotations as rot
+from usdgaze.passes import physics as physics_pass
+from usdgaze.physics import mpc
+
+from . import measure
+from .test_physics_pass import lowest_foot_point
+
+ROOT = Path(__file__).resolve().parents[1]
+SKEL = "/root/Body/BodySkel"
+FPS, END = 24.0, 12.0  # 0.5 s
+
+
+@pytest.fixture(scope="module")
+def rest_shot(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rest_physics")
+    src = d / "rest.usdc"
+    shutil.copy(ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc", src)
+    layer = Sdf.Layer.FindOrOpen(str(src))
+    with Sdf.ChangeBlock():
+        del layer.GetPrimAtPath(SKEL).properties["skel:animationSource"]
+        layer.timeCodesPerSecond = layer.framesPerSecond = FPS
+        layer.startTimeCode, layer.endTimeCode = 0.0, END
+    layer.Save()
+    before = measure.sha256(src)
+    out = d / "sim.usda"
+    reports = physics_pass.run(src, out, mpc.Options(h=0.02, horizon_s=0.6))
+    composed = d / "composed.usda"
+    root = Sdf.Layer.CreateNew(str(composed))
+    root.timeCodesPerSecond = root.framesPerSecond = FPS
+    root.startTimeCode, root.endTimeCode = 0.0, END
+    root.subLayerPaths[:] = [str(out), str(src)]
+    root.Save()
+    return dict(src=src, out=out, composed=composed, reports=reports, before=before)
+
+
+def test_the_rest_pose_stands_under_the_controller(rest_shot):
+    frames = np.arange(0.0, END + 1.0)
+    sim = measure.posed(str(rest_shot["composed"]), SKEL)
+    ref = measure.posed(str(rest_shot["src"]), SKEL, times=frames)
+    assert np.array_equal(sim.times, frames)
+    up = lambda p: p.position("Hips") @ p.up  # noqa: E731
+    assert (up(sim) / up(ref)).min() >= 0.8
+    assert lowest_foot_point(rest_shot["src"], sim).min() > -0.02
+    assert not rest_shot["reports"][0].fell
+
+
+def test_the_new_animation_is_defined_bound_and_gone_when_muted(rest_shot):
+    stage = Usd.Stage.Open(str(rest_shot["composed"]))
+    skel = stage.GetPrimAtPath(SKEL)
+    anim = stage.GetPrimAtPath(SKEL + "/gazeAnimation")
+    assert anim.IsA(UsdSkel.Animation) and anim.IsDefined()
+    assert UsdSkel.BindingAPI(skel).GetAnimationSourceRel().GetTargets() == [anim.GetPath()]
+    joints = list(UsdSkel.Skeleton(skel).GetJointsAttr().Get())
+    assert list(UsdSkel.Animation(anim).GetJointsAttr().Get()) == joints
+    stage.MuteLayer(str(rest_shot["out"]))
+    assert not stage.GetPrimAtPath(SKEL + "/gazeAnimation")
+    assert not UsdSkel.BindingAPI(skel).GetAnimationSourceRel().GetTargets()
+    assert measure.sha256(rest_shot["src"]) == rest_shot["before"]
+
+
+def test_joints_the_animation_does_not_list_are_appended_with_their_simulated_values():
+    # Three joints of a five-joint chain animated, in an order of their own: the layer lists them
+    # first, as the input does, then the two missing ones in skeleton order.
+    from usdgaze.core.clip import SkelClip
+
+    joints = ["a", "a/b", "a/b/c", "a/b/c/d", "a/b/c/d/e"]
+    rest = np.tile(np.eye(4), (5, 1, 1))
+    rest[:, :3, :3] *= np.array([1.0, 2.0, 1.0, 1.0, 0.5])[:, None, None]  # rest scales 1, 2, 1, 1, 0.5
+    listed = [3, 0, 2]
+    frames, n = 6, 4
+    clip = SkelClip(
+        source="s.usda", skel_root="/R", skeleton="/R/S", animation="/R/A", joints=joints,
+        parents=np.array([-1, 0, 1, 2, 3]), rest_local=rest, bind_world=rest,
+        anim_joints=[joints[j] for j in listed], anim_to_skel=np.array(listed), times=np.arange(frames, dtype=float),
+        rotations=np.zeros((frames, 3, 4), np.float32), translations=np.zeros((frames, 3, 3), np.float32),
+        scales=np.full((frames, 3, 3), 3.0, np.float16), skel_to_world=np.eye(4)[None], up_axis="Y",
+        meters_per_unit=1.0, time_codes_per_second=24.0, frames_per_second=24.0, start_time=0.0, end_time=5.0)
+    simulated = rot.normalize(np.random.default_rng(1).normal(size=(n, 5, 4)))
+    moved = np.random.default_rng(2).normal(size=(n, 5, 3))
+    o = physics_pass._body_override(clip, n, simulated, moved)
+    assert o.joints == ["a/b/c/d", "a", "a/b/c", "a/b", "a/b/c/d/e"]
+    order = [3, 0, 2, 1, 4]
+    assert np.array_equal(o.rotations, simulated[:, order].astype(np.float32))
+    assert np.array_equal(o.translations, moved[:, order].astype(np.float32))
+    assert o.scales.shape == (n, 5, 3)
+    assert np.all(o.scales[:, :3] == 3.0)
+    assert np.allclose(o.scales[:, 3], [2.0, 2.0, 2.0]) and np.allclose(o.scales[:, 4], [0.5, 0.5, 0.5])
+    assert o.write_joints and not o.define and np.array_equal(o.times, np.arange(n))
