@@ -182,12 +182,10 @@ def b_zero_quaternions(d):
     return _apply(d, _edited(d, zero))
 
 
-def b_animation_names_unknown_joint(d):
+def b_animation_names_no_joint_of_the_skeleton(d):
     def rename(layer, rig):
         spec = layer.GetAttributeAtPath(rig.animation + ".joints")
-        joints = list(spec.default)
-        joints[3] = joints[3] + "_old"
-        spec.default = Vt.TokenArray(joints)
+        spec.default = Vt.TokenArray([f"other_{k}" for k in range(len(spec.default))])
     return _apply(d, _edited(d, rename))
 
 

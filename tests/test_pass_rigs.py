@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
-from pxr import Sdf, Usd, UsdSkel, UsdValidation
+from pxr import Sdf, Usd, UsdSkel, UsdValidation, Vt
 
 from usdgaze import api
 from usdgaze.passes.look import LookOptions
@@ -442,3 +442,46 @@ def test_generic_joint_tokens_bind_by_the_skeletons_joint_names(tmp_path):
     hold = base.times >= rig.start_time + (s["time_s"] + s["duration"]) * rig.time_codes_per_second + 1
     assert hold.sum() > 30
     assert np.abs(change[hold] - [40.0, 0.0]).max() <= 0.5
+
+
+def test_animation_joints_the_skeleton_lacks_are_ignored_and_written_through(tmp_path):
+    # An animation made for a fuller rig: two joints the skeleton does not have, animated. UsdSkel
+    # ignores them; the pass gazes as on the plain rig and writes their values through bit for bit.
+    rig = syn.make_rig(tmp_path / "in.usda", frames=90, mesh=False, time_codes_per_second=30)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    extra = [rig.joint("pelvis") + "/helper_a", rig.joint("head") + "/hat"]
+    joints_spec = layer.GetAttributeAtPath(f"{rig.animation}.joints")
+    joints_spec.default = list(joints_spec.default) + extra
+    rng = np.random.default_rng(5)
+    added = {}
+    for name, width, vt in (("rotations", 4, Vt.QuatfArray), ("translations", 3, Vt.Vec3fArray),
+                            ("scales", 3, Vt.Vec3hArray)):
+        path = Sdf.Path(f"{rig.animation}.{name}")
+        spec = layer.GetAttributeAtPath(path)
+        for t in layer.ListTimeSamplesForPath(path) or [None]:
+            value = np.asarray(layer.QueryTimeSample(path, t) if t is not None else spec.default)
+            more = rng.normal(size=(2, width)).astype(value.dtype)
+            if name == "rotations":
+                more /= np.linalg.norm(more, axis=1, keepdims=True)
+            added[name, t] = more
+            full = vt.FromNumpy(np.concatenate([value, more]))
+            if t is None:
+                spec.default = full
+            else:
+                layer.SetTimeSample(path, t, full)
+    layer.Save()
+    report = api.apply(rig.path, ["0.5s:40:0"], tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
+    assert any("2 of its joints are not joints of" in w and "helper_a" in w for w in report.warnings)
+
+    out = Sdf.Layer.FindOrOpen(str(tmp_path / "gaze.usdc"))
+    written_joints = list((out.GetAttributeAtPath(f"{rig.animation}.joints") or joints_spec).default)
+    cols = [written_joints.index(j) for j in extra]
+    path = Sdf.Path(f"{rig.animation}.rotations")
+    for t in out.ListTimeSamplesForPath(path):
+        assert np.asarray(out.QueryTimeSample(path, t))[cols].tobytes() == added["rotations", t].tobytes()
+    base = measure.posed(str(rig.path), rig.skeleton)
+    new = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton)
+    change, _ = sight_change(base, new, rig)
+    s = report.characters[0].result.shift_timing[0]
+    hold = base.times >= rig.start_time + (s["time_s"] + s["duration"]) * rig.time_codes_per_second + 1
+    assert hold.sum() > 30 and np.abs(change[hold] - [40.0, 0.0]).max() <= 0.5

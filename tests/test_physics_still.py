@@ -77,30 +77,36 @@ def test_the_new_animation_is_defined_bound_and_gone_when_muted(rest_shot):
 
 
 def test_joints_the_animation_does_not_list_are_appended_with_their_simulated_values():
-    # Three joints of a five-joint chain animated, in an order of their own: the layer lists them
-    # first, as the input does, then the two missing ones in skeleton order.
+    # Three joints of a five-joint chain animated, in an order of their own, and one joint the
+    # skeleton lacks ("zz"): the layer lists the animation's first, as the input does ("zz" written
+    # through), then the two missing ones in skeleton order.
     from usdgaze.core.clip import SkelClip
 
     joints = ["a", "a/b", "a/b/c", "a/b/c/d", "a/b/c/d/e"]
     rest = np.tile(np.eye(4), (5, 1, 1))
     rest[:, :3, :3] *= np.array([1.0, 2.0, 1.0, 1.0, 0.5])[:, None, None]  # rest scales 1, 2, 1, 1, 0.5
-    listed = [3, 0, 2]
+    listed = [3, 0, -1, 2]
     frames, n = 6, 4
+    rng = np.random.default_rng(3)
+    own_rot = rot.normalize(rng.normal(size=(frames, 4, 4))).astype(np.float32)
+    own_trans = rng.normal(size=(frames, 4, 3)).astype(np.float32)
     clip = SkelClip(
         source="s.usda", skel_root="/R", skeleton="/R/S", animation="/R/A", joints=joints,
         parents=np.array([-1, 0, 1, 2, 3]), rest_local=rest, bind_world=rest,
-        anim_joints=[joints[j] for j in listed], anim_to_skel=np.array(listed), times=np.arange(frames, dtype=float),
-        rotations=np.zeros((frames, 3, 4), np.float32), translations=np.zeros((frames, 3, 3), np.float32),
-        scales=np.full((frames, 3, 3), 3.0, np.float16), skel_to_world=np.eye(4)[None], up_axis="Y",
+        anim_joints=["a/b/c/d", "a", "zz", "a/b/c"], anim_to_skel=np.array(listed), times=np.arange(frames, dtype=float),
+        rotations=own_rot, translations=own_trans,
+        scales=np.full((frames, 4, 3), 3.0, np.float16), skel_to_world=np.eye(4)[None], up_axis="Y",
         meters_per_unit=1.0, time_codes_per_second=24.0, frames_per_second=24.0, start_time=0.0, end_time=5.0)
     simulated = rot.normalize(np.random.default_rng(1).normal(size=(n, 5, 4)))
     moved = np.random.default_rng(2).normal(size=(n, 5, 3))
     o = physics_pass._body_override(clip, n, simulated, moved)
-    assert o.joints == ["a/b/c/d", "a", "a/b/c", "a/b", "a/b/c/d/e"]
-    order = [3, 0, 2, 1, 4]
-    assert np.array_equal(o.rotations, simulated[:, order].astype(np.float32))
-    assert np.array_equal(o.translations, moved[:, order].astype(np.float32))
-    assert o.scales.shape == (n, 5, 3)
-    assert np.all(o.scales[:, :3] == 3.0)
-    assert np.allclose(o.scales[:, 3], [2.0, 2.0, 2.0]) and np.allclose(o.scales[:, 4], [0.5, 0.5, 0.5])
+    assert o.joints == ["a/b/c/d", "a", "zz", "a/b/c", "a/b", "a/b/c/d/e"]
+    for column, joint in ((0, 3), (1, 0), (3, 2), (4, 1), (5, 4)):
+        assert np.array_equal(o.rotations[:, column], simulated[:, joint].astype(np.float32))
+        assert np.array_equal(o.translations[:, column], moved[:, joint].astype(np.float32))
+    assert o.rotations[:, 2].tobytes() == own_rot[:n, 2].tobytes()
+    assert o.translations[:, 2].tobytes() == own_trans[:n, 2].tobytes()
+    assert o.scales.shape == (n, 6, 3)
+    assert np.all(o.scales[:, :4] == 3.0)
+    assert np.allclose(o.scales[:, 4], [2.0, 2.0, 2.0]) and np.allclose(o.scales[:, 5], [0.5, 0.5, 0.5])
     assert o.write_joints and not o.define and np.array_equal(o.times, np.arange(n))

@@ -144,6 +144,7 @@ def _run_pass(stage, roots, forced, requests, req):
             check_not_shared(others, clip.animation, source)
             seen_anims[clip.animation] = clip.skeleton
             chain, frame = bind(clip, own, req.options.binding)
+            report.warnings.extend(clip.notes)
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
                 report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")
             directives, targets, names = clip_directives(stage, clip, root_requests)

@@ -126,6 +126,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
         clip = read_clip(stage, skels[0], root, source)
         check_not_shared(others, clip.animation, source)
+        report.warnings.extend(clip.notes)
         chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
         h = settings.h
         t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,7 @@ class SkelClip:
     bind_world: np.ndarray
     anim_joints: list[str]
     anim_to_skel: np.ndarray
+    """The skeleton joint of each animation column; -1 for a joint the skeleton lacks (UsdSkel ignores it)."""
     times: np.ndarray
     rotations: np.ndarray
     translations: np.ndarray
@@ -54,6 +55,8 @@ class SkelClip:
     animation_bound: bool = True
     """False for a Skeleton with no animation bound: ``animation`` is the path the layer defines (and
     binds), and the arrays hold the rest pose at every frame of the stage's range."""
+    notes: list[str] = field(default_factory=list)
+    """What the reader noticed and the reports say (joints of the animation the skeleton lacks)."""
     owns_arrays: bool = False
     """The animation arrays belong to this clip alone (a fresh read nobody else holds), so a pass may
     write its result into them instead of into copies: one copy of the animation less at the peak."""

@@ -218,11 +218,13 @@ def _body_override(clip, n: int, rotations: np.ndarray, translations: np.ndarray
     if grow:
         rest_scales = rot.decompose_tr(clip.rest_local[extra])[2].astype(np.float16)
         scales = np.concatenate([clip.scales[:n], np.broadcast_to(rest_scales, (n, len(extra), 3))], axis=1)
-    idx = cols + extra
+    idx = np.array(cols + extra, dtype=int)
+    out_rot, out_trans = rotations[:, idx].astype(np.float32), translations[:, idx].astype(np.float32)
+    lacking = np.flatnonzero(idx < 0)  # the animation's joints the skeleton lacks: written through
+    out_rot[:, lacking], out_trans[:, lacking] = clip.rotations[:n, lacking], clip.translations[:n, lacking]
     return AnimOverride(animation=clip.animation, times=clip.times[:n],
                         joints=list(clip.anim_joints) + [clip.joints[j] for j in extra],
-                        rotations=rotations[:, idx].astype(np.float32),
-                        translations=translations[:, idx].astype(np.float32), scales=scales, write_joints=grow,
+                        rotations=out_rot, translations=out_trans, scales=scales, write_joints=grow,
                         skeleton=None if clip.animation_bound else clip.skeleton, define=not clip.animation_bound)
 
 

@@ -164,13 +164,14 @@ def _pose(clip, joints: list[str], rest_local: np.ndarray, parents: np.ndarray) 
     f, n = len(clip.times), len(joints)
     local = np.broadcast_to(rest_local, (f, n, 4, 4)).copy()
     index = {j: i for i, j in enumerate(joints)}
-    cols = np.array([index[clip.joints[s]] for s in clip.anim_to_skel], dtype=int)
-    local[:, cols] = rot.compose_trs(clip.translations.astype(float), clip.rotations.astype(float),
-                                     clip.scales.astype(float))
+    known = np.flatnonzero(clip.anim_to_skel >= 0)  # a joint the skeleton lacks poses nothing
+    cols = np.array([index[clip.joints[s]] for s in clip.anim_to_skel[known]], dtype=int)
+    local[:, cols] = rot.compose_trs(clip.translations[:, known].astype(float), clip.rotations[:, known].astype(float),
+                                     clip.scales[:, known].astype(float))
     skel = world_matrices(local, parents)
     world = np.einsum("fij,fkjl->fkil", np.broadcast_to(clip.skel_to_world, (f, 4, 4)), skel)
     q = np.broadcast_to(rot.from_matrix(rest_local[:, :3, :3]), (f, n, 4)).copy()
-    q[:, cols] = rot.normalize(clip.rotations.astype(float))
+    q[:, cols] = rot.normalize(clip.rotations[:, known].astype(float))
     return Posed(q, world)
 
 

@@ -289,9 +289,12 @@ def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim,
         twice = next(j for j in anim_joints if j in seen or seen.add(j))
         raise UsdGazeError(f"{where_anim}.joints: joint '{twice}' is listed twice")
     missing = [j for j in anim_joints if j not in index]
-    if missing:
-        raise UsdGazeError(f"{where_anim}.joints: '{missing[0]}' is not a joint of {skel.GetPath()}")
-    return anim_joints, np.array([index[j] for j in anim_joints], dtype=int)
+    if len(missing) == len(anim_joints):
+        raise UsdGazeError(f"{where_anim}.joints: none of its {len(anim_joints)} joints is a joint of {skel.GetPath()} "
+                           f"(the first: '{missing[0]}'), so it animates nothing")
+    # UsdSkel ignores the joints a skeleton lacks (an animation made for a fuller rig); so does the
+    # pass, writing their values through (-1: no skeleton joint).
+    return anim_joints, np.array([index.get(j, -1) for j in anim_joints], dtype=int), missing
 
 
 _MOST_STILL_FRAMES = 1_000_000  # a still pose spread over more frames than this is a typo in the range
@@ -363,12 +366,17 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     joints, parents = _skeleton_joints(skeleton, where_skel)
     rest_local, bind_world, neutral_world, neutral_source, authored = _poses(skeleton, joints, parents, where_skel)
     bound = not _binds_nothing(skel)
+    notes: list[str] = []
     if bound:
         anim_prim, where_anim = _bound_animation(skel, where_skel, source)
         anim = UsdSkel.Animation(anim_prim)
         animation = str(anim_prim.GetPath())
-        anim_joints, anim_to_skel = _animated_joints(anim, joints, skel, where_anim)
+        anim_joints, anim_to_skel, ignored = _animated_joints(anim, joints, skel, where_anim)
         times, rotations, translations, scales = _animation_samples(anim, len(anim_joints), where_anim)
+        if ignored:
+            notes.append(f"{where_anim}.joints: {len(ignored)} of its joints are not joints of {skel.GetPath()} "
+                         f"('{ignored[0]}'{', ...' if len(ignored) > 1 else ''}); UsdSkel ignores them, and the layer "
+                         "writes their values through unchanged")
     else:  # the layer defines an animation holding the rest pose, with the gaze in it, and binds it
         animation = _new_animation_path(skel)
         anim_joints, anim_to_skel = list(joints), np.arange(len(joints))
@@ -381,6 +389,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         animation=animation,
         animation_bound=bound,
         held_pose=not bound or not _has_samples(anim),
+        notes=notes,
         joints=joints,
         parents=parents,
         rest_local=rest_local,
