@@ -6,6 +6,7 @@ import contextlib
 import os
 import re
 import sys
+import threading
 
 from pxr import Sdf, Usd
 
@@ -50,10 +51,23 @@ class _Said:
     keep = False
 
 
+# File descriptor 2 belongs to the process: two threads swapping it at once (a dask worker's shots)
+# would leave it on one thread's scratch file. Opens hold the swap one at a time.
+_FD2 = threading.Lock()
+
+
 @contextlib.contextmanager
 def _usd_warnings():
     """USD's C++ warnings while a stage opens, held back: dropped when the open turns into our own
-    one-line error, passed on to stderr otherwise."""
+    one-line error, passed on to stderr otherwise. Another thread's stderr in that window is held
+    back with them."""
+    with _FD2:
+        with _holding() as said:
+            yield said
+
+
+@contextlib.contextmanager
+def _holding():
     said = _Said()
     sys.stderr.flush()
     try:
