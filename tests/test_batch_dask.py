@@ -40,3 +40,24 @@ def test_unreachable_scheduler_is_one_line(tmp_path, capsys):
         assert main(["batch", str(manifest), "--dask", "tcp://127.0.0.1:9"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "tcp://127.0.0.1:9" in err
+
+
+def test_a_worker_running_shots_on_several_threads_writes_what_one_thread_does(tmp_path):
+    # A TD's dask-worker runs tasks on threads: the shots share one process (its layer registry,
+    # the map cache, file descriptor 2 while a stage opens) and must still write the same layers.
+    from usdgaze.api import apply
+
+    jobs = [(f"s{k}", f"w{k}.usdc", f"{1.0 + 0.25 * k:g}s:{20 + 10 * k}:{5 - 5 * k}") for k in range(4)]
+    manifest = _tree(tmp_path, "".join(f'[[job]]\nname = "{n}"\ninput = "{i}"\nout = "out/{n}.usdc"\nshifts = ["{s}"]\n'
+                                       for n, i, s in jobs))
+    for k, (_, name, _) in enumerate(jobs):
+        (tmp_path / name).write_bytes((tmp_path / ("walk2.usdc" if k % 2 else "walk1.usdc")).read_bytes())
+    stderr = os.fstat(2)
+    with LocalCluster(n_workers=1, threads_per_worker=4, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster):
+        assert main(["batch", str(manifest), "--dask", cluster.scheduler_address]) == 0
+    assert _status(_summary(manifest)) == {n: "done" for n, _, _ in jobs}
+    assert (os.fstat(2).st_dev, os.fstat(2).st_ino) == (stderr.st_dev, stderr.st_ino)
+    for n, i, s in jobs:
+        apply(tmp_path / i, [s], tmp_path / f"{n}_direct.usdc")
+        assert _samples(tmp_path / "out" / f"{n}.usdc") == _samples(tmp_path / f"{n}_direct.usdc")
