@@ -1,5 +1,6 @@
-"""A character that holds one pose: a SkelAnimation with default values and no time samples, and a
-Skeleton with no animation bound (UsdSkel shows its rest pose).
+"""A character that holds one pose: a SkelAnimation with default values and no time samples (or one
+time sample, which USD holds at every time), and a Skeleton with no animation bound (UsdSkel shows
+its rest pose).
 
 UsdSkel shows that pose at every time, so ``apply`` adds the gaze over the frames of the stage's
 playback range; for the unbound skeleton the layer defines and binds the animation. The still pose
@@ -27,8 +28,9 @@ START, END, FPS = 0.0, 96.0, 24.0  # 4 s at 24 frames/s, one time code a frame
 SHIFT = (12.0, 40.0, 0.0)  # at 0.5 s, 40 deg to the left
 
 
-def still_stage(path: Path, frame: float = 500.0) -> Path:
-    """CMU 131_02 with its animation replaced by the pose at ``frame`` as defaults (Sdf level)."""
+def still_stage(path: Path, frame: float = 500.0, held_as: str = "default") -> Path:
+    """CMU 131_02 with its animation replaced by the pose at ``frame``, as defaults or as one time
+    sample (at 5: USD holds it at every time), at the Sdf level."""
     shutil.copy(ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc", path)
     layer = Sdf.Layer.FindOrOpen(str(path))
     with Sdf.ChangeBlock():
@@ -40,7 +42,10 @@ def still_stage(path: Path, frame: float = 500.0) -> Path:
             held = layer.QueryTimeSample(attr, min(samples, key=lambda t: abs(t - frame)))
             for t in samples:
                 layer.EraseTimeSample(attr, t)
-            layer.GetAttributeAtPath(attr).default = held
+            if held_as == "default":
+                layer.GetAttributeAtPath(attr).default = held
+            else:
+                layer.SetTimeSample(attr, 5.0, held)
         layer.timeCodesPerSecond = layer.framesPerSecond = FPS
         layer.startTimeCode, layer.endTimeCode = START, END
     layer.Save()
@@ -85,10 +90,10 @@ def _sight_change(shot: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     return change, shot["frames"] < SHIFT[0], shot["frames"] > settled + 1, head_dir
 
 
-@pytest.fixture(scope="module")
-def run(tmp_path_factory):
+@pytest.fixture(scope="module", params=["default", "one sample"])
+def run(request, tmp_path_factory):
     d = tmp_path_factory.mktemp("still")
-    return _shot(d, still_stage(d / "still.usdc"), "gaze.usdc")
+    return _shot(d, still_stage(d / "still.usdc", held_as=request.param), "gaze.usdc")
 
 
 @pytest.fixture(scope="module")
@@ -122,7 +127,7 @@ def test_joints_off_the_chain_keep_the_held_pose_bit_for_bit(run):
     stage = Usd.Stage.Open(str(run["src"]))
     anim = stage.GetPrimAtPath(ANIM)
     joints = [str(j) for j in anim.GetAttribute("joints").Get()]
-    held = np.asarray(anim.GetAttribute("rotations").Get())
+    held = np.asarray(anim.GetAttribute("rotations").Get(START))
     layer = Sdf.Layer.FindOrOpen(str(run["dir"] / "gaze.usdc"))
     path = Sdf.Path(f"{ANIM}.rotations")
     written = np.stack([np.asarray(layer.QueryTimeSample(path, t)) for t in run["frames"]])
@@ -137,10 +142,10 @@ def test_input_untouched_and_muting_gives_the_still_pose_back(run):
     stage = Usd.Stage.Open(str(run["dir"] / "preview.usda"))
     stage.MuteLayer(str(run["dir"] / "gaze.usdc"))
     rotations = stage.GetPrimAtPath(ANIM).GetAttribute("rotations")
-    assert rotations.GetNumTimeSamples() == 0
     input_stage = Usd.Stage.Open(str(run["src"]))
-    source = input_stage.GetPrimAtPath(ANIM).GetAttribute("rotations").Get()
-    assert np.asarray(rotations.Get()).tobytes() == np.asarray(source).tobytes()
+    source = input_stage.GetPrimAtPath(ANIM).GetAttribute("rotations")
+    assert rotations.GetTimeSamples() == source.GetTimeSamples()
+    assert np.asarray(rotations.Get(30.0)).tobytes() == np.asarray(source.Get(30.0)).tobytes()
 
 
 # -- a Skeleton with no animation bound: UsdSkel shows its rest pose -----------------------------

@@ -329,25 +329,24 @@ def _rest_pose_samples(stage: Usd.Stage, rest_local: np.ndarray, where_skel: str
             np.broadcast_to(t.astype(np.float32), shape).copy(), np.broadcast_to(s.astype(np.float16), shape).copy())
 
 
-def _has_samples(anim: UsdSkel.Animation) -> bool:
-    return any(a and a.GetNumTimeSamples() for a in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(),
-                                                     anim.GetScalesAttr()))
-
-
 def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
-    """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation;
-    one held pose (defaults only) is sampled at every frame of the stage's range."""
+    """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation,
+    and whether it holds one pose: with defaults only, or one time sample (USD holds that value at
+    every time), it is sampled at every frame of the stage's range."""
     attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
     times = np.sort(np.concatenate([np.asarray(a.GetTimeSamples(), dtype=float) for a in attrs if a] or [[]]))
     times = times[np.r_[True, times[1:] != times[:-1]]] if len(times) else times  # np.unique would import numpy.ma
-    if not len(times):
-        times = _still_times(anim.GetPrim().GetStage(), where_anim)
+    stage = anim.GetPrim().GetStage()
+    held = len(times) == 0 or (len(times) == 1 and stage.HasAuthoredTimeCodeRange()
+                               and stage.GetEndTimeCode() > stage.GetStartTimeCode())
+    if held:
+        times = _still_times(stage, where_anim)
     rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
     translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
     _check_values(rotations, translations, where_anim)
     checks.check_scales(scales, f"{where_anim}.scales")
-    return times, rotations, translations, scales
+    return times, rotations, translations, scales, held
 
 
 def _joint_names(skeleton: UsdSkel.Skeleton) -> list[str] | None:
@@ -372,7 +371,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         anim = UsdSkel.Animation(anim_prim)
         animation = str(anim_prim.GetPath())
         anim_joints, anim_to_skel, ignored = _animated_joints(anim, joints, skel, where_anim)
-        times, rotations, translations, scales = _animation_samples(anim, len(anim_joints), where_anim)
+        times, rotations, translations, scales, held = _animation_samples(anim, len(anim_joints), where_anim)
         if ignored:
             notes.append(f"{where_anim}.joints: {len(ignored)} of its joints are not joints of {skel.GetPath()} "
                          f"('{ignored[0]}'{', ...' if len(ignored) > 1 else ''}); UsdSkel ignores them, and the layer "
@@ -381,6 +380,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         animation = _new_animation_path(skel)
         anim_joints, anim_to_skel = list(joints), np.arange(len(joints))
         times, rotations, translations, scales = _rest_pose_samples(stage, rest_local, where_skel)
+        held = True
     joint_names = _joint_names(skeleton)
     return SkelClip(
         source=source,
@@ -388,7 +388,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         skeleton=str(skel.GetPath()),
         animation=animation,
         animation_bound=bound,
-        held_pose=not bound or not _has_samples(anim),
+        held_pose=held,
         notes=notes,
         joints=joints,
         parents=parents,
