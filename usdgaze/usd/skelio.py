@@ -329,6 +329,24 @@ def _rest_pose_samples(stage: Usd.Stage, rest_local: np.ndarray, where_skel: str
             np.broadcast_to(t.astype(np.float32), shape).copy(), np.broadcast_to(s.astype(np.float16), shape).copy())
 
 
+def _on_every_frame(times: np.ndarray, stage: Usd.Stage, where_anim: str) -> np.ndarray:
+    """Sample times of a keyed animation with every frame between its first and last key added where
+    keys lie more than a frame apart: UsdSkel interpolates between them, and a saccade (a frame or
+    two) written only at the keys would be smeared over the gap. Denser samples stay as they are."""
+    step = float(stage.GetTimeCodesPerSecond()) / float(stage.GetFramesPerSecond())
+    if len(times) < 2 or float(np.max(np.diff(times))) <= step * (1.0 + 1e-6):
+        return times
+    count = int(np.floor((times[-1] - times[0]) / step + 1e-9)) + 1
+    if count > _MOST_STILL_FRAMES:
+        raise UsdGazeError(f"{where_anim}: keys from {times[0]:g} to {times[-1]:g} span {count} frames "
+                           f"(at most {_MOST_STILL_FRAMES}); check the time samples")
+    grid = times[0] + step * np.arange(count, dtype=float)
+    at = np.searchsorted(times, grid)
+    near = np.minimum(np.abs(grid - times[np.maximum(at - 1, 0)]), np.abs(grid - times[np.minimum(at, len(times) - 1)]))
+    # The keys stay exact; a frame within half a frame of one would only be a near-duplicate sample.
+    return np.sort(np.concatenate([times, grid[near >= 0.5 * step]]))
+
+
 def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
     """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation,
     and whether it holds one pose: with defaults only, or one time sample (USD holds that value at
@@ -341,6 +359,8 @@ def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
                                and stage.GetEndTimeCode() > stage.GetStartTimeCode())
     if held:
         times = _still_times(stage, where_anim)
+    else:
+        times = _on_every_frame(times, stage, where_anim)
     rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
     translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
