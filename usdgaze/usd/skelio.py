@@ -329,12 +329,17 @@ def _rest_pose_samples(stage: Usd.Stage, rest_local: np.ndarray, where_skel: str
             np.broadcast_to(t.astype(np.float32), shape).copy(), np.broadcast_to(s.astype(np.float16), shape).copy())
 
 
+_RESOLVES_S = 0.05  # samples this close resolve a saccade's main phase (30-100 ms): left as they are
+
+
 def _on_every_frame(times: np.ndarray, stage: Usd.Stage, where_anim: str) -> np.ndarray:
     """Sample times of a keyed animation with every frame between its first and last key added where
-    keys lie more than a frame apart: UsdSkel interpolates between them, and a saccade (a frame or
-    two) written only at the keys would be smeared over the gap. Denser samples stay as they are."""
-    step = float(stage.GetTimeCodesPerSecond()) / float(stage.GetFramesPerSecond())
-    if len(times) < 2 or float(np.max(np.diff(times))) <= step * (1.0 + 1e-6):
+    keys lie more than a frame and more than 50 ms apart: UsdSkel interpolates between them, and a
+    saccade written only at the keys would be smeared over the gap. A capture sampled at 20 Hz or
+    faster stays as it is, whatever the stage's frame rate."""
+    tcps = float(stage.GetTimeCodesPerSecond())
+    step = tcps / float(stage.GetFramesPerSecond())
+    if len(times) < 2 or float(np.max(np.diff(times))) <= max(step, _RESOLVES_S * tcps) * (1.0 + 1e-6):
         return times
     count = int(np.floor((times[-1] - times[0]) / step + 1e-9)) + 1
     if count > _MOST_STILL_FRAMES:
