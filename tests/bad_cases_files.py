@@ -236,6 +236,13 @@ def b_batch_out_is_another_jobs_input(d):
                        f"out = \"in.usda\"\nshifts = [\"1:2:3\"]\n")
 
 
+def b_batch_out_is_a_layer_another_jobs_input_composes(d):
+    _composed(d, "sublayer")  # shot.usda sublayers char.usda
+    rig(d, "other.usda")
+    return manifest(d, '[[job]]\nname = "a"\ninput = "shot.usda"\nout = "a.usdc"\nshifts = ["1:2:3"]\n'
+                       '[[job]]\nname = "b"\ninput = "other.usda"\nout = "char.usda"\nshifts = ["1:2:3"]\n')
+
+
 def b_batch_out_equals_preview(d):
     return manifest(d, f"[[job]]\n{JOB}preview = \"gaze.usdc\"\n")
 

@@ -362,11 +362,21 @@ def register(ids, path: Path, shots: list[Shot]) -> None:
 
 
 def _register(ids, path: Path, shots: list[Shot]) -> None:
+    from usdgaze.usd.stage import layer_dependencies
+
     ids.read(path, "manifest")
+    composed: dict[str, list[str]] = {}  # per input file: shots often share their inputs
     for s in shots:
         ids.read(s.values["input"], f"input of {s.label}")
         if "map" in s.values:
             ids.read(s.values["map"].partition(":/")[0], f"map of {s.label}")
+    for s in shots:
+        # Another shot must not write a layer this one composes: on a farm it would read it half-made.
+        source = os.path.realpath(s.values["input"])
+        if source not in composed:
+            composed[source] = [f for f in layer_dependencies(source) if os.path.realpath(f) != source]
+        for f in composed[source]:
+            ids.read(f, f"layer composed by the input of {s.label}")
     for s in shots:
         for key in ("out", "preview", "sublayer_into", "plot"):
             if key in s.values:
