@@ -245,16 +245,23 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
         errors.append(_error(prim, prim.GetPath(), "NotXformable",
                              f"GazeObjectAPI is applied to a {prim.GetTypeName() or 'typeless prim'}; "
                              "it needs an Xformable (the object's world transform is its state)"))
-    attr = prim.GetAttribute("gaze:object:importance")
-    if attr:
-        values = [attr.Get(t) for t in attr.GetTimeSamples()] or [attr.Get()]
-        bad = [v for v in values if v is None or not np.isfinite(v) or v <= 0.0]
-        if bad:
-            errors.append(_error(prim, attr.GetPath(), "Range", f"gaze:object:importance: {bad[0]}, expected > 0"))
-    radius = prim.GetAttribute("gaze:object:radius")
+    from usdgaze.usd.objects import importance_problem, type_problem
+
+    typed = {}
+    for name in ("gaze:object:importance", "gaze:object:radius", "gaze:object:kind"):
+        attr = prim.GetAttribute(name)
+        problem = type_problem(attr) if attr and attr.HasAuthoredValue() else None
+        if problem:
+            errors.append(_error(prim, attr.GetPath(), "Type", problem))
+        typed[name] = attr if attr and not problem else None
+    attr = typed["gaze:object:importance"]
+    problem = importance_problem(attr) if attr and attr.HasAuthoredValue() else None
+    if problem:
+        errors.append(_error(prim, attr.GetPath(), "Range", problem))
+    radius = typed["gaze:object:radius"]
     if radius and radius.Get() is not None and not (np.isfinite(radius.Get()) and radius.Get() >= 0.0):
         errors.append(_error(prim, radius.GetPath(), "Range", f"gaze:object:radius: {radius.Get()}, expected >= 0 m"))
-    kind = prim.GetAttribute("gaze:object:kind")
+    kind = typed["gaze:object:kind"]
     allowed = ("", "ballistic", "static", "moving")
     if kind and kind.Get() is not None and str(kind.Get()) not in allowed:
         errors.append(_error(prim, kind.GetPath(), "UnknownKind",

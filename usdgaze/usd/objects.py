@@ -1,7 +1,9 @@
 """Objects to look at, read from a stage: prims with ``GazeObjectAPI`` or named paths.
 
 An object's true state is the translation of its local-to-world transform, sampled at the planner's
-times; positions come back in metres (the stage's metersPerUnit applied).
+times (for a Boundable whose geometry is not centred on its origin, a mesh baked in world space, the
+centre of its world bounds, as ``--look-at`` takes it); positions come back in metres (the stage's
+metersPerUnit applied).
 
 Reading: where an object's transform is one translate op whose value resolves to time samples of one
 layer (any layer offset applied) under ancestors that do not move, its samples are read once at the Sdf
@@ -38,10 +40,38 @@ class StageObject:
         return self.radius if self.sized else 0.0
 
 
+_TYPES = {"gaze:object:importance": ("float", "double", "half"), "gaze:object:radius": ("float", "double", "half"),
+          "gaze:object:kind": ("token", "string")}
+
+
+def type_problem(attr: Usd.Attribute) -> str | None:
+    """Why a GazeObjectAPI attribute's authored type is not the schema's (a number, or a word), or None."""
+    wanted = _TYPES.get(attr.GetName())
+    # The authored type: with the schema registered, USD reports the schema's type for any opinion.
+    stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+    spelled = str(stack[0].typeName) if stack else str(attr.GetTypeName())
+    if wanted is None or spelled in wanted:
+        return None
+    return f"{attr.GetName()}: is a {spelled or 'value of no type'}, expected a {' or '.join(wanted[:2])}"
+
+
+def importance_problem(attr: Usd.Attribute) -> str | None:
+    """The first authored importance (a time sample, or the default) that is not > 0, or None."""
+    samples = attr.GetTimeSamples()
+    for t, v in ((t, attr.Get(t)) for t in samples) if samples else [(None, attr.Get())]:
+        if v is None or not np.isfinite(float(v)) or float(v) <= 0.0:
+            at = "" if t is None else f" at time {t:g}"
+            return f"gaze:object:importance: {'no value' if v is None else f'{float(v):g}'}{at}, expected > 0"
+    return None
+
+
 def _attr(prim: Usd.Prim, name: str, default, where: str):
     attr = prim.GetAttribute(name)
     if not attr or not attr.HasAuthoredValue():
         return default
+    problem = type_problem(attr)
+    if problem:
+        raise UsdGazeError(f"{where}.{problem}")
     value = attr.Get()
     if value is None:
         raise UsdGazeError(f"{where}.{name}: has no value")
@@ -52,6 +82,9 @@ def _importance(prim: Usd.Prim, time_codes: np.ndarray, where: str) -> np.ndarra
     attr = prim.GetAttribute("gaze:object:importance")
     if not attr or not attr.HasAuthoredValue():
         return np.ones(len(time_codes))
+    problem = type_problem(attr) or importance_problem(attr)  # the authored samples, as validate checks them
+    if problem:
+        raise UsdGazeError(f"{where}.{problem}")
     fast = sampled(attr, time_codes)
     if fast is not None:
         return fast.astype(float).reshape(len(time_codes))
@@ -109,7 +142,26 @@ def _fast_positions(prim: Usd.Prim, time_codes: np.ndarray) -> np.ndarray | None
     return local @ to_world[:3, :3] + to_world[3, :3]  # row vectors, as USD's matrices
 
 
-def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches) -> np.ndarray:
+def _off_centre(prim: Usd.Prim, time_code: float) -> bool:
+    """A Boundable whose geometry is not centred on its origin (a mesh baked in world space): its
+    position is the centre of its bounds, as a --look-at target's, not its transform's translation."""
+    if not prim.IsA(UsdGeom.Boundable):
+        return False
+    cache = UsdGeom.BBoxCache(Usd.TimeCode(time_code), [UsdGeom.Tokens.default_, UsdGeom.Tokens.render,
+                                                        UsdGeom.Tokens.proxy], useExtentsHint=True)
+    box = cache.ComputeUntransformedBound(prim)
+    if box.GetRange().IsEmpty():
+        return False
+    size = np.asarray(box.GetRange().GetSize(), float)
+    centre = np.asarray(box.ComputeCentroid(), float)
+    return bool(np.linalg.norm(centre) > 1e-6 * max(1.0, float(np.linalg.norm(size))))
+
+
+def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches, source: str) -> np.ndarray:
+    if _off_centre(prim, float(time_codes[0])):
+        from usdgaze.usd.targets import sample_target
+
+        return sample_target(prim.GetStage(), str(prim.GetPath()), time_codes, source)
     fast = _fast_positions(prim, time_codes)
     if fast is not None:
         return fast
@@ -131,6 +183,8 @@ def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list
             prim = stage.GetPrimAtPath(p)
             if not prim or not prim.IsValid():
                 raise UsdGazeError(f"{source}:{p}: no such prim")
+            if not prim.IsActive():
+                raise UsdGazeError(f"{source}:{p}: is inactive (active = false), so it is not in the scene")
             prims.append(prim)
     else:
         prims = [p for p in stage.Traverse() if p.HasAPI(API_NAME)]
@@ -161,7 +215,7 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
             raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g} must be >= 0")
         if kind not in KINDS:
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
-        pos = _positions(prim, time_codes, caches) * meters_per_unit
+        pos = _positions(prim, time_codes, caches, source) * meters_per_unit
         if not np.all(np.isfinite(pos)):
             raise UsdGazeError(f"{where}: its world transform is not finite at some time")
         out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind, authored is not None))

@@ -23,6 +23,8 @@ def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
     prim = stage.GetPrimAtPath(path)
     if not prim or not prim.IsValid():
         raise UsdGazeError(f"{source}:{path}: no such prim (look-at target)")
+    if not prim.IsActive():
+        raise UsdGazeError(f"{source}:{path}: is inactive (active = false), so it is not in the scene (look-at target)")
     if not (prim.IsA(UsdGeom.Xformable) or prim.IsA(UsdGeom.Boundable)):
         raise UsdGazeError(f"{source}:{path}: is a {prim.GetTypeName() or 'typeless prim'}; "
                            "a look-at target must be Xformable or Boundable")
