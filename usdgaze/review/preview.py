@@ -276,13 +276,27 @@ def contact_sheet(review, opts: PreviewOptions, stage):
 
 
 def write_animation(scene: Scene, path: Path, outputs) -> int:
-    """Stage the GIF or MP4 of every frame of ``scene``; returns the frame count."""
-    frames = [scene.frame(i) for i in range(len(scene.seconds))]
+    """Stage the GIF or MP4 of every frame of ``scene``, drawn one at a time as the writer takes them
+    (a long shot's frames never all in memory); returns the frame count."""
     fps = scene.opts.fps
+    failed: list[Exception] = []
+
+    def drawn():
+        for i in range(len(scene.seconds)):
+            try:
+                frame = scene.frame(i)
+            except Exception as exc:  # a bug in drawing, not a write failure: raised below as itself
+                failed.append(exc)
+                return
+            yield frame
+
+    frames = drawn()
     if path.suffix.lower() == ".gif":
+        from usdgaze.review.gif import write_gif
+
         def write(temp: str) -> None:
-            frames[0].save(temp, format="GIF", save_all=True, append_images=frames[1:],
-                           duration=int(round(1000.0 / fps)), loop=0, optimize=False)
+            with open(temp, "wb") as out:
+                write_gif(out, frames, int(round(1000.0 / fps)))
     else:
         def write(temp: str) -> None:
             import imageio.v2 as imageio
@@ -292,7 +306,9 @@ def write_animation(scene: Scene, path: Path, outputs) -> int:
                 for frame in frames:
                     w.append_data(np.asarray(frame.convert("RGB")))
     outputs.stage_with(path, write)
-    return len(frames)
+    if failed:
+        raise failed[0]
+    return len(scene.seconds)
 
 
 def write_png(image, path: Path, outputs) -> None:
