@@ -173,3 +173,34 @@ def b_meters_per_unit_only_in_a_sublayer(d):
     shot.pseudoRoot.SetInfo("upAxis", "Y")
     shot.Save()
     return apply_argv(d, d / "shot.usda")
+
+
+# -- pushes on the physics body (a second sweep, 2026-12-03) ---------------------------------------
+
+def _pushed(d, type_name, samples=None, default=None):
+    """``attend --physics`` on the rig with a push on its spine authored as given."""
+    def author(layer, r):
+        root = layer.GetPrimAtPath(r.skel_root)
+        Sdf.AttributeSpec(root, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).default = r.leaf["spine_b"]
+        force = Sdf.AttributeSpec(root, "usdgaze:physics:pushForce", type_name)
+        for t, v in (samples or {}).items():
+            layer.SetTimeSample(force.path, t, v)
+        if default is not None:
+            force.default = default
+    return ["attend", str(edited(d, author)), "--physics", "--out", str(d / "gaze.usdc")]
+
+
+def b_push_force_nan(d):
+    return _pushed(d, Sdf.ValueTypeNames.Float3, {10.0: (float("nan"), 0.0, 0.0), 20.0: (0.0, 0.0, 0.0)})
+
+
+def b_push_force_huge(d):
+    return _pushed(d, Sdf.ValueTypeNames.Float3, {10.0: (1e7, 0.0, 0.0), 20.0: (0.0, 0.0, 0.0)})
+
+
+def b_push_force_a_float(d):
+    return _pushed(d, Sdf.ValueTypeNames.Float, {10.0: 150.0, 20.0: 0.0})
+
+
+def b_push_force_blocked_sample(d):
+    return _pushed(d, Sdf.ValueTypeNames.Float3, {10.0: (150.0, 0.0, 0.0), 15.0: Sdf.ValueBlock(), 20.0: (0.0, 0.0, 0.0)})

@@ -34,11 +34,10 @@ import numpy as np
 
 from usdgaze.core.hints import BindHints
 from usdgaze.errors import UsdGazeError
-from usdgaze.physics import mpc
 from usdgaze.files.kinds import require_file
+from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, read_pushes  # noqa: F401  (the pass's names)
+from usdgaze.physics import mpc
 
-PUSH_FORCE = "usdgaze:physics:pushForce"
-PUSH_JOINT = "usdgaze:physics:pushJoint"
 TASK = "usdgaze:physics:task"
 TASKS = ("stone", "obstacle")
 STONE_TOLERANCE_M = 0.05
@@ -65,31 +64,6 @@ class ShotReport:
     other_attempt: list[str] = field(default_factory=list)
     # Problems another simulation cannot mend (a ball never within reach in time): not simulated again.
     unmendable: list[str] = field(default_factory=list)
-
-
-def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
-    """Pushes authored on the SkelRoot prim (see the module docstring), in the model's world."""
-    force = root.GetAttribute(PUSH_FORCE)
-    if not force or not force.HasAuthoredValue():
-        return ()
-    joint_attr = root.GetAttribute(PUSH_JOINT)
-    name = str(joint_attr.Get()) if joint_attr and joint_attr.HasAuthoredValue() else ""
-    leaves = [j.rsplit("/", 1)[-1] for j in clip.joints]
-    hits = [i for i, j in enumerate(clip.joints) if name in (j, leaves[i])]
-    if not hits or model.body_of(hits[0]) < 0:
-        raise UsdGazeError(f"{where}.{PUSH_JOINT}: '{name}' is not a simulated joint of {clip.skeleton}")
-    body = model.body_of(hits[0])
-    times = list(force.GetTimeSamples()) or [clip.start_time]
-    values = [np.array(force.Get(t), dtype=float) for t in times]
-    rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # directions only: no unit scale
-    pushes = []
-    for i, (t, f) in enumerate(zip(times, values)):
-        if not np.any(f):
-            continue
-        end = times[i + 1] if i + 1 < len(times) else clip.end_time
-        start_s = (t - clip.start_time) / clip.time_codes_per_second
-        pushes.append(mpc.Push(body, rot @ f, start_s, (end - t) / clip.time_codes_per_second))
-    return tuple(pushes)
 
 
 def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:

@@ -1,0 +1,63 @@
+"""Pushes authored on a SkelRoot for the physics pass: ``usdgaze:physics:pushForce`` (a float3 in
+newtons along the stage's axes, time-sampled: each sample's force holds until the next) on the body
+of ``usdgaze:physics:pushJoint``. Checked here, at the USD edge, so the simulation gets only finite
+forces it can take."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdgaze.errors import UsdGazeError
+from usdgaze.physics import mpc
+
+PUSH_FORCE = "usdgaze:physics:pushForce"
+PUSH_JOINT = "usdgaze:physics:pushJoint"
+MOST_NEWTONS = 1e5  # about 140 times a 75 kg body's weight: more only blows the simulation up
+_VECTORS = ("float3", "double3", "half3", "vector3f", "vector3d", "vector3h")
+
+
+def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
+    """The authored samples (or the default) as finite 3-vectors; one line for anything else."""
+    stack = force.GetPropertyStack()
+    spelled = str(stack[0].typeName) if stack else str(force.GetTypeName())
+    if spelled not in _VECTORS:
+        raise UsdGazeError(f"{where}.{PUSH_FORCE}: is a {spelled}, expected a float3 (newtons along the stage's axes)")
+    times = list(force.GetTimeSamples())
+    values = [force.Get(t) for t in times] if times else [force.Get()]
+    out = []
+    for t, v in zip(times or [None], values):
+        at = "" if t is None else f" at time {t:g}"
+        if v is None:
+            raise UsdGazeError(f"{where}.{PUSH_FORCE}: has no value{at} (blocked)")
+        f = np.array(v, dtype=float)
+        if not np.all(np.isfinite(f)):
+            raise UsdGazeError(f"{where}.{PUSH_FORCE}: {tuple(float(x) for x in f)}{at} is not finite")
+        if np.linalg.norm(f) > MOST_NEWTONS:
+            raise UsdGazeError(f"{where}.{PUSH_FORCE}: {np.linalg.norm(f):g} N{at}; at most {MOST_NEWTONS:g} N")
+        out.append(f)
+    return times, out
+
+
+def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
+    """Pushes authored on the SkelRoot prim, in the model's world."""
+    force = root.GetAttribute(PUSH_FORCE)
+    if not force or not force.HasAuthoredValue():
+        return ()
+    joint_attr = root.GetAttribute(PUSH_JOINT)
+    name = str(joint_attr.Get()) if joint_attr and joint_attr.HasAuthoredValue() else ""
+    leaves = [j.rsplit("/", 1)[-1] for j in clip.joints]
+    hits = [i for i, j in enumerate(clip.joints) if name in (j, leaves[i])]
+    if not hits or model.body_of(hits[0]) < 0:
+        raise UsdGazeError(f"{where}.{PUSH_JOINT}: '{name}' is not a simulated joint of {clip.skeleton}")
+    body = model.body_of(hits[0])
+    times, values = _forces(force, where)
+    times = times or [clip.start_time]
+    rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # directions only: no unit scale
+    pushes = []
+    for i, (t, f) in enumerate(zip(times, values)):
+        if not np.any(f):
+            continue
+        end = times[i + 1] if i + 1 < len(times) else clip.end_time
+        start_s = (t - clip.start_time) / clip.time_codes_per_second
+        pushes.append(mpc.Push(body, rot @ f, start_s, (end - t) / clip.time_codes_per_second))
+    return tuple(pushes)
