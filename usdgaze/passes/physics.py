@@ -42,6 +42,7 @@ TASK = "usdgaze:physics:task"
 TASKS = ("stone", "obstacle")
 STONE_TOLERANCE_M = 0.05
 FOOT_TOLERANCE_M = 0.02  # a foot deeper than this below the ground is a problem (the issue's bar)
+HEADING_TOLERANCE_DEG = 30.0  # the body turned further than this from the reference's heading: a problem
 
 
 @dataclass
@@ -115,6 +116,17 @@ def foot_problems(result: mpc.Result) -> list[str]:
     k = int(np.argmax(depth))
     return [f"a foot {100 * depth[k]:.1f} cm below the ground at {result.seconds[k]:.2f} s "
             f"(over {100 * FOOT_TOLERANCE_M:.0f} cm on {deep} step(s))"]
+
+
+def heading_problems(result: mpc.Result) -> list[str]:
+    """The body turned about the vertical away from the reference's heading by more than
+    ``HEADING_TOLERANCE_DEG`` (a spin the joint errors, measured joint by joint, do not see)."""
+    turned = mpc.heading_errors_deg(result.qpos, result.ref_qpos)
+    if not len(turned) or turned.max() <= HEADING_TOLERANCE_DEG:
+        return []
+    k = int(np.argmax(turned))
+    return [f"turned {turned[k]:.0f} deg away from the reference's heading by {result.seconds[k]:.2f} s "
+            f"(over {HEADING_TOLERANCE_DEG:.0f} deg on {int(np.sum(turned > HEADING_TOLERANCE_DEG))} step(s))"]
 
 
 def task_problems(result: mpc.Result) -> list[str]:
@@ -209,7 +221,7 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
         problems.append(f"the simulation diverged at {result.fell_at:.2f} s (MuJoCo's step became unstable)")
     elif result.fell:
         problems.append(f"fell at {result.fell_at:.2f} s (pelvis below {mpc.FALL_RATIO:.0%} of the reference)")
-    problems += foot_problems(result) + task_problems(result)
+    problems += heading_problems(result) + foot_problems(result) + task_problems(result)
     report = ShotReport(skeleton=clip.skeleton, animation=clip.animation, frames=frames,
                         simulated_s=float(result.seconds[-1] - result.seconds[0]), fell=result.fell,
                         fell_at_s=result.fell_at, min_pelvis_ratio=float(result.pelvis_ratio.min()),
@@ -217,7 +229,8 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
                         wall_s=wall, problems=problems, diverged=result.diverged)
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
-             "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist()}
+             "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),
+             "headingErrorDeg": mpc.heading_errors_deg(result.qpos, result.ref_qpos).tolist()}
     terms.update({key: [float(v) for v in values] for key, values in result.task_terms.items()})  # NaN: no value
     return report, terms
 

@@ -137,8 +137,26 @@ def joint_errors_deg(model: BodyModel, qpos: np.ndarray, ref: np.ndarray) -> np.
         if kind == "ball":
             errs.append(rot.angle(rot.relative(_xyzw(qpos[:, a:a + 4]), _xyzw(ref[:, a:a + 4]))))
         elif kind == "hinge":
-            errs.append(np.abs(qpos[:, a] - ref[:, a]))
+            errs.append(np.abs((qpos[:, a] - ref[:, a] + np.pi) % (2 * np.pi) - np.pi))
     return np.degrees(np.mean(errs, axis=0))
+
+
+def heading_errors_deg(qpos: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """How far the simulated base has turned about the vertical from the reference's, per frame, in
+    degrees (the twist about model Z of ``q_sim q_ref^-1``; the joint errors do not see the base)."""
+    w1, v1 = qpos[:, 3], qpos[:, 4:7]  # MuJoCo's w, x, y, z
+    w2, v2 = ref[:, 3], -ref[:, 4:7]  # the reference's inverse
+    w = w1 * w2 - np.sum(v1 * v2, axis=1)
+    z = w1 * v2[:, 2] + w2 * v1[:, 2] + v1[:, 0] * v2[:, 1] - v1[:, 1] * v2[:, 0]
+    twist = 2.0 * np.arctan2(z, w)
+    return np.degrees(np.abs((twist + np.pi) % (2 * np.pi) - np.pi))
+
+
+def blown_up(qpos: np.ndarray, qvel: np.ndarray, ref: np.ndarray, height: float) -> bool:
+    """A finite state no body reaches (MuJoCo's step can run away without a NaN): the base more than
+    three heights from the reference's, or faster than 50 m/s, or a joint spinning at 500 rad/s."""
+    return bool(np.linalg.norm(qpos[:3] - ref[:3]) > 3.0 * height or np.linalg.norm(qvel[:3]) > 50.0
+                or np.abs(qvel[3:]).max(initial=0.0) > 500.0)
 
 
 def _foot_depth(mj, d, geoms: np.ndarray) -> float:
@@ -308,8 +326,12 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
             if not np.all(np.isfinite(xn)):
                 kk = k + 1
                 break
+            q_next, v_next = sim.to_mujoco(xn)
+            if blown_up(q_next, v_next, ref_q[k + 1], shot.model.height):
+                kk = k + 1
+                break
             controller.advance(k)
-            qpos[k + 1], qvel = sim.to_mujoco(xn)
+            qpos[k + 1], qvel = q_next, v_next
             ctrl[k] = u
             down = down + 1 if qpos[k + 1, 2] < FALL_RATIO * ref_q[k + 1, 2] else 0
             d.qpos[:] = qpos[k + 1]
