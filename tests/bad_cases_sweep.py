@@ -204,3 +204,12 @@ def b_push_force_a_float(d):
 
 def b_push_force_blocked_sample(d):
     return _pushed(d, Sdf.ValueTypeNames.Float3, {10.0: (150.0, 0.0, 0.0), 15.0: Sdf.ValueBlock(), 20.0: (0.0, 0.0, 0.0)})
+
+
+def b_physics_character_lying_down(d):
+    def lay_down(layer, r):
+        root = layer.GetPrimAtPath(r.skel_root)
+        Sdf.AttributeSpec(root, "xformOp:rotateX", Sdf.ValueTypeNames.Float).default = 90.0
+        Sdf.AttributeSpec(root, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:rotateX"])
+    return ["physics-model", str(edited(d, lay_down)), "--out", str(d / "body.xml")]

@@ -337,8 +337,20 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tip
 
 
 def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) -> None:
-    """The body is de Leva's human: a skeleton whose hands are on the ground at rest (a quadruped's
-    front feet) would be simulated as a person on all fours it cannot hold, so it is refused."""
+    """The body is de Leva's human standing: a skeleton lying down or upside down in the stage at rest
+    (its head not above its pelvis, or its feet not below), and one whose hands are on the ground at
+    rest (a quadruped's front feet), would be simulated as a person in a pose it cannot hold (a lying
+    rig was said to have 'stayed up' at 247% of its pelvis height), so they are refused."""
+    size = float(np.linalg.norm(np.ptp(pos, axis=0)))
+    heads = [b for b, r in enumerate(roles) if r == "head"]
+    feet = [b for b, r in enumerate(roles) if r == "foot"]
+    if heads and feet and size > 0:
+        head_up = max(float(pos[b, 2]) for b in heads) - float(pos[0, 2])
+        feet_down = float(pos[0, 2]) - min(float(pos[b, 2]) for b in feet)
+        if min(head_up, feet_down) < 0.15 * size:
+            raise UsdGazeError(f"{where}: it does not stand at rest in the stage (head {head_up / size:.0%} of its size "
+                               f"above the pelvis, feet {feet_down / size:.0%} below): the physics body stands "
+                               "upright; a character lying down or upside down is not supported")
     hands = [b for b, r in enumerate(roles) if r == "hand"]
     low = min((float(pos[b, 2] - pos[:, 2].min()) for b in hands), default=np.inf)
     if low < 0.2 * height:
