@@ -64,12 +64,14 @@ def test_reader_matches_usd_value_resolution(tmp_path, case):
               "offset": ["@./walk.usdc@ (offset = 24; scale = 0.5)"],
               "stronger samples": ["@./over.usda@", "@./walk.usdc@"],
               "stronger default": ["@./over.usda@", "@./walk.usdc@"]}[case]
-    if case == "stronger samples":  # three samples at times the base has and has not: USD holds/slerps
-        (tmp_path / "over.usda").write_text(STRONGER % f"10: [{quats}], 100.5: [{quats}], 400: [{quats}]")
-    if case == "stronger default":
-        (tmp_path / "over.usda").write_text(STRONGER.replace("rotations.timeSamples = { %s }", f"rotations = [{quats}]"))
-    # Same time codes per second as the walk, so the offset is the only time mapping.
+    # Same time codes per second as the walk, so the offset is the only time mapping (a layer without
+    # its own would be read at 24 and its samples scaled by five).
     tcps = Usd.Stage.Open(str(CMU)).GetTimeCodesPerSecond()
+    over = STRONGER.replace("#usda 1.0\n", f"#usda 1.0\n(\n    timeCodesPerSecond = {tcps!r}\n)\n", 1)
+    if case == "stronger samples":  # three samples at times the base has and has not: USD holds/slerps
+        (tmp_path / "over.usda").write_text(over % f"10: [{quats}], 100.5: [{quats}], 400: [{quats}]")
+    if case == "stronger default":
+        (tmp_path / "over.usda").write_text(over.replace("rotations.timeSamples = { %s }", f"rotations = [{quats}]"))
     (tmp_path / "shot.usda").write_text(
         f"#usda 1.0\n(\n    timeCodesPerSecond = {tcps!r}\n    metersPerUnit = 1\n    upAxis = \"Y\"\n"
         f"    subLayers = [{', '.join(layers)}]\n)\n")
