@@ -110,3 +110,19 @@ def test_joints_the_animation_does_not_list_are_appended_with_their_simulated_va
     assert np.all(o.scales[:, :4] == 3.0)
     assert np.allclose(o.scales[:, 4], [2.0, 2.0, 2.0]) and np.allclose(o.scales[:, 5], [0.5, 0.5, 0.5])
     assert o.write_joints and not o.define and np.array_equal(o.times, np.arange(n))
+
+
+def test_a_shot_range_shorter_than_the_take_is_all_that_is_simulated(tmp_path):
+    from .test_physics_pass import ANIM, excerpt
+
+    src = excerpt(tmp_path / "walk.usda", 1.0)
+    layer = Sdf.Layer.FindOrOpen(str(src))
+    start, tcps = layer.startTimeCode, layer.timeCodesPerSecond
+    layer.startTimeCode, layer.endTimeCode = start + 0.2 * tcps, start + 0.5 * tcps  # the shot: 0.2-0.5 s
+    layer.Save()
+    take = layer.ListTimeSamplesForPath(Sdf.Path(ANIM + ".rotations"))
+    in_shot = [t for t in take if layer.startTimeCode <= t <= layer.endTimeCode]
+    (report,) = physics_pass.run(src, tmp_path / "sim.usda", mpc.Options(h=0.02, horizon_s=0.6))
+    written = Sdf.Layer.FindOrOpen(str(tmp_path / "sim.usda")).ListTimeSamplesForPath(Sdf.Path(ANIM + ".rotations"))
+    assert len(take) > 2 * len(in_shot) and written == in_shot
+    assert abs(report.simulated_s - 0.3) <= 0.02 + 1e-9

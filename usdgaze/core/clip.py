@@ -65,6 +65,17 @@ class SkelClip:
         """``file:/prim/path.attribute`` of the animation, for messages."""
         return f"{self.source}:{self.animation}{'.' + attribute if attribute else ''}"
 
+    def frames(self, lo: int, hi: int) -> "SkelClip":
+        """The clip cut to its frames ``lo`` to ``hi`` (exclusive): times, animation samples and, where
+        it moves, the skeleton's transform."""
+        import dataclasses
+
+        moving = len(self.skel_to_world) > 1
+        return dataclasses.replace(
+            self, times=self.times[lo:hi], rotations=self.rotations[lo:hi], translations=self.translations[lo:hi],
+            scales=self.scales[lo:hi], skel_to_world=self.skel_to_world[lo:hi] if moving else self.skel_to_world,
+            owns_arrays=False)
+
     def named_joints(self) -> list[str] | None:
         """The joint paths spelled with the skeleton's ``jointNames`` (``Hips/Spine`` for tokens
         ``j0/j1`` named Hips and Spine), or None when it authors none, not one per joint, or the same."""
