@@ -54,6 +54,19 @@ def test_a_mesh_baked_in_world_space_is_where_its_points_are(tmp_path):
     assert np.abs(got[1].positions - [1, 2, 3]).max() < 1e-12  # a centred sphere: its translation
 
 
+def _rig_with_ball(tmp_path, edit):
+    """The small synthetic rig with a Sphere /Obj/Ball in front of it, edited by ``edit(ball, layer)``."""
+    r = rig(tmp_path, frames=60)
+    layer = Sdf.Layer.FindOrOpen(str(r.path))
+    layer.Reload(force=True)
+    stage = Usd.Stage.Open(layer)  # held: its prims expire with it
+    ball = UsdGeom.Sphere.Define(stage, "/Obj/Ball")
+    ball.AddTranslateOp().Set(Gf.Vec3d(0.5, 1.5, 1.0))
+    edit(ball.GetPrim(), layer)
+    layer.Save()
+    return r
+
+
 @pytest.mark.parametrize("name, type_name, value", [
     ("gaze:object:importance", Sdf.ValueTypeNames.String, "high"),
     ("gaze:object:importance", Sdf.ValueTypeNames.FloatArray, [1.0, 2.0]),
@@ -62,16 +75,12 @@ def test_a_mesh_baked_in_world_space_is_where_its_points_are(tmp_path):
     ("gaze:object:kind", Sdf.ValueTypeNames.Float, 2.0),
 ])
 def test_an_object_attribute_of_the_wrong_type_is_one_line(tmp_path, capsys, name, type_name, value):
-    r = rig(tmp_path, frames=60)
-    layer = Sdf.Layer.FindOrOpen(str(r.path))
-    layer.Reload(force=True)
-    stage = Usd.Stage.Open(layer)
-    ball = UsdGeom.Sphere.Define(stage, "/Obj/Ball")
-    ball.AddTranslateOp().Set(Gf.Vec3d(0.5, 1.5, 1.0))
-    ball.GetPrim().AddAppliedSchema("GazeObjectAPI")
-    # At the Sdf level: USD's own Set refuses a value of another type than the registered schema's.
-    Sdf.AttributeSpec(layer.GetPrimAtPath("/Obj/Ball"), name, type_name).default = value
-    layer.Save()
+    def wrong_type(ball, layer):
+        ball.AddAppliedSchema("GazeObjectAPI")
+        # At the Sdf level: USD's own Set refuses a value of another type than the registered schema's.
+        Sdf.AttributeSpec(layer.GetPrimAtPath("/Obj/Ball"), name, type_name).default = value
+
+    r = _rig_with_ball(tmp_path, wrong_type)
     before = r.path.read_bytes()
     assert main(["attend", str(r.path), "--out", str(tmp_path / "out.usda")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -98,14 +107,7 @@ def test_an_authored_importance_not_above_zero_is_named_with_its_time(tmp_path):
 
 
 def test_an_inactive_prim_is_not_an_object_nor_a_target(tmp_path, capsys):
-    r = rig(tmp_path, frames=60)
-    layer = Sdf.Layer.FindOrOpen(str(r.path))
-    layer.Reload(force=True)
-    stage = Usd.Stage.Open(layer)
-    ball = UsdGeom.Sphere.Define(stage, "/Obj/Ball")
-    ball.AddTranslateOp().Set(Gf.Vec3d(0.5, 1.5, 1.0))
-    ball.GetPrim().SetActive(False)
-    layer.Save()
+    r = _rig_with_ball(tmp_path, lambda ball, layer: ball.SetActive(False))
     assert main(["attend", str(r.path), "--objects", "/Obj/Ball", "--out", str(tmp_path / "a.usda")]) == 2
     assert capsys.readouterr().err.strip().endswith("/Obj/Ball: is inactive (active = false), so it is not in the scene")
     assert main(["apply", str(r.path), "--look-at", "/Obj/Ball@0.2s", "--out", str(tmp_path / "b.usda")]) == 2
