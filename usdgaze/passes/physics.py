@@ -121,7 +121,7 @@ def foot_problems(result: mpc.Result) -> list[str]:
 def heading_problems(result: mpc.Result) -> list[str]:
     """The body turned about the vertical away from the reference's heading by more than
     ``HEADING_TOLERANCE_DEG`` (a spin the joint errors, measured joint by joint, do not see)."""
-    turned = mpc.heading_errors_deg(result.qpos, result.ref_qpos)
+    turned = result.heading_error_deg
     if not len(turned) or turned.max() <= HEADING_TOLERANCE_DEG:
         return []
     k = int(np.argmax(turned))
@@ -230,7 +230,7 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         wall_s=wall, problems=problems, diverged=result.diverged)
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),
-             "headingErrorDeg": mpc.heading_errors_deg(result.qpos, result.ref_qpos).tolist()}
+             "headingErrorDeg": result.heading_error_deg.tolist()}
     terms.update({key: [float(v) for v in values] for key, values in result.task_terms.items()})  # NaN: no value
     return report, terms
 

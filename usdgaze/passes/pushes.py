@@ -9,6 +9,7 @@ import numpy as np
 
 from usdgaze.errors import UsdGazeError
 from usdgaze.physics import mpc
+from usdgaze.usd.checks import authored_type
 
 PUSH_FORCE = "usdgaze:physics:pushForce"
 PUSH_JOINT = "usdgaze:physics:pushJoint"
@@ -18,8 +19,7 @@ _VECTORS = ("float3", "double3", "half3", "vector3f", "vector3d", "vector3h")
 
 def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
     """The authored samples (or the default) as finite 3-vectors; one line for anything else."""
-    stack = force.GetPropertyStack()
-    spelled = str(stack[0].typeName) if stack else str(force.GetTypeName())
+    spelled = authored_type(force)
     if spelled not in _VECTORS:
         raise UsdGazeError(f"{where}.{PUSH_FORCE}: is a {spelled}, expected a float3 (newtons along the stage's axes)")
     times = list(force.GetTimeSamples())

@@ -14,6 +14,7 @@ after a fall the same way; a ``Controller`` adds what it senses and plans beside
 
 from __future__ import annotations
 
+
 from dataclasses import dataclass, field
 from typing import Callable, Protocol, Sequence
 
@@ -101,6 +102,11 @@ class Result:
     @property
     def fell(self) -> bool:
         return self.fell_at is not None
+
+    @property
+    def heading_error_deg(self) -> np.ndarray:
+        """(K,) how far the base turned about the vertical from the reference's (:func:`heading_errors_deg`)."""
+        return heading_errors_deg(self.qpos, self.ref_qpos)
 
 
 def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: float) -> np.ndarray:

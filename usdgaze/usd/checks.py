@@ -49,6 +49,13 @@ def _check_root_metadata(stage: Usd.Stage, source: str) -> None:
                     f"{layer.pseudoRoot.GetInfo(key)}; author {key} on {source} itself")
 
 
+def authored_type(attr: Usd.Attribute) -> str:
+    """The type an attribute's strongest opinion is authored with (``float``, ``string``, ...): where a
+    registered schema defines the attribute, USD reports the schema's type whatever was authored."""
+    stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+    return str(stack[0].typeName) if stack else str(attr.GetTypeName())
+
+
 def check_types(prim: Usd.Prim, expected: dict[str, str], where: str) -> None:
     """Each attribute authored with the type UsdSkel reads (the schema reports its own type, so look at specs)."""
     for name, type_name in expected.items():

@@ -20,6 +20,8 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.usd.checks import authored_type
+from usdgaze.usd.targets import PURPOSES, sample_target
 
 API_NAME = "GazeObjectAPI"
 KINDS = ("", "ballistic", "static", "moving")
@@ -47,9 +49,7 @@ _TYPES = {"gaze:object:importance": ("float", "double", "half"), "gaze:object:ra
 def type_problem(attr: Usd.Attribute) -> str | None:
     """Why a GazeObjectAPI attribute's authored type is not the schema's (a number, or a word), or None."""
     wanted = _TYPES.get(attr.GetName())
-    # The authored type: with the schema registered, USD reports the schema's type for any opinion.
-    stack = attr.GetPropertyStack(Usd.TimeCode.Default())
-    spelled = str(stack[0].typeName) if stack else str(attr.GetTypeName())
+    spelled = authored_type(attr)
     if wanted is None or spelled in wanted:
         return None
     return f"{attr.GetName()}: is a {spelled or 'value of no type'}, expected a {' or '.join(wanted[:2])}"
@@ -147,8 +147,7 @@ def _off_centre(prim: Usd.Prim, time_code: float) -> bool:
     position is the centre of its bounds, as a --look-at target's, not its transform's translation."""
     if not prim.IsA(UsdGeom.Boundable):
         return False
-    cache = UsdGeom.BBoxCache(Usd.TimeCode(time_code), [UsdGeom.Tokens.default_, UsdGeom.Tokens.render,
-                                                        UsdGeom.Tokens.proxy], useExtentsHint=True)
+    cache = UsdGeom.BBoxCache(Usd.TimeCode(time_code), PURPOSES, useExtentsHint=True)
     box = cache.ComputeUntransformedBound(prim)
     if box.GetRange().IsEmpty():
         return False
@@ -159,8 +158,6 @@ def _off_centre(prim: Usd.Prim, time_code: float) -> bool:
 
 def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches, source: str) -> np.ndarray:
     if _off_centre(prim, float(time_codes[0])):
-        from usdgaze.usd.targets import sample_target
-
         return sample_target(prim.GetStage(), str(prim.GetPath()), time_codes, source)
     fast = _fast_positions(prim, time_codes)
     if fast is not None:

@@ -22,15 +22,19 @@ def skeletons_under(root: Usd.Prim) -> list[Usd.Prim]:
     return [p for p in Usd.PrimRange(root, Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Skeleton)]
 
 
-def _animation_of(skel: Usd.Prim) -> Usd.Prim | None:
+def _animation_source(skel: Usd.Prim) -> tuple[bool, Usd.Prim | None]:
+    """Whether ``skel:animationSource`` targets anything for ``skel`` (on it, or on an ancestor such as
+    the SkelRoot, which UsdSkel's binding inherits down), and the SkelAnimation it binds, or None.
+    Targeting nothing, UsdSkel shows the rest pose; targeting something else is a broken binding."""
     binding = UsdSkel.BindingAPI(skel)
     rel = binding.GetAnimationSourceRel()
     targets = rel.GetForwardedTargets() if rel else []
-    if targets:
-        prim = skel.GetStage().GetPrimAtPath(targets[0])
-    else:  # bound on an ancestor (the SkelRoot, say), which UsdSkel's binding inherits down to the Skeleton
-        prim = binding.GetInheritedAnimationSource()
-    return prim if prim and prim.IsA(UsdSkel.Animation) else None
+    prim = skel.GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
+    return bool(targets) or bool(prim), (prim if prim and prim.IsA(UsdSkel.Animation) else None)
+
+
+def _animation_of(skel: Usd.Prim) -> Usd.Prim | None:
+    return _animation_source(skel)[1]
 
 
 def animations_elsewhere(stage: Usd.Stage, roots: list[Usd.Prim]) -> dict[str, str]:
@@ -215,14 +219,6 @@ def _skeleton_joints(skeleton: UsdSkel.Skeleton, where_skel: str) -> tuple[list[
     return joints, _joint_parents(joints, where_skel)
 
 
-def _binds_nothing(skel: Usd.Prim) -> bool:
-    """No ``skel:animationSource`` targets anything for ``skel``, on it or inherited: UsdSkel shows
-    the rest pose (a target that is not a SkelAnimation is a broken binding, not this)."""
-    binding = UsdSkel.BindingAPI(skel)
-    rel = binding.GetAnimationSourceRel()
-    return not (rel and rel.GetForwardedTargets()) and not binding.GetInheritedAnimationSource()
-
-
 NEW_ANIMATION = "gazeAnimation"  # the child of an unanimated Skeleton that the layer defines and binds
 
 
@@ -233,9 +229,8 @@ def _new_animation_path(skel: Usd.Prim) -> str:
     return str(skel.GetPath().AppendChild(name))
 
 
-def _bound_animation(skel: Usd.Prim, where_skel: str, source: str) -> tuple[Usd.Prim, str]:
-    """The SkelAnimation bound to ``skel`` (checked like the skeleton) and its location for messages."""
-    anim_prim = _animation_of(skel)
+def _bound_animation(anim_prim: Usd.Prim | None, where_skel: str, source: str) -> tuple[Usd.Prim, str]:
+    """The SkelAnimation bound to the skeleton (checked like it) and its location for messages."""
     if anim_prim is None:
         raise UsdGazeError(f"{where_skel}: skel:animationSource targets no SkelAnimation; bind one, or remove the "
                            "relationship to add gaze to the rest pose")
@@ -389,10 +384,10 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     checks.check_types(skel, checks.SKELETON_TYPES, where_skel)
     joints, parents = _skeleton_joints(skeleton, where_skel)
     rest_local, bind_world, neutral_world, neutral_source, authored = _poses(skeleton, joints, parents, where_skel)
-    bound = not _binds_nothing(skel)
+    bound, anim_prim = _animation_source(skel)
     notes: list[str] = []
     if bound:
-        anim_prim, where_anim = _bound_animation(skel, where_skel, source)
+        anim_prim, where_anim = _bound_animation(anim_prim, where_skel, source)
         anim = UsdSkel.Animation(anim_prim)
         animation = str(anim_prim.GetPath())
         anim_joints, anim_to_skel, ignored = _animated_joints(anim, joints, skel, where_anim)

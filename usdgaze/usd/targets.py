@@ -13,7 +13,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError
 
-_PURPOSES = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
+PURPOSES = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
 
 
 def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
@@ -59,7 +59,7 @@ def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str) -
     sample_times = np.asarray(times, dtype=float) if _varying(prim, boundable) else np.asarray(times[:1], dtype=float)
     out = np.empty((len(sample_times), 3))
     if boundable:
-        cache = UsdGeom.BBoxCache(Usd.TimeCode(float(sample_times[0])), _PURPOSES, useExtentsHint=True)
+        cache = UsdGeom.BBoxCache(Usd.TimeCode(float(sample_times[0])), PURPOSES, useExtentsHint=True)
         for i, t in enumerate(sample_times):
             cache.SetTime(Usd.TimeCode(float(t)))
             box = cache.ComputeWorldBound(prim)
