@@ -135,6 +135,17 @@ def sight_line(p: Posed, left_eye: str, right_eye: str, eye_axis_l, eye_axis_r) 
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
+def gaze_change(base: Posed, new: Posed, fwd: np.ndarray, head: str = "Head",
+                eyes: tuple[str, str] = ("LeftEye", "RightEye"), sight=sight_line):
+    """The (yaw, pitch) change, degrees per frame, of ``new``'s line of sight (``sight``, from its two
+    eyes' forward axes) against ``base``'s head direction; and that head direction and the sight."""
+    head_dir = base.axis(head, local_forward(base, head, fwd))
+    left, right = eyes
+    line = sight(new, left, right, local_forward(new, left, fwd), local_forward(new, right, fwd))
+    a, b = az_el(line, new.up), az_el(head_dir, base.up)
+    return np.column_stack([wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]]), head_dir, line
+
+
 def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Degrees between unit vectors, row by row."""
     return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1)))

@@ -48,13 +48,7 @@ def run(tmp_path_factory):
 
 def _sight(r):
     """Achieved line-of-sight change (yaw, pitch) per frame, against the base head's line of sight."""
-    base, new, fwd = r["base"], r["new"], r["fwd"]
-    head_axis = measure.local_forward(base, HEAD, fwd)
-    base_dir = base.axis(HEAD, head_axis)
-    eye_axis = [measure.local_forward(new, e, fwd) for e in ("LeftEye", "RightEye")]
-    sight = measure.sight_line(new, "LeftEye", "RightEye", *eye_axis)
-    a, b = measure.az_el(sight, new.up), measure.az_el(base_dir, base.up)
-    return np.column_stack([measure.wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]]), base_dir, sight
+    return measure.gaze_change(r["base"], r["new"], r["fwd"], HEAD)
 
 
 def _frames(r):

@@ -85,13 +85,8 @@ def sight_line(p, left: str, right: str, axis_l, axis_r) -> np.ndarray:
 
 def sight_change(base, new, rig: syn.Rig):
     """Achieved (yaw, pitch) change of the line of sight per frame, and the sight directions."""
-    fwd = rig.forward
-    head = rig.leaf["head"]
-    base_dir = base.axis(head, measure.local_forward(base, head, fwd))
-    left, right = rig.eye_leaves
-    sight = sight_line(new, left, right, measure.local_forward(new, left, fwd), measure.local_forward(new, right, fwd))
-    a, b = measure.az_el(sight, new.up), measure.az_el(base_dir, base.up)
-    return np.column_stack([measure.wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]]), sight
+    change, _, sight = measure.gaze_change(base, new, rig.forward, rig.leaf["head"], rig.eye_leaves, sight_line)
+    return change, sight
 
 
 def hold_windows(run):
@@ -337,12 +332,7 @@ def test_crowd_sharing_one_map_gets_both_characters_in_one_layer(tmp_path):
     for c in report.characters:
         base = measure.posed(str(CROWD), c.skeleton)
         new = measure.posed(str(tmp_path / "preview.usda"), c.skeleton)
-        fwd = measure.character_forward_skel(base, "LeftHip", "RightHip")
-        base_dir = base.axis("Head", measure.local_forward(base, "Head", fwd))
-        eye_axes = [measure.local_forward(new, e, fwd) for e in ("LeftEye", "RightEye")]
-        sight = measure.sight_line(new, "LeftEye", "RightEye", *eye_axes)
-        a, b = measure.az_el(sight, new.up), measure.az_el(base_dir, base.up)
-        change = np.column_stack([measure.wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]])
+        change, _, _ = measure.gaze_change(base, new, measure.character_forward_skel(base, "LeftHip", "RightHip"))
         timing = c.result.shift_timing
         for k, s in enumerate(timing):
             settled = 1.0 + (s["time_s"] + s["duration"]) * tcps
@@ -432,12 +422,7 @@ def test_generic_joint_tokens_bind_by_the_skeletons_joint_names(tmp_path):
     leaf = lambda key: token[rig.joint(key)].rsplit("/", 1)[-1]  # noqa: E731
     base = measure.posed(str(rig.path), rig.skeleton)
     new = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton)
-    fwd = rig.forward
-    head_dir = base.axis(leaf("head"), measure.local_forward(base, leaf("head"), fwd))
-    l, r = leaf("eye_l"), leaf("eye_r")
-    sight = sight_line(new, l, r, measure.local_forward(new, l, fwd), measure.local_forward(new, r, fwd))
-    a, b = measure.az_el(sight, new.up), measure.az_el(head_dir, base.up)
-    change = np.column_stack([measure.wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]])
+    change, _, _ = measure.gaze_change(base, new, rig.forward, leaf("head"), (leaf("eye_l"), leaf("eye_r")), sight_line)
     s = report.characters[0].result.shift_timing[0]
     hold = base.times >= rig.start_time + (s["time_s"] + s["duration"]) * rig.time_codes_per_second + 1
     assert hold.sum() > 30

@@ -44,12 +44,7 @@ def keyed(path: Path) -> tuple[Path, list[float]]:
 
 
 def _sight(base, new):
-    fwd = measure.character_forward_skel(base, "LeftHip", "RightHip")
-    head = base.axis("Head", measure.local_forward(base, "Head", fwd))
-    axes = [measure.local_forward(new, e, fwd) for e in ("LeftEye", "RightEye")]
-    sight = measure.sight_line(new, "LeftEye", "RightEye", *axes)
-    a, b = measure.az_el(sight, new.up), measure.az_el(head, base.up)
-    return np.column_stack([measure.wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]])
+    return measure.gaze_change(base, new, measure.character_forward_skel(base, "LeftHip", "RightHip"))[0]
 
 
 def test_a_keyed_animation_gets_the_gaze_on_every_frame_between_its_keys(tmp_path):

@@ -80,11 +80,7 @@ def _sight_change(shot: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     the frames before the shift and after it settled, and the input head's direction."""
     base, new = shot["base"], shot["new"]
     fwd = measure.character_forward_skel(base, "LeftHip", "RightHip")
-    head_dir = base.axis("Head", measure.local_forward(base, "Head", fwd))
-    eye_axes = [measure.local_forward(new, e, fwd) for e in ("LeftEye", "RightEye")]
-    sight = measure.sight_line(new, "LeftEye", "RightEye", *eye_axes)
-    a, b = measure.az_el(sight, new.up), measure.az_el(head_dir, base.up)
-    change = np.column_stack([measure.wrap(a[:, 0] - b[:, 0]), a[:, 1] - b[:, 1]])
+    change, head_dir, _ = measure.gaze_change(base, new, fwd)
     timing = shot["report"].characters[0].result.shift_timing[0]
     settled = START + (timing["time_s"] + timing["duration"]) * FPS
     return change, shot["frames"] < SHIFT[0], shot["frames"] > settled + 1, head_dir
