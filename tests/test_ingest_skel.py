@@ -105,3 +105,35 @@ def test_sparse_keyframes_are_sampled_every_time_code(tmp_path):
     # keys agree exactly; in between UsdSkel interpolates the keys
     keys = np.arange(0, frames, 4)
     np.testing.assert_allclose(np.degrees(rot.angle(rot.relative(sparse.orientations[keys], dense.orientations[keys]))), 0.0, atol=1e-3)
+
+
+def _generic_tokens(path) -> None:
+    """Joint tokens j0/j1/... on the Skeleton and its SkelAnimation, the names moved to jointNames
+    (how some exporters write a rig)."""
+    from pxr import Sdf
+
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    joints = [str(j) for j in layer.GetAttributeAtPath("/Rig/Skel.joints").default]
+    index = {j: i for i, j in enumerate(joints)}
+    tokens = ["/".join(f"j{index['/'.join(j.split('/')[:k + 1])]}" for k in range(j.count("/") + 1)) for j in joints]
+    layer.GetAttributeAtPath("/Rig/Skel.joints").default = tokens
+    Sdf.AttributeSpec(layer.GetPrimAtPath("/Rig/Skel"), "jointNames", Sdf.ValueTypeNames.TokenArray,
+                      Sdf.VariabilityUniform).default = [j.rsplit("/", 1)[-1] for j in joints]
+    anim = layer.GetAttributeAtPath("/Rig/Skel/Anim.joints")
+    anim.default = [tokens[index[str(j)]] for j in anim.default]
+    layer.Save()
+
+
+def test_generic_joint_tokens_bind_by_joint_names(tmp_path):
+    """A rig whose joint tokens say nothing (j0/j1/...) binds by the Skeleton's jointNames and
+    builds the same map as the named rig."""
+    rename = {k: f"mixamorig_{k}" for k in CUSTOM}
+    motions, sheet = _session(tmp_path, rename)
+    named = build(sheet)
+    for i in range(len(TARGETS)):
+        _generic_tokens(tmp_path / f"t{i}.usda")
+    assert "j0/j1" in (tmp_path / "t0.usda").read_text()
+    generic = build(sheet)
+    errors = _pose_errors(motions, generic)
+    assert errors.max() <= 0.5
+    np.testing.assert_allclose(generic.definition.motions.offsets, named.definition.motions.offsets, atol=1e-12)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Usd, UsdSkel
+from pxr import Sdf, Usd, UsdSkel
 
 from usdgaze.usd import skelio
 from usdgaze.usd.stage import open_stage
@@ -101,3 +101,77 @@ def test_reader_reads_each_sample_once_from_its_layer(tmp_path, monkeypatch):
     monkeypatch.setattr(Usd.Attribute, "Get", counting)
     clip = _read(CMU)
     assert len(clip.times) == 994 and not [c for c in calls if c.startswith(ANIM)]
+
+
+def _thin(path: Path, keep) -> None:
+    """Erase the animation's samples at the times ``keep(name, t)`` rejects."""
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    with Sdf.ChangeBlock():
+        for name in ("rotations", "translations", "scales"):
+            attr = Sdf.Path(f"{ANIM}.{name}")
+            for t in list(layer.ListTimeSamplesForPath(attr)):
+                if not keep(name, t):
+                    layer.EraseTimeSample(attr, t)
+    layer.Save()
+
+
+THINNED = {
+    # keys every 5 frames: the reader adds the frames between them, which USD interpolates
+    "keys every 5 frames": lambda name, t: (int(round(t)) - 1) % 5 == 0,
+    # translations keyed every other frame, rotations every frame: the union is every frame
+    "translations on fewer frames": lambda name, t: name != "translations" or (int(round(t)) - 1) % 2 == 0,
+    # rotations end early: USD holds the last one over the rest of the take
+    "rotations end early": lambda name, t: name != "rotations" or t <= 400,
+}
+
+
+@pytest.mark.parametrize("case", sorted(THINNED))
+def test_samples_the_layer_lacks_are_what_usd_gives_and_only_those_are_interpolated(tmp_path, monkeypatch, case):
+    """Each authored sample comes from its layer; USD is asked only for the times strictly between two
+    of the attribute's samples (its interpolation), never for a time at or beyond its samples."""
+    path = tmp_path / "walk.usdc"
+    shutil.copy(CMU, path)
+    _thin(path, THINNED[case])
+    rotations_at = set(Sdf.Layer.FindOrOpen(str(path)).ListTimeSamplesForPath(Sdf.Path(f"{ANIM}.rotations")))
+    asked: list[tuple[str, float]] = []
+    original = Usd.Attribute.Get
+
+    def counting(self, *args):
+        if args and str(self.GetPath()).startswith(ANIM):
+            asked.append((self.GetName(), float(args[0])))
+        return original(self, *args)
+
+    monkeypatch.setattr(Usd.Attribute, "Get", counting)
+    clip = _read(path)
+    monkeypatch.setattr(Usd.Attribute, "Get", original)
+
+    reference = _usd_reference(path, clip.times)
+    np.testing.assert_array_equal(clip.rotations, reference["rotations"])
+    np.testing.assert_array_equal(clip.translations, reference["translations"])
+    first, last = min(rotations_at), max(rotations_at)
+    asked_rotations = {t for name, t in asked if name == "rotations"}
+    assert not asked_rotations & rotations_at  # an authored sample is never resolved through USD
+    assert all(first < t < last for t in asked_rotations)
+    if case == "rotations end early":
+        assert not asked_rotations and clip.times.max() > last  # held past its last sample without USD
+
+
+def test_one_sample_held_over_the_range_is_read_once(tmp_path, monkeypatch):
+    """A pose held by one time sample is read from the layer once for the whole range."""
+    path = tmp_path / "walk.usdc"
+    shutil.copy(CMU, path)
+    middle = Sdf.Layer.FindOrOpen(str(path)).ListTimeSamplesForPath(Sdf.Path(f"{ANIM}.rotations"))[300]
+    _thin(path, lambda name, t: t == middle)
+    assert Usd.Stage.Open(str(path)).GetPrimAtPath(ANIM).GetAttribute("rotations").GetNumTimeSamples() == 1
+    asked = []
+    original = Usd.Attribute.Get
+    monkeypatch.setattr(Usd.Attribute, "Get",
+                        lambda self, *args: (asked.append(args) if args and str(self.GetPath()).startswith(ANIM) else None)
+                        or original(self, *args))
+    clip = _read(path)
+    monkeypatch.setattr(Usd.Attribute, "Get", original)
+    assert clip.held_pose and len(clip.times) > 150 and not asked
+    reference = _usd_reference(path, clip.times[[0, len(clip.times) // 2, -1]])
+    for name in ("rotations", "translations"):
+        np.testing.assert_array_equal(getattr(clip, name)[[0, len(clip.times) // 2, -1]], reference[name])
+        assert np.all(getattr(clip, name) == getattr(clip, name)[0])

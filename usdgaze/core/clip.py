@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usdgaze.core import rotations as rot
+from usdgaze.core.names import spelled_with_names
 
 
 @dataclass
@@ -79,14 +80,7 @@ class SkelClip:
     def named_joints(self) -> list[str] | None:
         """The joint paths spelled with the skeleton's ``jointNames`` (``Hips/Spine`` for tokens
         ``j0/j1`` named Hips and Spine), or None when it authors none, not one per joint, or the same."""
-        names = self.joint_names
-        if names is None or len(names) != len(self.joints):
-            return None
-        spelled: list[str] = []
-        for i, name in enumerate(names):
-            leaf = str(name).replace("/", "_") or self.joints[i].rsplit("/", 1)[-1]
-            spelled.append(f"{spelled[self.parents[i]]}/{leaf}" if self.parents[i] >= 0 else leaf)
-        return None if spelled == self.joints else spelled
+        return spelled_with_names(self.joints, self.parents, self.joint_names)
 
     @property
     def seconds(self) -> np.ndarray:

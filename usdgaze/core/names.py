@@ -35,6 +35,18 @@ def leaf(joint: str) -> str:
     return joint.rsplit("/", 1)[-1]
 
 
+def spelled_with_names(joints: list[str], parents, names) -> list[str] | None:
+    """The joint paths spelled with a skeleton's ``jointNames`` (``Hips/Spine`` for tokens ``j0/j1``
+    named Hips and Spine), or None when there are none, not one per joint, or they spell the same."""
+    if names is None or len(names) != len(joints):
+        return None
+    spelled: list[str] = []
+    for i, name in enumerate(names):
+        own = str(name).replace("/", "_") or leaf(joints[i])
+        spelled.append(f"{spelled[parents[i]]}/{own}" if parents[i] >= 0 else own)
+    return None if spelled == list(joints) else spelled
+
+
 @functools.lru_cache(maxsize=4096)
 def _segment(word: str) -> tuple[str, ...]:
     """A lower-case token as vocabulary words, a leading side letter allowed (``lhand``); else itself."""

@@ -24,6 +24,7 @@ from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.usd.stage import open_stage
+from usdgaze.core.names import spelled_with_names
 from usdgaze.core.rig import bind_chain, character_frame, leaf
 from usdgaze.ingest.markers import SkeletonBinding, parse_axis
 from usdgaze.ingest.series import TrialSeries
@@ -91,14 +92,23 @@ def _skel_query(skel: UsdSkel.Skeleton, where: str) -> tuple[UsdSkel.SkeletonQue
 
 
 def _bound_chain(query: UsdSkel.SkeletonQuery, binding: SkeletonBinding, where: str):
-    """The skeleton's joints and its bound chain, with a hint for build-map when binding fails."""
+    """The skeleton's joints and its bound chain, with a hint for build-map when binding fails.
+
+    Where the joint paths' words tell nothing (generic tokens such as ``j0/j1``), the paths spelled
+    with the skeleton's ``jointNames`` are bound instead, as ``apply`` does."""
     joints = [str(j) for j in query.GetJointOrder()]
     parents = np.array(query.GetTopology().GetParentIndices(), dtype=int)
-    try:
-        chain = bind_chain(joints, parents, _resolve(binding, joints, where), where)
-    except RigError as exc:
-        raise SkeletonClipError(f"{exc} (for build-map: name the joints in a [skeleton] table of the marker set or TOML sheet)") from None
-    return joints, chain
+    names_attr = query.GetSkeleton().GetJointNamesAttr()
+    named = spelled_with_names(joints, parents, names_attr.Get() if names_attr.HasAuthoredValue() else None)
+    first = None
+    for spelled in [joints] + ([named] if named else []):
+        try:
+            return spelled, bind_chain(spelled, parents, _resolve(binding, spelled, where), where)
+        except (RigError, SkeletonClipError) as exc:
+            first = first or exc
+    if isinstance(first, SkeletonClipError):
+        raise first
+    raise SkeletonClipError(f"{first} (for build-map: name the joints in a [skeleton] table of the marker set or TOML sheet)") from None
 
 
 def _frame_times(stage: Usd.Stage, times: list[float], where: str) -> tuple[list[float], float]:

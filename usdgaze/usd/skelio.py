@@ -10,6 +10,7 @@ from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd import checks
+from usdgaze.usd.samples import check_values, read_array
 
 
 def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:
@@ -87,54 +88,6 @@ def _matrices(attr: Usd.Attribute) -> np.ndarray | None:
     return rot.matrices_from_usd(np.array(value, dtype=float).reshape(-1, 4, 4))
 
 
-def _authored_samples(attr: Usd.Attribute) -> tuple[Sdf.Layer, Sdf.Path, Sdf.LayerOffset] | None:
-    """The layer spec whose time samples are the attribute's value, with its offset to stage time.
-
-    None when value resolution is anything else (value clips, splines, a stronger default), in which
-    case the caller reads through Usd.
-    """
-    if attr.GetResolveInfo().GetSource() != Usd.ResolveInfoSourceTimeSamples:
-        return None
-    for spec, offset in attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()):
-        layer, path = spec.layer, spec.path
-        if layer.GetNumTimeSamplesForPath(path):
-            return layer, path, offset
-        if spec.HasDefaultValue():  # a stronger default would win: not the simple case
-            return None
-    return None
-
-
-def _read_sdf(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray | None:
-    """All samples of ``attr`` straight from the one layer that holds them (no per-frame value
-    resolution), or None when that layer's samples are not exactly the stage's ``times``."""
-    found = _authored_samples(attr)
-    if found is None:
-        return None
-    layer, path, offset = found
-    own = layer.ListTimeSamplesForPath(path)
-    stage_times = np.array([offset * t for t in own], dtype=float) if not offset.IsIdentity() else np.asarray(own, float)
-    if len(stage_times) != len(times) or not np.array_equal(stage_times, times):
-        return None  # other attributes add times: USD interpolates between these samples
-    out = np.empty((len(times), count, width), dtype=dtype)
-    query = layer.QueryTimeSample
-    for i, t in enumerate(own):
-        value = query(path, t)  # a Vt array: numpy copies it through the buffer protocol
-        try:
-            # A shorter array would broadcast; the first sample's full shape stands for the attribute's type.
-            if len(value) != count or (i == 0 and np.asarray(value).shape != (count, width)):
-                raise ValueError
-            out[i] = value
-        except (TypeError, ValueError):
-            _wrong_count(np.asarray(value), times[i], where, count)
-    return out
-
-
-def _wrong_count(value: np.ndarray, time, where: str, count: int) -> None:
-    at = "default" if time is None else f"time {time:g}"
-    n = value.shape[0] if value.ndim else 0
-    raise UsdGazeError(f"{where}: {n} entries at {at}, expected {count} (one per joint)")
-
-
 def bind_problem(bind_world: np.ndarray | None, joints: list[str]) -> str | None:
     """Why bindTransforms cannot serve as the neutral pose, or None when it can."""
     if bind_world is None:
@@ -153,46 +106,6 @@ def bind_problem(bind_world: np.ndarray | None, joints: list[str]) -> str | None
     if len(joints) > 1 and np.ptp(pos, axis=0).max() <= 1e-9 * max(1.0, float(np.abs(pos).max())):
         return "bindTransforms puts every joint at one point"
     return None
-
-
-def _samples(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray:
-    """Values of an array attribute at ``times`` as ``(F, count, width)``; a default is broadcast.
-
-    Read at the Sdf level when one layer holds the samples (the common case), else through Usd.
-    """
-    if not attr or not attr.HasAuthoredValue():
-        raise UsdGazeError(
-            f"{where}: not authored (UsdSkel needs translations, rotations and scales for every animated joint)"
-        )
-    if attr.GetNumTimeSamples() == 0:
-        value = np.asarray(attr.Get(), dtype=dtype)
-        if value.shape != (count, width):
-            _wrong_count(value, None, where, count)
-        return np.broadcast_to(value, (len(times), count, width)).copy()
-    out = _read_sdf(attr, times, dtype, width, count, where)
-    if out is not None:
-        return out
-    out = np.empty((len(times), count, width), dtype=dtype)
-    for i, t in enumerate(times):
-        value = np.asarray(attr.Get(float(t)), dtype=dtype)
-        if value.shape != (count, width):
-            _wrong_count(value, times[i], where, count)
-        out[i] = value
-    return out
-
-
-_CHUNK_FRAMES = 4096  # checks run over frame chunks: no float64 or boolean copy of the whole animation
-
-
-def _check_values(rotations: np.ndarray, translations: np.ndarray, where: str) -> None:
-    """Finite values and unit quaternions, computed chunk by chunk in the arrays' own float32."""
-    for lo in range(0, len(rotations), _CHUNK_FRAMES):
-        r = rotations[lo:lo + _CHUNK_FRAMES]
-        if not (np.isfinite(r).all() and np.isfinite(translations[lo:lo + _CHUNK_FRAMES]).all()):
-            raise UsdGazeError(f"{where}: rotations or translations hold NaN or infinite values")
-        norm = np.sqrt(np.einsum("fjk,fjk->fj", r, r))
-        if np.any(np.abs(norm - 1.0) > 1e-2):
-            raise UsdGazeError(f"{where}.rotations: not unit quaternions")
 
 
 def _skel_to_world(skel: Usd.Prim, times: np.ndarray) -> np.ndarray:
@@ -361,10 +274,10 @@ def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
         times = _still_times(stage, where_anim)
     else:
         times = _on_every_frame(times, stage, where_anim)
-    rotations = _samples(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
-    translations = _samples(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
-    scales = _samples(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
-    _check_values(rotations, translations, where_anim)
+    rotations = read_array(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
+    translations = read_array(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
+    scales = read_array(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
+    check_values(rotations, translations, where_anim)
     checks.check_scales(scales, f"{where_anim}.scales")
     return times, rotations, translations, scales, held
 

@@ -1,0 +1,127 @@
+"""Array attributes' time samples as numpy arrays, read at the Sdf level where USD's value
+resolution allows it: each authored sample once from the layer that holds it, USD's own
+interpolation only for the times that fall strictly between two samples."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Sdf, Usd
+
+from usdgaze.errors import UsdGazeError
+
+
+def authored_samples(attr: Usd.Attribute) -> tuple[Sdf.Layer, Sdf.Path, Sdf.LayerOffset] | None:
+    """The layer spec whose time samples are the attribute's value, with its offset to stage time.
+
+    None when value resolution is anything else (value clips, splines, a stronger default), in which
+    case the caller reads through Usd.
+    """
+    if attr.GetResolveInfo().GetSource() != Usd.ResolveInfoSourceTimeSamples:
+        return None
+    for spec, offset in attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()):
+        layer, path = spec.layer, spec.path
+        if layer.GetNumTimeSamplesForPath(path):
+            return layer, path, offset
+        if spec.HasDefaultValue():  # a stronger default would win: not the simple case
+            return None
+    return None
+
+
+def wrong_count(value: np.ndarray, time, where: str, count: int) -> None:
+    """Raise the one-line error for an array sample with the wrong number of entries."""
+    at = "default" if time is None else f"time {time:g}"
+    n = value.shape[0] if value.ndim else 0
+    raise UsdGazeError(f"{where}: {n} entries at {at}, expected {count} (one per joint)")
+
+
+class _Rows:
+    """The ``(F, count, width)`` result, filled a sample at a time with each sample's entries checked."""
+
+    def __init__(self, times: np.ndarray, dtype, width: int, count: int, where: str):
+        self.out = np.empty((len(times), count, width), dtype=dtype)
+        self.times, self.count, self.width, self.where = times, count, width, where
+
+    def put(self, rows, value, first: bool = False) -> None:
+        try:
+            # A shorter array would broadcast; the first sample's full shape stands for the attribute's type.
+            if len(value) != self.count or (first and np.asarray(value).shape != (self.count, self.width)):
+                raise ValueError
+            self.out[rows] = value  # a Vt array: numpy copies it through the buffer protocol
+        except (TypeError, ValueError):
+            at = rows if np.ndim(rows) == 0 else rows.start if isinstance(rows, slice) else rows[0]
+            wrong_count(np.asarray(value), self.times[at], self.where, self.count)
+
+
+def _sources(own_times: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """For each stage time, the index of the authored sample that is its value, or -1 where USD
+    interpolates: a time at a sample takes it, one before the first or after the last sample takes
+    that sample (USD holds the end values), one strictly between two samples needs USD."""
+    last = len(own_times) - 1
+    at = np.minimum(np.searchsorted(own_times, times), last)
+    source = np.where(own_times[at] == times, at, -1)
+    source[times < own_times[0]] = 0
+    source[times > own_times[-1]] = last
+    return source
+
+
+def _read_sdf(attr: Usd.Attribute, times: np.ndarray, rows: _Rows) -> bool:
+    """Fill ``rows`` from the one layer that holds the samples (USD for times between samples);
+    False when value resolution is not that simple case."""
+    found = authored_samples(attr)
+    if found is None:
+        return False
+    layer, path, offset = found
+    own = layer.ListTimeSamplesForPath(path)
+    own_times = np.array([offset * t for t in own], dtype=float) if not offset.IsIdentity() else np.asarray(own, float)
+    query = layer.QueryTimeSample
+    if len(own_times) == len(times) and np.array_equal(own_times, times):
+        for i, t in enumerate(own):
+            rows.put(i, query(path, t), first=i == 0)
+        return True
+    source = _sources(own_times, times)
+    held = np.flatnonzero(source >= 0)
+    # Times are sorted, so each sample's frames are one run of ``held``.
+    starts = np.flatnonzero(np.r_[True, np.diff(source[held]) != 0])
+    for n, (lo, hi) in enumerate(zip(starts, np.r_[starts[1:], len(held)])):
+        rows.put(held[lo:hi], query(path, own[source[held[lo]]]), first=n == 0)
+    for i in np.flatnonzero(source < 0):
+        rows.put(i, attr.Get(float(times[i])))
+    return True
+
+
+def read_array(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray:
+    """Values of an array attribute at ``times`` as ``(F, count, width)``; a default is broadcast.
+
+    Read at the Sdf level when one layer holds the samples (the common case), else through Usd.
+    """
+    if not attr or not attr.HasAuthoredValue():
+        raise UsdGazeError(
+            f"{where}: not authored (UsdSkel needs translations, rotations and scales for every animated joint)"
+        )
+    if attr.GetNumTimeSamples() == 0:
+        value = np.asarray(attr.Get(), dtype=dtype)
+        if value.shape != (count, width):
+            wrong_count(value, None, where, count)
+        return np.broadcast_to(value, (len(times), count, width)).copy()
+    rows = _Rows(times, dtype, width, count, where)
+    if not _read_sdf(attr, times, rows):
+        for i, t in enumerate(times):
+            value = np.asarray(attr.Get(float(t)), dtype=dtype)
+            if value.shape != (count, width):
+                wrong_count(value, t, where, count)
+            rows.out[i] = value
+    return rows.out
+
+
+_CHUNK_FRAMES = 4096  # checks run over frame chunks: no float64 or boolean copy of the whole animation
+
+
+def check_values(rotations: np.ndarray, translations: np.ndarray, where: str) -> None:
+    """Finite values and unit quaternions, computed chunk by chunk in the arrays' own float32."""
+    for lo in range(0, len(rotations), _CHUNK_FRAMES):
+        r = rotations[lo:lo + _CHUNK_FRAMES]
+        if not (np.isfinite(r).all() and np.isfinite(translations[lo:lo + _CHUNK_FRAMES]).all()):
+            raise UsdGazeError(f"{where}: rotations or translations hold NaN or infinite values")
+        norm = np.sqrt(np.einsum("fjk,fjk->fj", r, r))
+        if np.any(np.abs(norm - 1.0) > 1e-2):
+            raise UsdGazeError(f"{where}.rotations: not unit quaternions")
