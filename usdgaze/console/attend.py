@@ -135,6 +135,8 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
         state = "; ".join(r.problems) if r.problems else "stayed up"
         if r.other_attempt:  # simulated twice (``passes.physics._simulate_shot``)
             state += f" with {r.iterations} iteration(s) a step (simulated again; {'; '.join(r.other_attempt)})"
+        if r.reference_notes:  # the reference's own fault, whatever the simulation did
+            state += f"; {'; '.join(r.reference_notes)}"
         click.echo(f"{r.skeleton}: {state}; pelvis >= {r.min_pelvis_ratio:.0%} of the reference, mean joint error "
                    f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground, "
                    f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s")

@@ -220,6 +220,12 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     wanted_point = eye_m + direction / inv[:, None]
     result = finish(clip, chain, frame, base, body, plan, to_skel(clip, wanted_point), options,
                        saccading=sight.saccading)
+    # The eyes were sent toward the request after the +-89 deg elevation cap; a shift's hold is judged
+    # (hold error, reach warnings) against what was asked, so a request the cap cuts short is said.
+    ends = [d.time_s for d in directives[1:]] + [np.inf]
+    for d, end in zip(directives, ends):
+        if d.kind == "shift":  # frames at full gaze weight only: a partial weight asks for less
+            result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
     result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [])
     return result
 

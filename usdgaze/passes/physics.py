@@ -65,6 +65,8 @@ class ShotReport:
     other_attempt: list[str] = field(default_factory=list)
     # Problems another simulation cannot mend (a ball never within reach in time): not simulated again.
     unmendable: list[str] = field(default_factory=list)
+    # What in the reference itself no simulated body can follow (``physics.feasible``): said, not retried.
+    reference_notes: list[str] = field(default_factory=list)
 
 
 def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
@@ -227,7 +229,8 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         fell_at_s=result.fell_at, min_pelvis_ratio=float(result.pelvis_ratio.min()),
                         mean_joint_error_deg=float(result.joint_error_deg.mean()),
                         max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
-                        wall_s=wall, problems=problems, diverged=result.diverged)
+                        wall_s=wall, problems=problems, diverged=result.diverged,
+                        reference_notes=list(result.reference_notes))
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),
              "headingErrorDeg": result.heading_error_deg.tolist()}
@@ -375,10 +378,12 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
         overrides.append(override)
         # wall_s stays out of the layer: the same inputs and seed must give the same bytes.
         kept = {k: v for k, v in asdict(report).items() if v is not None and k not in ("problems", "wall_s",
-                                                                                         "other_attempt", "unmendable")}
+                                                                                         "other_attempt", "unmendable", "reference_notes")}
         terms[report.skeleton] = {"report": kept, "problems": report.problems or ["none"], "frames": shot_terms}
         if report.other_attempt:
             terms[report.skeleton]["otherAttempt"] = report.other_attempt
+        if report.reference_notes:
+            terms[report.skeleton]["referenceNotes"] = report.reference_notes
     failed = [r for r in reports if r.problems]
     if failed and not keep_failed:
         raise UsdGazeError(f"{source}:{failed[0].skeleton}: {failed[0].problems[0]}; nothing written")

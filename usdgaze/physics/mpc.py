@@ -20,6 +20,7 @@ from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
+from usdgaze.physics import feasible
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.model import BodyModel
 from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, resample, velocities
@@ -98,6 +99,7 @@ class Result:
     task_terms: dict[str, np.ndarray] = field(default_factory=dict)  # "task.measure" -> (K,), NaN at k = 0
     diverged: bool = False  # MuJoCo's step blew up (the run stopped early without a fall)
     task_problems: list[str] = field(default_factory=list)  # what the tasks judged on the whole run, in words
+    reference_notes: list[str] = field(default_factory=list)  # what in the reference no body can follow
 
     @property
     def fell(self) -> bool:
@@ -352,6 +354,7 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
                 break
     result = shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
     result.task_problems = judge_tasks(shot.tasks, result)
+    result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q), h)] if n]
     return result
 
 

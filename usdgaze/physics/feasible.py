@@ -1,0 +1,54 @@
+"""What in a reference motion a physical body cannot do, said before anyone blames the controller.
+
+A stance foot does not slide. Keyframed or procedural walks often skate (the body glides while the
+legs swing, the feet never planted), and a simulated body can follow that only by sliding on its
+soles, which friction forbids: it lags, turns about the vertical or falls. On the CMU walks the
+lowest toe, when on the ground, moves at a median 0.06-0.10 m/s and never over 1 m/s; on a
+synthetic skating walk at a median 1.35 m/s, over 1 m/s on a third of the steps (docs/physics.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+GROUND_BAND_M = 0.03  # the lower toe this close to its lowest height counts as on the ground
+SLIDE_SPEED = 1.0  # m/s: a planted toe rolls and settles, it does not move this fast
+SLIDE_SHARE = 0.2  # of the steps a toe is on the ground
+
+
+def toe_paths(dyn, qpos: np.ndarray) -> np.ndarray:
+    """World positions ``(K, feet, 3)`` of each foot chain's last body at the ``qpos`` states."""
+    import mujoco
+
+    from usdgaze.physics.stones import feet
+
+    toes = [toe for _, _, toe in feet(dyn)]
+    d = mujoco.MjData(dyn.mj)
+    out = np.empty((len(qpos), len(toes), 3))
+    for k, q in enumerate(qpos):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(dyn.mj, d)
+        out[k] = d.xpos[toes]
+    return out
+
+
+def sliding_stance(toes: np.ndarray, h: float) -> str | None:
+    """Why the reference's feet cannot be followed (they slide while on the ground), or None.
+
+    ``toes``: :func:`toe_paths` at steps of ``h`` seconds. At each step the lower toe is the stance
+    foot's; where it is on the ground its speed over the ground plane is judged."""
+    if toes.shape[1] == 0 or len(toes) < 3:
+        return None
+    speed = np.linalg.norm(np.gradient(toes[..., :2], h, axis=0), axis=-1)
+    lower = np.argmin(toes[..., 2], axis=1)
+    k = np.arange(len(toes))
+    height, stance_speed = toes[k, lower, 2], speed[k, lower]
+    down = height < toes[..., 2].min() + GROUND_BAND_M
+    if not down.any():
+        return None
+    fast = stance_speed[down] > SLIDE_SPEED
+    if fast.mean() <= SLIDE_SHARE:
+        return None
+    return (f"the reference's feet slide: its lower toe moves over {SLIDE_SPEED:g} m/s on {fast.mean():.0%} of "
+            f"the steps it is on the ground (median {np.median(stance_speed[down]):.2f} m/s), which a body "
+            "standing on its soles cannot follow")
