@@ -222,19 +222,22 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
                        saccading=sight.saccading)
     # The eyes were sent toward the request after the +-89 deg elevation cap; a shift's hold is judged
     # (hold error, reach warnings) against what was asked, so a request the cap cuts short is said.
-    ends = [d.time_s for d in directives[1:]] + [np.inf]
-    for d, end in zip(directives, ends):
-        if d.kind == "shift":  # frames at full gaze weight only: a partial weight asks for less
-            result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
+    for d, end in _shift_spans(directives):  # frames at full gaze weight only: a partial weight asks for less
+        result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
     result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [])
     return result
+
+
+def _shift_spans(directives: list[Directive]) -> list[tuple[Directive, float]]:
+    """Each shift of the time-sorted ``directives`` and when the next directive starts (its hold's end)."""
+    ends = [d.time_s for d in directives[1:]] + [np.inf]
+    return [(d, end) for d, end in zip(directives, ends) if d.kind == "shift"]
 
 
 def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], result: PassResult,
               base_ae: np.ndarray, options: PassOptions, names: list[str]) -> list[str]:
     """Shifts that miss their request once settled; targets that went out of reach."""
-    ends = [d.time_s for d in directives[1:]] + [np.inf]
-    shifts = [(Shift(d.time_s, d.yaw, d.pitch), end) for d, end in zip(directives, ends) if d.kind == "shift"]
+    shifts = [(Shift(d.time_s, d.yaw, d.pitch), end) for d, end in _shift_spans(directives)]
     plan = Schedule(np.empty(0), result.requested, result.settled, [])
     out = reach_warnings(clip, [s for s, _ in shifts], plan, base_ae, result.achieved, result.eye_angles,
                             options, ends=[e for _, e in shifts])

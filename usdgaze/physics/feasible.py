@@ -3,8 +3,8 @@
 A stance foot does not slide. Keyframed or procedural walks often skate (the body glides while the
 legs swing, the feet never planted), and a simulated body can follow that only by sliding on its
 soles, which friction forbids: it lags, turns about the vertical or falls. On the CMU walks the
-lowest toe, when on the ground, moves at a median 0.06-0.10 m/s and never over 1 m/s; on a
-synthetic skating walk at a median 1.35 m/s, over 1 m/s on a third of the steps (docs/physics.md).
+lower toe, on the ground, moves at a median 0.15-0.17 m/s and over 1 m/s on 0-2.5% of those steps
+(a toe-off); on the synthetic skating walk at a median 1.13 m/s, over 1 m/s on 57% (docs/physics.md).
 """
 
 from __future__ import annotations

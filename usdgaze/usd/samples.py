@@ -48,7 +48,7 @@ class _Rows:
                 raise ValueError
             self.out[rows] = value  # a Vt array: numpy copies it through the buffer protocol
         except (TypeError, ValueError):
-            at = rows if np.ndim(rows) == 0 else rows.start if isinstance(rows, slice) else rows[0]
+            at = rows if np.ndim(rows) == 0 else rows[0]
             wrong_count(np.asarray(value), self.times[at], self.where, self.count)
 
 
@@ -106,10 +106,7 @@ def read_array(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count:
     rows = _Rows(times, dtype, width, count, where)
     if not _read_sdf(attr, times, rows):
         for i, t in enumerate(times):
-            value = np.asarray(attr.Get(float(t)), dtype=dtype)
-            if value.shape != (count, width):
-                wrong_count(value, t, where, count)
-            rows.out[i] = value
+            rows.put(i, attr.Get(float(t)), first=True)
     return rows.out
 
 
