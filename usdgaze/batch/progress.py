@@ -16,6 +16,13 @@ def shot_line(record: dict, done: int, total: int) -> str:
     return line
 
 
+def _say(stream: TextIO, line: str) -> None:
+    # One write with its newline: print() writes the newline apart, and a SIGTERM handled between
+    # the two left the command's last line glued to this one in a farm's log.
+    stream.write(line + "\n")
+    stream.flush()
+
+
 class Progress:
     """Reports each finished shot; a bar when ``stream`` is a terminal."""
 
@@ -37,13 +44,13 @@ class Progress:
             self.bar.set_postfix_str(record["name"], refresh=False)
             self.bar.update(1)
         else:
-            print(line, file=self.stream, flush=True)
+            _say(self.stream, line)
         for warning in record.get("warnings", []):
             text = f"    warning: {warning}"
             if self.bar is not None:
                 self.bar.write(text, file=self.stream)
             else:
-                print(text, file=self.stream, flush=True)
+                _say(self.stream, text)
 
     def close(self) -> None:
         if self.bar is not None:
