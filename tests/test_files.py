@@ -201,6 +201,38 @@ def test_a_signal_during_the_renames_lets_them_finish(tmp_path, monkeypatch):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(transaction.TMP_PREFIX)]
 
 
+@pytest.mark.parametrize("how", ["done", "failed", "interrupted"])
+def test_a_signal_during_the_cleanup_waits_for_it_and_is_not_lost(tmp_path, monkeypatch, how):
+    """A SIGTERM while the temporaries are removed (a process pool signals a stopping worker twice)
+    lets the removal finish and the handlers be put back, then stops the command."""
+    from usdgaze.errors import Interrupted
+
+    before = signal.getsignal(signal.SIGTERM)
+    real_rmtree = transaction.shutil.rmtree
+
+    def signal_then_rmtree(path, *args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)  # handled on this line's return, in the main thread
+        real_rmtree(path, *args, **kwargs)
+
+    monkeypatch.setattr(transaction.shutil, "rmtree", signal_then_rmtree)
+    out = tmp_path / "out.txt"
+    with pytest.raises(Interrupted) as caught:
+        with transaction.Outputs() as tx:
+            tx.claim(out, "--out")
+            tx.stage_text(out, "new\n")
+            if how == "failed":
+                raise UsdGazeError("bad input")
+            if how == "interrupted":
+                raise Interrupted(signal.SIGTERM)
+    monkeypatch.undo()
+    assert signal.getsignal(signal.SIGTERM) is before
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(transaction.TMP_PREFIX)]
+    assert out.exists() == (how == "done")
+    if how == "done":
+        assert caught.value.detail == "every output had been written when it stopped"
+    assert isinstance(caught.value.__cause__, UsdGazeError) == (how == "failed")
+
+
 @pytest.mark.parametrize("workers", ["1", "2"])
 def test_sigterm_in_a_batch_keeps_finished_shots_and_says_so(tmp_path, big, workers):
     rig(tmp_path)

@@ -280,6 +280,39 @@ print(json.dumps({"before": before, "tbb": len(os.listdir("/proc/self/task")) > 
 """
 
 
+_EARLY_STOP = """
+import os, signal
+from concurrent.futures.process import BrokenProcessPool
+from usdgaze.batch import engine
+from usdgaze.errors import Interrupted
+
+def the_commands_handler(signum, frame):  # what the batch command's writer has installed
+    raise Interrupted(signum)
+
+def no_shot(shot, force):
+    return {"index": shot}
+
+def stopped_first(forked):  # a SIGTERM that reaches a worker before its own handlers are in place
+    os.kill(os.getpid(), signal.SIGTERM)
+    real_start(forked)
+
+signal.signal(signal.SIGTERM, the_commands_handler)
+real_start, engine._pool_worker, engine.run_shot = engine._pool_worker, stopped_first, no_shot
+try:
+    print(list(engine.run_local([0, 1], 2, False)))
+except BrokenProcessPool:
+    print("the workers ended")
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks")
+def test_a_worker_stopped_before_its_handlers_are_set_ends_without_the_commands_handler():
+    proc = _run([sys.executable, "-c", _EARLY_STOP])
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "the workers ended"
+    assert "Interrupted" not in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="counts threads in /proc and forks")
 def test_usd_work_threads_are_lowered_only_in_forked_workers():
     # Once TBB has started a worker (USD reads its plugins in parallel), lowering the limit leaves that

@@ -8,6 +8,7 @@ the others complete. Workers use one BLAS thread each, and pool workers one USD 
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import sys
 import time
@@ -25,6 +26,7 @@ EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
 _limited = False
 STOP_GRACE_S = 10.0
 """How long a stopped pool worker has to clean up before it is killed."""
+_STOP_SIGNALS = {signal.SIGTERM, signal.SIGINT}
 
 
 def limit_threads(forked: bool = False) -> None:
@@ -158,7 +160,8 @@ def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
             import usdgaze.api  # noqa: F401
         with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context,
                                  initializer=_pool_worker, initargs=(forked,)) as pool:
-            futures = [pool.submit(run_shot, shot, force) for shot in shots]
+            with _signals_held():  # the workers start (fork) in submit: see _pool_worker
+                futures = [pool.submit(run_shot, shot, force) for shot in shots]
             try:
                 for future in as_completed(futures):
                     yield future.result()
@@ -169,12 +172,29 @@ def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
 
 def _pool_worker(forked: bool) -> None:
     """A pool worker's start: its threads (``limit_threads``), and between shots SIGTERM ends it at
-    once and SIGINT is the parent's to handle (a shot's writer handles both while it runs)."""
-    import signal
+    once and SIGINT is the parent's to handle (a shot's writer handles both while it runs).
 
+    The worker starts with both signals blocked (``_signals_held``): until this runs it has the
+    parent's handlers, which would raise the parent's interruption in it."""
     limit_threads(forked)
     signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGTERM and SIGINT blocked in this thread while the block runs, then delivered: processes
+    forked (or spawned) meanwhile inherit the mask."""
+    if not hasattr(signal, "pthread_sigmask"):  # Windows: no fork, no inherited handlers
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _stop_workers(pool: ProcessPoolExecutor) -> None:

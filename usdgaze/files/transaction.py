@@ -5,7 +5,8 @@ name, ``--no-clobber``, and identity against every file read, see :mod:`.identit
 files it reads, stages each output (a USD layer, a plot, text) into a temporary folder
 ``.usdgaze-tmp-<host>-<pid>-<token>`` beside the output, and commits at the end. The commit renames
 every staged file over its target, and if one rename fails, puts back what the earlier ones
-replaced; a SIGTERM or SIGINT that arrives during the renames waits for them. Otherwise, on any
+replaced; a SIGTERM or SIGINT that arrives during the renames, or during the cleanup after them
+or after a failure, waits for them. Otherwise, on any
 error, SIGTERM or SIGINT nothing of the command remains, USD's own temporaries included (they go
 into the same folder). After SIGKILL the targets are untouched and the leftover
 folder is removed by the next run that writes into that folder.
@@ -117,6 +118,7 @@ class Outputs:
         self._made: list[Path] = []
         self._done = False
         self._committing = False
+        self._closing = False
         self._pending: int | None = None
 
     # -- context: signals and cleanup --------------------------------------------------------------
@@ -131,13 +133,22 @@ class Outputs:
             if exc_type is None and not self._done:
                 self.commit()
         finally:
-            self.abort()
-            for sig, handler in self._old_handlers.items():
-                signal.signal(sig, handler)
-            self._old_handlers.clear()
+            # From here a signal waits for the cleanup: raised inside it, it would leave temporaries
+            # and this command's handlers in place (a pool stopping its workers signals them twice).
+            self._closing = True
+            try:
+                self.abort()
+            finally:
+                for sig, handler in self._old_handlers.items():
+                    signal.signal(sig, handler)
+                self._old_handlers.clear()
+        if self._pending is not None and not isinstance(exc, Interrupted):  # a signal is never lost
+            if exc is None:
+                raise Interrupted(self._pending, "every output had been written when it stopped")
+            raise Interrupted(self._pending) from exc
 
     def _on_signal(self, signum, frame) -> None:
-        if self._committing:  # the renames run to their end (or their rollback): all or none
+        if self._committing or self._closing:  # renames (or their rollback) and cleanup run to their end
             self._pending = signum
             return
         raise Interrupted(signum)  # not KeyboardInterrupt: click would turn that into "Aborted!"
