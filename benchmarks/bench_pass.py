@@ -59,7 +59,7 @@ class Stages:
     WRAP = {
         "read": [(skelio, "open_stage"), (skelio, "read_clip")],
         "map build": [(gazemap.ParametricGazeMap, "__init__")],
-        "model": [(api, "apply_look"), (api, "apply_gaze"), (api, "bind")],
+        "model": [(api, "apply_look"), (api, "bind")],
         "write": [(api, "build_override"), (api, "atomic_export"), (layers, "build_override"),
                   (layers, "atomic_export")],
     }
