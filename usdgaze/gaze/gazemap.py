@@ -177,18 +177,27 @@ class ParametricGazeMap:
                 best_err = np.minimum(cand_err, best_err)
         return weights
 
+    def _clamped(self, yaw_deg, pitch_deg):
+        """Requests ``(Q, 2)`` broadcast to one shape, clamped into the sampled box, and which were clamped."""
+        yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
+        request = np.stack([yaw.ravel(), pitch.ravel()], axis=-1)
+        inside = np.clip(request, self.low, self.high)
+        return yaw.shape, request, inside, np.any(np.abs(inside - request) > 1e-9, axis=1)
+
+    @staticmethod
+    def _stretched(timing: np.ndarray, request: np.ndarray, inside: np.ndarray) -> np.ndarray:
+        """Timing of clamped requests: the extra rotation must not make the shift faster than the
+        region it borrows its timing from, so the duration grows by the ratio of gaze amplitudes."""
+        ratio = np.linalg.norm(request, axis=1) / np.maximum(np.linalg.norm(inside, axis=1), 1e-9)
+        timing[:, motion.DURATION] *= np.maximum(ratio, 1.0)
+        return timing
+
     def query_full(self, yaw_deg, pitch_deg, correct: bool = True) -> QueryResult:
         """Answer a batch of gaze changes; broadcasting ``yaw_deg`` and ``pitch_deg`` to one shape.
 
-        ``correct=False`` skips the Gauss-Newton correction: the plain Kovar & Gleicher answer, for
-        callers that need only the timing floats.
+        ``correct=False`` skips the Gauss-Newton correction: the plain Kovar & Gleicher answer.
         """
-        yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
-        shape = yaw.shape
-        request = np.stack([yaw.ravel(), pitch.ravel()], axis=-1)
-        inside = np.clip(request, self.low, self.high)
-        extrapolated = np.any(np.abs(inside - request) > 1e-9, axis=1)
-
+        shape, request, inside, extrapolated = self._clamped(yaw_deg, pitch_deg)
         weights = self._interpolate(inside)
         for lo in range(0, len(inside) if correct else 0, _CHUNK):
             part = slice(lo, lo + _CHUNK)
@@ -201,11 +210,7 @@ class ParametricGazeMap:
             offsets, timing = offsets.copy(), timing.copy()
             offsets[extrapolated] = self._extend(offsets[extrapolated], request[extrapolated])
             achieved[extrapolated] = motion.achieved_gaze(offsets[extrapolated], request[extrapolated, 0])
-            # The extra rotation must not make the shift faster than the region it borrows its
-            # timing from: stretch the duration by the ratio of gaze amplitudes.
-            ratio = np.linalg.norm(request[extrapolated], axis=1) / np.maximum(
-                np.linalg.norm(inside[extrapolated], axis=1), 1e-9)
-            timing[extrapolated, motion.DURATION] *= np.maximum(ratio, 1.0)
+            timing[extrapolated] = self._stretched(timing[extrapolated], request[extrapolated], inside[extrapolated])
         motions = GazeMotions(offsets.reshape(shape + (5, 4)), timing.reshape(shape + (7,)))
         return QueryResult(
             motions,
@@ -213,6 +218,15 @@ class ParametricGazeMap:
             achieved.reshape(shape + (2,)),
             extrapolated.reshape(shape),
         )
+
+    def timing(self, yaw_deg, pitch_deg) -> np.ndarray:
+        """The timing floats ``(..., 7)`` of the uncorrected answer (``query_full(correct=False)``'s,
+        bit for bit), for callers that need only when a shift's segments move: no offsets are built."""
+        shape, request, inside, extrapolated = self._clamped(yaw_deg, pitch_deg)
+        timing = motion.blend_timing(self._table, self._interpolate(inside))
+        if np.any(extrapolated):
+            timing[extrapolated] = self._stretched(timing[extrapolated], request[extrapolated], inside[extrapolated])
+        return timing.reshape(shape + (7,))
 
     def query(self, yaw_deg, pitch_deg) -> GazeMotions:
         """Gaze displacement motions for requested gaze changes (degrees)."""

@@ -176,6 +176,11 @@ def blend_table(motions: GazeMotions) -> np.ndarray:
     return np.concatenate([motions.offsets.reshape(len(motions.offsets), -1), motions.timing], axis=1)
 
 
+def blend_timing(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The timing floats ``(..., 7)`` of :func:`blend` (bit for bit), without building its motions."""
+    return _mix(table, weights)[..., 20:]
+
+
 def blended_offsets(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """The unit offsets ``(..., 5, 4)`` of :func:`blend` (bit for bit, up to each quaternion's sign,
     which no rotation of a vector sees), without building its motions."""

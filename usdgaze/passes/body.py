@@ -23,6 +23,7 @@ class CachedMap:
         self.map = gaze_map
         self._rows: dict[tuple[float, float], motion.GazeMotions] = {}
         self._full: dict[tuple[float, float, bool], object] = {}
+        self._timing: dict[tuple[float, float], np.ndarray] = {}
 
     def query(self, yaw_deg, pitch_deg) -> motion.GazeMotions:
         yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
@@ -41,6 +42,13 @@ class CachedMap:
         if key not in self._full:
             self._full[key] = self.map.query_full(yaw_deg, pitch_deg, correct=correct)
         return self._full[key]
+
+    def timing(self, yaw_deg, pitch_deg) -> np.ndarray:
+        """The uncorrected answer's timing floats ``(7,)`` for one change (see ``ParametricGazeMap.timing``)."""
+        key = (float(yaw_deg), float(pitch_deg))
+        if key not in self._timing:
+            self._timing[key] = self.map.timing(yaw_deg, pitch_deg)
+        return self._timing[key]
 
 
 class TargetPlanner:
@@ -136,7 +144,7 @@ class TargetPlanner:
         # Aim where the target will be, against the base gaze, once the shift is done: the paths of
         # the body and of the target are known to the animator (and to the character).
         change = want - previous
-        lead = float(self.map.query_full(change[0], change[1], correct=False).motions.timing[0])
+        lead = float(self.map.timing(change[0], change[1])[0])
         ahead = max(min(int(np.searchsorted(self.seconds, self.seconds[j] + lead)), self.end - 1), j)
         want = np.array([rot.unwrap_near(rel[ahead, 0], yaw), rel[ahead, 1]])
         new = body_request(self.map, want, self.reach, self.limits, opts.comfort_fraction)
@@ -177,7 +185,7 @@ def min_duration(gaze_map: ParametricGazeMap, start: np.ndarray, b: np.ndarray, 
     does, and its cascade gives late segments a short window."""
     q = gaze_map.query(np.array([b[0]]), np.array([b[1]])).offsets.reshape(5, 4)
     turn = np.degrees(rot.angle(rot.relative(start[:4], q[:4])))
-    timing = np.asarray(gaze_map.query_full(timing_change[0], timing_change[1], correct=False).motions.timing, float)
+    timing = np.array(gaze_map.timing(timing_change[0], timing_change[1]), dtype=float)
     starts, peak, beta = timing[motion.START_SLICE], timing[motion.PEAK], timing[motion.BETA]
     window = np.where(starts < peak, peak - starts, 1.0 - starts)
     scale = np.where(starts < peak, 1.0 + beta, 1.0)

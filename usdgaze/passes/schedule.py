@@ -41,6 +41,11 @@ class _Segment:
     inherit: bool
     """The previous shift is still moving when this one starts: blend from its live trajectory."""
 
+    def __post_init__(self) -> None:
+        # The canonical gaze change of the target: the end of this shift and the start of a next one
+        # that begins after it settles.
+        self.canon = motion.achieved_gaze(self.target, self.request[0])
+
     def evaluate(self, at: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Segment offsets ``(F, 5, 4)``, wanted gaze change ``(F, 2)``, normalized time and gaze
         progress (fraction of the change, overshoot included) at ``at``."""
@@ -48,12 +53,14 @@ class _Segment:
         # computed once, not per frame.
         if self.previous is None:
             start = np.broadcast_to(rot.IDENTITY, (1, 5, 4))
-            start_delta = np.zeros((1, 2))
+            start_delta = canon_a = np.zeros((1, 2))  # identity offsets change nothing
         elif self.inherit:
             start, start_delta, _, _ = self.previous.evaluate(at)
+            canon_a = motion.achieved_gaze(start, start_delta[:, 0])
         else:
             start = self.previous.target[None]
             start_delta = self.previous.request[None]
+            canon_a = self.previous.canon[None]
         m = self.motion
         tau = motion.normalized_time(at - self.start_s, m.duration)
         s = motion.profile(tau[:, None], m.starts[None, :], m.peak_time, m.overshoot)
@@ -61,9 +68,7 @@ class _Segment:
         # the profile's slope is zero at its start.
         d = motion.transition(start, self.target[None], s)
         change = self.request[None, :] - start_delta
-        canon_a = motion.achieved_gaze(start, start_delta[:, 0])
-        canon_b = motion.achieved_gaze(self.target, self.request[0])
-        span = canon_b[None, :] - canon_a
+        span = self.canon[None, :] - canon_a
         norm2 = np.sum(span * span, axis=1)
         # Unwrap the canonical yaw along the expected path: a 180 deg change is ambiguous against
         # either end but not against where the shift should be by now.
@@ -132,7 +137,7 @@ class Scheduler:
             start_delta = previous.request
         change = request - start_delta if shift.timing_change is None else np.asarray(shift.timing_change)
         # Timing only: the uncorrected blend is enough, and much cheaper.
-        timing = self.map.query_full(change[0], change[1], correct=False).motions.timing
+        timing = self.map.timing(change[0], change[1])
         if shift.cut or timing[motion.DURATION] < shift.min_duration_s:
             timing = np.array(timing, dtype=float)
             timing[motion.DURATION] = 0.0 if shift.cut else shift.min_duration_s
