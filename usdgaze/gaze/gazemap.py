@@ -78,6 +78,7 @@ def _random_blends(params: np.ndarray, count: int, blend_size: int, rng: np.rand
 
 _CHUNK = 1024  # queries corrected together: bounds the (Q, C, E) probe arrays
 _CANDIDATES = 8  # examples a correction may reweight
+_BACKTRACK = np.array([1.0, 0.5, 0.25])  # step scales a correction tries, largest first
 
 
 class ParametricGazeMap:
@@ -161,15 +162,15 @@ class ParametricGazeMap:
                 if not blocked.any():
                     break
                 free &= ~blocked
-            # Backtracking from the same start: the non-negativity clip can spoil a full step.
-            base = weights
+            # Backtracking from the same start (the non-negativity clip can spoil a full step): the
+            # candidates are measured in one batch, then taken in order wherever each is closer.
+            candidates = np.repeat(weights[None], len(_BACKTRACK), axis=0)  # (S, Q, E)
+            candidates[:, rows, cand] = np.maximum(weights[rows, cand] + _BACKTRACK[:, None, None] * step, 0.0)
+            total = candidates.sum(axis=2, keepdims=True)
+            candidates = np.where(total > 0, candidates / np.where(total > 0, total, 1.0), weights)
+            measured = self._measure(candidates.reshape(-1, n)).reshape(len(_BACKTRACK), q, 2)
             best_err = np.linalg.norm(err, axis=1)
-            for scale in (1.0, 0.5, 0.25):
-                candidate = base.copy()
-                candidate[rows, cand] = np.maximum(candidate[rows, cand] + scale * step, 0.0)
-                total = candidate.sum(axis=1, keepdims=True)
-                candidate = np.where(total > 0, candidate / np.where(total > 0, total, 1.0), base)
-                cand_achieved = self._measure(candidate)
+            for candidate, cand_achieved in zip(candidates, measured):
                 cand_err = np.linalg.norm(target - cand_achieved, axis=1)
                 better = cand_err < best_err
                 weights = np.where(better[:, None], candidate, weights)
