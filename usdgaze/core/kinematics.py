@@ -45,12 +45,14 @@ class Pose:
         return self.position[j] + rot.rotate(self.rotation[j], offset)
 
 
-def forward(joints: list[int], parents: np.ndarray, local) -> Pose:
+def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, np.ndarray] | None = None) -> Pose:
     """FK of ``joints`` (closed under ancestors, parents first); ``local(j)`` gives (t, q, s) per frame.
 
     With all scales exactly 1 (mocap, most rigs) positions come from quaternions alone; otherwise
-    full 3x3 linear parts carry the scales down the chain.
+    full 3x3 linear parts carry the scales down the chain. ``rotations`` are world rotations the
+    caller already composed the same way from the same locals, taken as they are.
     """
+    rotations = rotations or {}
     pose = Pose({}, {}, {})
     trs = {j: local(j) for j in joints}
     unit = all(np.all(s == 1.0) for _, _, s in trs.values())
@@ -63,7 +65,7 @@ def forward(joints: list[int], parents: np.ndarray, local) -> Pose:
                 pose.linear[j] = rot.to_matrix(q) * s[..., None, :]
             continue
         pose.position[j] = pose.place(p, t)
-        pose.rotation[j] = rot.normalize(rot.multiply(pose.rotation[p], q))
+        pose.rotation[j] = rotations[j] if j in rotations else rot.normalize(rot.multiply(pose.rotation[p], q))
         if not unit:
             pose.linear[j] = pose.linear[p] @ (rot.to_matrix(q) * s[..., None, :])
     return pose

@@ -197,5 +197,5 @@ def move_body(base: Base, chain: Chain, frame: CharacterFrame, displacement: np.
         return new_trans.get(j, t), new_rot.get(j, q), s
 
     eye_parents = sorted({int(rig.parents[e]) for e in rig.eyes})
-    moved = forward(with_ancestors(eye_parents, rig.parents), rig.parents, new_local)
+    moved = forward(with_ancestors(eye_parents, rig.parents), rig.parents, new_local, new_world)
     return Body(new_rot, new_trans, moved)

@@ -165,9 +165,11 @@ def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndar
             if kind == "target":
                 points = targets[d.target]
             elif kind == "direction":
-                ae = base_ae + [d.yaw, d.pitch]
+                # The eyes read a goal from its event's frame on: the frames before it keep the base's.
+                ae = base_ae[frame:] + [d.yaw, d.pitch]
                 ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
-                points = scene.eye + fixation * direction_from(ae, up)
+                points = scene.base_point.copy()
+                points[frame:] = scene.eye[frame:] + fixation * direction_from(ae, up)
             else:
                 points = scene.base_point
             events.append((frame, eyes_mod.Goal(kind, points, cut)))
