@@ -49,6 +49,19 @@ class _Segment:
     def evaluate(self, at: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Segment offsets ``(F, 5, 4)``, wanted gaze change ``(F, 2)``, normalized time and gaze
         progress (fraction of the change, overshoot included) at ``at``."""
+        tau = motion.normalized_time(at - self.start_s, self.motion.duration)
+        settled = np.flatnonzero(tau >= 1.0)
+        if self.inherit or len(settled) < 2:
+            return self._evaluate(at, tau)
+        # From a fixed start, every settled frame holds the same state: one of them is evaluated.
+        keep = np.ones(len(at), dtype=bool)
+        keep[settled[1:]] = False
+        source = np.cumsum(keep) - 1
+        source[settled] = source[settled[0]]
+        d, wanted, _, sigma = self._evaluate(at[keep], tau[keep])
+        return d[source], wanted[source], tau, sigma[source]
+
+    def _evaluate(self, at: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         # A still start is one row that broadcasts: its relative rotation and canonical gaze are
         # computed once, not per frame.
         if self.previous is None:
@@ -62,7 +75,6 @@ class _Segment:
             start_delta = self.previous.request[None]
             canon_a = self.previous.canon[None]
         m = self.motion
-        tau = motion.normalized_time(at - self.start_s, m.duration)
         s = motion.profile(tau[:, None], m.starts[None, :], m.peak_time, m.overshoot)
         # Blending from the live start keeps position and velocity continuous at an interruption:
         # the profile's slope is zero at its start.
