@@ -102,7 +102,7 @@ def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray
         else:
             seg = SEGMENT_OF_ROLE[role]
             if seg not in spread:  # a role's rotation spread over its joints: the same for each of them
-                spread[seg] = rot.power(disp[:, seg], 1.0 / counts[seg])
+                spread[seg] = disp[:, seg] if counts[seg] == 1 else rot.power(disp[:, seg], 1.0 / counts[seg])
             q = spread[seg]
             if role == "pelvis":
                 # Heading frame: the character frame turned about up to where the pelvis faces now.
