@@ -26,26 +26,31 @@ class EyeAim:
 
 
 def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange) -> EyeAim:
-    """Point each eye at the point of sight (Listing's law: no torsion), within the eye range."""
-    f = len(sight_point)
-    out = EyeAim({}, np.zeros((f, 2, 2)), [], [])
-    for i, e in enumerate(rig.eyes):
-        p = int(rig.parents[e])
-        to_head = rot.conjugate(rig.rest_q[p])
-        fwd_h, left_h, up_h = (rot.rotate(to_head, v) for v in (frame.forward, frame.left, frame.up))
-        pos = moved.place(p, rig.local(e)[0])
-        u_h = rot.rotate(rot.conjugate(moved.rotation[p]), rot.normalize(sight_point - pos))
-        yaw = np.clip(np.degrees(np.arctan2(u_h @ left_h, u_h @ fwd_h)), -limits.yaw, limits.yaw)
-        pitch = np.clip(np.degrees(np.arcsin(np.clip(u_h @ up_h, -1.0, 1.0))), -limits.down, limits.up)
-        y, pc = np.radians(yaw), np.radians(pitch)
-        u_h = ((np.cos(pc) * np.sin(y))[:, None] * left_h + (np.cos(pc) * np.cos(y))[:, None] * fwd_h
-               + np.sin(pc)[:, None] * up_h)
-        out.angles[:, i] = np.column_stack([yaw, pitch])
-        rest_eye = rot.multiply(to_head, rig.rest_q[e])  # the eye in its parent, looking ahead
-        out.rotations[e] = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h, u_h), rest_eye))
-        out.positions.append(pos)
-        out.directions.append(rot.rotate(moved.rotation[p], u_h))
-    return out
+    """Point each eye at the point of sight (Listing's law: no torsion), within the eye range.
+
+    Both eyes are computed together, as arrays ``(2, F, ...)``."""
+    parents = [int(rig.parents[e]) for e in rig.eyes]
+    to_head = rot.conjugate(rig.rest_q[parents])  # (2, 4)
+    fwd_h, left_h, up_h = (rot.rotate(to_head, v) for v in (frame.forward, frame.left, frame.up))
+    head = np.stack([moved.rotation[p] for p in parents])  # (2, F, 4)
+    pos = np.stack([moved.place(p, rig.local(e)[0]) for p, e in zip(parents, rig.eyes)])
+    u_h = rot.rotate(rot.conjugate(head), rot.normalize(sight_point - pos))
+
+    def along(axis: np.ndarray) -> np.ndarray:
+        return np.einsum("efi,ei->ef", u_h, axis)
+
+    yaw = np.clip(np.degrees(np.arctan2(along(left_h), along(fwd_h))), -limits.yaw, limits.yaw)
+    pitch = np.clip(np.degrees(np.arcsin(np.clip(along(up_h), -1.0, 1.0))), -limits.down, limits.up)
+    y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
+    u_h = (np.cos(pc) * np.sin(y)) * left_h[:, None] + (np.cos(pc) * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
+    rest_eye = rot.multiply(to_head, rig.rest_q[list(rig.eyes)])  # each eye in its parent, looking ahead
+    turned = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h[:, None], u_h), rest_eye[:, None]))
+    return EyeAim(
+        rotations=dict(zip(rig.eyes, turned)),
+        angles=np.stack([yaw, pitch], axis=-1).transpose(1, 0, 2),  # (F, eye, yaw|pitch)
+        positions=list(pos),
+        directions=list(rot.rotate(head, u_h)),
+    )
 
 
 def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae: np.ndarray,
