@@ -128,8 +128,8 @@ class ParametricGazeMap:
         w /= w.sum(axis=1, keepdims=True)
         return np.einsum("qk,qke->qe", w, self.sample_weights[idx])
 
-    def _correct(self, weights: np.ndarray, target: np.ndarray, iterations: int) -> np.ndarray:
-        """Gauss-Newton steps on the blend weights toward ``target``.
+    def _correct(self, weights: np.ndarray, target: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:
+        """Gauss-Newton steps on the blend weights toward ``target``; the weights and their measured change.
 
         The examples that may change are those the k-NN answer blends plus the examples nearest the
         target (so an answer stuck on one meridian can lean on the next), weights stay
@@ -176,7 +176,7 @@ class ParametricGazeMap:
                 weights = np.where(better[:, None], candidate, weights)
                 achieved = np.where(better[:, None], cand_achieved, achieved)
                 best_err = np.minimum(cand_err, best_err)
-        return weights
+        return weights, achieved
 
     def _clamped(self, yaw_deg, pitch_deg):
         """Requests ``(Q, 2)`` broadcast to one shape, clamped into the sampled box, and which were clamped."""
@@ -200,10 +200,10 @@ class ParametricGazeMap:
         """
         shape, request, inside, extrapolated = self._clamped(yaw_deg, pitch_deg)
         weights = self._interpolate(inside)
+        achieved = np.empty_like(inside) if correct else self._measure(weights)
         for lo in range(0, len(inside) if correct else 0, _CHUNK):
             part = slice(lo, lo + _CHUNK)
-            weights[part] = self._correct(weights[part], inside[part], self.definition.settings.refine)
-        achieved = self._measure(weights)
+            weights[part], achieved[part] = self._correct(weights[part], inside[part], self.definition.settings.refine)
 
         blended = motion.blend(self.examples, weights, self._table)
         offsets, timing = blended.offsets, blended.timing
