@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, Vt
 
+from usdgaze.usd.layers import set_rows
+
 SCOPE = "gazeGuides"
 POINT_OF_SIGHT = "gaze:pointOfSight"
 EYE_CURVES = ("leftEyeSight", "rightEyeSight")
@@ -56,17 +58,10 @@ def author_guides(layer: Sdf.Layer, skeleton: str, times: np.ndarray, eyes_skel:
         extent = _attr(curve, "extent", _T.Float3Array)
         lines = np.stack([eye, sight_skel], axis=1).astype(np.float32)  # (F, 2, 3)
         bounds = np.stack([lines.min(axis=1), lines.max(axis=1)], axis=1)  # (F, 2, 3): lo, hi
-        _set_arrays(layer, points.path, codes, lines)
-        _set_arrays(layer, extent.path, codes, bounds)
+        set_rows(layer, points.path, codes, lines, Vt.Vec3fArray)
+        set_rows(layer, extent.path, codes, bounds, Vt.Vec3fArray)
     set_sample, path = layer.SetTimeSample, pos_attr.path
     # Gf.Vec3d values straight from one Vt array: a tuple per frame would be cast by Sdf, 3x slower.
     for t, point in zip(codes, Vt.Vec3dArray.FromNumpy(np.ascontiguousarray(sight_world, dtype=np.float64))):
         set_sample(path, t, point)
 
-
-def _set_arrays(layer: Sdf.Layer, path: Sdf.Path, times: list[float], values: np.ndarray) -> None:
-    """One Vec3f array sample per frame from ``values (F, N, 3)`` float32: the one loop Sdf leaves us
-    (it has no bulk setter), kept to the C calls."""
-    set_sample, from_numpy = layer.SetTimeSample, Vt.Vec3fArray.FromNumpy
-    for t, frame in zip(times, values):
-        set_sample(path, t, from_numpy(frame))

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
+from itertools import repeat
 from pathlib import Path
 
 import numpy as np
@@ -151,6 +152,24 @@ def _set_info(layer: Sdf.Layer, info: LayerInfo) -> None:
         layer.customLayerData = _to_vt(info.custom)
 
 
+def set_rows(layer: Sdf.Layer, path: Sdf.Path, times: list[float], values: np.ndarray, vt) -> None:
+    """One ``vt`` array sample per frame from the rows of ``values (F, N, width)``: the one loop Sdf
+    leaves us (it has no bulk setter), kept to the C calls. Rows that are all bit-identical (scales;
+    a still pose's translations) are converted once: the crate file stores equal arrays once anyway."""
+    set_sample = layer.SetTimeSample  # bound once: this loop is the writer's cost
+    for t, row in zip(times, _vt_rows(values, vt)):
+        set_sample(path, t, row)
+
+
+def _vt_rows(values: np.ndarray, vt):
+    """The rows as ``vt`` arrays, lazily; one shared array when every row has the same bits."""
+    if values.dtype.kind == "f" and len(values) > 1:
+        bits = values.view(f"u{values.itemsize}")  # bits, not values: -0.0 and NaN stay as they are
+        if np.array_equal(bits[0], bits[-1]) and (bits == bits[0]).all():
+            return repeat(vt.FromNumpy(values[0]), len(values))
+    return map(vt.FromNumpy, values)
+
+
 def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "usdc") -> Sdf.Layer:
     """An anonymous layer holding only ``over`` opinions for the given animations and skeletons."""
     layer = Sdf.Layer.CreateAnonymous(f"usdgaze_override.{fmt}")
@@ -171,12 +190,8 @@ def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "u
                 ("scales", Sdf.ValueTypeNames.Half3Array, o.scales, Vt.Vec3hArray),
             )
             for name, type_name, values, vt in columns:
-                if values is None:
-                    continue
-                path = _attr(prim, name, type_name).path
-                set_sample, from_numpy = layer.SetTimeSample, vt.FromNumpy  # bound once: this loop is the writer's cost
-                for t, row in zip(codes, values):
-                    set_sample(path, t, from_numpy(row))
+                if values is not None:
+                    set_rows(layer, _attr(prim, name, type_name).path, codes, values, vt)
             if o.skeleton and o.skeleton_joints is not None:
                 skel = Sdf.CreatePrimInLayer(layer, o.skeleton)
                 skel.specifier = Sdf.SpecifierOver

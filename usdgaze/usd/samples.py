@@ -4,6 +4,8 @@ interpolation only for the times that fall strictly between two samples."""
 
 from __future__ import annotations
 
+from itertools import islice, repeat
+
 import numpy as np
 from pxr import Sdf, Usd
 
@@ -34,6 +36,9 @@ def wrong_count(value: np.ndarray, time, where: str, count: int) -> None:
     raise UsdGazeError(f"{where}: {n} entries at {at}, expected {count} (one per joint)")
 
 
+_CHUNK_SAMPLES = 256  # samples made one numpy array at a time: no second copy of a whole attribute
+
+
 class _Rows:
     """The ``(F, count, width)`` result, filled a sample at a time with each sample's entries checked."""
 
@@ -51,6 +56,22 @@ class _Rows:
             at = rows if np.ndim(rows) == 0 else rows[0]
             wrong_count(np.asarray(value), self.times[at], self.where, self.count)
 
+    def put_all(self, values) -> None:
+        """Every row in order from an iterator of samples, one numpy conversion per chunk: a chunk
+        that is not ``(n, count, width)`` (unlike lengths raise) goes through ``put`` sample by sample,
+        which refuses its first wrong sample as it would have alone."""
+        for lo in range(0, len(self.out), _CHUNK_SAMPLES):
+            chunk = list(islice(values, _CHUNK_SAMPLES))
+            try:
+                block = np.array(chunk, dtype=self.out.dtype)
+            except (TypeError, ValueError):
+                block = None
+            if block is not None and block.shape[1:] == self.out.shape[1:]:
+                self.out[lo:lo + len(chunk)] = block
+                continue
+            for i, value in enumerate(chunk, lo):
+                self.put(i, value, first=i == 0)
+
 
 def _sources(own_times: np.ndarray, times: np.ndarray) -> np.ndarray:
     """For each stage time, the index of the authored sample that is its value, or -1 where USD
@@ -64,20 +85,32 @@ def _sources(own_times: np.ndarray, times: np.ndarray) -> np.ndarray:
     return source
 
 
-def _read_sdf(attr: Usd.Attribute, times: np.ndarray, rows: _Rows) -> bool:
-    """Fill ``rows`` from the one layer that holds the samples (USD for times between samples);
-    False when value resolution is not that simple case."""
-    found = authored_samples(attr)
-    if found is None:
-        return False
-    layer, path, offset = found
-    own = layer.ListTimeSamplesForPath(path)
+class Samples:
+    """An array attribute's time samples, listed once: from the one layer spec that holds them where
+    value resolution is that simple (``found``, see :func:`authored_samples`), else from Usd."""
+
+    def __init__(self, attr: Usd.Attribute):
+        self.attr = attr
+        self.found = authored_samples(attr) if attr else None
+        self.own = self.found[0].ListTimeSamplesForPath(self.found[1]) if self.found else None
+
+    def times(self) -> np.ndarray:
+        """Stage times, as ``Usd.Attribute.GetTimeSamples`` gives them (which composes them anew on
+        every call: several times the cost of listing them from the layer)."""
+        if self.found is not None and self.found[2].IsIdentity():
+            return np.asarray(self.own, dtype=float)
+        return np.asarray(self.attr.GetTimeSamples() if self.attr else [], dtype=float)
+
+
+def _read_sdf(samples: Samples, times: np.ndarray, rows: _Rows) -> None:
+    """Fill ``rows`` from the one layer that holds the samples (USD for times between samples)."""
+    layer, path, offset = samples.found
+    own = samples.own
     own_times = np.array([offset * t for t in own], dtype=float) if not offset.IsIdentity() else np.asarray(own, float)
     query = layer.QueryTimeSample
     if len(own_times) == len(times) and np.array_equal(own_times, times):
-        for i, t in enumerate(own):
-            rows.put(i, query(path, t), first=i == 0)
-        return True
+        rows.put_all(map(query, repeat(path), own))
+        return
     source = _sources(own_times, times)
     held = np.flatnonzero(source >= 0)
     # Times are sorted, so each sample's frames are one run of ``held``.
@@ -85,26 +118,28 @@ def _read_sdf(attr: Usd.Attribute, times: np.ndarray, rows: _Rows) -> bool:
     for n, (lo, hi) in enumerate(zip(starts, np.r_[starts[1:], len(held)])):
         rows.put(held[lo:hi], query(path, own[source[held[lo]]]), first=n == 0)
     for i in np.flatnonzero(source < 0):
-        rows.put(i, attr.Get(float(times[i])))
-    return True
+        rows.put(i, samples.attr.Get(float(times[i])))
 
 
-def read_array(attr: Usd.Attribute, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray:
+def read_array(samples: Samples, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray:
     """Values of an array attribute at ``times`` as ``(F, count, width)``; a default is broadcast.
 
     Read at the Sdf level when one layer holds the samples (the common case), else through Usd.
     """
+    attr = samples.attr
     if not attr or not attr.HasAuthoredValue():
         raise UsdGazeError(
             f"{where}: not authored (UsdSkel needs translations, rotations and scales for every animated joint)"
         )
-    if attr.GetNumTimeSamples() == 0:
+    if samples.found is None and attr.GetNumTimeSamples() == 0:
         value = np.asarray(attr.Get(), dtype=dtype)
         if value.shape != (count, width):
             wrong_count(value, None, where, count)
         return np.broadcast_to(value, (len(times), count, width)).copy()
     rows = _Rows(times, dtype, width, count, where)
-    if not _read_sdf(attr, times, rows):
+    if samples.found is not None:
+        _read_sdf(samples, times, rows)
+    else:
         for i, t in enumerate(times):
             rows.put(i, attr.Get(float(t)), first=True)
     return rows.out

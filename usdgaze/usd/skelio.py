@@ -10,7 +10,7 @@ from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd import checks
-from usdgaze.usd.samples import check_values, read_array
+from usdgaze.usd.samples import Samples, check_values, read_array
 
 
 def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:
@@ -271,8 +271,8 @@ def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
     """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation,
     and whether it holds one pose: with defaults only, or one time sample (USD holds that value at
     every time), it is sampled at every frame of the stage's range."""
-    attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
-    times = np.sort(np.concatenate([np.asarray(a.GetTimeSamples(), dtype=float) for a in attrs if a] or [[]]))
+    attrs = [Samples(a) for a in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())]
+    times = np.sort(np.concatenate([s.times() for s in attrs if s.attr] or [[]]))
     times = times[np.r_[True, times[1:] != times[:-1]]] if len(times) else times  # np.unique would import numpy.ma
     stage = anim.GetPrim().GetStage()
     held = len(times) == 0 or (len(times) == 1 and stage.HasAuthoredTimeCodeRange()
