@@ -152,10 +152,10 @@ class Base:
 
 
 def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
-    """The rig with eyes (added if missing), base FK of the chain, leg roots and eyes, and the base
-    line of sight (where the head looks)."""
+    """The rig with eyes (added if missing), base FK of the chain and eyes (the leg roots' counter
+    rotation needs only their locals), and the base line of sight (where the head looks)."""
     rig = with_eyes(clip, chain, frame, options)
-    pose = forward(with_ancestors(list(chain.path) + list(chain.leg_roots) + list(rig.eyes), rig.parents),
+    pose = forward(with_ancestors(list(chain.path) + list(rig.eyes), rig.parents),
                    rig.parents, rig.local)
     skel_to_world = clip.skel_to_world[:, :3, :3]
     up_w = clip.world_up
