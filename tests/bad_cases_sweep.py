@@ -213,3 +213,101 @@ def b_physics_character_lying_down(d):
         Sdf.AttributeSpec(root, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
                           Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:rotateX"])
     return ["physics-model", str(edited(d, lay_down)), "--out", str(d / "body.xml")]
+
+
+# -- stones, obstacles, objects and shot ranges of the physics body (a third sweep, 2026-12-06) ----
+
+def _physics(d, author):
+    return ["attend", str(edited(d, author)), "--physics", "--out", str(d / "gaze.usdc")]
+
+
+def _defined(layer, path, type_name="Xform"):
+    """A defined prim at ``path`` (its new ancestors defined too, as Xforms)."""
+    prim = Sdf.CreatePrimInLayer(layer, path)
+    p = prim
+    while p and p.path != Sdf.Path.absoluteRootPath:
+        if p.specifier != Sdf.SpecifierDef:
+            p.specifier, p.typeName = Sdf.SpecifierDef, "Xform"
+        p = p.nameParent
+    if type_name:
+        prim.typeName = type_name
+    else:  # a typeless prim
+        prim.ClearInfo("typeName")
+    return prim
+
+
+def _translated(prim, value, op="translate"):
+    Sdf.AttributeSpec(prim, f"xformOp:{op}", Sdf.ValueTypeNames.Double3).default = value
+    Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      Sdf.VariabilityUniform).default = Vt.TokenArray([f"xformOp:{op}"])
+
+
+def _task(where, kind="stone", type_name="Xform", sampled=False, at=None):
+    """A ``usdgaze:physics:task`` on the prim ``where(rig)``."""
+    def author(layer, r):
+        path = where(r)
+        prim = layer.GetPrimAtPath(path) or _defined(layer, path, type_name)
+        task = Sdf.AttributeSpec(prim, "usdgaze:physics:task", Sdf.ValueTypeNames.Token)
+        if sampled:
+            layer.SetTimeSample(task.path, 0.0, kind)
+        else:
+            task.default = kind
+        if at is not None:
+            _translated(prim, at)
+    return author
+
+
+def b_physics_stone_without_transform(d):
+    return _physics(d, _task(lambda r: "/Stones/A", type_name=""))
+
+
+def b_physics_stone_inside_the_character(d):
+    return _physics(d, _task(lambda r: r.skeleton))
+
+
+def b_physics_obstacle_holds_the_character(d):
+    return _physics(d, _task(lambda r: r.skel_root, kind="obstacle"))
+
+
+def b_physics_task_time_sampled(d):
+    return _physics(d, _task(lambda r: "/Stones/A", sampled=True, at=(0.3, 0.0, 0.4)))
+
+
+def b_physics_stone_too_far(d):
+    return _physics(d, _task(lambda r: "/Stones/A", at=(1e30, 0.0, 0.0)))
+
+
+def b_physics_stone_transform_overflows(d):
+    def author(layer, r):
+        _task(lambda r: "/Stones/A", at=(1e300, 0.0, 0.0))(layer, r)
+        _translated(layer.GetPrimAtPath("/Stones"), (1e300, 1e300, 1e300), op="scale")
+    return _physics(d, author)
+
+
+def b_physics_object_is_the_character(d):
+    def author(layer, r):
+        layer.GetPrimAtPath(r.skel_root).SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    return _physics(d, author)
+
+
+def _range(start, end):
+    def author(layer, r):
+        layer.startTimeCode, layer.endTimeCode = start, end
+    return author
+
+
+def b_physics_range_outside_the_animation(d):
+    return _physics(d, _range(500.0, 600.0))
+
+
+def b_physics_range_one_frame(d):
+    return _physics(d, _range(10.0, 10.0))
+
+
+def b_push_joint_time_sampled(d):
+    def author(layer, r):
+        root = layer.GetPrimAtPath(r.skel_root)
+        joint = Sdf.AttributeSpec(root, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token)
+        layer.SetTimeSample(joint.path, 0.0, r.leaf["spine_b"])
+        Sdf.AttributeSpec(root, "usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3).default = (150.0, 0.0, 0.0)
+    return _physics(d, author)

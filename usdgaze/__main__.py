@@ -4,4 +4,4 @@ import sys
 
 from usdgaze.console.main import main
 
-sys.exit(main())
+sys.exit(main(hold=True))

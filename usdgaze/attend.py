@@ -105,17 +105,13 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     from usdgaze.passes.attend import apply_attend
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
-    from usdgaze.usd.objects import object_prims, read_objects
+    from usdgaze.usd.objects import check_apart, object_prims, read_objects
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     prims = object_prims(stage, source, objects)
     roots = select_roots(stage, source, skel_root)
     others = animations_elsewhere(stage, roots)
-    for prim in prims:  # the character's own SkelRoot, or a prim holding it, moves with it: no object
-        for root in roots:
-            if root.GetPath().HasPrefix(prim.GetPath()):
-                raise UsdGazeError(f"{source}:{prim.GetPath()}: is the character {root.GetPath()} or holds it; "
-                                   "an object to look at must be another prim")
+    check_apart(prims, roots, source)  # the character's own SkelRoot, or a prim holding it, moves with it
     report = AttendReport(output=str(out_path))
     overrides, inspections, info = [], [], None
     t_start, cpu_start = time.perf_counter(), time.process_time()

@@ -20,6 +20,9 @@ MAX_SHIFT_TIME = 1e7
 """Largest |time| of a shift, time codes or seconds (about 115 days at 1 code a second)."""
 MAX_FIXATION_M = 1e6
 """Beyond a thousand kilometres the lines of sight are parallel; larger is a typo."""
+MAX_TARGET_DISTANCE_M = 1e9
+"""Beyond this a look target, object, stone or obstacle is only a direction; its distance in stage units
+would overflow squared."""
 
 _SHIFT = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)(s?)\s*:\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)"
                     r"\s*:\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*$")

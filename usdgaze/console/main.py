@@ -7,7 +7,9 @@ import ast
 import importlib
 import importlib.util
 import os
+import signal
 import sys
+import threading
 import traceback
 
 import click
@@ -77,20 +79,76 @@ def cli() -> None:
     """Add realistic gaze shifts to UsdSkel animation as a non-destructive override layer."""
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point: run the CLI and map failures to exit codes (2 bad input, 1 internal)."""
+_STOPS = (signal.SIGTERM, signal.SIGINT)
+
+
+class _Stops:
+    """SIGTERM and SIGINT while a command runs: raised as :class:`Interrupted` (one line, 128 + the
+    signal) wherever no writer's transaction handles them, and let pass once the command's outputs are
+    in place (all that is left is its report). ``hold``: the process ends after the command, so both are
+    ignored from its end on (Python puts back the default action, a kill, for its own handlers while it
+    shuts down, and any thread, USD's included, may receive the signal)."""
+
+    def __init__(self, hold: bool = False) -> None:
+        self.commits = self._commits()
+        self.hold = hold
+        self.saved: dict = {}
+
+    @staticmethod
+    def _commits() -> int:
+        writer = sys.modules.get("usdgaze.files.transaction")  # not imported: nothing committed yet
+        return writer.Outputs.commits if writer else 0
+
+    def __enter__(self) -> "_Stops":
+        if threading.current_thread() is threading.main_thread():  # Python's signal handlers live there
+            for sig in _STOPS:
+                self.saved[sig] = signal.signal(sig, self._on_signal)
+        return self
+
+    def _on_signal(self, signum, frame) -> None:
+        if self._commits() == self.commits:
+            raise Interrupted(signum)
+
+    def __exit__(self, *exc) -> None:
+        for sig, handler in self.saved.items():
+            signal.signal(sig, signal.SIG_IGN if self.hold else handler)
+
+
+def main(argv: list[str] | None = None, hold: bool = False) -> int:
+    """Run the CLI and map failures to exit codes (2 bad input, 1 internal, 128 + a stopping signal).
+
+    ``hold``: the process ends after this (the console script): a signal arriving once the outcome is
+    known is ignored instead of turning the exit into a kill or a traceback."""
+    with _Stops(hold):
+        try:
+            code = _run(argv)
+        except Interrupted as exc:  # it arrived while another outcome was being said
+            code = _interrupted(exc)
+    return code
+
+
+def entry() -> None:
+    """The ``usdgaze`` console script and ``python -m usdgaze``."""
+    sys.exit(main(hold=True))
+
+
+def _interrupted(exc: Interrupted) -> int:
+    _fail(f"interrupted by {exc}; {exc.detail}")
+    return 128 + exc.signum
+
+
+def _run(argv: list[str] | None) -> int:
     from usdgaze.process import tune_allocator
 
-    tune_allocator()
     try:
+        tune_allocator()
         code = cli.main(args=argv, prog_name="usdgaze", standalone_mode=False)
     except UsdGazeError as exc:
         _fail(str(exc))
         return EXIT_BAD_INPUT
-    except Interrupted as exc:  # SIGTERM: the writer has removed every temporary
-        _fail(f"interrupted by {exc}; {exc.detail}")
-        return 128 + exc.signum
-    except KeyboardInterrupt:
+    except Interrupted as exc:  # the writer, if any, has removed every temporary
+        return _interrupted(exc)
+    except KeyboardInterrupt:  # SIGINT from a thread or library that raised Python's own
         _fail("interrupted by SIGINT; nothing was written")
         return 130
     except click.exceptions.NoArgsIsHelpError as exc:  # plain ``usdgaze``: the help, as --help gives it
@@ -114,4 +172,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

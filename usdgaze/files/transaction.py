@@ -108,6 +108,9 @@ class _Staged:
 class Outputs:
     """One command's outputs, all or none. Use as a context manager; ``commit`` on success."""
 
+    commits = 0
+    """Commits completed in this process: a command whose outputs are in place is past interrupting."""
+
     def __init__(self, no_clobber: bool = False, ids: Identities | None = None) -> None:
         self.no_clobber = no_clobber
         self.ids = ids if ids is not None else Identities()
@@ -273,6 +276,7 @@ class Outputs:
         self._committing = True
         try:
             self._rename_all()
+            Outputs.commits += 1
         finally:
             self._committing = False
         if self._pending is not None:

@@ -43,10 +43,9 @@ from usdgaze.passes.chain import move_body, prepare
 from usdgaze.passes.options import PassOptions, PassResult, Shift
 from usdgaze.passes.schedule import Schedule, Scheduler, schedule
 from usdgaze.passes.sight import azimuth_elevation, direction_from
+from usdgaze.values import MAX_TARGET_DISTANCE_M
 
 EYE_TIMINGS = ("saccade", "model")
-# Beyond this a target is only a direction; its distance in stage units would overflow squared.
-MAX_TARGET_DISTANCE_M = 1e9
 
 
 @dataclass(frozen=True)

@@ -74,17 +74,23 @@ def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: l
     ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
     the coupled loop's object paths, whose belief the obstacle task then reads."""
     from usdgaze.physics import obstacles, stones
-    from usdgaze.usd.objects import read_objects
+    from usdgaze.usd.objects import check_apart, read_objects, require_xformable, scene_prims
 
     prims = {kind: [] for kind in TASKS}
-    for prim in stage.Traverse():
+    for prim in scene_prims(stage):
         attr = prim.GetAttribute(TASK)
         if not attr or not attr.HasAuthoredValue():
             continue
-        kind = str(attr.Get())
-        if kind not in TASKS:
+        kind = attr.Get()
+        if kind is None or attr.GetNumTimeSamples():
+            raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: is time-sampled or has no value; a task is "
+                               "one plain value, 'stone' or 'obstacle'")
+        if str(kind) not in TASKS:
             raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: '{kind}' is not one of 'stone', 'obstacle'")
-        prims[kind].append(prim)
+        require_xformable(prim, source, f"a{'n' if kind == 'obstacle' else ''} {kind}")
+        prims[str(kind)].append(prim)
+    check_apart([p for found in prims.values() for p in found], [stage.GetPrimAtPath(clip.skel_root)], source,
+                "a stone or an obstacle", inside=True)
     factories = []
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # metres in, metres out
     for kind, found in prims.items():
@@ -357,8 +363,13 @@ def _in_shot_range(clip, stage):
     for nothing (five times the shot's on a 49-frame shot over 241)."""
     if not stage.HasAuthoredTimeCodeRange():
         return clip
-    lo, hi = np.searchsorted(clip.times, [stage.GetStartTimeCode() - 1e-9, stage.GetEndTimeCode() + 1e-9])
-    return clip.frames(int(lo), int(hi)) if hi - lo >= 2 and (lo > 0 or hi < len(clip.times)) else clip
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    lo, hi = np.searchsorted(clip.times, [start - 1e-9, end + 1e-9])
+    if hi - lo < 2:  # nothing, or one pose, to simulate: the whole take was simulated and written before
+        raise UsdGazeError(f"{clip.where()}: the stage's playback range {start:g} to {end:g} holds {hi - lo} of the "
+                           f"animation's samples (time codes {clip.times[0]:g}-{clip.times[-1]:g}); a simulated "
+                           "shot needs two or more: set the range to the frames to simulate")
+    return clip.frames(int(lo), int(hi)) if lo > 0 or hi < len(clip.times) else clip
 
 
 def _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed, record):

@@ -39,12 +39,17 @@ def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
 
 
 def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
-    """Pushes authored on the SkelRoot prim, in the model's world."""
+    """Pushes authored on the SkelRoot prim that act within the clip, in the model's world."""
     force = root.GetAttribute(PUSH_FORCE)
     if not force or not force.HasAuthoredValue():
         return ()
     joint_attr = root.GetAttribute(PUSH_JOINT)
-    name = str(joint_attr.Get()) if joint_attr and joint_attr.HasAuthoredValue() else ""
+    name = ""
+    if joint_attr and joint_attr.HasAuthoredValue():
+        if joint_attr.Get() is None or joint_attr.GetNumTimeSamples():
+            raise UsdGazeError(f"{where}.{PUSH_JOINT}: is time-sampled or has no value; name the pushed joint "
+                               "as one plain value")
+        name = str(joint_attr.Get())
     leaves = [j.rsplit("/", 1)[-1] for j in clip.joints]
     hits = [i for i, j in enumerate(clip.joints) if name in (j, leaves[i])]
     if not hits or model.body_of(hits[0]) < 0:
@@ -55,9 +60,9 @@ def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # directions only: no unit scale
     pushes = []
     for i, (t, f) in enumerate(zip(times, values)):
-        if not np.any(f):
-            continue
         end = times[i + 1] if i + 1 < len(times) else clip.end_time
+        if not np.any(f) or end <= clip.times[0] or t >= clip.times[-1]:  # no force, or none in the shot
+            continue
         start_s = (t - clip.start_time) / clip.time_codes_per_second
         pushes.append(mpc.Push(body, rot @ f, start_s, (end - t) / clip.time_codes_per_second))
     return tuple(pushes)

@@ -22,6 +22,7 @@ from pxr import Sdf, Usd, UsdGeom
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd.checks import authored_type
 from usdgaze.usd.targets import PURPOSES, sample_target
+from usdgaze.values import MAX_TARGET_DISTANCE_M
 
 API_NAME = "GazeObjectAPI"
 KINDS = ("", "ballistic", "static", "moving")
@@ -184,14 +185,39 @@ def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list
                 raise UsdGazeError(f"{source}:{p}: is inactive (active = false), so it is not in the scene")
             prims.append(prim)
     else:
-        prims = [p for p in stage.Traverse() if p.HasAPI(API_NAME)]
+        prims = [p for p in scene_prims(stage) if p.HasAPI(API_NAME)]
     if not prims:
         raise UsdGazeError(f"{source}: no objects to look at: apply {API_NAME} to some prims or pass --objects PATH,...")
     for prim in prims:
-        if not prim.IsA(UsdGeom.Xformable):
-            kind = prim.GetTypeName() or "typeless prim"
-            raise UsdGazeError(f"{source}:{prim.GetPath()}: is a {kind} without a transform; an object must be Xformable")
+        require_xformable(prim, source, "an object")
     return prims
+
+
+def scene_prims(stage: Usd.Stage):
+    """Every active, loaded, defined prim of the stage, those inside instances included (an instanced
+    set of stones or props is still in the scene)."""
+    return stage.Traverse(Usd.TraverseInstanceProxies())
+
+
+def require_xformable(prim: Usd.Prim, source: str, role: str) -> None:
+    """One line unless ``prim`` has a transform: without one it would sit at the world's origin."""
+    if not prim.IsA(UsdGeom.Xformable):
+        kind = prim.GetTypeName() or "typeless prim"
+        raise UsdGazeError(f"{source}:{prim.GetPath()}: is a {kind} without a transform; {role} must be Xformable")
+
+
+def check_apart(prims: list[Usd.Prim], roots: list[Usd.Prim], source: str, role: str = "an object to look at",
+                inside: bool = False) -> None:
+    """One line for a prim that is a character's SkelRoot or holds it (it moves with the character),
+    and with ``inside`` for one within the character too (a stone or an obstacle on the body)."""
+    for prim in prims:
+        for root in roots:
+            if root.GetPath().HasPrefix(prim.GetPath()):
+                raise UsdGazeError(f"{source}:{prim.GetPath()}: is the character {root.GetPath()} or holds it; "
+                                   f"{role} must be another prim")
+            if inside and prim.GetPath().HasPrefix(root.GetPath()):
+                raise UsdGazeError(f"{source}:{prim.GetPath()}: lies inside the character {root.GetPath()}; "
+                                   f"{role} must be another prim")
 
 
 def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_codes: np.ndarray,
@@ -212,8 +238,12 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
             raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g} must be >= 0")
         if kind not in KINDS:
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
-        pos = _positions(prim, time_codes, caches, source) * meters_per_unit
+        with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below
+            pos = _positions(prim, time_codes, caches, source) * meters_per_unit
         if not np.all(np.isfinite(pos)):
             raise UsdGazeError(f"{where}: its world transform is not finite at some time")
+        if np.abs(pos).max(initial=0.0) > MAX_TARGET_DISTANCE_M:
+            raise UsdGazeError(f"{where}: lies over {MAX_TARGET_DISTANCE_M:g} m from the world's origin at some "
+                               "time; a point that far is only a direction")
         out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind, authored is not None))
     return out

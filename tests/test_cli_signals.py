@@ -1,0 +1,63 @@
+"""SIGTERM and SIGINT outside a writer's transaction (``console.main``): before anything is written,
+one line and 128 + the signal; once the command's outputs are in place, nothing changes (exit 0).
+
+Each signal is sent to the test process itself at a point the test chooses (a wrapped step of
+``usdgaze.api``), so the timing is exact. Before, SIGTERM there killed the process without a word and
+SIGINT came out as click's "aborted" (exit 2) or a traceback."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from usdgaze import api
+from usdgaze.console.main import main
+
+from .bad_common import rig
+
+SIGNALS = [signal.SIGTERM, signal.SIGINT]
+
+
+def _apply(d) -> list[str]:
+    return ["apply", str(rig(d).path), "--shift", "0.5s:30:0", "--out", str(d / "gaze.usdc")]
+
+
+def _leftovers(d) -> list[str]:
+    return sorted(p.name for p in d.iterdir() if p.name.startswith(".usdgaze-tmp"))
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: signal.Signals(s).name)
+def test_a_signal_before_the_writer_starts_is_one_line(tmp_path, monkeypatch, capsys, sig):
+    argv = _apply(tmp_path)
+    before = {s: signal.getsignal(s) for s in SIGNALS}
+
+    def stop(*args, **kwargs):
+        os.kill(os.getpid(), sig)
+
+    monkeypatch.setattr(api, "check_request", stop)  # runs before the command claims its outputs
+    code = main(argv)
+    err = capsys.readouterr().err.splitlines()
+    assert code == 128 + sig
+    assert err == [f"usdgaze: error: interrupted by {signal.Signals(sig).name}; nothing was written"]
+    assert not (tmp_path / "gaze.usdc").exists() and _leftovers(tmp_path) == []
+    assert {s: signal.getsignal(s) for s in SIGNALS} == before  # main gives the process its handlers back
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: signal.Signals(s).name)
+def test_a_signal_once_the_outputs_are_written_changes_nothing(tmp_path, monkeypatch, capsys, sig):
+    argv = _apply(tmp_path)
+    written = api.apply
+
+    def then_stop(*args, **kwargs):
+        report = written(*args, **kwargs)  # its transaction has committed
+        os.kill(os.getpid(), sig)
+        return report
+
+    monkeypatch.setattr(api, "apply", then_stop)
+    code = main(argv)
+    captured = capsys.readouterr()
+    assert code == 0
+    assert "interrupted" not in captured.err and f"wrote {tmp_path / 'gaze.usdc'}" in captured.out
+    assert (tmp_path / "gaze.usdc").stat().st_size > 0 and _leftovers(tmp_path) == []

@@ -1,0 +1,82 @@
+"""What ``attend --physics`` reads of a shot's scene besides the character: stones inside instances,
+and pushes only where they act within the shot (a third sweep, 2026-12-06)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Sdf, Usd, Vt
+
+from usdgaze.passes import physics as physics_pass
+from usdgaze.passes.pushes import read_pushes
+from usdgaze.physics import build, retarget, stones
+
+CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
+STONES = {"A": (0.3, 0.0, 0.5), "B": (-0.2, 0.0, 1.1)}
+
+
+def _shot(path: Path, instanced: bool) -> Path:
+    """A shot over the CMU walk with two stones, plain prims or instances of one prototype each."""
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.subLayerPaths.append(str(CMU))
+    root = Sdf.PrimSpec(layer, "Stones", Sdf.SpecifierDef, "Xform")
+    if instanced:
+        proto = Sdf.PrimSpec(layer, "StoneProto", Sdf.SpecifierClass, "Xform")
+        task = Sdf.PrimSpec(proto, "Stone", Sdf.SpecifierDef, "Xform")
+        Sdf.AttributeSpec(task, "usdgaze:physics:task", Sdf.ValueTypeNames.Token).default = "stone"
+    for name, at in STONES.items():
+        holder = Sdf.PrimSpec(root, name, Sdf.SpecifierDef, "Xform")
+        Sdf.AttributeSpec(holder, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = at
+        Sdf.AttributeSpec(holder, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:translate"])
+        if instanced:
+            holder.instanceable = True
+            holder.referenceList.prependedItems.append(Sdf.Reference("", "/StoneProto"))
+        else:
+            stone = Sdf.PrimSpec(holder, "Stone", Sdf.SpecifierDef, "Xform")
+            Sdf.AttributeSpec(stone, "usdgaze:physics:task", Sdf.ValueTypeNames.Token).default = "stone"
+    layer.Save()
+    return path
+
+
+@pytest.fixture(scope="module")
+def walk():
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    return clip, model, retarget.to_qpos(model, ref)
+
+
+def _stones_read(path: Path, walk, monkeypatch) -> np.ndarray:
+    clip, model, qpos = walk
+    seen = []
+    monkeypatch.setattr(stones, "factory", lambda centres, *a, **k: seen.append(centres) or (lambda *a: None))
+    physics_pass.read_tasks(Usd.Stage.Open(str(path)), clip, model, str(path), qpos)
+    assert len(seen) == 1
+    return seen[0]
+
+
+def test_stones_inside_instances_are_the_stones_the_plain_prims_are(tmp_path, walk, monkeypatch):
+    plain = _stones_read(_shot(tmp_path / "plain.usda", False), walk, monkeypatch)
+    instanced = _stones_read(_shot(tmp_path / "instanced.usda", True), walk, monkeypatch)
+    assert plain.shape == (2, 3) and np.array_equal(instanced, plain)  # were ignored: no stone at all
+    # In the model's frame, metres: the authored points, turned (the CMU stage is Y-up, the model Z-up).
+    assert np.allclose(sorted(np.linalg.norm(plain, axis=1)), sorted(np.linalg.norm(list(STONES.values()), axis=1)))
+
+
+def test_a_push_outside_the_shot_is_not_a_push_of_the_shot(walk):
+    clip, model, _ = walk
+    shot = clip.frames(100, 200)  # time codes 101-200
+    stage = Usd.Stage.CreateInMemory()
+    root = stage.DefinePrim("/Body", "SkelRoot")
+    root.CreateAttribute("usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).Set("Chest")
+    force = root.CreateAttribute("usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3)
+    for t, f in ((10.0, (150.0, 0.0, 0.0)), (20.0, (0.0, 0.0, 0.0)),  # before the shot
+                 (90.0, (0.0, 0.0, 80.0)), (110.0, (0.0, 0.0, 0.0)),  # held into it
+                 (150.0, (0.0, 60.0, 0.0)), (160.0, (0.0, 0.0, 0.0)),  # within it
+                 (300.0, (40.0, 0.0, 0.0))):  # after it
+        force.Set(f, t)
+    pushes = read_pushes(root, shot, model, "shot")
+    starts = [round(p.start_s * clip.time_codes_per_second + clip.start_time, 6) for p in pushes]
+    assert starts == [90.0, 150.0]
