@@ -260,6 +260,19 @@ def test_batch_shapes_and_equality_with_single_queries(default_map):
     assert worst < 1e-12, worst
 
 
+def test_the_timing_only_answer_is_the_uncorrected_querys_timing(default_map):
+    """``timing`` (what a shift's schedule asks) gives ``query_full(correct=False)``'s seven floats bit
+    for bit, clamped requests (beyond the sampled yaw and pitch, their durations stretched) included."""
+    rng = np.random.default_rng(3)
+    yaw = np.r_[rng.uniform(-180, 180, 20), 200.0, -250.0, 0.0, 30.0]
+    pitch = np.r_[rng.uniform(-30, 30, 20), 0.0, 10.0, 70.0, -85.0]
+    answer = default_map.query_full(yaw, pitch, correct=False)
+    assert answer.extrapolated[-4:].all() and not answer.extrapolated[:20].all()
+    assert np.array_equal(default_map.timing(yaw, pitch), answer.motions.timing)
+    assert np.array_equal(default_map.timing(200.0, 0.0), default_map.query_full(200.0, 0.0, correct=False).motions.timing)
+    assert default_map.timing(200.0, 0.0)[motion.DURATION] > default_map.timing(180.0, 0.0)[motion.DURATION]
+
+
 # -- storage round trip, determinism ---------------------------------------------------------------------
 
 
