@@ -61,3 +61,23 @@ def test_a_signal_once_the_outputs_are_written_changes_nothing(tmp_path, monkeyp
     assert code == 0
     assert "interrupted" not in captured.err and f"wrote {tmp_path / 'gaze.usdc'}" in captured.out
     assert (tmp_path / "gaze.usdc").stat().st_size > 0 and _leftovers(tmp_path) == []
+
+
+def test_a_stop_landing_in_an_import_is_raised_once_the_import_is_done(tmp_path, monkeypatch):
+    """Raised inside an import, USD's module loader could swallow it (the command went on and wrote its
+    output) or leave a module half made: the writer's handler sends the signal again after it."""
+    import sys
+    import time
+
+    from usdgaze.errors import Interrupted
+    from usdgaze.files.transaction import Outputs
+
+    (tmp_path / "stopped_midway.py").write_text(
+        "import os, signal, time\nos.kill(os.getpid(), signal.SIGTERM)\nfor _ in range(20):\n    time.sleep(0.001)\n"
+        "DONE = True\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(Interrupted):
+        with Outputs():
+            import stopped_midway  # noqa: F401
+            time.sleep(5.0)  # the signal comes again here
+    assert sys.modules["stopped_midway"].DONE  # the import ran to its end

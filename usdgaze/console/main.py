@@ -16,6 +16,7 @@ import click
 
 from usdgaze import __version__
 from usdgaze.errors import Interrupted, UsdGazeError
+from usdgaze.files.signals import in_import, send_again
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
@@ -83,11 +84,12 @@ _STOPS = (signal.SIGTERM, signal.SIGINT)
 
 
 class _Stops:
-    """SIGTERM and SIGINT while a command runs: raised as :class:`Interrupted` (one line, 128 + the
-    signal) wherever no writer's transaction handles them, and let pass once the command's outputs are
-    in place (all that is left is its report). ``hold``: the process ends after the command, so both are
-    ignored from its end on (Python puts back the default action, a kill, for its own handlers while it
-    shuts down, and any thread, USD's included, may receive the signal)."""
+    """SIGTERM and SIGINT while a command runs, wherever no writer's transaction handles them: one line
+    and 128 + the signal (the process ends at once with ``hold``, else :class:`Interrupted` is raised),
+    and nothing once the command's outputs are in place (all that is left is its report). ``hold``: the
+    process ends after the command, so both are ignored from its end on (Python puts back the default
+    action, a kill, for its own handlers while it shuts down, and any thread, USD's included, may
+    receive the signal)."""
 
     def __init__(self, hold: bool = False) -> None:
         self.commits = self._commits()
@@ -96,8 +98,9 @@ class _Stops:
 
     @staticmethod
     def _commits() -> int:
-        writer = sys.modules.get("usdgaze.files.transaction")  # not imported: nothing committed yet
-        return writer.Outputs.commits if writer else 0
+        # Not imported (or half imported, a signal landing in its import): nothing committed yet.
+        outputs = getattr(sys.modules.get("usdgaze.files.transaction"), "Outputs", None)
+        return outputs.commits if outputs else 0
 
     def __enter__(self) -> "_Stops":
         if threading.current_thread() is threading.main_thread():  # Python's signal handlers live there
@@ -106,8 +109,18 @@ class _Stops:
         return self
 
     def _on_signal(self, signum, frame) -> None:
-        if self._commits() == self.commits:
-            raise Interrupted(signum)
+        if self._commits() != self.commits:
+            return
+        if self.hold:
+            # The process is the command and no writer holds a temporary (a writer's own handler
+            # runs while one does): end it here. Raised instead, the stop could land inside an import,
+            # where USD's module loader swallows it or leaves a module half made.
+            os.write(2, f"usdgaze: error: interrupted by {signal.Signals(signum).name}; nothing was written\n".encode())
+            os._exit(128 + signum)
+        if in_import(frame):  # raised there, the import could swallow it
+            send_again(signum)
+            return
+        raise Interrupted(signum)
 
     def __exit__(self, *exc) -> None:
         for sig, handler in self.saved.items():

@@ -68,8 +68,11 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
     origin, sight = line_of_sight(eyes.positions[0], eyes.directions[0], eyes.positions[1], eyes.directions[1])
     sight_w = directions_to_world(skel_to_world, sight)
     achieved_ae = azimuth_elevation(sight_w, up_w)
+    # Unwrapped near the request, but no line of sight turns past half a turn plus the eyes' range: a
+    # 360 deg request that reached 100 deg reached 100, not 460.
+    reach_deg = 180.0 + options.eye_range.yaw
     achieved = np.column_stack([
-        rot.unwrap_near(achieved_ae[:, 0] - base_ae[:, 0], requested[:, 0]),
+        rot.unwrap_near(achieved_ae[:, 0] - base_ae[:, 0], np.clip(requested[:, 0], -reach_deg, reach_deg)),
         achieved_ae[:, 1] - base_ae[:, 1],
     ])
     m = clip.skel_to_world

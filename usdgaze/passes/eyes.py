@@ -15,6 +15,11 @@ from typing import Callable
 import numpy as np
 
 from usdgaze.gaze import saccade
+from usdgaze.passes.sight import azimuth_elevation, direction_from
+
+AROUND_DEG = 90.0
+"""A shift asking for a larger azimuth change than this turns the eyes the way it asks, about up:
+the great circle between nearly opposite directions may go round either side, or over the head."""
 
 
 @dataclass
@@ -26,6 +31,8 @@ class Scene:
     """Midpoint of the eyes ``(F, 3)``."""
     base_point: np.ndarray
     """Point of sight of the base motion (along the head, at the fixation distance) ``(F, 3)``."""
+    up: np.ndarray | None = None
+    """World up, about which a large shift turns (see :data:`AROUND_DEG`)."""
 
 
 @dataclass
@@ -35,6 +42,9 @@ class Goal:
     points: np.ndarray
     """World point to look at per frame ``(F, 3)`` (for direction goals: at the fixation distance)."""
     cut: bool = False
+    turn: float = 0.0
+    """The azimuth change (deg) asked of the eyes' shift to the goal, + toward the left; 0: the
+    shortest way."""
 
 
 @dataclass
@@ -52,10 +62,20 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.where(d > 0, d, 1.0)[..., None], d
 
 
+def _around(a: np.ndarray, b: np.ndarray, s: np.ndarray, turn: float, up: np.ndarray) -> np.ndarray:
+    """Directions from ``a`` to ``b`` by fractions ``s``, azimuth and elevation about ``up`` interpolated,
+    the azimuth going round the way the sign of ``turn`` says."""
+    ae_a, ae_b = azimuth_elevation(a, up), azimuth_elevation(b, up)
+    left = (ae_b[:, 0] - ae_a[:, 0]) % 360.0
+    change = np.where(turn > 0.0, left, np.where(left > 0.0, left - 360.0, 0.0))
+    return direction_from(ae_a + s[:, None] * np.column_stack([change, ae_b[:, 1] - ae_a[:, 1]]), up)
+
+
 def _shift(scene: Scene, out: Sight, i0: int, i1: int, start: np.ndarray, goal: np.ndarray,
-           progress: np.ndarray) -> int:
+           progress: np.ndarray, turn: float = 0.0) -> int:
     """Frames ``i0..`` move from the held world point ``start`` to ``goal`` with fractions ``progress``
-    (one per frame from i0 to i1); returns the first frame at which the shift is done."""
+    (one per frame from i0 to i1); returns the first frame at which the shift is done. ``turn``: the
+    azimuth change asked (see :data:`AROUND_DEG`)."""
     e = scene.eye[i0:i1]
     done = np.flatnonzero(progress >= 1.0)
     n = int(done[0]) if len(done) else i1 - i0
@@ -67,7 +87,11 @@ def _shift(scene: Scene, out: Sight, i0: int, i1: int, start: np.ndarray, goal: 
     sc = np.clip(s, 0.0, 1.0)
     # Vergence changes with the inverse distance, as the eyes' convergence angle does.
     inv = (1.0 - sc) / np.maximum(d0, 1e-12) + sc / np.maximum(d1, 1e-12)
-    out.point[i0:i0 + n] = e[:n] + saccade.slerp(from_dir, to_dir, s) / inv[:, None]
+    if abs(turn) > AROUND_DEG and scene.up is not None:
+        path = _around(from_dir, to_dir, s, turn, scene.up)
+    else:
+        path = saccade.slerp(from_dir, to_dir, s)
+    out.point[i0:i0 + n] = e[:n] + path / inv[:, None]
     out.saccading[i0:i0 + n] = True
     return i0 + n
 
@@ -115,10 +139,11 @@ def point_of_sight(scene: Scene, events: list[tuple[int, Goal]], opts,
         if goal.cut:
             land = i0
         elif model_progress is not None:
-            land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], model_progress(i0, start, goal.points)[:i1 - i0])
+            land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], model_progress(i0, start, goal.points)[:i1 - i0],
+                          goal.turn)
         else:
             progress, amplitude = _saccade_progress(scene, i0, i1, start, goal.points)
-            land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], progress)
+            land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], progress, goal.turn)
             out.saccades.append((float(scene.seconds[i0]), amplitude, float(saccade.duration(amplitude))))
         if land >= i1:
             continue

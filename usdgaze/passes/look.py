@@ -158,9 +158,15 @@ def _model_progress(gaze_map, seconds: np.ndarray, eye: np.ndarray, up: np.ndarr
 def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndarray, up: np.ndarray,
            fixation: float) -> list[tuple[int, eyes_mod.Goal]]:
     events = []
+    held = 0.0  # the azimuth change (deg) the eyes hold against the base's, as asked; None on a target
     for epoch in epochs:
         d = epoch.directive
         for frame, kind, cut in epoch.events:
+            wanted = d.yaw if kind == "direction" else 0.0 if kind == "base" else None
+            # Which way round a shift of over 90 deg goes is the request's (a right turn of 179 deg is no
+            # left turn of 181), and a release goes back the way the shift came.
+            turn = 0.0 if wanted is None else wanted - (held if held is not None else 0.0)
+            held = wanted
             if kind == "target":
                 points = targets[d.target]
             elif kind == "direction":
@@ -171,7 +177,7 @@ def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndar
                 points[frame:] = scene.eye[frame:] + fixation * direction_from(ae, up)
             else:
                 points = scene.base_point
-            events.append((frame, eyes_mod.Goal(kind, points, cut)))
+            events.append((frame, eyes_mod.Goal(kind, points, cut, turn)))
     return events
 
 
@@ -202,7 +208,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     body = move_body(base, chain, frame, disp)
     eye_m = to_world(clip, body.eye_centre(rig))
     fixation = options.fixation_m / clip.meters_per_unit
-    scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight)
+    scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight, up)
 
     legacy = look.eye_timing == "model" and not any(d.kind == "look" for d in directives)
     if legacy:  # the paper's eyes: the wanted line of sight follows the map's gaze progress
