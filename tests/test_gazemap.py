@@ -273,6 +273,19 @@ def test_the_timing_only_answer_is_the_uncorrected_querys_timing(default_map):
     assert default_map.timing(200.0, 0.0)[motion.DURATION] > default_map.timing(180.0, 0.0)[motion.DURATION]
 
 
+def test_a_map_on_one_line_times_a_request_off_it_by_its_amplitude_not_by_a_vanishing_one(default_map):
+    """The built-in examples at pitch 0 only (a map on a line, which is allowed): a request (0, 10)
+    clamps to (0, 0), and its duration grew by 10 / 1e-9 (a 2.5e9 s shift that never moved)."""
+    full = default_map.definition
+    row = full.params[:, 1] == 0.0
+    line = ParametricGazeMap(dataclasses.replace(full, params=full.params[row], motions=full.motions[row]))
+    still = line.timing(0.0, 0.0)[motion.DURATION]
+    assert 0.1 < still < 3.0
+    assert line.timing(0.0, 10.0)[motion.DURATION] == pytest.approx(still)  # amplitudes up to 10 deg: as (0, 0)
+    assert line.timing(0.0, 40.0)[motion.DURATION] == pytest.approx(4.0 * still)
+    assert line.query(0.0, 10.0).timing[motion.DURATION] == pytest.approx(still)
+
+
 # -- storage round trip, determinism ---------------------------------------------------------------------
 
 

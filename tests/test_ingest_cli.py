@@ -57,6 +57,23 @@ def test_build_map_writes_map_report_and_series(session, tmp_path, capsys):
     assert sorted(p.name for p in series.iterdir()) == sorted(f"{t.name}.csv" for t in session.trials)
 
 
+def test_two_trials_whose_series_would_be_one_file_are_one_line(session, tmp_path, capsys):
+    """Trials 'x/y' and 'x_y' both name the series file x_y.csv: the second replaced the first."""
+    rows = session.sheet.read_text().splitlines()
+    sheet = tmp_path / "sheet.csv"
+    first, second = rows[1].split(",", 1), rows[2].split(",", 1)
+    sheet.write_text("\n".join([rows[0], "x/y," + first[1], "x_y," + second[1], *rows[3:]]) + "\n")
+    for trial in session.trials:  # the sheet names its files relative to its folder
+        (tmp_path / trial.file.name).symlink_to(trial.file)
+    out, series = tmp_path / "map.usda", tmp_path / "series"
+    code = main(["build-map", str(sheet), "--markers", str(session.markerset), "--out", str(out),
+                 "--series", str(series), "--quiet"])
+    err = capsys.readouterr().err.splitlines()
+    assert code == 2 and err == [f"usdgaze: error: {series / 'x_y.csv'}: the --series file of both trial 'x/y' and "
+                                 "trial 'x_y' (a name's separators become '_'); rename one of them in the sheet"]
+    assert not out.exists() and not series.exists()
+
+
 def test_thresholds_reach_the_build_and_the_layer(session, tmp_path, capsys):
     out, report = tmp_path / "map.usda", tmp_path / "report.json"
     code = main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out", str(out),

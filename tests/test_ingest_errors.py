@@ -63,6 +63,7 @@ def broken_session(tmp_path_factory):
         ["latecrop", "latecrop.c3d", -36, 12, 10, 100000],
         ["nofile", "nofile.c3d", 0, 12, "", ""],
         ["dupe", session.trials[1].file.name, 36, 0, "", ""],
+        ["neardupe", session.trials[1].file.name, 36.0000001, 0, "", ""],  # 36 as the map stores it (float32)
         ["notc3d", "sheet.csv", 180, 12, "", ""],
     ])
     return session, build(session.sheet, session.markerset)
@@ -77,6 +78,7 @@ EXPECTED = {
     "latecrop": "crop_end 100000 is past the last frame",
     "nofile": "no such file",
     "dupe": "same target (36, 0) as trial y+036_p+00",
+    "neardupe": "same target (36, 0) as trial y+036_p+00",
     "notc3d": "unknown file type '.csv'",
 }
 
@@ -107,7 +109,7 @@ def test_too_few_good_trials_is_one_clear_error(broken_session):
     with pytest.raises(BuildError) as err:
         require_definition(result)
     message = str(err.value)
-    assert message.startswith("only 5 of 14 trials gave an example, a map needs at least 6; first failure: trial gone")
+    assert message.startswith("only 5 of 15 trials gave an example, a map needs at least 6; first failure: trial gone")
 
 
 def test_a_marker_set_naming_absent_markers_fails_every_trial(broken_session, tmp_path):
@@ -118,7 +120,7 @@ def test_a_marker_set_naming_absent_markers_fails_every_trial(broken_session, tm
     for report in result.reports:
         if report.trial not in ("nofile", "notc3d"):
             assert "marker 'C7' is not in the file" in report.error, report.error
-    with pytest.raises(BuildError, match="only 0 of 14 trials"):
+    with pytest.raises(BuildError, match="only 0 of 15 trials"):
         require_definition(result)
 
 
@@ -129,7 +131,7 @@ def test_cli_exit_code_2_and_one_line(broken_session, tmp_path, capsys):
     code = main(["build-map", str(session.sheet), "--markers", str(markers), "--out", str(tmp_path / "m.usda"), "--quiet"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert len(err) == 1 and err[0].startswith("usdgaze: error: only 0 of 14 trials gave an example")
+    assert len(err) == 1 and err[0].startswith("usdgaze: error: only 0 of 15 trials gave an example")
     assert not (tmp_path / "m.usda").exists()
     code = main(["build-map", str(tmp_path / "none.csv"), "--out", str(tmp_path / "m.usda")])
     assert code == 2 and "no such trial sheet" in capsys.readouterr().err

@@ -79,6 +79,9 @@ def _random_blends(params: np.ndarray, count: int, blend_size: int, rng: np.rand
 _CHUNK = 1024  # queries corrected together: bounds the (Q, C, E) probe arrays
 _CANDIDATES = 8  # examples a correction may reweight
 _BACKTRACK = np.array([1.0, 0.5, 0.25])  # step scales a correction tries, largest first
+_LEAST_AMPLITUDE_DEG = 10.0
+"""A clamped request's duration grows with its amplitude over the clamped one's, this at the least: a map
+whose examples lie on a line clamps (0, 10) to (0, 0), and the ratio was 1e10 (a 2.5e9 s shift)."""
 
 
 class ParametricGazeMap:
@@ -189,7 +192,7 @@ class ParametricGazeMap:
     def _stretched(timing: np.ndarray, request: np.ndarray, inside: np.ndarray) -> np.ndarray:
         """Timing of clamped requests: the extra rotation must not make the shift faster than the
         region it borrows its timing from, so the duration grows by the ratio of gaze amplitudes."""
-        ratio = np.linalg.norm(request, axis=1) / np.maximum(np.linalg.norm(inside, axis=1), 1e-9)
+        ratio = np.linalg.norm(request, axis=1) / np.maximum(np.linalg.norm(inside, axis=1), _LEAST_AMPLITUDE_DEG)
         timing[:, motion.DURATION] *= np.maximum(ratio, 1.0)
         return timing
 

@@ -216,7 +216,8 @@ def _check_fits_session(trial: Trial, series: TrialSeries, rate: float, targets:
     """The trial's target key, once its rate matches the session's and no earlier trial has its target."""
     if abs(series.rate - rate) > settings.rate_tolerance * rate:
         raise TrialError(f"{where}: frame rate {series.rate:g} Hz differs from the session's {rate:g} Hz")
-    key = (trial.yaw, trial.pitch)
+    # Compared as the map stores them (float32): 36 and 36.0000001 would be one example there.
+    key = (float(np.float32(trial.yaw)), float(np.float32(trial.pitch)))
     if key in targets:
         raise TrialError(f"{where}: same target ({trial.yaw:g}, {trial.pitch:g}) as trial {targets[key]}; a map holds one example per target")
     return key

@@ -133,11 +133,18 @@ def write_series(directory: str | Path, result: BuildResult, outputs: Outputs | 
     A symlink planted at a series path is replaced, not written through.
     """
     directory = Path(directory)
+    trials = [report.trial for report in result.good]
+    paths = series_paths(directory, trials)
+    owner: dict[Path, str] = {}
+    for trial, path in zip(trials, paths):  # two trials on one file: the second would replace the first
+        if path in owner:
+            raise UsdGazeError(f"{path}: the --series file of both trial '{owner[path]}' and trial '{trial}' (a "
+                               "name's separators become '_'); rename one of them in the sheet")
+        owner[path] = trial
     written = []
     with outputs_of(outputs) as tx:
         tx.make_folder(directory)
-        for report in result.good:
-            (path,) = series_paths(directory, [report.trial])
+        for report, path in zip(result.good, paths):
             if not tx.claimed(path):
                 tx.claim(path, "--series file", follow=False)
             header, rows = series_rows(result, report.trial)
