@@ -106,6 +106,10 @@ def b_batch_dask_not_an_address(d):
     return manifest(d, f"[[job]]\n{JOB}", "--dask", "not an address")
 
 
+def b_batch_dask_tls_without_a_context(d):
+    return manifest(d, f"[[job]]\n{JOB}", "--dask", "tls://127.0.0.1:1")
+
+
 def b_batch_summary_not_json(d):
     return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "summary.txt"))
 

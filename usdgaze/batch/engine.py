@@ -226,6 +226,8 @@ def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
         raise UsdGazeError(f"--dask {address}: cannot connect to the scheduler ({exc})") from None
     except ValueError as exc:  # distributed's parse of the address
         raise UsdGazeError(f"--dask {address!r}: not a scheduler address such as tcp://host:8786 ({exc})") from None
+    except TypeError as exc:  # a protocol this installation cannot speak: ucx:// without UCX, tls:// without a context
+        raise UsdGazeError(f"--dask {address}: cannot connect with that protocol here ({exc})") from None
     with client:
         futures = [client.submit(run_shot, shot, force, True, key=f"usdgaze-{shot.name}-{uuid.uuid4().hex[:8]}",
                                  pure=False) for shot in shots]
