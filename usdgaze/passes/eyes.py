@@ -18,8 +18,10 @@ from usdgaze.gaze import saccade
 from usdgaze.passes.sight import azimuth_elevation, direction_from
 
 AROUND_DEG = 90.0
-"""A shift asking for a larger azimuth change than this turns the eyes the way it asks, about up:
-the great circle between nearly opposite directions may go round either side, or over the head."""
+"""A shift over this (asked, or between where the eyes are and where they go) turns the eyes about up,
+the way it asks or else the shorter way round: the great circle between nearly opposite directions may
+go round either side, over the head, or through the back of it (each eye then swaps the limit of its
+range for the other in one frame)."""
 
 
 @dataclass
@@ -33,6 +35,10 @@ class Scene:
     """Point of sight of the base motion (along the head, at the fixation distance) ``(F, 3)``."""
     up: np.ndarray | None = None
     """World up, about which a large shift turns (see :data:`AROUND_DEG`)."""
+    near: float = 0.0
+    """The eyes' near point in stage units: a fixated point nearer than this (a target passing through
+    the head), or behind the head, is not held as a point when a shift leaves it, only its direction
+    at the shift's start."""
 
 
 @dataclass
@@ -64,10 +70,13 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _around(a: np.ndarray, b: np.ndarray, s: np.ndarray, turn: float, up: np.ndarray) -> np.ndarray:
     """Directions from ``a`` to ``b`` by fractions ``s``, azimuth and elevation about ``up`` interpolated,
-    the azimuth going round the way the sign of ``turn`` says."""
+    the azimuth going round the way the sign of ``turn`` says (0: the shorter way)."""
     ae_a, ae_b = azimuth_elevation(a, up), azimuth_elevation(b, up)
     left = (ae_b[:, 0] - ae_a[:, 0]) % 360.0
-    change = np.where(turn > 0.0, left, np.where(left > 0.0, left - 360.0, 0.0))
+    if turn == 0.0:
+        change = np.where(left > 180.0, left - 360.0, left)
+    else:
+        change = np.where(turn > 0.0, left, np.where(left > 0.0, left - 360.0, 0.0))
     return direction_from(ae_a + s[:, None] * np.column_stack([change, ae_b[:, 1] - ae_a[:, 1]]), up)
 
 
@@ -83,11 +92,18 @@ def _shift(scene: Scene, out: Sight, i0: int, i1: int, start: np.ndarray, goal: 
         return i0
     s = progress[:n]
     from_dir, d0 = _unit(start[None] - e[:n])
+    behind = from_dir[0] @ (scene.base_point[i0] - e[0]) < 0.0
+    if d0[0] < scene.near or behind:
+        # A point that near, or behind the head, is no point the eyes can be held on as the body moves:
+        # its direction turns through the back of the head (each eye swapped the limit of its range for
+        # the other in a frame). Its direction at the shift's start is held instead.
+        from_dir, d0 = np.broadcast_to(from_dir[0], from_dir.shape), np.full(n, max(float(d0[0]), scene.near))
     to_dir, d1 = _unit(goal[:n] - e[:n])
     sc = np.clip(s, 0.0, 1.0)
     # Vergence changes with the inverse distance, as the eyes' convergence angle does.
     inv = (1.0 - sc) / np.maximum(d0, 1e-12) + sc / np.maximum(d1, 1e-12)
-    if abs(turn) > AROUND_DEG and scene.up is not None:
+    wide = abs(turn) > AROUND_DEG or saccade.angle_deg(from_dir[:1], to_dir[:1])[0] > AROUND_DEG
+    if wide and scene.up is not None:
         path = _around(from_dir, to_dir, s, turn, scene.up)
     else:
         path = saccade.slerp(from_dir, to_dir, s)

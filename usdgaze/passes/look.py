@@ -46,6 +46,7 @@ from usdgaze.passes.sight import azimuth_elevation, direction_from
 from usdgaze.values import MAX_TARGET_DISTANCE_M
 
 EYE_TIMINGS = ("saccade", "model")
+NEAR_POINT_M = 0.1  # an adult's near point of focus, about: nothing nearer is fixated as a point
 
 
 @dataclass(frozen=True)
@@ -208,7 +209,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     body = move_body(base, chain, frame, disp)
     eye_m = to_world(clip, body.eye_centre(rig))
     fixation = options.fixation_m / clip.meters_per_unit
-    scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight, up)
+    scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight, up, NEAR_POINT_M / clip.meters_per_unit)
 
     legacy = look.eye_timing == "model" and not any(d.kind == "look" for d in directives)
     if legacy:  # the paper's eyes: the wanted line of sight follows the map's gaze progress
@@ -222,8 +223,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     # Partial gaze: toward the base line of sight (and the fixation distance) as the weight falls.
     direction, distance = _unit(sight.point - eye_m)
     direction[part] = saccade.slerp(base.line_of_sight[part], direction[part], weight[part])
-    inv = np.where(full, 1.0 / np.maximum(distance, 1e-12),
-                   (1.0 - weight) / fixation + weight / np.maximum(distance, 1e-12))
+    distance = np.maximum(distance, scene.near)  # nearer, each eye would turn to its own side of the point
+    inv = np.where(full, 1.0 / distance, (1.0 - weight) / fixation + weight / distance)
     wanted_point = eye_m + direction / inv[:, None]
     result = finish(clip, chain, frame, base, body, plan, to_skel(clip, wanted_point), options,
                        saccading=sight.saccading)
