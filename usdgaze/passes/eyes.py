@@ -37,8 +37,8 @@ class Scene:
     """World up, about which a large shift turns (see :data:`AROUND_DEG`)."""
     near: float = 0.0
     """The eyes' near point in stage units: a fixated point nearer than this (a target passing through
-    the head), or behind the head, is not held as a point when a shift leaves it, only its direction
-    at the shift's start."""
+    the head), or behind the base motion's head, is not held as a point when a shift leaves it, only
+    its direction at the shift's start."""
 
 
 @dataclass
@@ -92,7 +92,7 @@ def _shift(scene: Scene, out: Sight, i0: int, i1: int, start: np.ndarray, goal: 
         return i0
     s = progress[:n]
     from_dir, d0 = _unit(start[None] - e[:n])
-    behind = from_dir[0] @ (scene.base_point[i0] - e[0]) < 0.0
+    behind = from_dir[0] @ (scene.base_point[i0] - e[0]) < 0.0  # behind the base motion's head
     if d0[0] < scene.near or behind:
         # A point that near, or behind the head, is no point the eyes can be held on as the body moves:
         # its direction turns through the back of the head (each eye swapped the limit of its range for
