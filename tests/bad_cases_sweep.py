@@ -110,6 +110,10 @@ def b_batch_dask_tls_without_a_context(d):
     return manifest(d, f"[[job]]\n{JOB}", "--dask", "tls://127.0.0.1:1")
 
 
+def b_batch_emit_with_a_task_index(d):
+    return manifest(d, f"[[job]]\n{JOB}", "--emit", "slurm", str(d / "jobs"), "--task-index", "0")
+
+
 def b_batch_summary_not_json(d):
     return manifest(d, f"[[job]]\n{JOB}", "--summary", str(d / "summary.txt"))
 

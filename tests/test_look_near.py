@@ -37,3 +37,22 @@ def test_a_target_through_the_head_flips_no_eye(tmp_path, capsys):
     for eye in (left, right):
         yaw, _ = measure.eye_in_head(new, rig.leaf["head"], eye, rig.forward, rig.left, rig.up)
         assert np.abs(np.diff(yaw[after])).max() < 40.0, (eye, np.abs(np.diff(yaw[after])).max())
+
+
+def test_a_target_out_of_reach_at_its_own_start_leaves_the_gaze_alone(tmp_path, capsys):
+    """Let go at once (3 m straight behind): the line of sight moved on the directive's frame alone,
+    by (0.75, 1.37) deg, the eyes held one frame on where the base looked the frame before."""
+    rig = syn.make_rig(tmp_path / "in.usda", mesh=False, frames=120, time_codes_per_second=60)
+    base = measure.posed(str(rig.path), rig.skeleton)
+    left, right = rig.eye_leaves
+    eyes = 0.5 * (base.position(left) + base.position(right))[30]
+    stage = Usd.Stage.Open(str(rig.path))
+    UsdGeom.Xform.Define(stage, "/World/Behind").AddTranslateOp().Set(Gf.Vec3d(*(eyes - 3.0 * rig.forward)))
+    stage.GetRootLayer().Save()
+    preview = tmp_path / "preview.usda"
+    assert main(["apply", str(rig.path), "--look-at", "/World/Behind@0.5s", "--out", str(tmp_path / "gaze.usdc"),
+                 "--preview", str(preview)]) == 0
+    assert "out of reach (behind the character) at 0.5 s" in capsys.readouterr().err
+    change, _, _ = measure.gaze_change(base, measure.posed(str(preview), rig.skeleton), rig.forward,
+                                       head=rig.leaf["head"], eyes=(left, right))
+    assert np.abs(change).max() < 0.01, np.abs(change).max(axis=0)

@@ -38,6 +38,8 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         raise UsdGazeError("--dask '': expected the scheduler's address, such as tcp://host:8786")
     if dask_address and workers > 1:
         raise UsdGazeError("--dask and --workers are alternatives: the cluster's workers run the shots")
+    if emit and task_index is not None:  # the emitted jobs give each farm task its own index
+        raise UsdGazeError("--emit and --task-index are alternatives: the emitted jobs run one task per shot")
     flag, given = ("--report", report_path) if report_path else ("--summary", summary_path)
     with Outputs() as tx:
         # The summary is checked before any shot runs: it may not be the manifest or any shot's file.

@@ -152,7 +152,8 @@ def point_of_sight(scene: Scene, events: list[tuple[int, Goal]], opts,
         if i0 >= i1:
             continue
         start = out.point[i0 - 1].copy() if i0 > 0 else scene.base_point[0].copy()
-        if goal.cut:
+        on_base = goal.kind == "base" and (i0 == 0 or np.array_equal(start, scene.base_point[i0 - 1]))
+        if goal.cut or on_base:  # on_base: the eyes are on the base's gaze already (a target let go at once)
             land = i0
         elif model_progress is not None:
             land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], model_progress(i0, start, goal.points)[:i1 - i0],
