@@ -1,7 +1,8 @@
 """Shifts near or past half a turn, measured by UsdSkel FK on the CMU walk: the line of sight turns
 the way the request says from its first frame (a right turn of 179 deg is no left turn of 181: the
 eyes went 43 deg left first), and what the report says was reached is what FK measures (a 360 deg
-request that reached 101 deg was said to have reached 461)."""
+request reached 101 deg, aiming straight ahead, and was said to have reached 461; it reaches 190 on the
+asked side, as 300 does)."""
 
 from __future__ import annotations
 
@@ -57,3 +58,4 @@ def test_what_a_request_past_reach_reached_is_what_fk_measures(tmp_path, capsys)
     settled_s = 2.0 + report["characters"][0]["shifts"][0]["duration_s"]
     measured = azimuth[times > 1 + settled_s * TCPS].mean()  # the hold: settled, to the end of the clip
     assert abs(reached) < 200.0 and reached == pytest.approx(measured, abs=1.0)
+    assert reached > 180.0  # as far left as the line of sight goes (it aimed straight ahead: 100.7 deg)

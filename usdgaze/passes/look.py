@@ -157,7 +157,10 @@ def _model_progress(gaze_map, seconds: np.ndarray, eye: np.ndarray, up: np.ndarr
 
 
 def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndarray, up: np.ndarray,
-           fixation: float) -> list[tuple[int, eyes_mod.Goal]]:
+           fixation: float, reach_deg: float) -> list[tuple[int, eyes_mod.Goal]]:
+    """The eyes' goals, one per planner event. ``reach_deg``: the furthest a line of sight turns (half a
+    turn plus the eye range); a shift asking for more aims there, on its side (360 deg aimed straight
+    ahead, and the eyes turned away from the head's turn: 100.7 deg reached where 300 reaches 190)."""
     events = []
     held = 0.0  # the azimuth change (deg) the eyes hold against the base's, as asked; None on a target
     for epoch in epochs:
@@ -172,7 +175,7 @@ def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndar
                 points = targets[d.target]
             elif kind == "direction":
                 # The eyes read a goal from its event's frame on: the frames before it keep the base's.
-                ae = base_ae[frame:] + [d.yaw, d.pitch]
+                ae = base_ae[frame:] + [np.clip(d.yaw, -reach_deg, reach_deg), d.pitch]
                 ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
                 points = scene.base_point.copy()
                 points[frame:] = scene.eye[frame:] + fixation * direction_from(ae, up)
@@ -218,7 +221,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         sight = eyes_mod.Sight(eye_m + fixation * direction_from(ae, up), ~plan.settled, [])
     else:
         model = _model_progress(gaze_map, seconds, eye_m, up) if look.eye_timing == "model" else None
-        sight = eyes_mod.point_of_sight(scene, _goals(epochs, targets, scene, base.ae, up, fixation), look, model)
+        goals = _goals(epochs, targets, scene, base.ae, up, fixation, 180.0 + options.eye_range.yaw)
+        sight = eyes_mod.point_of_sight(scene, goals, look, model)
 
     # Partial gaze: toward the base line of sight (and the fixation distance) as the weight falls.
     direction, distance = _unit(sight.point - eye_m)
