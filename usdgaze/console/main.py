@@ -16,7 +16,7 @@ import click
 
 from usdgaze import __version__
 from usdgaze.errors import Interrupted, UsdGazeError
-from usdgaze.files.signals import in_import, send_again
+from usdgaze.files.signals import later_if_importing
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
@@ -115,10 +115,9 @@ class _Stops:
             # The process is the command and no writer holds a temporary (a writer's own handler
             # runs while one does): end it here. Raised instead, the stop could land inside an import,
             # where USD's module loader swallows it or leaves a module half made.
-            os.write(2, f"usdgaze: error: interrupted by {signal.Signals(signum).name}; nothing was written\n".encode())
+            os.write(2, f"{_interrupted_line(Interrupted(signum))}\n".encode())
             os._exit(128 + signum)
-        if in_import(frame):  # raised there, the import could swallow it
-            send_again(signum)
+        if later_if_importing(signum, frame):  # raised there, the import could swallow it
             return
         raise Interrupted(signum)
 
@@ -145,8 +144,12 @@ def entry() -> None:
     sys.exit(main(hold=True))
 
 
+def _interrupted_line(exc: Interrupted) -> str:
+    return f"usdgaze: error: interrupted by {exc}; {exc.detail}"
+
+
 def _interrupted(exc: Interrupted) -> int:
-    _fail(f"interrupted by {exc}; {exc.detail}")
+    click.echo(_interrupted_line(exc), err=True)
     return 128 + exc.signum
 
 

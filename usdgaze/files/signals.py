@@ -20,8 +20,12 @@ def in_import(frame) -> bool:
     return False
 
 
-def send_again(signum: int) -> None:
-    """Deliver ``signum`` to this process again after :data:`AGAIN_S` seconds."""
+def later_if_importing(signum: int, frame) -> bool:
+    """Inside an import (``frame``, a signal handler's): deliver ``signum`` to this process again after
+    :data:`AGAIN_S` seconds and say so (True); the handler then returns instead of raising."""
+    if not in_import(frame):
+        return False
     timer = threading.Timer(AGAIN_S, os.kill, (os.getpid(), signum))
     timer.daemon = True
     timer.start()
+    return True

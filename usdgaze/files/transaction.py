@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Callable
 
 from usdgaze.errors import Interrupted, UsdGazeError, usd_failure
-from usdgaze.files.signals import in_import, send_again
+from usdgaze.files.signals import later_if_importing
 from usdgaze.files.identity import Identities, real_path
 from usdgaze.files.kinds import special_kind
 
@@ -155,8 +155,7 @@ class Outputs:
         if self._committing or self._closing:  # renames (or their rollback) and cleanup run to their end
             self._pending = signum
             return
-        if in_import(frame):  # raised there, the import could swallow it (see usdgaze.files.signals)
-            send_again(signum)
+        if later_if_importing(signum, frame):  # raised there, the import could swallow it
             return
         raise Interrupted(signum)  # not KeyboardInterrupt: click would turn that into "Aborted!"
 
