@@ -28,7 +28,7 @@ def _mean_sight(p, left_eye, right_eye, axis_l, axis_r):
     return both / np.linalg.norm(both, axis=-1, keepdims=True)
 
 
-def _shot(tmp_path, capsys, yaw: float):
+def _shot(tmp_path, capsys, yaw: float, eyes: bool = False):
     out, preview = tmp_path / "gaze.usdc", tmp_path / "preview.usda"
     assert main(["apply", str(CMU), "--shift", f"2s:{yaw:g}:0", "--out", str(out), "--preview", str(preview),
                  "--json"]) == 0
@@ -37,7 +37,14 @@ def _shot(tmp_path, capsys, yaw: float):
     change, _, _ = measure.gaze_change(base, new, measure.character_forward_skel(base, "LeftHip", "RightHip"),
                                        sight=_mean_sight)
     # The azimuth change in the 360 deg window that reaches 220 deg the asked way and 140 the other.
-    return report, base.times, np.sign(yaw) * (np.mod(np.sign(yaw) * change[:, 0] + 140.0, 360.0) - 140.0)
+    azimuth = np.sign(yaw) * (np.mod(np.sign(yaw) * change[:, 0] + 140.0, 360.0) - 140.0)
+    if not eyes:
+        return report, base.times, azimuth
+    fwd = measure.character_forward_skel(new, "LeftHip", "RightHip")
+    up = np.linalg.solve(new.skel_to_world[:3, :3].T, new.up)
+    up /= np.linalg.norm(up)
+    eye_yaw = [measure.eye_in_head(new, "Head", e, fwd, np.cross(up, fwd), up)[0] for e in ("LeftEye", "RightEye")]
+    return report, base.times, azimuth, np.column_stack(eye_yaw)
 
 
 @pytest.mark.parametrize("yaw", [-179.0, 179.0, -170.0, 200.0])
@@ -59,3 +66,18 @@ def test_what_a_request_past_reach_reached_is_what_fk_measures(tmp_path, capsys)
     measured = azimuth[times > 1 + settled_s * TCPS].mean()  # the hold: settled, to the end of the clip
     assert abs(reached) < 200.0 and reached == pytest.approx(measured, abs=1.0)
     assert reached > 180.0  # as far left as the line of sight goes (it aimed straight ahead: 100.7 deg)
+
+
+@pytest.mark.parametrize("yaw", [210.0, -300.0, 360.0])
+def test_past_half_a_turn_the_eyes_stay_on_the_asked_side(tmp_path, capsys, yaw):
+    """While the head turns toward a goal more than half a turn round, each eye waits at its limit on
+    the shift's side: the goal behind the head put it on its other limit, swapping 88 deg in one frame
+    each way. (Later the head's overshoot past the goal turns the eyes back the other way: no swap.)"""
+    _, times, _, eye_yaw = _shot(tmp_path, capsys, yaw, eyes=True)
+    saccade = (times >= 1 + 2.0 * TCPS) & (times < 1 + 2.6 * TCPS)
+    on_side = np.sign(yaw) * eye_yaw[saccade]
+    assert on_side.min() > -5.0, on_side.min()
+    assert on_side.max() > 44.0  # it reached its limit on that side
+    # 800 deg/s (the seed's saccade cap) plus the head's own turn is under 10 deg a frame at 120 fps.
+    shift = (times >= 1 + 2.0 * TCPS) & (times < 1 + 4.0 * TCPS)
+    assert np.abs(np.diff(eye_yaw[shift], axis=0)).max() < 10.0

@@ -269,6 +269,17 @@ def unwrap_near(angle_deg: np.ndarray, hint_deg: np.ndarray | float) -> np.ndarr
     return hint + (np.asarray(angle_deg) - hint + 180.0) % 360.0 - 180.0
 
 
+def unwrap_from_kept(angle_deg: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Angles ``(..., F)`` over frames: where ``keep`` as they are, elsewhere unwrapped (mod 360)
+    continuously from the last kept frame before (the first frame, where none is)."""
+    if keep.all():
+        return angle_deg
+    unwrapped = np.unwrap(angle_deg, period=360.0, axis=-1)
+    frames = np.arange(angle_deg.shape[-1])
+    anchor = np.maximum.accumulate(np.where(keep, frames, 0), axis=-1)
+    return unwrapped - np.take_along_axis(unwrapped - angle_deg, np.broadcast_to(anchor, angle_deg.shape), axis=-1)
+
+
 def yaw_pitch_rotation(yaw_deg: np.ndarray, pitch_deg: np.ndarray) -> np.ndarray:
     """Canonical-frame rotation: yaw about +Y (toward the left) after pitch up about the left axis."""
     yaw = from_axis_angle(UP, np.radians(yaw_deg))

@@ -25,8 +25,10 @@ class EyeAim:
     directions: list[np.ndarray]
 
 
-def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange) -> EyeAim:
-    """Point each eye at the point of sight (Listing's law: no torsion), within the eye range.
+def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange,
+             side: np.ndarray | None = None) -> EyeAim:
+    """Point each eye at the point of sight (Listing's law: no torsion), within the eye range; a point
+    behind the head on the side ``side (F,)`` says (see :func:`held_side`).
 
     Both eyes are computed together, as arrays ``(2, F, ...)``."""
     parents = [int(rig.parents[e]) for e in rig.eyes]
@@ -39,7 +41,7 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     def along(axis: np.ndarray) -> np.ndarray:
         return np.einsum("efi,ei->ef", u_h, axis)
 
-    yaw = np.clip(np.degrees(np.arctan2(along(left_h), along(fwd_h))), -limits.yaw, limits.yaw)
+    yaw = np.clip(held_side(np.degrees(np.arctan2(along(left_h), along(fwd_h))), side), -limits.yaw, limits.yaw)
     pitch = np.clip(np.degrees(np.arcsin(np.clip(along(up_h), -1.0, 1.0))), -limits.down, limits.up)
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
     u_h = (np.cos(pc) * np.sin(y)) * left_h[:, None] + (np.cos(pc) * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
@@ -51,6 +53,20 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
         positions=list(pos),
         directions=list(rot.rotate(head, u_h)),
     )
+
+
+def held_side(yaw_deg: np.ndarray, side: np.ndarray | None) -> np.ndarray:
+    """Eye-in-head yaw ``(..., F)``: behind the head (beyond 90 deg, past any eye's reach), on the side
+    ``side (F,)`` says (+1 left, -1 right, 0 either).
+
+    A goal a shift asks for more than 90 deg round is behind the head until the head has turned
+    toward it: each eye stays at its limit on the shift's side, where ``arctan2``'s branch put it on
+    the other side whenever the goal was past half a turn from the head (a swap of 88 deg in a frame,
+    and back). A target passing behind has no side: the eye changes sides as the target crosses.
+    """
+    if side is None or not np.any(side):
+        return yaw_deg
+    return np.where((np.abs(yaw_deg) > 90.0) & (side != 0.0), rot.unwrap_near(yaw_deg, 180.0 * side), yaw_deg)
 
 
 def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae: np.ndarray,

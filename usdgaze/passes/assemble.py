@@ -48,21 +48,25 @@ def assemble(rig: Rig, rotations_new: dict[int, np.ndarray], translations_new: d
 
 def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body: Body, plan: Schedule,
            sight_point: np.ndarray, options: PassOptions, requested: np.ndarray | None = None,
-           saccading: np.ndarray | None = None) -> PassResult:
+           saccading: np.ndarray | None = None, side: np.ndarray | None = None) -> PassResult:
     """Aim both eyes at the skeleton-space ``sight_point`` per frame, measure, assemble the arrays.
 
-    ``requested`` is the wanted line-of-sight change per frame (default: toward ``sight_point``).
+    ``requested`` is the wanted line-of-sight change per frame (default: toward ``sight_point``);
+    ``side`` the side of the head the eyes keep for a point behind it (:func:`aim.held_side`).
     """
     rig, skel_to_world, up_w, base_ae = base.rig, base.skel_to_world, base.up, base.ae
-    eyes = aim_eyes(rig, frame, body.moved, sight_point, options.eye_range)
+    eyes = aim_eyes(rig, frame, body.moved, sight_point, options.eye_range, side)
     new_rot = dict(body.rotations)
     new_rot.update(eyes.rotations)
     new_trans = body.translations
     centre = body.eye_centre(rig)
     if requested is None:
         wanted_ae = azimuth_elevation(directions_to_world(skel_to_world, sight_point - centre), up_w)
-        requested = np.column_stack([rot.unwrap_near(wanted_ae[:, 0] - base_ae[:, 0], plan.requested[:, 0]),
-                                     wanted_ae[:, 1] - base_ae[:, 1]])
+        near_plan = rot.unwrap_near(wanted_ae[:, 0] - base_ae[:, 0], plan.requested[:, 0])
+        # The eyes lead the body: more than 90 deg ahead of its plan (a saccade of a large shift), the
+        # wanted azimuth continues from where it was, not on whichever side is nearer the body's.
+        yaw = rot.unwrap_from_kept(near_plan, np.abs(near_plan - plan.requested[:, 0]) <= 90.0)
+        requested = np.column_stack([yaw, wanted_ae[:, 1] - base_ae[:, 1]])
 
     # What was achieved, measured like a viewer would: from the eyes' midpoint to their point of sight.
     origin, sight = line_of_sight(eyes.positions[0], eyes.directions[0], eyes.positions[1], eyes.directions[1])

@@ -93,6 +93,9 @@ def plan_directives(gaze_map, directives: list[Directive], seconds: np.ndarray, 
                           scheduler).run(epoch.start, end)
             continue
         yaw, pitch = (d.yaw, d.pitch) if d.kind == "shift" else (0.0, 0.0)
+        # Past half a turn plus the eye range the eyes aim at that reach (look._goals): a body turned
+        # further would carry the head past their goal and the eyes back across the head.
+        yaw = float(np.clip(yaw, -180.0 - limits.yaw, 180.0 + limits.yaw))
         shifts.append(Shift(float(t), yaw, pitch, cut=cut))
         epoch.events.append((a, "direction" if d.kind == "shift" else "base", cut))
     return shifts, epochs, keys

@@ -51,6 +51,9 @@ class Goal:
     turn: float = 0.0
     """The azimuth change (deg) asked of the eyes' shift to the goal, + toward the left; 0: the
     shortest way."""
+    side: float = 0.0
+    """Where the goal is behind the head, the side of it the eyes keep: +1 left, -1 right, 0 either
+    (see :func:`usdgaze.passes.aim.held_side`)."""
 
 
 @dataclass
@@ -61,6 +64,8 @@ class Sight:
     """Frames inside a saccade (or the model's gaze shift) ``(F,)``."""
     saccades: list
     """(onset s, amplitude deg, duration s) of every saccade."""
+    side: np.ndarray | None = None
+    """Per frame, the side of the head the eyes keep for a goal behind it ``(F,)`` (:attr:`Goal.side`)."""
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -146,11 +151,12 @@ def point_of_sight(scene: Scene, events: list[tuple[int, Goal]], opts,
     event shifts (``eye_timing model``); catch-up saccades stay saccades.
     """
     f = len(scene.seconds)
-    out = Sight(scene.base_point.copy(), np.zeros(f, dtype=bool), [])
+    out = Sight(scene.base_point.copy(), np.zeros(f, dtype=bool), [], np.zeros(f))
     for k, (i0, goal) in enumerate(events):
         i1 = events[k + 1][0] if k + 1 < len(events) else f
         if i0 >= i1:
             continue
+        out.side[i0:i1] = goal.side
         start = out.point[i0 - 1].copy() if i0 > 0 else scene.base_point[0].copy()
         on_base = goal.kind == "base" and (i0 == 0 or np.array_equal(start, scene.base_point[i0 - 1]))
         if goal.cut or on_base:  # on_base: the eyes are on the base's gaze already (a target let go at once)

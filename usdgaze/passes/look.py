@@ -181,7 +181,9 @@ def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndar
                 points[frame:] = scene.eye[frame:] + fixation * direction_from(ae, up)
             else:
                 points = scene.base_point
-            events.append((frame, eyes_mod.Goal(kind, points, cut, turn)))
+            # A shift's goal more than 90 deg round is behind the head until the head turns to it.
+            side = float(np.sign(d.yaw)) if kind == "direction" and abs(d.yaw) > 90.0 else 0.0
+            events.append((frame, eyes_mod.Goal(kind, points, cut, turn, side)))
     return events
 
 
@@ -218,7 +220,9 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     if legacy:  # the paper's eyes: the wanted line of sight follows the map's gaze progress
         ae = base.ae + plan.requested
         ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
-        sight = eyes_mod.Sight(eye_m + fixation * direction_from(ae, up), ~plan.settled, [])
+        wide = np.abs(plan.requested[:, 0]) > 90.0
+        sight = eyes_mod.Sight(eye_m + fixation * direction_from(ae, up), ~plan.settled, [],
+                               np.where(wide, np.sign(plan.requested[:, 0]), 0.0))
     else:
         model = _model_progress(gaze_map, seconds, eye_m, up) if look.eye_timing == "model" else None
         goals = _goals(epochs, targets, scene, base.ae, up, fixation, 180.0 + options.eye_range.yaw)
@@ -231,7 +235,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     inv = np.where(full, 1.0 / distance, (1.0 - weight) / fixation + weight / distance)
     wanted_point = eye_m + direction / inv[:, None]
     result = finish(clip, chain, frame, base, body, plan, to_skel(clip, wanted_point), options,
-                       saccading=sight.saccading)
+                    saccading=sight.saccading, side=sight.side)
     # The eyes were sent toward the request after the +-89 deg elevation cap; a shift's hold is judged
     # (hold error, reach warnings) against what was asked, so a request the cap cuts short is said.
     for d, end in _shift_spans(directives):  # frames at full gaze weight only: a partial weight asks for less
