@@ -52,6 +52,12 @@ def test_toml_sheet_with_markers_and_skeleton(tmp_path):
         ("file,yaw,pitch,crop_start,crop_end\na.c3d,0,0,30,20\n", "not after crop_start"),
         ("trial,file,yaw,pitch\nA,a.c3d,0,0\nA,b.c3d,1,0\n", "trial name 'A' appears twice"),
         ("file,yaw,pitch\n", "no trials"),
+        # More cells than the header: refused (a decimal comma shifts every value after it).
+        ("file,yaw,pitch\na.c3d,1,5,0\n", "row 2: 4 cells, but the header names 3 (file, yaw, pitch)"),
+        ("file,yaw,pitch\na.c3d,0,0,\n", "row 2: 4 cells, but the header names 3"),
+        # A row is named by its line in the file: comment and blank lines count.
+        ("file,yaw,pitch\n# degrees\n\na.c3d,0,0\nb.c3d,left,0\n", "row 5: yaw 'left' is not a number"),
+        ("file,yaw,pitch\n# degrees\na.c3d,0,0,9\n", "row 3: 4 cells"),
     ],
 )
 def test_csv_sheet_errors(tmp_path, text, message):

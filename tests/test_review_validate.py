@@ -236,3 +236,29 @@ def test_object_validator_catches_its_malformations(attr, value, error):
     prim = next(p for p in stage.Traverse() if p.HasAPI("GazeObjectAPI"))
     prim.GetAttribute(attr).Set(value)
     assert [(v, e, s) for v, e, s, _ in _ours(stage)] == [("GazeObject", error, f"{prim.GetPath()}.{attr}")]
+
+
+def test_schedule_validator_reports_every_problem_one_line_each(tmp_path, capsys):
+    """Four problems authored in one schedule, four lines (the reader used to stop at the first);
+    ``apply``'s reader still stops at the first of them, in the order it reads."""
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.usd.schedule import read_schedule
+
+    stage, prim = _scheduled(tmp_path)
+    prim.GetAttribute("gaze:schedule:blend").Set(Vt.FloatArray([-1.0, 0.0]))  # entry 0
+    prim.GetAttribute("gaze:schedule:kind").Set(Vt.TokenArray(["look", "stare"]))  # entry 1
+    prim.GetAttribute("gaze:schedule:weight").Set(Vt.FloatArray([1.0, 1.5]))  # entry 1
+    prim.GetRelationship("gaze:schedule:targets").SetTargets([Sdf.Path("/Nope")])
+    found = sorted((e, s) for v, e, s, _ in _ours(stage))
+    assert found == [("Malformed", "/Char.gaze:schedule:blend"), ("Malformed", "/Char.gaze:schedule:kind"),
+                     ("Malformed", "/Char.gaze:schedule:weight"), ("MissingTarget", "/Char.gaze:schedule:targets")]
+    with pytest.raises(UsdGazeError, match=r"x:/Char\.gaze:schedule:blend: entry 0 is -1"):
+        read_schedule(prim, "x")
+
+    bad = tmp_path / "bad.usda"
+    stage.Flatten().Export(str(bad))
+    capsys.readouterr()
+    assert main(["validate", str(bad), "--only-usdgaze"]) == 3  # problems found; 2 is kept for bad input
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 4 and all(line.startswith(f"{bad}:/Char.gaze:schedule:") for line in lines), lines
+    assert sum("GazeSchedule.Malformed" in line for line in lines) == 3

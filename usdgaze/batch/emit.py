@@ -17,9 +17,13 @@ import shlex
 import shutil
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Sequence
 from xml.sax.saxutils import escape
 
 from usdgaze.errors import UsdGazeError
+
+if TYPE_CHECKING:
+    from usdgaze.batch.manifest import Shot
 
 FORMATS = ("deadline", "opencue", "slurm")
 
@@ -104,6 +108,25 @@ exec {cmd} "$SLURM_ARRAY_TASK_ID"
 
 
 _EMITTERS = {"deadline": _deadline, "opencue": _opencue, "slurm": _slurm}
+
+# The files a shot reads before it runs, by manifest key (the map key may end in ``:/PRIM``).
+_READ_KEYS = ("input", "map", "sublayer_into")
+
+
+def check_inputs(manifest: str | os.PathLike, shots: Sequence["Shot"]) -> None:
+    """Every shot's input, map and sublayer target is a file: refused here, not by each farm task.
+
+    Running the batch refuses such a shot when it starts; on a farm that is N tasks queued, started
+    and failed one by one, so emitting refuses the first missing file up front instead."""
+    for shot in shots:
+        for key in _READ_KEYS:
+            if key not in shot.values:
+                continue
+            file = shot.values[key].partition(":/")[0] if key == "map" else shot.values[key]
+            if not os.path.isfile(file):
+                what = "no such file" if not os.path.lexists(file) else "not a file"
+                raise UsdGazeError(f"{manifest}: {shot.label}: {key} = {file}: {what}; "
+                                   "its farm task would fail, so no job files were written")
 
 
 def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike) -> list[Path]:

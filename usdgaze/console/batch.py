@@ -51,8 +51,9 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         shots = load_manifest(manifest)
         register(tx.ids, Path(manifest), shots)
         if emit:
-            from usdgaze.batch.emit import emit as write_jobs
+            from usdgaze.batch.emit import check_inputs, emit as write_jobs
 
+            check_inputs(manifest, shots)
             for path in write_jobs(emit[0], manifest, len(shots), emit[1]):
                 click.echo(f"wrote {path}")
             return

@@ -2,10 +2,12 @@
 
 CSV: a header row with ``file``, ``yaw``, ``pitch`` and optionally ``trial``, ``crop_start``,
 ``crop_end`` (frames: 0-based sample indices into the file, end inclusive) and ``skeleton`` (the
-Skeleton prim of a UsdSkel clip). TOML: ``[[trial]]`` tables with the same keys (``crop = [start,
-end]`` also works), an optional top-level ``markers = "markerset.toml"`` and an optional
-``[skeleton]`` binding table. Relative paths are relative to the sheet. Yaw is positive toward the
-subject's left and never wrapped (-180 and +180 are a right and a left turn).
+Skeleton prim of a UsdSkel clip); ``#`` comment and blank lines are skipped, a row with more cells
+than the header is refused, and messages name a row by its line in the file. TOML: ``[[trial]]``
+tables with the same keys (``crop = [start, end]`` also works), an optional top-level ``markers =
+"markerset.toml"`` and an optional ``[skeleton]`` binding table. Relative paths are relative to the
+sheet. Yaw is positive toward the subject's left and never wrapped (-180 and +180 are a right and a
+left turn).
 """
 
 from __future__ import annotations
@@ -115,6 +117,49 @@ def _trial(row: dict, index: int, base: Path, where: str, seen: set[str]) -> Tri
     return Trial(name=name, file=file, yaw=yaw, pitch=pitch, crop=crop, skeleton=skeleton)
 
 
+def _csv_lines(path: Path) -> list[tuple[int, str]]:
+    """The sheet's lines that hold data, each with its line number in the file (1-based)."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as f:
+            numbered = list(enumerate(f, 1))
+    except UnicodeDecodeError as exc:
+        raise SheetError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    except OSError as exc:
+        raise SheetError(f"{path}: cannot read ({exc.strerror})") from None
+    return [(n, line) for n, line in numbered if line.strip() and not line.lstrip().startswith("#")]
+
+
+def _csv_trials(path: Path, base: Path, seen: set[str]) -> list[Trial]:
+    """The trials of a CSV sheet; a row is named by its line in the file, as an editor shows it."""
+    kept = _csv_lines(path)
+    reader = csv.reader(line for _, line in kept)
+    fieldnames = next(reader, None)
+    if not fieldnames:
+        raise SheetError(f"{path}: empty sheet (expected a header with file, yaw, pitch)")
+    named = [_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in fieldnames if h]
+    twice = [h for k, h in enumerate(named) if h in named[:k]]
+    if twice:
+        raise SheetError(f"{path}: column '{twice[0]}' appears twice in the header")
+    _unknown(named, tuple(k for k in _KEYS if k != "crop"), "column", str(path))
+    missing = [k for k in ("file", "yaw", "pitch") if k not in set(named)]
+    if missing:
+        raise SheetError(f"{path}: the header lacks column {missing[0]} (has {', '.join(fieldnames)})")
+    trials = []
+    while True:
+        first = reader.line_num  # lines consumed so far: the next row starts at kept[first]
+        fields = next(reader, None)
+        if fields is None:
+            return trials
+        where = f"{path} row {kept[first][0]}"
+        if len(fields) > len(fieldnames):
+            # Extra cells would be dropped without a word; a decimal comma ("1,5") shifts every
+            # value after it, so even an empty extra cell is refused.
+            raise SheetError(f"{where}: {len(fields)} cells, but the header names {len(fieldnames)} "
+                             f"({', '.join(fieldnames)}); quote a value that holds a comma")
+        row = dict(zip(fieldnames, fields))
+        trials.append(_trial(row, len(trials), base, where, seen))
+
+
 def load_sheet(path: str | Path) -> Sheet:
     """Read a CSV or TOML trial sheet."""
     path = Path(path)
@@ -137,26 +182,7 @@ def load_sheet(path: str | Path) -> Sheet:
         if "skeleton" in data:
             binding = skeleton_binding(data["skeleton"], str(path))
     else:
-        try:
-            with path.open(newline="", encoding="utf-8-sig") as f:
-                lines = [line for line in f if line.strip() and not line.lstrip().startswith("#")]
-        except UnicodeDecodeError as exc:
-            raise SheetError(f"{path}: not UTF-8 text (byte {exc.start})") from None
-        except OSError as exc:
-            raise SheetError(f"{path}: cannot read ({exc.strerror})") from None
-        reader = csv.DictReader(lines)
-        if not reader.fieldnames:
-            raise SheetError(f"{path}: empty sheet (expected a header with file, yaw, pitch)")
-        named = [_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in reader.fieldnames if h]
-        twice = [h for k, h in enumerate(named) if h in named[:k]]
-        if twice:
-            raise SheetError(f"{path}: column '{twice[0]}' appears twice in the header")
-        _unknown(named, tuple(k for k in _KEYS if k != "crop"), "column", str(path))
-        header = set(named)
-        missing = [k for k in ("file", "yaw", "pitch") if k not in header]
-        if missing:
-            raise SheetError(f"{path}: the header lacks column {missing[0]} (has {', '.join(reader.fieldnames)})")
-        trials = [_trial(r, i, base, f"{path} row {i + 2}", seen) for i, r in enumerate(reader)]
+        trials = _csv_trials(path, base, seen)
     if not trials:
         raise SheetError(f"{path}: no trials")
     return Sheet(path=path, trials=tuple(trials), markers=markers, skeleton=binding)

@@ -199,25 +199,25 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
     return errors
 
 
+def _malformed(prim: Usd.Prim, text: str):
+    """One of the schedule reader's lines (``:PRIM[.ATTRIBUTE]: problem``), sited on the attribute it names."""
+    prefix = f":{prim.GetPath()}"
+    text = text[len(prefix):] if text.startswith(prefix) else text
+    attr = text[1:].split(":", 3) if text.startswith(".") else None
+    name = ":".join(attr[:3]) if attr and len(attr) > 3 else None
+    path = prim.GetPath().AppendProperty(name) if name and prim.HasProperty(name) else prim.GetPath()
+    return _error(prim, path, "Malformed", text.lstrip(".: ") if name is None else text[1:])
+
+
 def gaze_schedule(prim: Usd.Prim, time_range=None) -> list:
     """A GazeScheduleAPI: storage as its reader checks it, every target a prim of the stage one can
     look at (Xformable or Boundable), every directive inside the stage's time range."""
     from pxr import UsdGeom
 
-    from usdgaze.errors import UsdGazeError
     from usdgaze.usd import schedule as sch
 
-    try:
-        directives = sch.read_schedule(prim, "")
-    except UsdGazeError as exc:  # the reader's one-line verdict, sited on the attribute it names
-        text = str(exc)
-        prefix = f":{prim.GetPath()}"
-        text = text[len(prefix):] if text.startswith(prefix) else text
-        attr = text[1:].split(":", 3) if text.startswith(".") else None
-        name = ":".join(attr[:3]) if attr and len(attr) > 3 else None
-        path = prim.GetPath().AppendProperty(name) if name and prim.HasProperty(name) else prim.GetPath()
-        return [_error(prim, path, "Malformed", text.lstrip(".: ") if name is None else text[1:])]
-    errors = []
+    directives, problems = sch.schedule_problems(prim, "")
+    errors = [_malformed(prim, text) for text in problems]
     stage = prim.GetStage()
     rel = prim.GetRelationship(sch.TARGETS_REL)
     for target in (rel.GetForwardedTargets() if rel else []):

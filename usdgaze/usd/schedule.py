@@ -44,76 +44,128 @@ def _shortest(x: float) -> float:
     return float(str(np.float32(x)))
 
 
-def _array(prim: Usd.Prim, name: str, where: str, count: int | None) -> list | None:
+class _Found:
+    """Problems as they are found: the first raised (a pass reads the schedule and stops), or every
+    one kept (``usdgaze validate`` lists them all)."""
+
+    def __init__(self, keep: bool) -> None:
+        self.keep, self.messages = keep, []
+
+    def __call__(self, message: str) -> None:
+        if not self.keep:
+            raise UsdGazeError(message)
+        self.messages.append(message)
+
+
+def _array(prim: Usd.Prim, name: str, where: str, count: int | None, found: _Found) -> list | None:
+    """The attribute's entries; None where it is not authored or (a problem found) not usable."""
     attr = prim.GetAttribute(name)
     if not attr or not attr.HasAuthoredValue():
         if ATTRS[name][2] is None:
-            raise UsdGazeError(f"{where}.{name}: missing, expected one entry per directive")
+            found(f"{where}.{name}: missing, expected one entry per directive")
         return None
     if attr.GetNumTimeSamples():
-        raise UsdGazeError(f"{where}.{name}: has time samples; schedule attributes are uniform (one default value)")
+        found(f"{where}.{name}: has time samples; schedule attributes are uniform (one default value)")
+        return None
     value = attr.Get()
     sdf_type, python_type, _ = ATTRS[name]
     if not isinstance(value, python_type):
-        raise UsdGazeError(f"{where}.{name}: authored as {type(value).__name__}, expected {sdf_type}")
+        found(f"{where}.{name}: authored as {type(value).__name__}, expected {sdf_type}")
+        return None
     if count is not None and len(value) != count:
-        raise UsdGazeError(f"{where}.{name}: {len(value)} entries, expected {count} (one per directive)")
+        found(f"{where}.{name}: {len(value)} entries, expected {count} (one per directive)")
+        return None
     return list(value)
 
 
 def read_schedule(prim: Usd.Prim, source: str) -> list[DirectiveRequest]:
-    """The directives on ``prim`` (a SkelRoot with GazeScheduleAPI), checked, in time order."""
+    """The directives on ``prim`` (a SkelRoot with GazeScheduleAPI), checked, in time order; the first
+    problem found is a one-line error."""
+    return _read(prim, source, _Found(keep=False))
+
+
+def schedule_problems(prim: Usd.Prim, source: str) -> tuple[list[DirectiveRequest], list[str]]:
+    """Every problem of the schedule on ``prim`` (each the line :func:`read_schedule` would raise for it,
+    were it the first), and the directives that are sound."""
+    found = _Found(keep=True)
+    return _read(prim, source, found), found.messages
+
+
+def _read(prim: Usd.Prim, source: str, found: _Found) -> list[DirectiveRequest]:
     where = f"{source}:{prim.GetPath()}"
     if not prim.IsA(UsdSkel.Root):
-        raise UsdGazeError(f"{where}: {API_NAME} is applied to a {prim.GetTypeName() or 'typeless prim'}; it applies only to SkelRoot")
-    times = _array(prim, TIME, where, None)
-    count = len(times)
-    if count == 0:
-        raise UsdGazeError(f"{where}.{TIME}: no directives")
-    cols = {name: _array(prim, name, where, count) for name in ATTRS if name != TIME}
+        found(f"{where}: {API_NAME} is applied to a {prim.GetTypeName() or 'typeless prim'}; it applies only to SkelRoot")
+        return []
+    times = _array(prim, TIME, where, None, found)
+    if times is None:
+        return []
+    if not times:
+        found(f"{where}.{TIME}: no directives")
+        return []
+    # A column found unusable reads as not authored: its entries' checks are skipped, not repeated.
+    cols = {name: _array(prim, name, where, len(times), found) for name in ATTRS if name != TIME}
     rel = prim.GetRelationship(TARGETS_REL)
     targets = [str(p) for p in rel.GetForwardedTargets()] if rel else []
     out = []
-    for k in range(count):
+    for k in range(len(times)):
         def col(name):
             values = cols[name]
             return ATTRS[name][2] if values is None else values[k]
-        t, kind = float(times[k]), str(col(KIND))
-        if not np.isfinite(t):
-            raise UsdGazeError(f"{where}.{TIME}: entry {k} is not finite")
-        if k and t <= float(times[k - 1]):
-            raise UsdGazeError(f"{where}.{TIME}: entry {k} ({t:g}) is not after entry {k - 1} ({float(times[k - 1]):g}); "
-                               "directives go in time order, one per time")
-        if kind not in KINDS:
-            raise UsdGazeError(f"{where}.{KIND}: entry {k} is '{kind}', expected one of {', '.join(KINDS)}")
-        weight, blend = _shortest(col(WEIGHT)), _shortest(col(BLEND))
-        if not 0.0 <= weight <= 1.0:
-            raise UsdGazeError(f"{where}.{WEIGHT}: entry {k} is {weight:g}, expected a weight in [0, 1]")
-        if not (np.isfinite(blend) and blend >= 0.0):
-            raise UsdGazeError(f"{where}.{BLEND}: entry {k} is {blend:g}, expected time codes >= 0")
-        if kind == "shift":
-            yaw, pitch = _shortest(col(YAW)), _shortest(col(PITCH))
-            if not (np.isfinite([yaw, pitch]).all() and abs(pitch) <= 90.0 and abs(yaw) <= 360.0):
-                raise UsdGazeError(f"{where}: directive {k}: yaw {yaw:g}, pitch {pitch:g} out of range "
-                                   "(yaw in [-360, 360], pitch in [-90, 90] deg)")
-            out.append(DirectiveRequest("shift", t, yaw=yaw, pitch=pitch, weight=weight, blend=blend))
-        elif kind == "look":
-            index = int(col(TARGET))
-            if index == -1:
-                if cols[POINT] is None:
-                    raise UsdGazeError(f"{where}.{POINT}: missing; directive {k} looks at a point (target -1)")
-                point = tuple(float(v) for v in col(POINT))
-                if not np.isfinite(point).all():
-                    raise UsdGazeError(f"{where}.{POINT}: entry {k} is not finite")
-                out.append(DirectiveRequest("look", t, point=point, weight=weight, blend=blend))
-            elif 0 <= index < len(targets):
-                out.append(DirectiveRequest("look", t, target=targets[index], weight=weight, blend=blend))
-            else:
-                raise UsdGazeError(f"{where}.{TARGET}: entry {k} is {index}, but {TARGETS_REL} has "
-                                   f"{len(targets)} target{'s' if len(targets) != 1 else ''} (use -1 for a point)")
-        else:
-            out.append(DirectiveRequest("release", t, blend=blend))
+        d = _directive(k, times, col, cols[POINT] is not None, targets, where, found)
+        if d is not None:
+            out.append(d)
     return out
+
+
+def _directive(k: int, times: list, col, has_point: bool, targets: list[str], where: str,
+               found: _Found) -> DirectiveRequest | None:
+    """Entry ``k`` as a directive, or None where a problem was found in it (each problem said)."""
+    problems = len(found.messages)
+    t, kind = float(times[k]), col(KIND)
+    if not np.isfinite(t):
+        found(f"{where}.{TIME}: entry {k} is not finite")
+    elif k and t <= float(times[k - 1]):
+        found(f"{where}.{TIME}: entry {k} ({t:g}) is not after entry {k - 1} ({float(times[k - 1]):g}); "
+              "directives go in time order, one per time")
+    if kind is not None and str(kind) not in KINDS:  # None: the kind column itself was unusable
+        found(f"{where}.{KIND}: entry {k} is '{kind}', expected one of {', '.join(KINDS)}")
+    weight, blend = _shortest(col(WEIGHT)), _shortest(col(BLEND))
+    if not 0.0 <= weight <= 1.0:
+        found(f"{where}.{WEIGHT}: entry {k} is {weight:g}, expected a weight in [0, 1]")
+    if not (np.isfinite(blend) and blend >= 0.0):
+        found(f"{where}.{BLEND}: entry {k} is {blend:g}, expected time codes >= 0")
+    made = None
+    if kind == "shift":
+        yaw, pitch = _shortest(col(YAW)), _shortest(col(PITCH))
+        if not (np.isfinite([yaw, pitch]).all() and abs(pitch) <= 90.0 and abs(yaw) <= 360.0):
+            found(f"{where}: directive {k}: yaw {yaw:g}, pitch {pitch:g} out of range "
+                  "(yaw in [-360, 360], pitch in [-90, 90] deg)")
+        made = DirectiveRequest("shift", t, yaw=yaw, pitch=pitch, weight=weight, blend=blend)
+    elif kind == "look":
+        made = _look(k, t, int(col(TARGET)), col(POINT) if has_point else None, targets, where, found,
+                     weight=weight, blend=blend)
+    elif kind == "release":
+        made = DirectiveRequest("release", t, blend=blend)
+    return made if len(found.messages) == problems else None
+
+
+def _look(k: int, t: float, index: int, point, targets: list[str], where: str, found: _Found,
+          **weights: float) -> DirectiveRequest | None:
+    """A look directive at target ``index`` (-1: at ``point``, None where not authored)."""
+    if index == -1:
+        if point is None:
+            found(f"{where}.{POINT}: missing; directive {k} looks at a point (target -1)")
+            return None
+        point = tuple(float(v) for v in point)
+        if not np.isfinite(point).all():
+            found(f"{where}.{POINT}: entry {k} is not finite")
+            return None
+        return DirectiveRequest("look", t, point=point, **weights)
+    if 0 <= index < len(targets):
+        return DirectiveRequest("look", t, target=targets[index], **weights)
+    found(f"{where}.{TARGET}: entry {k} is {index}, but {TARGETS_REL} has "
+          f"{len(targets)} target{'s' if len(targets) != 1 else ''} (use -1 for a point)")
+    return None
 
 
 def write_schedule(prim: Usd.Prim, directives: list[DirectiveRequest]) -> None:
