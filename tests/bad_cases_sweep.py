@@ -319,3 +319,58 @@ def b_push_joint_time_sampled(d):
         layer.SetTimeSample(joint.path, 0.0, r.leaf["spine_b"])
         Sdf.AttributeSpec(root, "usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3).default = (150.0, 0.0, 0.0)
     return _physics(d, author)
+
+
+# -- sheets, farm jobs, obstacles and --map bindings (a fourth sweep, 2026-12-06) ------------------
+
+def b_build_map_sheet_row_extra_cells(d):
+    for name in ("a.c3d", "b.c3d"):
+        (d / name).write_bytes(b"trial")
+    # A decimal comma: "1,5" read as yaw 1 and pitch 5, the pitch cell dropped. The comment line makes
+    # the row's number its line in the file (4), not its place among the trials (3).
+    (d / "sheet.csv").write_text("file,yaw,pitch\n# degrees\na.c3d,0,0\nb.c3d,1,5,10\n")
+    return ["build-map", str(d / "sheet.csv"), "--out", str(d / "map.usda")]
+
+
+def b_batch_emit_missing_input(d):
+    return manifest(d, '[[job]]\ninput = "nothere.usda"\nout = "gaze.usdc"\nshifts = ["0.5s:30:0"]\n',
+                    "--emit", "slurm", str(d / "jobs"))
+
+
+def b_batch_emit_missing_map(d):
+    second = 'name = "two"\ninput = "in.usda"\nout = "gaze2.usdc"\nshifts = ["0.5s:30:0"]\nmap = "maps/nomap.usda"\n'
+    return manifest(d, f"[[job]]\n{JOB}\n[[job]]\n{second}", "--emit", "deadline", str(d / "jobs"))
+
+
+def _obstacle(radius):
+    """An obstacle (a GazeObjectAPI sphere in front of the character) of ``gaze:object:radius`` ``radius``."""
+    def author(layer, r):
+        _task(lambda r: "/Obstacles/A", kind="obstacle", type_name="Sphere", at=(1.0, 0.0, 0.5))(layer, r)
+        prim = layer.GetPrimAtPath("/Obstacles/A")
+        prim.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+        Sdf.AttributeSpec(prim, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = radius
+    return author
+
+
+def b_physics_obstacle_radius_huge(d):
+    return _physics(d, _obstacle(1e6))
+
+
+def b_physics_obstacle_radius_zero(d):
+    return _physics(d, _obstacle(0.0))
+
+
+def b_map_binding_absent_joint(d):
+    from .bad_common import map_edit
+
+    return map_edit(d, "gaze:binding:head", Vt.TokenArray(["Skull"]))
+
+
+def b_push_on_the_skeleton(d):
+    def author(layer, r):
+        skel = layer.GetPrimAtPath(r.skeleton)
+        Sdf.AttributeSpec(skel, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).default = r.leaf["spine_b"]
+        force = Sdf.AttributeSpec(skel, "usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3)
+        layer.SetTimeSample(force.path, 10.0, (150.0, 0.0, 0.0))
+        layer.SetTimeSample(force.path, 20.0, (0.0, 0.0, 0.0))
+    return _physics(d, author)

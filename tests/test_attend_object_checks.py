@@ -7,6 +7,7 @@
 - An authored importance sample that is not > 0 is named with its time, in ``attend`` as in
   ``validate``, whatever times the planner samples.
 - An inactive prim is not in the scene: ``--objects`` and ``--look-at`` refuse it.
+- A physics obstacle's radius is more than 0 and at most 10 m; other objects' sizes are not bounded.
 """
 
 from __future__ import annotations
@@ -113,3 +114,28 @@ def test_an_inactive_prim_is_not_an_object_nor_a_target(tmp_path, capsys):
     assert main(["apply", str(r.path), "--look-at", "/Obj/Ball@0.2s", "--out", str(tmp_path / "b.usda")]) == 2
     assert "/Obj/Ball: is inactive (active = false)" in capsys.readouterr().err
     assert not (tmp_path / "a.usda").exists() and not (tmp_path / "b.usda").exists()
+
+
+@pytest.mark.parametrize("task, radius, refused", [
+    ("obstacle", 10.0, False), ("obstacle", 0.05, False), ("obstacle", 10.5, True), ("obstacle", float("nan"), True),
+    ("obstacle", float("inf"), True), ("obstacle", -1.0, True),
+    # Only an obstacle of the physics pass is bounded: a stone's or a plain object's size is not.
+    ("stone", 1e6, False), (None, 1e6, False),
+])
+def test_an_obstacle_radius_is_a_body_a_person_walks_round(tmp_path, task, radius, refused):
+    def build(stage):
+        ball = UsdGeom.Sphere.Define(stage, "/Obj/Ball")
+        ball.AddTranslateOp().Set(Gf.Vec3d(1, 0, 2))
+        ball.GetPrim().CreateAttribute("gaze:object:radius", Sdf.ValueTypeNames.Float).Set(radius)
+        if task:
+            ball.GetPrim().CreateAttribute("usdgaze:physics:task", Sdf.ValueTypeNames.Token).Set(task)
+
+    stage = _scene(tmp_path, build)
+    read = lambda: objects.read_objects(stage, "scene.usda", [stage.GetPrimAtPath("/Obj/Ball")],  # noqa: E731
+                                        np.array([0.0]), 1.0)
+    if not refused:
+        assert read()[0].radius == np.float32(radius)
+        return
+    with pytest.raises(UsdGazeError) as err:
+        read()
+    assert str(err.value).startswith("scene.usda:/Obj/Ball.gaze:object:radius: ") and "\n" not in str(err.value)

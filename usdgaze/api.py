@@ -143,7 +143,8 @@ def _run_pass(stage, roots, forced, requests, req):
                 )
             check_not_shared(others, clip.animation, source)
             seen_anims[clip.animation] = clip.skeleton
-            chain, frame = bind(clip, own, req.options.binding)
+            # A --map file's gaze:binding:* bind the roles the SkelRoot's own map leaves unbound.
+            chain, frame = bind(clip, own, req.options.binding, forced, f"--map {req.map_spec}")
             report.warnings.extend(clip.notes)
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
                 report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")

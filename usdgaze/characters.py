@@ -102,16 +102,32 @@ def _by_names_too(clip: SkelClip, fn):
             raise first from None
 
 
-def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints | None = None
-         ) -> tuple[Chain, CharacterFrame]:
-    """Chain and character frame of a clip: the user's hints first, then the map's bindings, then names."""
+def _map_bindings(maps: list[tuple[GazeMapDefinition | None, str]]) -> tuple[dict, dict, tuple | None, str]:
+    """Roles, their labels, forward and its label from gaze maps, weakest first: a later map's role
+    (or forward) replaces an earlier one's; a map's name, where given, goes into its labels."""
+    bindings, labels, forward, label = {}, {}, None, "gaze:binding:forward"
+    for definition, named in maps:
+        if definition is None:
+            continue
+        of = f" of {named}" if named else ""
+        for role, joints in definition.bindings.items():
+            bindings[role], labels[role] = joints, f"gaze:binding:{role}{of}"
+        if definition.forward is not None:
+            forward, label = definition.forward, f"gaze:binding:forward{of}"
+    return bindings, labels, forward, label
+
+
+def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints | None = None,
+         shared: GazeMapDefinition | None = None, shared_name: str = "") -> tuple[Chain, CharacterFrame]:
+    """Chain and character frame of a clip: the user's hints first, then the SkelRoot's map's
+    bindings (``definition``), then those of ``shared`` (a ``--map`` file, named ``shared_name`` in
+    messages) for roles the SkelRoot leaves unbound, then names."""
     hints = hints or BindHints()
-    bindings = dict(definition.bindings) if definition else {}
-    labels = {role: f"gaze:binding:{role}" for role in bindings}
+    bindings, labels, forward, label = _map_bindings([(shared, shared_name), (definition, "")])
     for role, joints in hints.bindings:
         bindings[role], labels[role] = joints, f"{hints.bind_label} {role}={'+'.join(joints)}"
-    forward, label = (hints.forward, hints.forward_label) if hints.forward is not None else (
-        definition.forward if definition else None, "gaze:binding:forward")
+    if hints.forward is not None:
+        forward, label = hints.forward, hints.forward_label
     where = f"{clip.source}:{clip.skeleton}"
     chain = _by_names_too(clip, lambda joints: bind_chain(joints, clip.parents, bindings, where=where, labels=labels))
     return chain, _by_names_too(clip, lambda joints: _character_frame(clip, joints, forward, label))

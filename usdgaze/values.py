@@ -23,6 +23,11 @@ MAX_FIXATION_M = 1e6
 MAX_TARGET_DISTANCE_M = 1e9
 """Beyond this a look target, object, stone or obstacle is only a direction; its distance in stage units
 would overflow squared."""
+MAX_OBSTACLE_RADIUS_M = 10.0
+"""Largest ``gaze:object:radius`` of a physics obstacle (``usdgaze:physics:task = "obstacle"``). Its cost
+reaches radius + 0.1 m from the body and the planner sees 1.6 s (about 2 m of walking) ahead: past
+10 m the sphere is a hill or a building, flat over any stride, not something a person walks round.
+A 1e6 m radius swallowed the character: "touched" from the first step, 1000 km of overlap, exit 0."""
 
 _SHIFT = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)(s?)\s*:\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)"
                     r"\s*:\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*$")

@@ -1,11 +1,13 @@
 """Pushes authored on a SkelRoot for the physics pass: ``usdgaze:physics:pushForce`` (a float3 in
 newtons along the stage's axes, time-sampled: each sample's force holds until the next) on the body
 of ``usdgaze:physics:pushJoint``. Checked here, at the USD edge, so the simulation gets only finite
-forces it can take."""
+forces it can take, and a push authored under the SkelRoot (on its Skeleton, say) is refused, not
+left to act on nothing."""
 
 from __future__ import annotations
 
 import numpy as np
+from pxr import Usd
 
 from usdgaze.errors import UsdGazeError
 from usdgaze.physics import mpc
@@ -38,8 +40,22 @@ def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
     return times, out
 
 
+def _check_on_the_root(root, source: str) -> None:
+    """One line for a push attribute authored on a prim under the SkelRoot: only the SkelRoot's are
+    read (docs/physics.md), and one on the Skeleton was ignored without a word."""
+    for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies()):
+        if prim == root:
+            continue
+        for name in (PUSH_FORCE, PUSH_JOINT):
+            attr = prim.GetAttribute(name)
+            if attr and attr.HasAuthoredValue():
+                raise UsdGazeError(f"{source}:{attr.GetPath()}: a push is read on the SkelRoot only; author "
+                                   f"{PUSH_FORCE} and {PUSH_JOINT} on {root.GetPath()}")
+
+
 def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
     """Pushes authored on the SkelRoot prim that act within the clip, in the model's world."""
+    _check_on_the_root(root, clip.source)
     force = root.GetAttribute(PUSH_FORCE)
     if not force or not force.HasAuthoredValue():
         return ()

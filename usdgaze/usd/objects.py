@@ -22,7 +22,7 @@ from pxr import Sdf, Usd, UsdGeom
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd.checks import authored_type
 from usdgaze.usd.targets import PURPOSES, sample_target
-from usdgaze.values import MAX_TARGET_DISTANCE_M
+from usdgaze.values import MAX_OBSTACLE_RADIUS_M, MAX_TARGET_DISTANCE_M
 
 API_NAME = "GazeObjectAPI"
 KINDS = ("", "ballistic", "static", "moving")
@@ -220,6 +220,17 @@ def check_apart(prims: list[Usd.Prim], roots: list[Usd.Prim], source: str, role:
                                    f"{role} must be another prim")
 
 
+def _check_obstacle_radius(prim: Usd.Prim, radius: float, where: str) -> None:
+    """An obstacle of the physics pass is a body a person walks round: 0 < radius <= 10 m."""
+    task = prim.GetAttribute("usdgaze:physics:task")
+    # A time-sampled task is refused with its own line where the tasks are read.
+    if not task or not task.HasAuthoredValue() or task.GetNumTimeSamples() or task.Get() != "obstacle":
+        return
+    if not 0.0 < radius <= MAX_OBSTACLE_RADIUS_M:  # NaN fails it too
+        raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g} m for an obstacle; expected more than 0 and "
+                           f"at most {MAX_OBSTACLE_RADIUS_M:g} m (a body the character walks round)")
+
+
 def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_codes: np.ndarray,
                  meters_per_unit: float) -> list[StageObject]:
     """World positions of every object at ``time_codes`` plus its GazeObjectAPI attributes."""
@@ -234,8 +245,9 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
         if not np.all(np.isfinite(importance)) or np.any(importance <= 0):
             bad = importance[~(np.isfinite(importance) & (importance > 0))][0]
             raise UsdGazeError(f"{where}.gaze:object:importance: {bad:g} must be > 0")
+        _check_obstacle_radius(prim, radius, where)
         if not np.isfinite(radius) or radius < 0:
-            raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g} must be >= 0")
+            raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g}, expected a finite number >= 0 (m)")
         if kind not in KINDS:
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
         with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below
