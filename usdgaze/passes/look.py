@@ -95,11 +95,20 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.where(d > 0, d, 1.0)[..., None], d
 
 
-def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped."""
+def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray, near: float) -> np.ndarray:
+    """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped; nearer
+    than ``near`` (the near point) it is out of reach, as if straight behind."""
     ae = azimuth_elevation(points - eye, up) - base_ae
     ae[:, 0] = (ae[:, 0] + 180.0) % 360.0 - 180.0
+    # No eye fixates nearer than its near point, and a target crossing the head swings its direction
+    # through the back of it within a few frames (pursued, 55 deg in a frame): let go until it is out.
+    ae[_nearer(points, eye, near), 0] = 180.0
     return ae
+
+
+def _nearer(points: np.ndarray, eye: np.ndarray, near: float) -> np.ndarray:
+    with np.errstate(over="ignore", invalid="ignore"):  # 1e300 away is refused by _check_distance
+        return np.linalg.norm(points - eye, axis=-1) < near
 
 
 # -- the pass ----------------------------------------------------------------------------------------
@@ -200,7 +209,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     rig, up = base.rig, base.up
     eye_b = to_world(clip, 0.5 * (base.pose.position[rig.eyes[0]] + base.pose.position[rig.eyes[1]]))
     _check_distance(clip, directives, targets, eye_b, target_names)
-    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up) for d in directives if d.kind == "look"}
+    near = NEAR_POINT_M / clip.meters_per_unit
+    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, near) for d in directives if d.kind == "look"}
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
     scheduler = Scheduler(gaze_map, seconds)
@@ -214,7 +224,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     body = move_body(base, chain, frame, disp)
     eye_m = to_world(clip, body.eye_centre(rig))
     fixation = options.fixation_m / clip.meters_per_unit
-    scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight, up, NEAR_POINT_M / clip.meters_per_unit)
+    scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight, up, near)
 
     legacy = look.eye_timing == "model" and not any(d.kind == "look" for d in directives)
     if legacy:  # the paper's eyes: the wanted line of sight follows the map's gaze progress
@@ -240,7 +250,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     # (hold error, reach warnings) against what was asked, so a request the cap cuts short is said.
     for d, end in _shift_spans(directives):  # frames at full gaze weight only: a partial weight asks for less
         result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
-    result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [])
+    too_near = {k: _nearer(t, eye_b, near) for k, t in enumerate(targets)}
+    result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [], too_near)
     return result
 
 
@@ -251,8 +262,9 @@ def _shift_spans(directives: list[Directive]) -> list[tuple[Directive, float]]:
 
 
 def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], result: PassResult,
-              base_ae: np.ndarray, options: PassOptions, names: list[str]) -> list[str]:
-    """Shifts that miss their request once settled; targets that went out of reach."""
+              base_ae: np.ndarray, options: PassOptions, names: list[str], too_near: dict) -> list[str]:
+    """Shifts that miss their request once settled; targets that went out of reach (``too_near``:
+    per target, the frames it is nearer than the near point)."""
     shifts = [(Shift(d.time_s, d.yaw, d.pitch), end) for d, end in _shift_spans(directives)]
     plan = Schedule(np.empty(0), result.requested, result.settled, [])
     out = reach_warnings(clip, [s for s, _ in shifts], plan, base_ae, result.achieved, result.eye_angles,
@@ -276,11 +288,13 @@ def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], 
                        f"by up to {miss[held].max():.1f} deg on {int((miss[held] > options.tolerance_deg).sum())} "
                        f"frames (the eyes at their range: yaw +-{options.eye_range.yaw:g}, up "
                        f"{options.eye_range.up:g}, down {options.eye_range.down:g} deg, and the body turns no further)")
-        lost = [seconds[f] for f, kind, _ in epoch.events if kind == "base"]
         back = [seconds[f] for f, kind, _ in epoch.events[1:] if kind == "target"]
-        for t in lost:
+        for f in (f for f, kind, _ in epoch.events if kind == "base"):
+            t = seconds[f]
             again = next((b for b in back if b > t), None)
+            why = (f"nearer than the eyes' near point, {NEAR_POINT_M * 100:g} cm" if too_near[d.target][f]
+                   else "behind the character")
             out.append(f"{clip.where()}: look at {name} from {d.time_s:g} s: the target is out of reach "
-                       f"(behind the character) at {t:g} s; the gaze returns to the base motion's"
+                       f"({why}) at {t:g} s; the gaze returns to the base motion's"
                        + (f" and takes the target up again at {again:g} s" if again is not None else ""))
     return out
