@@ -46,6 +46,16 @@ def assemble(rig: Rig, rotations_new: dict[int, np.ndarray], translations_new: d
     return anim_joints, rotations, translations, scales
 
 
+def _wanted(sight_w: np.ndarray, up_w: np.ndarray, base_ae: np.ndarray, plan: Schedule) -> np.ndarray:
+    """The wanted line-of-sight change ``(F, 2)`` toward world directions ``sight_w``, against the base's."""
+    wanted_ae = azimuth_elevation(sight_w, up_w)
+    near_plan = rot.unwrap_near(wanted_ae[:, 0] - base_ae[:, 0], plan.requested[:, 0])
+    # The eyes lead the body: more than 90 deg ahead of its plan (a saccade of a large shift), the
+    # wanted azimuth continues from where it was, not on whichever side is nearer the body's.
+    yaw = rot.unwrap_from_kept(near_plan, np.abs(near_plan - plan.requested[:, 0]) <= 90.0)
+    return np.column_stack([yaw, wanted_ae[:, 1] - base_ae[:, 1]])
+
+
 def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body: Body, plan: Schedule,
            sight_point: np.ndarray, options: PassOptions, requested: np.ndarray | None = None,
            saccading: np.ndarray | None = None, side: np.ndarray | None = None) -> PassResult:
@@ -61,12 +71,7 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
     new_trans = body.translations
     centre = body.eye_centre(rig)
     if requested is None:
-        wanted_ae = azimuth_elevation(directions_to_world(skel_to_world, sight_point - centre), up_w)
-        near_plan = rot.unwrap_near(wanted_ae[:, 0] - base_ae[:, 0], plan.requested[:, 0])
-        # The eyes lead the body: more than 90 deg ahead of its plan (a saccade of a large shift), the
-        # wanted azimuth continues from where it was, not on whichever side is nearer the body's.
-        yaw = rot.unwrap_from_kept(near_plan, np.abs(near_plan - plan.requested[:, 0]) <= 90.0)
-        requested = np.column_stack([yaw, wanted_ae[:, 1] - base_ae[:, 1]])
+        requested = _wanted(directions_to_world(skel_to_world, sight_point - centre), up_w, base_ae, plan)
 
     # What was achieved, measured like a viewer would: from the eyes' midpoint to their point of sight.
     origin, sight = line_of_sight(eyes.positions[0], eyes.directions[0], eyes.positions[1], eyes.directions[1])
