@@ -3,7 +3,7 @@ comes nearer than the eyes' near point (10 cm), so no eye turns faster than a sa
 (pursuit followed its direction through the back of the head: an eye swung 55 deg in one frame, 3,300
 deg/s), and the gaze's return to the base turns no eye from one limit of its range to the other (the
 held point, near and behind the head, swung the wanted direction through the back of the head: an eye
-swapped +44.2 for -44.2 deg in one frame)."""
+swapped +44.2 for -44.2 deg in one frame), and the body makes no turn toward where it goes."""
 
 from __future__ import annotations
 
@@ -42,6 +42,14 @@ def test_a_target_through_the_head_flips_no_eye(tmp_path, capsys):
                              np.cos(np.radians(pitch)) * np.cos(np.radians(yaw))])
         speed = measure.angle_between(d[1:], d[:-1]) * rig.time_codes_per_second
         assert speed.max() < 800.0, (eye, speed.max())  # the seed's saccade cap, over the whole shot
+    # The body is not sent toward where the target goes once out of reach: the planner, aiming where it
+    # would be at the end of a shift, started a 150 deg turn 0.2 s before the let-go (the head 6.4 deg
+    # off the base motion's, then back).
+    head = rig.leaf["head"]
+    off = measure.angle_between(new.axis(head, measure.local_forward(new, head, rig.forward)),
+                                base.axis(head, measure.local_forward(base, head, rig.forward)))
+    crossing = (new.times >= 1.1 * rig.time_codes_per_second) & (new.times <= 2.0 * rig.time_codes_per_second)
+    assert off[crossing].max() < 3.0, off[crossing].max()
 
 
 def test_a_target_out_of_reach_at_its_own_start_leaves_the_gaze_alone(tmp_path, capsys):

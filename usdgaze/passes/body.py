@@ -146,6 +146,10 @@ class TargetPlanner:
         change = want - previous
         lead = float(self.map.timing(change[0], change[1])[0])
         ahead = max(min(int(np.searchsorted(self.seconds, self.seconds[j] + lead)), self.end - 1), j)
+        # Not past where it goes out of reach (behind, or nearer than the near point): a target coming
+        # at the face turned the head toward where it would be once it had passed through.
+        gone = np.flatnonzero(np.abs(rot.unwrap_near(rel[j:ahead + 1, 0], yaw)) > self.sight_limit)
+        ahead = j + max(int(gone[0]) - 1, 0) if len(gone) else ahead
         want = np.array([rot.unwrap_near(rel[ahead, 0], yaw), rel[ahead, 1]])
         new = body_request(self.map, want, self.reach, self.limits, opts.comfort_fraction)
         # How far the head turns in the world, not against a base gaze that may be swinging.
