@@ -90,6 +90,10 @@ def b_attend_objects_empty(d):
     return ["attend", SAMPLE_BALLS, "--out", str(d / "gaze.usdc"), "--objects", ""]
 
 
+def b_attend_objects_twice(d):
+    return ["attend", SAMPLE_BALLS, "--out", str(d / "gaze.usdc"), "--objects", "/Objects/BallLeft,/Objects/BallLeft"]
+
+
 def b_attend_object_holds_the_character(d):
     return ["attend", SAMPLE_BALLS, "--out", str(d / "gaze.usdc"), "--objects", "/root"]
 
@@ -374,3 +378,22 @@ def b_push_on_the_skeleton(d):
         layer.SetTimeSample(force.path, 10.0, (150.0, 0.0, 0.0))
         layer.SetTimeSample(force.path, 20.0, (0.0, 0.0, 0.0))
     return _physics(d, author)
+
+
+def _review_of_a_broken_input(d, *command):
+    """An input whose sublayer is missing, reviewed with an override layer (USD's own warning about the
+    sublayer went to stderr as a second line before)."""
+    Sdf.Layer.CreateNew(str(d / "gaze.usda")).Save()
+    return [command[0], str(edited(d, _sublayer)), "--layer", str(d / "gaze.usda"), *command[1:]]
+
+
+def b_plot_input_missing_sublayer(d):
+    return _review_of_a_broken_input(d, "plot", "--out", str(d / "plots"))
+
+
+def b_preview_input_missing_sublayer(d):
+    return _review_of_a_broken_input(d, "preview", "--out", str(d / "review.gif"))
+
+
+def b_validate_layer_input_missing_sublayer(d):
+    return _review_of_a_broken_input(d, "validate")

@@ -17,7 +17,7 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.errors import UsdGazeError, usd_failure
-from usdgaze.usd.stage import check_composition
+from usdgaze.usd.stage import open_root
 from usdgaze.files.kinds import not_a_file
 
 EYE_RANGE_KEY = "eyeRange"
@@ -111,7 +111,7 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
 
     The root copies the input's timing and units, so time codes mean what they mean in the input.
     """
-    from pxr import Sdf, Usd, UsdGeom
+    from pxr import Sdf, UsdGeom
 
     source = str(input_path)
     in_memory = isinstance(layer_path, Sdf.Layer)  # apply --plot: staged, not yet written
@@ -145,8 +145,7 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
                 root.pseudoRoot.SetInfo(name, base_layer.pseudoRoot.GetInfo(name))
         root.subLayerPaths.append(gaze_layer.identifier)
         root.subLayerPaths.append(base_layer.identifier)
-    stage = Usd.Stage.Open(root)
-    check_composition(stage, source)
+    stage = open_root(root, source)
     if not UsdGeom.GetStageUpAxis(stage):
         raise UsdGazeError(f"{source}: the stage has no up axis")
     return stage, gaze_layer

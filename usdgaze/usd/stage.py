@@ -23,9 +23,20 @@ def open_stage(path: str | os.PathLike, where: str | None = None,
     path = os.fspath(path)
     where = where or path
     require_file(path, error, where)
+    return _opened(lambda: Usd.Stage.Open(path), where, error)
+
+
+def open_root(root: Sdf.Layer, where: str, error: type[UsdGazeError] = UsdGazeError) -> Usd.Stage:
+    """A stage on an in-memory root layer (``plot``, ``preview``, ``validate --layer``), opened as
+    :func:`open_stage` opens a file: a failed composition is our one line, not USD's warnings too."""
+    return _opened(lambda: Usd.Stage.Open(root), where, error)
+
+
+def _opened(open_it, where: str, error: type[UsdGazeError]) -> Usd.Stage:
+    """``open_it()``'s stage with USD's own warnings held back, and said only where it opened well."""
     with _usd_warnings() as said:
         try:
-            stage = Usd.Stage.Open(path)
+            stage = open_it()
         except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
             raise error(f"{where}: cannot open as a USD stage ({usd_failure(exc)})") from None
         if stage is None:
