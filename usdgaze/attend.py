@@ -139,10 +139,12 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         overrides.append(AnimOverride.of(clip, written, move_roots=settings.realize == "map" and bool(chain.leg_roots)))
         inspections.append((clip.skel_root, clip.times, result, [o.path for o in objs]))
         report.results.append(result)
+        seen = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]  # by this character's eyes
         report.characters.append({"skel_root": clip.skel_root, "animation": clip.animation, "frames": len(clip.times),
                                   "added_joints": written.added_joints,
-                                  "changed_joints": [j.rsplit('/', 1)[-1] for j in written.changed_joints]})
-        report.objects = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]
+                                  "changed_joints": [j.rsplit('/', 1)[-1] for j in written.changed_joints],
+                                  "objects": seen})
+        report.objects.extend({"skel_root": clip.skel_root, **o} for o in seen)
         if info is None:
             info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time, clip.end_time,
                              clip.up_axis, clip.meters_per_unit, default_prim=stage.GetRootLayer().defaultPrim or None)

@@ -88,9 +88,9 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
     p = report.planner
     for c in report.characters:
         click.echo(f"{c['skel_root']}  ({c['frames']} frames; drives {', '.join(c['changed_joints'])})")
-    for o in report.objects:
-        seen = "never seen" if o["first_seen_s"] is None else f"first seen at {o['first_seen_s']:.2f} s"
-        click.echo(f"  {o['path']}: {seen}, tracked {100 * o['tracked_share']:.0f}% of the time")
+        for o in c["objects"]:  # as this character saw them
+            seen = "never seen" if o["first_seen_s"] is None else f"first seen at {o['first_seen_s']:.2f} s"
+            click.echo(f"  {o['path']}: {seen}, tracked {100 * o['tracked_share']:.0f}% of the time")
     click.echo(f"planner: {p['steps']} steps of {p['h']} s, window {p['window_s']} s, "
                f"{p['mean_iterations']} iterations/step, {p['frames_per_second']} frames/s")
     click.echo(f"wrote {report.output}")

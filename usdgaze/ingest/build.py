@@ -152,6 +152,10 @@ def find_crop(trial: Trial, series: TrialSeries, settings: BuildSettings, where:
 def process(trial: Trial, series: TrialSeries, settings: BuildSettings, where: str) -> tuple[Extraction, tuple[int, int], str]:
     """Crop and extract one trial."""
     (start, end), source = find_crop(trial, series, settings, where)
+    need = 2 * settings.velocity_k + 1  # angular velocities difference frames i-k and i+k
+    if end - start + 1 < need:
+        raise TrialError(f"{where}: the crop {start}-{end} holds {end - start + 1} frame(s); a gaze shift's "
+                         f"velocities need at least {need} (2k + 1, k = {settings.velocity_k})")
     frame = series.frame_at(start)
     try:
         ex = extract(series.orientations, (start, end), frame, series.rate, trial.yaw, trial.pitch, settings)

@@ -164,10 +164,26 @@ def panel_attention(ax_top, ax_bottom, seconds, point_of_sight: np.ndarray, obje
 # -- figures ---------------------------------------------------------------------------------------
 
 def names(review) -> list[str]:
-    """A file-name-safe name per character: the SkelRoot's name, or its whole path where names repeat."""
+    """A file-name-safe name per character: the SkelRoot's name, or its whole path where names repeat,
+    or its Skeleton's path where one SkelRoot holds several skeletons (each its own character); a
+    name that still repeats (``/a_b`` and ``/a/b``) gets ``_2``, ``_3``: no character's plots overwrite
+    another's."""
+    def safe(path: str) -> str:
+        return path.strip("/").replace("/", "_") or "character"
+
     leaves = [c.skel_root.rsplit("/", 1)[-1] or "character" for c in review.characters]
-    full = [c.skel_root.strip("/").replace("/", "_") or "character" for c in review.characters]
-    return leaves if len(set(leaves)) == len(leaves) else full
+    if len(set(leaves)) == len(leaves):
+        return leaves
+    full = [safe(c.skel_root) for c in review.characters]
+    full = [safe(c.skeleton) if full.count(n) > 1 else n for c, n in zip(review.characters, full)]
+    out: list[str] = []
+    for n in full:
+        name, i = n, 1
+        while name in out:
+            i += 1
+            name = f"{n}_{i}"
+        out.append(name)
+    return out
 
 
 def figures(review) -> dict[str, object]:
@@ -202,7 +218,10 @@ def figures(review) -> dict[str, object]:
             panel_target_error(ax, c.seconds, errors, f"{name}: look-at target error")
             out[f"{name}_targets"] = fig
     # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body).
-    by_path = {c.skel_root.strip("/").replace("/", "_"): n for c, n in zip(review.characters, names(review))}
+    # attend plans a SkelRoot's first skeleton: its name, not a later one's, labels the attention.
+    by_path = {}
+    for c, n in zip(review.characters, names(review)):
+        by_path.setdefault(c.skel_root.strip("/").replace("/", "_"), n)
     for a in review.attention:
         name = by_path.get(a.name, a.name)
         fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 5), sharex=True,

@@ -1,0 +1,89 @@
+"""``usdgaze attend`` on two characters (SkelRoots with a GazeMapAPI) and one ball: the report says,
+per character, what that character saw. Before, the per-object figures were overwritten by each
+character in turn, so the JSON and the printout held only the last character's view.
+
+Two standing characters face the same way, the second 3 m ahead of the first; the ball is 1.5 m in
+front of the first one's eyes, i.e. behind the second. Which of them has it in view (within 60 deg of its head's forward) is measured
+independently by UsdSkel FK on the input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Sdf
+
+import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
+from usdgaze.console.main import main
+
+from . import measure
+from . import synthetic as syn
+
+MAP = Path(__file__).resolve().parents[1] / "sample_stages" / "shared_map" / "gaze_map.usda"
+
+
+def _stage(tmp: Path) -> tuple[Path, syn.Rig]:
+    rig = syn.make_rig(tmp / "rig.usda", frames=24, time_codes_per_second=24, mesh=False, walk_speed=0.0)
+    shutil.copy(MAP, tmp / "gaze_map.usda")
+    layer = Sdf.Layer.CreateNew(str(tmp / "two.usda"))
+    src = Sdf.Layer.FindOrOpen(str(rig.path))
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(layer, key, getattr(src, key))
+    for key in ("upAxis", "metersPerUnit"):
+        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    cls = Sdf.CreatePrimInLayer(layer, "/Map")
+    cls.specifier = Sdf.SpecifierClass
+    cls.referenceList.Prepend(Sdf.Reference("./gaze_map.usda", "/GazeMap"))
+    for name, z, turn in (("A", 0.0, 0.0), ("B", 3.0, 0.0)):  # B stands 3 m ahead of A, its back to A
+        prim = Sdf.CreatePrimInLayer(layer, f"/{name}")
+        prim.specifier, prim.typeName = Sdf.SpecifierDef, "SkelRoot"
+        prim.referenceList.Prepend(Sdf.Reference("./rig.usda", "/Character"))
+        prim.inheritPathList.Prepend(Sdf.Path("/Map"))
+        Sdf.AttributeSpec(prim, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(0, 0, z)
+        Sdf.AttributeSpec(prim, "xformOp:rotateY", Sdf.ValueTypeNames.Float).default = turn
+        Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          variability=Sdf.VariabilityUniform).default = ["xformOp:translate", "xformOp:rotateY"]
+    layer.Save()
+    return tmp / "two.usda", rig
+
+
+def _add_ball(stage: Path, at) -> None:
+    layer = Sdf.Layer.FindOrOpen(str(stage))
+    Sdf.CreatePrimInLayer(layer, "/Objects").specifier = Sdf.SpecifierDef
+    ball = Sdf.CreatePrimInLayer(layer, "/Objects/Ball")
+    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
+    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(*map(float, at))
+    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    layer.Save()
+
+
+def _off_head_deg(stage: Path, rig: syn.Rig, root: str, ball) -> float:
+    p = measure.posed(str(stage), f"{root}/Skel")
+    head = rig.leaf["head"]
+    fwd = p.axis(head, measure.local_forward(p, head, rig.forward))[0]
+    eyes = 0.5 * (p.position(rig.leaf["eye_l"])[0] + p.position(rig.leaf["eye_r"])[0])
+    to = (ball - eyes) / np.linalg.norm(ball - eyes)
+    return float(np.degrees(np.arccos(np.clip(fwd @ to, -1, 1))))
+
+
+def test_each_character_reports_what_it_saw(tmp_path, capsys):
+    stage, rig = _stage(tmp_path)
+    p = measure.posed(str(stage), "/A/Skel")
+    eyes_a = 0.5 * (p.position(rig.leaf["eye_l"])[0] + p.position(rig.leaf["eye_r"])[0])
+    ball = eyes_a + np.array([0.2, 0.0, 1.5])
+    _add_ball(stage, ball)
+    assert _off_head_deg(stage, rig, "/A", ball) < 30.0  # in A's view
+    assert _off_head_deg(stage, rig, "/B", ball) > 120.0  # behind B
+
+    out = tmp_path / "attend.usdc"
+    assert main(["attend", str(stage), "--out", str(out), "--window", "0.3", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    by_root = {c["skel_root"]: c["objects"] for c in report["characters"]}
+    assert set(by_root) == {"/A", "/B"}
+    assert by_root["/A"][0]["path"] == "/Objects/Ball" and by_root["/A"][0]["first_seen_s"] == 0.0
+    assert by_root["/B"][0]["first_seen_s"] is None
+    assert {(o["skel_root"], o["first_seen_s"]) for o in report["objects"]} == {("/A", 0.0), ("/B", None)}
