@@ -98,8 +98,16 @@ class TargetPlanner:
         # Let a shift get well under way before the next one takes over from it.
         wait = max(opts.replan_interval_s, 0.5 * plan.timing[-1]["duration"]) if plan.timing else 0.0
         need_yaw, need_pitch = near - head[:, 0], rel[:, 1] - head[:, 1]
+        # Azimuth degrees are arc degrees only at the horizon (72 deg down, 40 of azimuth are 12 of arc).
+        need_yaw = need_yaw * np.cos(np.radians(np.clip(self.base_ae[:, 1] + rel[:, 1], -90.0, 90.0)))
         f = opts.replan_fraction
-        trig = (np.abs(need_yaw) > f * lim.yaw) | (need_pitch > f * lim.up) | (need_pitch < -f * lim.down)
+        # A body already at its reach the way the eyes need more cannot help them: a target by the feet
+        # (72 deg down, past the -80 deg reach's comfort) re-planned the body every 0.2 s as the base
+        # head bobbed, each request's yaw another (89 -> 131 -> 102 deg), the head swinging at 320 deg/s.
+        at = np.abs(self.current) >= self.reach - 1e-6
+        trig = ((np.abs(need_yaw) > f * lim.yaw) & ~(at[0] & (need_yaw * self.current[0] > 0.0))) \
+            | ((need_pitch > f * lim.up) & ~(at[1] & (self.current[1] > 0.0))) \
+            | ((need_pitch < -f * lim.down) & ~(at[1] & (self.current[1] < 0.0)))
         trig = soon(trig, s, opts.anticipation_s)
         out = np.flatnonzero(window & (np.abs(near) > self.sight_limit))
         go = np.flatnonzero(window & trig & (s >= self.last + wait))
