@@ -45,6 +45,23 @@ def b_look_at_not_xformable(d):
     return apply_argv(d, _with_prims(d), shifts=["--look-at", "/World/Note@10"])
 
 
+def _with_instancer(layer, rig):
+    """/World/PI, a PointInstancer with one instance of its prototype /World/PI/Protos/Rock (a Cube)."""
+    Sdf.CreatePrimInLayer(layer, "/World").specifier = Sdf.SpecifierDef
+    for path, type_name in (("/World/PI", "PointInstancer"), ("/World/PI/Protos", "Scope"),
+                            ("/World/PI/Protos/Rock", "Cube")):
+        prim = Sdf.CreatePrimInLayer(layer, path)
+        prim.specifier, prim.typeName = Sdf.SpecifierDef, type_name
+    pi = layer.GetPrimAtPath("/World/PI")
+    Sdf.RelationshipSpec(pi, "prototypes", custom=False).targetPathList.explicitItems = [Sdf.Path("/World/PI/Protos/Rock")]
+    Sdf.AttributeSpec(pi, "protoIndices", Sdf.ValueTypeNames.IntArray).default = Vt.IntArray([0])
+    Sdf.AttributeSpec(pi, "positions", Sdf.ValueTypeNames.Point3fArray).default = Vt.Vec3fArray([(-1.5, 1.7, 3.0)])
+
+
+def b_look_at_prototype(d):
+    return apply_argv(d, edited(d, _with_instancer), shifts=["--look-at", "/World/PI/Protos/Rock@10"])
+
+
 def b_look_at_malformed(d):
     return apply_argv(d, rig(d).path, shifts=["--look-at", "/World/Door"])
 

@@ -28,7 +28,24 @@ def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
     if not (prim.IsA(UsdGeom.Xformable) or prim.IsA(UsdGeom.Boundable)):
         raise UsdGazeError(f"{source}:{path}: is a {prim.GetTypeName() or 'typeless prim'}; "
                            "a look-at target must be Xformable or Boundable")
+    instancer = _instancing(prim)
+    if instancer is not None:
+        raise UsdGazeError(f"{source}:{path}: is a prototype of the PointInstancer {instancer.GetPath()}, drawn only "
+                           "where its instances are; look at the PointInstancer or at a point X,Y,Z")
     return prim
+
+
+def _instancing(prim: Usd.Prim) -> Usd.Prim | None:
+    """The PointInstancer above ``prim`` whose prototype holds it: such a prototype is not drawn at its
+    own place (a target there was looked at where no instance is)."""
+    parent = prim.GetParent()
+    while parent and not parent.IsPseudoRoot():
+        if parent.IsA(UsdGeom.PointInstancer):
+            targets = UsdGeom.PointInstancer(parent).GetPrototypesRel().GetForwardedTargets()
+            if any(prim.GetPath().HasPrefix(t) for t in targets):
+                return parent
+        parent = parent.GetParent()
+    return None
 
 
 def _varying(prim: Usd.Prim, boundable: bool) -> bool:
