@@ -87,3 +87,32 @@ def test_each_character_reports_what_it_saw(tmp_path, capsys):
     assert by_root["/A"][0]["path"] == "/Objects/Ball" and by_root["/A"][0]["first_seen_s"] == 0.0
     assert by_root["/B"][0]["first_seen_s"] is None
     assert {(o["skel_root"], o["first_seen_s"]) for o in report["objects"]} == {("/A", 0.0), ("/B", None)}
+
+
+def test_a_skelroot_with_two_skeletons_says_which_one_attend_plans(tmp_path, capsys):
+    """attend plans one pair of eyes per SkelRoot: the first Skeleton. The others were left as they
+    are without a word; now said, and the layer holds no opinion on them (muted or not, their poses
+    are the input's, by UsdSkel FK)."""
+    rig = syn.make_rig(tmp_path / "in.usda", frames=24, time_codes_per_second=24, mesh=False, walk_speed=0.0)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    Sdf.CopySpec(layer, rig.skeleton, layer, rig.skeleton + "2")
+    Sdf.CopySpec(layer, rig.animation, layer, rig.animation + "2")
+    layer.GetPrimAtPath(rig.skeleton + "2").relationships["skel:animationSource"].targetPathList.explicitItems = [
+        Sdf.Path(rig.animation + "2")]
+    ball = Sdf.CreatePrimInLayer(layer, "/World/Ball")
+    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Xform"
+    layer.GetPrimAtPath("/World").specifier = Sdf.SpecifierDef
+    layer.Save()
+    out, preview = tmp_path / "gaze.usdc", tmp_path / "preview.usda"
+    preview_layer = Sdf.Layer.CreateNew(str(preview))
+    for sub in ("./gaze.usdc", "./in.usda"):
+        preview_layer.subLayerPaths.append(sub)
+    preview_layer.Save()
+    assert main(["attend", str(rig.path), "--objects", "/World/Ball", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert f"2 Skeletons under this SkelRoot; attend plans the first, {rig.skeleton}" in err
+    second = rig.skeleton + "2"
+    before, after = measure.posed(str(rig.path), second), measure.posed(str(preview), second)
+    assert np.array_equal(before.world, after.world)
+    first_before, first_after = measure.posed(str(rig.path), rig.skeleton), measure.posed(str(preview), rig.skeleton)
+    assert not np.array_equal(first_before.world, first_after.world)  # the first one is planned

@@ -123,6 +123,9 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         clip = read_clip(stage, skels[0], root, source)
         check_not_shared(others, clip.animation, source)
         report.warnings.extend(clip.notes)
+        if len(skels) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
+            report.warnings.append(f"{source}:{root.GetPath()}: {len(skels)} Skeletons under this SkelRoot; attend "
+                                   f"plans the first, {skels[0].GetPath()}, and leaves the others as they are")
         chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
         h = settings.h
         t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)

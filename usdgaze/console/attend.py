@@ -80,6 +80,8 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
                               window_s=AttendSettings.window_s if window_s is None else window_s,
                               binding=parse_hints(bind, forward))
     report = run(input_path, out, paths, settings, skel_root=skel_root)
+    for w in report.warnings:  # as apply says them: on stderr, JSON or not
+        click.echo(f"usdgaze: warning: {w}", err=True)
     summary = {"output": report.output, "characters": report.characters, "objects": report.objects,
                "planner": report.planner, "warnings": report.warnings}
     if as_json:
