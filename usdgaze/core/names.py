@@ -165,3 +165,13 @@ def rigify_number(joint: str) -> int | None:
     """The number of a Rigify ``spine.NNN`` bone (``DEF-spine.003`` -> 3, ``DEF-spine`` -> 0), else None."""
     m = _RIGIFY.match(".".join(tokens(joint)))
     return int(m.group(1) or 0) if m else None
+
+
+def unique(base: str, taken: set[str]) -> str:
+    """``base``, or ``base_2``, ``base_3``... the first not in ``taken``; added to ``taken``."""
+    name, i = base, 1
+    while name in taken:
+        i += 1
+        name = f"{base}_{i}"
+    taken.add(name)
+    return name

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usdgaze.core.names import unique
 from usdgaze.errors import UsdGazeError
 from usdgaze.review import analysis
 
@@ -176,14 +177,8 @@ def names(review) -> list[str]:
         return leaves
     full = [safe(c.skel_root) for c in review.characters]
     full = [safe(c.skeleton) if full.count(n) > 1 else n for c, n in zip(review.characters, full)]
-    out: list[str] = []
-    for n in full:
-        name, i = n, 1
-        while name in out:
-            i += 1
-            name = f"{n}_{i}"
-        out.append(name)
-    return out
+    taken: set[str] = set()
+    return [unique(n, taken) for n in full]
 
 
 def figures(review) -> dict[str, object]:

@@ -17,6 +17,8 @@ import re
 import numpy as np
 from pxr import Gf, Sdf
 
+from usdgaze.core.names import unique
+
 ROOT = "/UsdGazeAttend"
 
 
@@ -24,12 +26,7 @@ def _name(path: str, taken: set[str]) -> str:
     base = re.sub(r"[^A-Za-z0-9_]", "_", path.strip("/").replace("/", "_")) or "object"
     if base[0].isdigit():
         base = "_" + base
-    name, i = base, 1
-    while name in taken:
-        i += 1
-        name = f"{base}_{i}"
-    taken.add(name)
-    return name
+    return unique(base, taken)
 
 
 def _attr(prim: Sdf.PrimSpec, name: str, type_name) -> Sdf.AttributeSpec:
