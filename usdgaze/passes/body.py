@@ -103,7 +103,7 @@ class TargetPlanner:
         f = opts.replan_fraction
         # A body already at its reach the way the eyes need more cannot help them: a target by the feet
         # (72 deg down, past the -80 deg reach's comfort) re-planned the body every 0.2 s as the base
-        # head bobbed, each request's yaw another (89 -> 131 -> 102 deg), the head swinging at 320 deg/s.
+        # head bobbed, each request's yaw another (89 -> 131 -> 102 deg), the head swinging at 327 deg/s.
         at = np.abs(self.current) >= self.reach - 1e-6
         trig = ((np.abs(need_yaw) > f * lim.yaw) & ~(at[0] & (need_yaw * self.current[0] > 0.0))) \
             | ((need_pitch > f * lim.up) & ~(at[1] & (self.current[1] > 0.0))) \
