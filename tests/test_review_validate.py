@@ -162,6 +162,22 @@ def test_the_override_alone_names_the_inputs_default_prim_and_says_to_validate_i
     assert f"usdgaze validate INPUT --layer {layer.name}" in line and "MissingCharacter" in line
 
 
+def test_validate_with_a_layer_names_the_input_not_its_in_memory_root(tmp_path, capsys):
+    """An input without a defaultPrim, validated with --layer: USD's StageMetadataChecker names the
+    stage's root layer, which is the in-memory one composing input and layer (``<anon:0x...>``)."""
+    src = tmp_path / "in.usda"
+    stage = Usd.Stage.Open(str(SAMPLES[0]))
+    stage.GetRootLayer().Export(str(src))
+    layer = Sdf.Layer.FindOrOpen(str(src))
+    layer.ClearDefaultPrim()
+    layer.Save()
+    api.apply(src, ["2s:60:0"], tmp_path / "g.usdc")
+    capsys.readouterr()
+    assert main(["validate", str(src), "--layer", str(tmp_path / "g.usdc")]) == 3
+    (line,) = [x for x in capsys.readouterr().out.splitlines() if "MissingDefaultPrim" in x]
+    assert f"root layer <{src}>" in line and "anon:" not in line
+
+
 def test_schedule_validator_catches_late_shifts_and_missing_characters(tmp_path):
     layer = tmp_path / "g.usda"
     api.apply(SAMPLES[0], ["2s:60:0"], layer, preview=tmp_path / "preview.usda")

@@ -35,6 +35,8 @@ def run(stage_path: str | os.PathLike, layer: str | os.PathLike | None = None, o
     from pxr import Usd
 
     errors = UsdValidation.ValidationContext([v for v in chosen if v is not None]).Validate(stage, Usd.PrimAllPrimsPredicate)
+    # With --layer the root is an in-memory layer over the input: a message naming it names the input.
+    anon = stage.GetRootLayer().identifier if layer is not None else None
     problems = []
     for e in errors:
         if e.HasNoError():
@@ -48,7 +50,11 @@ def run(stage_path: str | os.PathLike, layer: str | os.PathLike | None = None, o
                 path = str(site.GetProperty().GetPath()) if site.IsProperty() else str(site.GetPrim().GetPath()) if site.IsPrim() else ""
             problems.append({
                 "file": str(stage_path), "site": path or "/", "severity": _SEVERITY.get(str(e.GetType()).rsplit(".", 1)[-1], "error"),
-                "validator": name, "error": str(e.GetName()), "message": " ".join(str(e.GetMessage()).split()),
+                "validator": name, "error": str(e.GetName()), "message": _named(" ".join(str(e.GetMessage()).split()), anon, str(stage_path)),
             })
     problems.sort(key=lambda p: (p["site"], p["validator"], p["error"], p["message"]))
     return problems
+
+
+def _named(message: str, anon: str | None, source: str) -> str:
+    return message.replace(anon, source) if anon else message
