@@ -62,14 +62,9 @@ def _outputs_complete(shot: Shot) -> bool:
         return False
     root = shot.values.get("sublayer_into")
     if root:
-        from pxr import Sdf
+        from usdgaze.usd.layers import sublayered
 
-        layer = Sdf.Layer.OpenAsAnonymous(root, metadataOnly=True)
-        if layer is None:
-            return False
-        folder = os.path.dirname(root)
-        listed = {os.path.normpath(os.path.join(folder, p)) for p in layer.subLayerPaths}
-        return os.path.normpath(shot.out) in listed
+        return sublayered(root, shot.out, shot.values["input"])
     return True
 
 

@@ -283,24 +283,76 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
     return layer
 
 
+def _stack_offsets(layer: Sdf.Layer) -> list[tuple[str, Sdf.LayerOffset]]:
+    """(real path, offset to the root) of every layer in ``layer``'s layer stack, as Pcp composes it."""
+    from pxr import Pcp
+
+    ident = Pcp.LayerStackIdentifier(layer)
+    stack, _errors = Pcp.Cache(ident).ComputeLayerStack(ident)
+    return [(l.realPath, o) for l, o in zip(stack.layers, stack.layerOffsets)]
+
+
+def override_offset(root: str | os.PathLike, input_path: str | os.PathLike | None) -> Sdf.LayerOffset:
+    """The offset to author on the override as ``root``'s first sublayer so that it plays in step with
+    the input: the offset at which ``root``'s layer stack brings the input in (its sublayer offsets
+    composed), less the timeCodesPerSecond scaling Pcp gives the override as it gives the input.
+    Identity when the input is not in ``root``'s layer stack (a reference or payload brings it in)."""
+    if input_path is None:
+        return Sdf.LayerOffset()
+    target = os.path.realpath(input_path)
+    layer = Sdf.Layer.FindOrOpen(os.path.realpath(root))
+    found = [o for p, o in _stack_offsets(layer) if p and os.path.realpath(p) == target] if layer else []
+    if not found:
+        return Sdf.LayerOffset()
+    probe = Sdf.Layer.CreateAnonymous("usdgaze_offset.usda")  # the scaling alone: the input as its sublayer
+    if layer.HasTimeCodesPerSecond():
+        probe.timeCodesPerSecond = layer.timeCodesPerSecond
+    if layer.HasFramesPerSecond():
+        probe.framesPerSecond = layer.framesPerSecond
+    probe.subLayerPaths.append(target)
+    scaling = _stack_offsets(probe)[1][1]
+    return found[0] * scaling.GetInverse()
+
+
+def _listed(layer: Sdf.Layer, real_root: str, override: str | os.PathLike) -> list[int]:
+    """Indices of ``layer``'s subLayers that name ``override`` (any spelling, symlinks followed)."""
+    target = os.path.realpath(override)
+    folder = os.path.dirname(real_root)
+    return [i for i, p in enumerate(layer.subLayerPaths) if os.path.realpath(os.path.join(folder, p)) == target]
+
+
+def sublayered(root: str | os.PathLike, override: str | os.PathLike, input_path=None) -> bool:
+    """``override`` is ``root``'s strongest sublayer, at the offset that keeps it in step with the input."""
+    real = os.path.realpath(root)
+    layer = Sdf.Layer.OpenAsAnonymous(real, metadataOnly=True)
+    if layer is None or 0 not in _listed(layer, real, override):
+        return False
+    return layer.subLayerOffsets[0] == override_offset(real, input_path)
+
+
 def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str],
-                    outputs: Outputs | None = None) -> bool:
+                    outputs: Outputs | None = None, input_path: str | os.PathLike | None = None) -> bool:
     """Make ``override`` the strongest sublayer of ``root``, changing nothing but its subLayers.
 
-    Returns False if it already was there. Refuses (see :func:`check_sublayer_target`) when
-    ``root`` itself holds opinions on the animations. A symlinked ``root`` is edited at its target,
-    which keeps its mode; a read-only one is refused.
+    Returns False if it already was there. An entry naming it lower down (weaker than the input, so
+    it would change nothing) is moved to the front. It gets the offset at which ``root`` brings in
+    ``input_path`` (given), so that it plays in step with the input. Refuses (see
+    :func:`check_sublayer_target`) when ``root`` itself holds opinions on the animations. A symlinked
+    ``root`` is edited at its target, which keeps its mode; a read-only one is refused.
     """
     real = os.path.realpath(root)
     layer = check_sublayer_target(root, anim_paths)
-    rel = relative_asset_path(override, real)
-    resolved = {os.path.normpath(os.path.join(os.path.dirname(real), p)) for p in layer.subLayerPaths}
-    if os.path.normpath(os.path.abspath(override)) in resolved:
+    offset = override_offset(real, input_path)
+    listed = _listed(layer, real, override)
+    if listed[:1] == [0] and layer.subLayerOffsets[0] == offset:
         return False
     with outputs_of(outputs) as tx:
         if not tx.claimed(root):
             tx.claim(root, "--sublayer-into", edit=True)
-        layer.subLayerPaths.insert(0, rel)
+        for i in reversed(listed):
+            del layer.subLayerPaths[i]
+        layer.subLayerPaths.insert(0, relative_asset_path(override, real))
+        layer.subLayerOffsets[0] = offset
         tx.stage_layer(root, layer)
     return True
 
