@@ -26,6 +26,8 @@ def inspect(input_path, bind, forward, as_json) -> None:
                f"time codes {info['start']:g}..{info['end']:g} at {info['time_codes_per_second']:g}/s")
     for root in info["skel_roots"]:
         click.echo(f"SkelRoot {root['path']}  gaze map: {root['map']}")
+        if not root["skeletons"]:
+            click.echo("  no Skeleton under this SkelRoot")
         for s in root["skeletons"]:
             click.echo(f"  Skeleton {s['path']}  {s['joints']} joints")
             if s.get("error"):

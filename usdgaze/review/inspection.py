@@ -33,13 +33,19 @@ def inspect_stage(path: str, hints=None) -> dict:
     }
     for root in skel_roots(stage):
         has = schema.has_map(root)
-        definition = schema.read_map(root, str(path)) if has else None
+        try:  # one SkelRoot's broken map is its own entry's problem, as a skeleton's is
+            definition, map_error = (schema.read_map(root, str(path)) if has else None), None
+        except UsdGazeError as exc:
+            definition, map_error = None, str(exc)
         entry = {"path": str(root.GetPath()),
-                 "map": f"GazeMapAPI, {len(definition)} examples" if has else "none (the built-in map is used)",
+                 "map": (f"GazeMapAPI, cannot read it: {map_error}" if map_error else
+                         f"GazeMapAPI, {len(definition)} examples" if has else "none (the built-in map is used)"),
                  "skeletons": []}
         for skel in skeletons_under(root):
             s = {"path": str(skel.GetPath()), "joints": len(skel.GetAttribute("joints").Get() or [])}
             try:
+                if map_error:
+                    raise UsdGazeError(map_error)
                 clip = read_clip(stage, skel, root, str(path))
                 chain, frame = api.bind(clip, definition, hints)
             except UsdGazeError as exc:

@@ -1,0 +1,54 @@
+"""``usdgaze inspect`` on a stage with several SkelRoots: a good character, one SkelRoot without a Skeleton
+and one whose GazeMapAPI examples are malformed. Each problem stays with its own SkelRoot's entry (as a
+skeleton's binding problem does); the others are still listed, and the text names the SkelRoot with no
+Skeleton. The malformed map's own line is what ``apply`` says of it."""
+
+from __future__ import annotations
+
+import json
+
+import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
+from pxr import Sdf, Vt
+
+from usdgaze.console.main import main
+
+from . import synthetic as syn
+
+
+def _stage(tmp_path):
+    r = syn.make_rig(tmp_path / "in.usda", frames=30, mesh=False)
+    assert main(["dump-map", str(tmp_path / "map.usda"), "--prim", "/Map"]) == 0
+    layer = Sdf.Layer.FindOrOpen(str(r.path))
+    Sdf.CreatePrimInLayer(layer, "/Empty").specifier = Sdf.SpecifierDef
+    layer.GetPrimAtPath("/Empty").typeName = "SkelRoot"
+    Sdf.CopySpec(layer, "/Character", layer, "/Mapped")
+    mapped = layer.GetPrimAtPath("/Mapped")
+    mapped.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeMapAPI"]))
+    source = Sdf.Layer.FindOrOpen(str(tmp_path / "map.usda"))
+    for attr in source.GetPrimAtPath("/Map").attributes:
+        Sdf.CopySpec(source, attr.path, layer, mapped.path.AppendProperty(attr.name))
+    yaw = layer.GetAttributeAtPath("/Mapped.gaze:examples:yaw")
+    yaw.default = Vt.FloatArray(list(yaw.default)[:-3])  # three entries short
+    layer.Save()
+    return r.path
+
+
+def test_inspect_lists_every_skel_root_with_its_own_problem(tmp_path, capsys):
+    path = _stage(tmp_path)
+    assert main(["apply", str(path), "--skel-root", "/Mapped", "--shift", "0.3s:30:0",
+                 "--out", str(tmp_path / "g.usdc")]) == 2
+    map_line = capsys.readouterr().err.strip().removeprefix("usdgaze: error: ")
+    assert "/Mapped.gaze:examples:yaw" in map_line
+
+    assert main(["inspect", str(path), "--json"]) == 0
+    roots = {r["path"]: r for r in json.loads(capsys.readouterr().out)["skel_roots"]}
+    assert sorted(roots) == ["/Character", "/Empty", "/Mapped"]
+    assert roots["/Character"]["skeletons"][0]["chain"]["head"] == ["mixamorig_Head"]
+    assert roots["/Empty"]["skeletons"] == []
+    assert map_line in roots["/Mapped"]["map"]
+    assert roots["/Mapped"]["skeletons"][0]["error"] == map_line
+
+    assert main(["inspect", str(path)]) == 0
+    text = capsys.readouterr().out.splitlines()
+    empty = text.index("SkelRoot /Empty  gaze map: none (the built-in map is used)")
+    assert text[empty + 1] == "  no Skeleton under this SkelRoot"
