@@ -90,3 +90,16 @@ def test_attend_physics_says_a_sliding_reference_and_records_it(tmp_path, capsys
     shot = Sdf.Layer.FindOrOpen(str(out)).customLayerData["usdgaze:physics"]["/Character/Skel"]
     assert shot["referenceNotes"][0].startswith("the reference's feet slide")
     assert not any("slide" in p for p in shot["problems"])  # said, not a problem of the simulation
+
+
+def test_animated_joint_scales_are_said_still_ones_are_not():
+    """The physics body is built at rest proportions and the layer keeps the input's scales: a thigh
+    scaled over the shot (1 -> 1.5) plays back a body that was never simulated, so the shot says so;
+    scales that are constant over the shot (any value, float16 as UsdSkel stores them) are not said."""
+    frames, joints = 30, ["Hips", "Hips/LeftUpLeg", "Hips/RightUpLeg"]
+    still = np.ones((frames, 3, 3), dtype=np.float16) * np.float16(0.93)
+    assert feasible.scale_notes(still, joints) == []
+    grown = still.copy()
+    grown[:, 1, 1] = np.linspace(1.0, 1.5, frames).astype(np.float16)
+    (note,) = feasible.scale_notes(grown, joints)
+    assert "LeftUpLeg" in note and "RightUpLeg" not in note

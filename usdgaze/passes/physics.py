@@ -36,7 +36,7 @@ from usdgaze.core.hints import BindHints
 from usdgaze.errors import UsdGazeError
 from usdgaze.files.kinds import require_file
 from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, read_pushes  # noqa: F401  (the pass's names)
-from usdgaze.physics import mpc
+from usdgaze.physics import feasible, mpc
 
 TASK = "usdgaze:physics:task"
 TASKS = ("stone", "obstacle")
@@ -236,7 +236,7 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         mean_joint_error_deg=float(result.joint_error_deg.mean()),
                         max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
                         wall_s=wall, problems=problems, diverged=result.diverged,
-                        reference_notes=list(result.reference_notes))
+                        reference_notes=result.reference_notes + feasible.scale_notes(clip.scales, clip.anim_joints))
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),
              "headingErrorDeg": result.heading_error_deg.tolist()}

@@ -52,3 +52,17 @@ def sliding_stance(toes: np.ndarray, h: float) -> str | None:
     return (f"the reference's feet slide: its lower toe moves over {SLIDE_SPEED:g} m/s on {fast.mean():.0%} of "
             f"the steps it is on the ground (median {np.median(stance_speed[down]):.2f} m/s), which a body "
             "standing on its soles cannot follow")
+
+
+def scale_notes(scales: np.ndarray, joints: list[str]) -> list[str]:
+    """A reference whose joint scales ``(F, J, 3)`` change over the shot: the body is built at one set
+    of proportions and the layer keeps the input's scales, so what plays back is not what was simulated
+    (thighs scaled 1.5 put the played-back feet 57 cm into the ground where the simulation stood)."""
+    scales = np.asarray(scales, dtype=np.float32)
+    varying = np.flatnonzero(np.ptp(scales, axis=0).max(axis=-1) > 1e-3) if len(scales) > 1 else []
+    if not len(varying):
+        return []
+    names = [str(joints[j]).rsplit("/", 1)[-1] for j in varying[:3]]
+    more = f" and {len(varying) - 3} more" if len(varying) > 3 else ""
+    return [f"joint scales are animated ({', '.join(names)}{more}): the physics body keeps its rest proportions "
+            "and the layer the input's scales, so the played-back body is not the simulated one"]

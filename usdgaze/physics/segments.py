@@ -340,11 +340,15 @@ def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) ->
     """The body is de Leva's human standing: a skeleton lying down or upside down in the stage at rest
     (its head not above its pelvis, or its feet not below), and one whose hands are on the ground at
     rest (a quadruped's front feet), would be simulated as a person in a pose it cannot hold (a lying
-    rig was said to have 'stayed up' at 247% of its pelvis height), so they are refused."""
+    rig was said to have 'stayed up' at 247% of its pelvis height), so they are refused, as is one
+    without feet."""
     size = float(np.linalg.norm(np.ptp(pos, axis=0)))
     heads = [b for b, r in enumerate(roles) if r == "head"]
     feet = [b for b, r in enumerate(roles) if r == "foot"]
-    if heads and feet and size > 0:
+    if not feet:  # a rig without feet (cut off at the knees) was built hovering 45 cm up and fell at once
+        raise UsdGazeError(f"{where}: no feet, by name or by the shape of the legs (no branch of the skeleton reaches "
+                           "the ground at rest): the physics body stands on its feet")
+    if heads and size > 0:
         head_up = max(float(pos[b, 2]) for b in heads) - float(pos[0, 2])
         feet_down = float(pos[0, 2]) - min(float(pos[b, 2]) for b in feet)
         if min(head_up, feet_down) < 0.15 * size:

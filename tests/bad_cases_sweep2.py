@@ -1,0 +1,30 @@
+"""Catalogue builders for what a later sweep found (2026-12-06): rigs the physics body cannot stand."""
+
+from __future__ import annotations
+
+from pxr import Usd, UsdSkel, Vt
+
+from .bad_common import rig
+
+
+def _without(path, words: tuple[str, ...]) -> None:
+    """Drop every joint whose name holds one of ``words`` (and its row in every per-joint array)."""
+    stage = Usd.Stage.Open(str(path))
+    for prim in stage.Traverse():
+        if prim.IsA(UsdSkel.Skeleton) or prim.IsA(UsdSkel.Animation):
+            joints = [str(j) for j in prim.GetAttribute("joints").Get()]
+            keep = [i for i, j in enumerate(joints) if not any(w in j.rsplit("/", 1)[-1] for w in words)]
+            for attr in prim.GetAttributes():
+                samples = attr.GetTimeSamples() or [Usd.TimeCode.Default()]
+                for t in samples:
+                    value = attr.Get(t)
+                    if isinstance(value, (Vt.TokenArray, Vt.Matrix4dArray, Vt.QuatfArray, Vt.Vec3fArray, Vt.Vec3hArray)) \
+                            and len(value) == len(joints):
+                        attr.Set(type(value)([value[i] for i in keep]), t)
+    stage.Save()
+
+
+def b_physics_rig_without_feet(d):
+    r = rig(d)
+    _without(r.path, ("Foot", "Toe"))
+    return ["physics-model", str(r.path), "--out", str(d / "body.xml")]
