@@ -28,3 +28,11 @@ def b_physics_rig_without_feet(d):
     r = rig(d)
     _without(r.path, ("Foot", "Toe"))
     return ["physics-model", str(r.path), "--out", str(d / "body.xml")]
+
+
+def b_sublayer_into_a_shot_that_references_elsewhere(d):
+    """A shot layer that references the character at /Hero, not at the input's /Character."""
+    r = rig(d)
+    (d / "shot.usda").write_text('#usda 1.0\ndef "Hero" (references = @./in.usda@</Character>) {}\n')
+    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc"),
+            "--sublayer-into", str(d / "shot.usda")]

@@ -86,3 +86,16 @@ def test_batch_skips_a_shot_whose_sublayer_target_is_a_symlink_into_another_fold
         assert main(["batch", str(manifest)]) == 0
         statuses.append(json.loads((tmp_path / "m.summary.json").read_text())["shots"][0]["status"])
     assert statuses == ["done", "skipped"]
+
+
+def test_a_second_run_into_the_same_root_says_it_left_it_as_it_was(tmp_path, capsys):
+    """Run twice: the second leaves ROOT byte-identical and says so (it said 'inserted' again)."""
+    r = syn.make_rig(tmp_path / "in.usda", frames=30, mesh=False)
+    root = _shot(tmp_path / "shot.usda", "@./in.usda@")
+    argv = ["apply", str(r.path), "--shift", "0.2s:30:0", "--out", str(tmp_path / "gaze.usdc"), "--sublayer-into", root]
+    assert main(argv) == 0
+    assert "inserted" in capsys.readouterr().out
+    before = measure.sha256(root)
+    assert main(argv) == 0
+    assert "was already the strongest sublayer" in capsys.readouterr().out
+    assert measure.sha256(root) == before

@@ -233,5 +233,5 @@ def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
         plot_report(report, req.plot, tx, layer=layer)  # drawn from the composed result, not yet on disk
         report.plot = str(req.plot)
     if req.sublayer_into is not None:
-        insert_sublayer(req.sublayer_into, out, animations, tx, input_path=req.source)
+        report.sublayer_was_there = not insert_sublayer(req.sublayer_into, out, animations, tx, input_path=req.source)
         report.sublayered_into = str(req.sublayer_into)

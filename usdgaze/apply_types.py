@@ -71,6 +71,8 @@ class ApplyReport:
     preview: str | None = None
     plot: str | None = None
     sublayered_into: str | None = None
+    sublayer_was_there: bool = False
+    """``sublayered_into`` already had the output first, at its offset: left as it was."""
     directives: dict[str, list[str]] = field(default_factory=dict)
     """Per SkelRoot, the directives applied, as flags (from the command or the SkelRoot's schedule)."""
 

@@ -83,7 +83,9 @@ def apply(input_path, shifts, look_at, release, eye_timing, no_guides, out, skel
     if report.preview:
         click.echo(f"wrote {report.preview}  (open it to see the result; mute {os.path.basename(report.output)} to compare)")
     if report.sublayered_into:
-        click.echo(f"inserted {report.output} as the strongest sublayer of {report.sublayered_into}")
+        click.echo(f"{report.output} was already the strongest sublayer of {report.sublayered_into} (left as it was)"
+                   if report.sublayer_was_there else
+                   f"inserted {report.output} as the strongest sublayer of {report.sublayered_into}")
 
 
 def _summary(report) -> dict:

@@ -266,6 +266,7 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
         if os.path.realpath(input_path) not in composed:
             raise UsdGazeError(f"{root}: does not compose {input_path} (no sublayer, reference or payload brings "
                                "it in), so the override would change nothing there; use the shot layer that does")
+        _check_same_paths(root, input_path, anim_paths)
     for path in anim_paths:
         for name in ("rotations", "translations", "scales"):
             spec = layer.GetAttributeAtPath(Sdf.Path(path).AppendProperty(name))
@@ -281,6 +282,24 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
                 "binding of the new animation; use --preview, or insert into a layer that sublayers this one"
             )
     return layer
+
+
+def _check_same_paths(root: str | os.PathLike, input_path: str | os.PathLike, anim_paths: list[str]) -> None:
+    """``root`` composes the input's animations at the input's own paths: a shot that references the
+    character at another path (/World/Hero for the asset's /Character) is untouched by opinions at
+    /Character (it was said to be 'inserted', and the shot played the input unchanged)."""
+    real_input = os.path.realpath(input_path)
+    if any(os.path.realpath(p) == real_input for p, _ in _stack_offsets(Sdf.Layer.FindOrOpen(os.path.realpath(root)))):
+        return  # sublayered: the same paths
+    from usdgaze.usd.stage import open_stage
+
+    stage = open_stage(os.path.realpath(root), str(root))
+    for path in anim_paths:
+        prim = stage.GetPrimAtPath(path)
+        if not prim or not any(os.path.realpath(s.layer.realPath or "") == real_input for s in prim.GetPrimStack()):
+            raise UsdGazeError(f"{root}: brings {input_path} in, but not at {path} (a reference or payload puts it "
+                               "elsewhere), so the override, made at the input's paths, would change nothing there; "
+                               "run apply on this layer itself (--skel-root the shot's character) and sublayer that")
 
 
 def _stack_offsets(layer: Sdf.Layer) -> list[tuple[str, Sdf.LayerOffset]]:
