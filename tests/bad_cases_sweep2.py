@@ -36,3 +36,11 @@ def b_sublayer_into_a_shot_that_references_elsewhere(d):
     (d / "shot.usda").write_text('#usda 1.0\ndef "Hero" (references = @./in.usda@</Character>) {}\n')
     return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc"),
             "--sublayer-into", str(d / "shot.usda")]
+
+
+def b_sublayer_into_a_shot_that_references_at_an_offset(d):
+    """A shot layer that references the character at its own path, 10 time codes later."""
+    r = rig(d)
+    (d / "shot.usda").write_text('#usda 1.0\ndef "Character" (references = @./in.usda@</Character> (offset = 10)) {}\n')
+    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc"),
+            "--sublayer-into", str(d / "shot.usda")]

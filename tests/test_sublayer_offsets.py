@@ -99,3 +99,17 @@ def test_a_second_run_into_the_same_root_says_it_left_it_as_it_was(tmp_path, cap
     assert main(argv) == 0
     assert "was already the strongest sublayer" in capsys.readouterr().out
     assert measure.sha256(root) == before
+
+
+def test_a_rerun_after_the_output_was_deleted_says_nothing_of_usd(tmp_path, capfd):
+    """ROOT lists the override, which was deleted: the rerun writes it again, exit 0, and stderr holds
+    no USD warning about the missing sublayer it is about to write (it printed one)."""
+    r = syn.make_rig(tmp_path / "in.usda", frames=30, mesh=False)
+    root = _shot(tmp_path / "shot.usda", "@./in.usda@")
+    out = tmp_path / "gaze.usdc"
+    argv = ["apply", str(r.path), "--shift", "0.2s:30:0", "--out", str(out), "--sublayer-into", root]
+    assert main(argv) == 0
+    out.unlink()
+    capfd.readouterr()
+    assert main(argv) == 0 and out.is_file()
+    assert capfd.readouterr().err == ""

@@ -259,10 +259,12 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
     if layer is None:
         raise UsdGazeError(f"{root}: cannot open the layer to insert the sublayer into")
     if input_path is not None:
-        from usdgaze.usd.stage import layer_dependencies
+        from usdgaze.usd.stage import layer_dependencies, without_usd_warnings
 
-        # The edit goes to the file a symlinked root names, so its sublayers are read from there.
-        composed = {os.path.realpath(f) for f in layer_dependencies(os.path.realpath(root))}
+        # The edit goes to the file a symlinked root names, so its sublayers are read from there (one may
+        # be this command's output, not written yet: USD's warning about it is not ours to pass on).
+        with without_usd_warnings():
+            composed = {os.path.realpath(f) for f in layer_dependencies(os.path.realpath(root))}
         if os.path.realpath(input_path) not in composed:
             raise UsdGazeError(f"{root}: does not compose {input_path} (no sublayer, reference or payload brings "
                                "it in), so the override would change nothing there; use the shot layer that does")
@@ -291,15 +293,36 @@ def _check_same_paths(root: str | os.PathLike, input_path: str | os.PathLike, an
     real_input = os.path.realpath(input_path)
     if any(os.path.realpath(p) == real_input for p, _ in _stack_offsets(Sdf.Layer.FindOrOpen(os.path.realpath(root)))):
         return  # sublayered: the same paths
-    from usdgaze.usd.stage import open_stage
+    from pxr import Usd
 
-    stage = open_stage(os.path.realpath(root), str(root))
+    from usdgaze.usd.stage import without_usd_warnings
+
+    with without_usd_warnings():  # its sublayers may name this command's output, not written yet
+        stage = Usd.Stage.Open(os.path.realpath(root))
     for path in anim_paths:
         prim = stage.GetPrimAtPath(path)
         if not prim or not any(os.path.realpath(s.layer.realPath or "") == real_input for s in prim.GetPrimStack()):
             raise UsdGazeError(f"{root}: brings {input_path} in, but not at {path} (a reference or payload puts it "
                                "elsewhere), so the override, made at the input's paths, would change nothing there; "
                                "run apply on this layer itself (--skel-root the shot's character) and sublayer that")
+        offset = _arc_offset(prim, real_input)
+        plain = _scaling(stage.GetRootLayer(), real_input)
+        if offset is not None and not (abs(offset.offset - plain.offset) < 1e-9 and abs(offset.scale - plain.scale) < 1e-12):
+            raise UsdGazeError(f"{root}: brings {input_path} in at {path} with a time offset (a reference or payload's "
+                               f"offset {offset.offset:g}, scale {offset.scale / plain.scale:g}), which a sublayer "
+                               "cannot follow; run apply on this layer itself and sublayer that")
+
+
+def _arc_offset(prim: Usd.Prim, real_input: str) -> Sdf.LayerOffset | None:
+    """The time mapping from ``real_input`` (in a reference or payload's layer stack) to the stage's root."""
+    nodes = [prim.GetPrimIndex().rootNode]
+    while nodes:
+        node = nodes.pop()
+        nodes.extend(node.children)
+        for layer, offset in zip(node.layerStack.layers, node.layerStack.layerOffsets):
+            if os.path.realpath(layer.realPath or "") == real_input:
+                return node.mapToRoot.timeOffset * offset
+    return None
 
 
 def _stack_offsets(layer: Sdf.Layer) -> list[tuple[str, Sdf.LayerOffset]]:
@@ -323,14 +346,18 @@ def override_offset(root: str | os.PathLike, input_path: str | os.PathLike | Non
     found = [o for p, o in _stack_offsets(layer) if p and os.path.realpath(p) == target] if layer else []
     if not found:
         return Sdf.LayerOffset()
-    probe = Sdf.Layer.CreateAnonymous("usdgaze_offset.usda")  # the scaling alone: the input as its sublayer
+    return found[0] * _scaling(layer, target).GetInverse()
+
+
+def _scaling(layer: Sdf.Layer, target: str) -> Sdf.LayerOffset:
+    """The timeCodesPerSecond scaling alone that ``layer`` gives ``target`` brought in without an offset."""
+    probe = Sdf.Layer.CreateAnonymous("usdgaze_offset.usda")  # the input as the sublayer of a like root
     if layer.HasTimeCodesPerSecond():
         probe.timeCodesPerSecond = layer.timeCodesPerSecond
     if layer.HasFramesPerSecond():
         probe.framesPerSecond = layer.framesPerSecond
     probe.subLayerPaths.append(target)
-    scaling = _stack_offsets(probe)[1][1]
-    return found[0] * scaling.GetInverse()
+    return _stack_offsets(probe)[1][1]
 
 
 def _listed(layer: Sdf.Layer, real_root: str, override: str | os.PathLike) -> list[int]:

@@ -46,6 +46,14 @@ def _opened(open_it, where: str, error: type[UsdGazeError]) -> Usd.Stage:
     return stage
 
 
+@contextlib.contextmanager
+def without_usd_warnings():
+    """USD's own warnings dropped while the block runs: for a look at a layer about to be edited, whose
+    sublayers may name the output this command has not written yet."""
+    with _usd_warnings():
+        yield
+
+
 def check_composition(stage: Usd.Stage, where: str, error: type[UsdGazeError] = UsdGazeError) -> None:
     """A stage whose composition failed (a missing sublayer, reference or payload, a cycle) is one
     ``error`` line: the shot would otherwise be computed on what USD skipped."""
