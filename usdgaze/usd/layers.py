@@ -298,7 +298,8 @@ def _check_same_paths(root: str | os.PathLike, input_path: str | os.PathLike, an
     from usdgaze.usd.stage import without_usd_warnings
 
     with without_usd_warnings():  # its sublayers may name this command's output, not written yet
-        stage = Usd.Stage.Open(os.path.realpath(root))
+        # Only the animations' prims are composed: a shot's other assets and payloads stay unread.
+        stage = Usd.Stage.OpenMasked(os.path.realpath(root), Usd.StagePopulationMask([Sdf.Path(p) for p in anim_paths]))
     for path in anim_paths:
         prim = stage.GetPrimAtPath(path)
         if not prim or not any(os.path.realpath(s.layer.realPath or "") == real_input for s in prim.GetPrimStack()):
