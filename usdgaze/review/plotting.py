@@ -240,11 +240,16 @@ def save_figure(fig, path: str | os.PathLike, outputs, dpi: int = 100) -> None:
 def write_plots(review, out_dir: str | os.PathLike, outputs, fmt: str = "png") -> list[Path]:
     """Write every figure of ``review`` into ``out_dir`` (claimed, staged; the caller commits)."""
     written = []
-    for stem, fig in figures(review).items():
-        path = Path(out_dir) / f"{stem}.{fmt}"
-        outputs.claim(path, "--out", follow=False)
-        save_figure(fig, path, outputs)
-        written.append(path)
+    drawn = figures(review)
+    try:
+        for stem, fig in drawn.items():
+            path = Path(out_dir) / f"{stem}.{fmt}"
+            outputs.claim(path, "--out", follow=False)
+            save_figure(fig, path, outputs)
+            written.append(path)
+    finally:  # a refused path leaves no figure open in a process that goes on (a batch worker)
+        for fig in drawn.values():
+            pyplot().close(fig)
     return written
 
 
