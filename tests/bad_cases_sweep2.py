@@ -44,3 +44,8 @@ def b_sublayer_into_a_shot_that_references_at_an_offset(d):
     (d / "shot.usda").write_text('#usda 1.0\ndef "Character" (references = @./in.usda@</Character> (offset = 10)) {}\n')
     return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc"),
             "--sublayer-into", str(d / "shot.usda")]
+
+
+def b_look_at_its_own_skeleton(d):
+    r = rig(d)
+    return ["apply", str(r.path), "--look-at", f"{r.skeleton}@10", "--out", str(d / "gaze.usdc")]

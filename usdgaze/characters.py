@@ -145,6 +145,18 @@ def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list
     return schedule.read_schedule(root, source)
 
 
+def _check_not_itself(target: str, clip: SkelClip) -> None:
+    """A look-at target that is the character (its SkelRoot, a prim holding it, its Skeleton) moves with
+    it and lies in it: its own bounds' centre was looked at, down into its body, with a miss warning."""
+    from pxr import Sdf
+
+    path = Sdf.Path(target)
+    if Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton)):
+        raise UsdGazeError(f"{clip.source}:{target}: is the character {clip.skel_root} itself (or holds it, or is its "
+                           "Skeleton); a look-at target must be another prim (on a stage of several characters, --skel-root "
+                           "picks the one that looks)")
+
+
 def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
                 ) -> tuple[list[Directive], list[np.ndarray], list[str]]:
     """Pass directives for one clip, and the world positions per frame of what its looks look at."""
@@ -168,6 +180,7 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
             if key not in index_of:
                 index_of[key] = len(targets)
                 if r.target is not None:
+                    _check_not_itself(r.target, clip)
                     targets.append(sample_target(stage, r.target, clip.times, clip.source))
                     names.append(r.target)
                 else:
