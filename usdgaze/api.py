@@ -26,11 +26,10 @@ from usdgaze.usd.layers import (
     atomic_export,
     build_override,
     check_output_path,
-    check_sublayer_target,
-    insert_sublayer,
     reload_if_open,
     write_preview,
 )
+from usdgaze.usd.sublayers import check_sublayer_target, insert_sublayer
 from usdgaze.values import ShiftRequest, check_pass_options, cli_label
 from usdgaze.files.kinds import require_file
 

@@ -62,7 +62,7 @@ def _outputs_complete(shot: Shot) -> bool:
         return False
     root = shot.values.get("sublayer_into")
     if root:
-        from usdgaze.usd.layers import sublayered
+        from usdgaze.usd.sublayers import sublayered
 
         return sublayered(root, shot.out, shot.values["input"])
     return True
