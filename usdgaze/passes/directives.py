@@ -77,6 +77,12 @@ def plan_directives(gaze_map, directives: list[Directive], seconds: np.ndarray, 
             keys.append(Directive(d.time_s, "release", weight=0.0, blend_s=d.blend_s))
             keys.append(Directive(d.time_s + d.blend_s, "release", weight=1.0))
             timeline.append((d.time_s + d.blend_s, d, True))
+        elif d.kind == "release":
+            # A release is a gaze shift from what is shown back to the base: it keeps the weight it
+            # finds (a partial look's gaze had jumped to the full one on its first frame and back).
+            held = float(gaze_weights(keys, np.array([d.time_s]))[0])
+            keys.append(Directive(d.time_s, "release", weight=held))
+            timeline.append((d.time_s, d, False))
         else:
             keys.append(d)
             timeline.append((d.time_s, d, False))
