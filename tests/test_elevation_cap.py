@@ -34,3 +34,24 @@ def test_a_request_cut_short_by_the_elevation_cap_is_said_with_its_measured_miss
     assert miss > 10.0  # the request is out of reach here: the base already looks 60-75 deg down
     assert measure.az_el(line, new.up)[hold, 1].min() > -89.5  # capped, never through the vertical
     assert said == pytest.approx(miss, abs=0.5)
+
+
+@pytest.mark.parametrize("shift", ["30:0:90", "30:60:90"])
+def test_a_shift_toward_the_zenith_swings_no_eye_from_side_to_side(tmp_path, shift):
+    """Past the eyes' upward range, near the head's pole, a point's yaw is all but undefined: each
+    eye, clamped at +-44.2 deg yaw, swung from side to side as the point moved about the pole (up to
+    70 deg in a frame, 3,675 deg/s by UsdSkel FK on the synthetic walk). Now no eye turns faster than
+    the seed's 800 deg/s saccade cap."""
+    from . import synthetic as syn
+
+    rig = syn.make_rig(tmp_path / "in.usda", mesh=False, frames=240, time_codes_per_second=60)
+    preview = tmp_path / "preview.usda"
+    assert main(["apply", str(rig.path), "--shift", shift, "--out", str(tmp_path / "gaze.usdc"),
+                 "--preview", str(preview)]) == 0
+    new = measure.posed(str(preview), rig.skeleton)
+    for eye in rig.eye_leaves:
+        yaw, pitch = measure.eye_in_head(new, rig.leaf["head"], eye, rig.forward, rig.left, rig.up)
+        d = np.column_stack([np.cos(np.radians(pitch)) * np.sin(np.radians(yaw)), np.sin(np.radians(pitch)),
+                             np.cos(np.radians(pitch)) * np.cos(np.radians(yaw))])
+        speed = measure.angle_between(d[1:], d[:-1]) * rig.time_codes_per_second
+        assert speed.max() < 800.0, (eye, speed.max())

@@ -41,8 +41,10 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     def along(axis: np.ndarray) -> np.ndarray:
         return np.einsum("efi,ei->ef", u_h, axis)
 
+    raw_pitch = np.degrees(np.arcsin(np.clip(along(up_h), -1.0, 1.0)))
+    pitch = np.clip(raw_pitch, -limits.down, limits.up)
     yaw = np.clip(held_side(np.degrees(np.arctan2(along(left_h), along(fwd_h))), side), -limits.yaw, limits.yaw)
-    pitch = np.clip(np.degrees(np.arcsin(np.clip(along(up_h), -1.0, 1.0))), -limits.down, limits.up)
+    yaw = yaw * toward_the_pole(raw_pitch)
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
     u_h = (np.cos(pc) * np.sin(y)) * left_h[:, None] + (np.cos(pc) * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
     rest_eye = rot.multiply(to_head, rig.rest_q[list(rig.eyes)])  # each eye in its parent, looking ahead
@@ -53,6 +55,21 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
         positions=list(pos),
         directions=list(rot.rotate(head, u_h)),
     )
+
+
+POLE_DEG = 75.0
+"""Beyond this pitch of a point in the head's frame, an eye keeps less of its clamped yaw (see
+:func:`toward_the_pole`)."""
+
+
+def toward_the_pole(raw_pitch: np.ndarray) -> np.ndarray:
+    """The share of its clamped yaw an eye keeps for a point past ``POLE_DEG`` above or below the
+    head's horizon: cos(pitch) / cos(POLE_DEG), down to 0 straight above or below. Near the head's pole
+    a point's yaw is all but undefined, and the eye clamped at +-44 deg swung from side to side as the
+    point moved about it (a shift of 60 deg yaw and 90 up: 70 deg in a frame, 3,675 deg/s), while
+    what the yaw adds to its aim shrinks as that cosine; nearer the horizon nothing changes (at 60 deg the
+    eyes of the CMU walk's lunge swept their range in 5 frames as the head pitched)."""
+    return np.minimum(np.cos(np.radians(raw_pitch)) / np.cos(np.radians(POLE_DEG)), 1.0)
 
 
 def held_side(yaw_deg: np.ndarray, side: np.ndarray | None) -> np.ndarray:
