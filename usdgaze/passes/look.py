@@ -95,14 +95,14 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.where(d > 0, d, 1.0)[..., None], d
 
 
-def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray, near: float) -> np.ndarray:
-    """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped; nearer
-    than ``near`` (the near point) it is out of reach, as if straight behind."""
+def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray, too_near: np.ndarray) -> np.ndarray:
+    """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped; on the
+    frames ``too_near`` (nearer than the near point) it is out of reach, as if straight behind."""
     ae = azimuth_elevation(points - eye, up) - base_ae
     ae[:, 0] = (ae[:, 0] + 180.0) % 360.0 - 180.0
     # No eye fixates nearer than its near point, and a target crossing the head swings its direction
     # through the back of it within a few frames (pursued, 55 deg in a frame): let go until it is out.
-    ae[_nearer(points, eye, near), 0] = 180.0
+    ae[too_near, 0] = 180.0
     return ae
 
 
@@ -210,7 +210,9 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     eye_b = to_world(clip, 0.5 * (base.pose.position[rig.eyes[0]] + base.pose.position[rig.eyes[1]]))
     _check_distance(clip, directives, targets, eye_b, target_names)
     near = NEAR_POINT_M / clip.meters_per_unit
-    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, near) for d in directives if d.kind == "look"}
+    too_near = {k: _nearer(t, eye_b, near) for k, t in enumerate(targets)}
+    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, too_near[d.target])
+           for d in directives if d.kind == "look"}
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
     scheduler = Scheduler(gaze_map, seconds)
@@ -250,7 +252,6 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     # (hold error, reach warnings) against what was asked, so a request the cap cuts short is said.
     for d, end in _shift_spans(directives):  # frames at full gaze weight only: a partial weight asks for less
         result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
-    too_near = {k: _nearer(t, eye_b, near) for k, t in enumerate(targets)}
     result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [], too_near)
     return result
 

@@ -37,8 +37,8 @@ from usdgaze.errors import UsdGazeError
 from usdgaze.files.kinds import require_file
 from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, read_pushes  # noqa: F401  (the pass's names)
 from usdgaze.physics import feasible, mpc
+from usdgaze.usd.objects import PHYSICS_TASK as TASK
 
-TASK = "usdgaze:physics:task"
 TASKS = ("stone", "obstacle")
 STONE_TOLERANCE_M = 0.05
 FOOT_TOLERANCE_M = 0.02  # a foot deeper than this below the ground is a problem (the bar)

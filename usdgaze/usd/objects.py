@@ -25,6 +25,8 @@ from usdgaze.usd.targets import PURPOSES, sample_target
 from usdgaze.values import MAX_OBSTACLE_RADIUS_M, MAX_TARGET_DISTANCE_M
 
 API_NAME = "GazeObjectAPI"
+PHYSICS_TASK = "usdgaze:physics:task"
+"""The physics pass's task of a prim (``stone`` or ``obstacle``); read by ``usdgaze.passes.physics``."""
 KINDS = ("", "ballistic", "static", "moving")
 
 
@@ -224,7 +226,7 @@ def check_apart(prims: list[Usd.Prim], roots: list[Usd.Prim], source: str, role:
 
 def _check_obstacle_radius(prim: Usd.Prim, radius: float, where: str) -> None:
     """An obstacle of the physics pass is a body a person walks round: 0 < radius <= 10 m."""
-    task = prim.GetAttribute("usdgaze:physics:task")
+    task = prim.GetAttribute(PHYSICS_TASK)
     # A time-sampled task is refused with its own line where the tasks are read.
     if not task or not task.HasAuthoredValue() or task.GetNumTimeSamples() or task.Get() != "obstacle":
         return

@@ -74,7 +74,7 @@ def _check_same_paths(root: str | os.PathLike, input_path: str | os.PathLike, an
     character at another path (/World/Hero for the asset's /Character) is untouched by opinions at
     /Character (it was said to be 'inserted', and the shot played the input unchanged)."""
     real_input = os.path.realpath(input_path)
-    if any(os.path.realpath(p) == real_input for p, _ in _stack_offsets(Sdf.Layer.FindOrOpen(os.path.realpath(root)))):
+    if _offset_in_stack(Sdf.Layer.FindOrOpen(os.path.realpath(root)), real_input) is not None:
         return  # sublayered: the same paths
     from pxr import Usd
 
@@ -127,10 +127,15 @@ def override_offset(root: str | os.PathLike, input_path: str | os.PathLike | Non
         return Sdf.LayerOffset()
     target = os.path.realpath(input_path)
     layer = Sdf.Layer.FindOrOpen(os.path.realpath(root))
-    found = [o for p, o in _stack_offsets(layer) if p and os.path.realpath(p) == target] if layer else []
-    if not found:
+    found = _offset_in_stack(layer, target) if layer else None
+    if found is None:
         return Sdf.LayerOffset()
-    return found[0] * _scaling(layer, target).GetInverse()
+    return found * _scaling(layer, target).GetInverse()
+
+
+def _offset_in_stack(layer: Sdf.Layer, real_target: str) -> Sdf.LayerOffset | None:
+    """The offset at which ``layer``'s layer stack brings in the file ``real_target``; None if it does not."""
+    return next((o for p, o in _stack_offsets(layer) if p and os.path.realpath(p) == real_target), None)
 
 
 def _scaling(layer: Sdf.Layer, target: str) -> Sdf.LayerOffset:
