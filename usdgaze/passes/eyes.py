@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 
 from usdgaze.gaze import saccade
+from usdgaze.gaze.motion import ease
 from usdgaze.passes.sight import azimuth_elevation, direction_from
 
 AROUND_DEG = 90.0
@@ -123,6 +124,25 @@ def _saccade_progress(scene: Scene, i0: int, i1: int, start: np.ndarray, goal: n
     return saccade.progress(scene.seconds[i0:i1] - scene.seconds[i0], amplitude), amplitude
 
 
+def _landing(scene: Scene, i0: int, i1: int, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, float, float, int]:
+    """A saccade from the held point ``start`` to a moving target ``goal``: its progress (frames i0..i1),
+    amplitude and duration. It lands on the target at the first frame by which a main-sequence saccade
+    to where the target is then could be done, and takes until then: aimed at the live target instead,
+    the eyes moved the saccade's profile plus the target's own motion (a ball dropping past the chin:
+    1,391 deg/s)."""
+    t = scene.seconds[i0:i1] - scene.seconds[i0]
+    e = scene.eye[i0:i1]
+    reach = saccade.angle_deg(_unit(start[None] - e)[0], _unit(goal[i0:i1] - e)[0])
+    can = np.flatnonzero(t >= saccade.duration(reach))
+    k = int(can[0]) if len(can) else len(t) - 1
+    if k == 0:
+        return np.ones(len(t)), 0.0, 0.0, 0
+    # The main sequence's duration, unless that would land before frame k (on a target that was not there).
+    lasts = float(saccade.duration(reach[k]))
+    lasts = lasts if lasts > t[k - 1] else float(t[k])
+    return ease(t / lasts), float(reach[k]), lasts, k
+
+
 def _pursue(scene: Scene, out: Sight, i: int, i1: int, onset_s: float, goal: np.ndarray, opts) -> None:
     """Pursuit of a target from frame ``i`` (on it) to ``i1``, with catch-up saccades."""
     last_end = scene.seconds[i] if i < len(scene.seconds) else np.inf
@@ -137,10 +157,10 @@ def _pursue(scene: Scene, out: Sight, i: int, i1: int, onset_s: float, goal: np.
             return
         j = i + int(fire[0])
         start = out.point[j - 1].copy()
-        progress, amplitude = _saccade_progress(scene, j, i1, start, goal)
-        i = _shift(scene, out, j, i1, start, goal[j:i1], progress)
-        last_end = scene.seconds[j] + float(saccade.duration(amplitude))
-        out.saccades.append((float(scene.seconds[j]), amplitude, float(saccade.duration(amplitude))))
+        progress, amplitude, lasts, k = _landing(scene, j, i1, start, goal)
+        i = _shift(scene, out, j, i1, start, np.broadcast_to(goal[j + k], (i1 - j, 3)), progress)
+        last_end = scene.seconds[j] + lasts
+        out.saccades.append((float(scene.seconds[j]), amplitude, lasts))
 
 
 def point_of_sight(scene: Scene, events: list[tuple[int, Goal]], opts,
@@ -164,6 +184,11 @@ def point_of_sight(scene: Scene, events: list[tuple[int, Goal]], opts,
         elif model_progress is not None:
             land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], model_progress(i0, start, goal.points)[:i1 - i0],
                           goal.turn)
+        elif goal.kind == "target":
+            progress, amplitude, lasts, k = _landing(scene, i0, i1, start, goal.points)
+            land = _shift(scene, out, i0, i1, start, np.broadcast_to(goal.points[i0 + k], (i1 - i0, 3)), progress,
+                          goal.turn)
+            out.saccades.append((float(scene.seconds[i0]), amplitude, lasts))
         else:
             progress, amplitude = _saccade_progress(scene, i0, i1, start, goal.points)
             land = _shift(scene, out, i0, i1, start, goal.points[i0:i1], progress, goal.turn)
