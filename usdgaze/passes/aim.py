@@ -72,18 +72,28 @@ def toward_the_pole(raw_pitch: np.ndarray) -> np.ndarray:
     return np.minimum(np.cos(np.radians(raw_pitch)) / np.cos(np.radians(POLE_DEG)), 1.0)
 
 
+OVER_THE_POLE = 2.0
+"""A :func:`held_side` side: a goal behind the head is reached over its pole, not round a side."""
+
+
 def held_side(yaw_deg: np.ndarray, side: np.ndarray | None) -> np.ndarray:
     """Eye-in-head yaw ``(..., F)``: behind the head (beyond 90 deg, past any eye's reach), on the side
-    ``side (F,)`` says (+1 left, -1 right, 0 either).
+    ``side (F,)`` says (+1 left, -1 right, 0 either, :data:`OVER_THE_POLE` neither).
 
     A goal a shift asks for more than 90 deg round is behind the head until the head has turned
     toward it: each eye stays at its limit on the shift's side, where ``arctan2``'s branch put it on
     the other side whenever the goal was past half a turn from the head (a swap of 88 deg in a frame,
-    and back). A target passing behind has no side: the eye changes sides as the target crosses.
+    and back). A shift asking less is behind the head only because the head is pitched away from it
+    (straight up, then straight down): the eye takes the yaw of the goal mirrored to the front, which
+    passes through 0 with the goal, where either side swapped 88 deg in a frame. A target passing
+    behind has no side: the eye changes sides as the target crosses.
     """
     if side is None or not np.any(side):
         return yaw_deg
-    return np.where((np.abs(yaw_deg) > 90.0) & (side != 0.0), rot.unwrap_near(yaw_deg, 180.0 * side), yaw_deg)
+    behind = np.abs(yaw_deg) > 90.0
+    mirrored = np.sign(yaw_deg) * (180.0 - np.abs(yaw_deg))
+    kept = np.where(behind & (np.abs(side) == 1.0), rot.unwrap_near(yaw_deg, 180.0 * side), yaw_deg)
+    return np.where(behind & (side == OVER_THE_POLE), mirrored, kept)
 
 
 def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae: np.ndarray,

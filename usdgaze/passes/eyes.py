@@ -83,6 +83,9 @@ def _around(a: np.ndarray, b: np.ndarray, s: np.ndarray, turn: float, up: np.nda
         change = np.where(left > 180.0, left - 360.0, left)
     else:
         change = np.where(turn > 0.0, left, np.where(left > 0.0, left - 360.0, 0.0))
+    # The way round is chosen once, at the start: a held point near the zenith changes its azimuth fast
+    # as the eyes move, and choosing per frame flipped the path by s * 360 deg in a frame.
+    change = np.unwrap(change, period=360.0)
     return direction_from(ae_a + s[:, None] * np.column_stack([change, ae_b[:, 1] - ae_a[:, 1]]), up)
 
 

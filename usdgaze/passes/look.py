@@ -37,7 +37,7 @@ from usdgaze.passes import eyes as eyes_mod
 from usdgaze.passes.body import CachedMap
 from usdgaze.passes.directives import KINDS, Directive, Epoch, gaze_weights, plan_directives
 from usdgaze.gaze.gazemap import ParametricGazeMap
-from usdgaze.passes.aim import reach_warnings
+from usdgaze.passes.aim import OVER_THE_POLE, reach_warnings
 from usdgaze.passes.assemble import finish
 from usdgaze.passes.chain import move_body, prepare
 from usdgaze.passes.options import PassOptions, PassResult, Shift
@@ -190,8 +190,9 @@ def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndar
                 points[frame:] = scene.eye[frame:] + fixation * direction_from(ae, up)
             else:
                 points = scene.base_point
-            # A shift's goal more than 90 deg round is behind the head until the head turns to it.
-            side = float(np.sign(d.yaw)) if kind == "direction" and abs(d.yaw) > 90.0 else 0.0
+            # A shift's goal more than 90 deg round is behind the head until the head turns to it; one
+            # asking less is behind it only past the head's pole.
+            side = 0.0 if kind != "direction" else float(np.sign(d.yaw)) if abs(d.yaw) > 90.0 else OVER_THE_POLE
             events.append((frame, eyes_mod.Goal(kind, points, cut, turn, side)))
     return events
 
