@@ -5,7 +5,9 @@ A goal asked less than 90 deg round is behind the head only while the head is pi
 each eye then takes the yaw of the goal mirrored to the front (over the head's pole), where either
 side put it on one limit or the other as the goal crossed the head's midline (88 deg in a frame). A
 large shift's path is chosen its way round once, at its start: from a held point near the zenith,
-whose azimuth changes fast as the eyes move, the choice flipped per frame (69 deg in a frame).
+whose azimuth changes fast as the eyes move, the choice flipped per frame (69 deg in a frame). What
+is left (a goal crossing the pole at saccade speed: 37.5 deg in a frame; a 370 deg turn asked the
+other way round from the shift before: 88.4) is made a saccade wherever the aim jumps.
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ SKEL = "/root/Body/BodySkel"
     ("cmu_131_01.usdc", ["1s:20:85", "2s:-20:-85"]),  # 69 deg in a frame before
     ("cmu_131_01.usdc", ["3.13s:-2:-89", "3.83s:58:82"]),  # 88
     ("cmu_131_02.usdc", ["2.23s:-2:83", "2.66s:4:-72"]),  # 88
+    ("cmu_131_01.usdc", ["1.17s:-37:-86", "2.81s:-50:86"]),  # 40: across the pole at saccade speed
+    ("cmu_131_01.usdc", ["1s:170:0", "3s:-200:40"]),  # 88: a 370 deg right turn, the eyes on the short way
 ])
 def test_steep_shifts_swap_no_eye_across_its_range(tmp_path, clip, shifts):
     preview = tmp_path / "preview.usda"

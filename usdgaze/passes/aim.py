@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.core import rotations as rot
+from usdgaze.gaze import saccade
+from usdgaze.gaze.motion import ease
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import Pose
 from usdgaze.core.rig import CharacterFrame
@@ -26,9 +28,10 @@ class EyeAim:
 
 
 def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange,
-             side: np.ndarray | None = None) -> EyeAim:
+             side: np.ndarray | None = None, seconds: np.ndarray | None = None) -> EyeAim:
     """Point each eye at the point of sight (Listing's law: no torsion), within the eye range; a point
-    behind the head on the side ``side (F,)`` says (see :func:`held_side`).
+    behind the head on the side ``side (F,)`` says (see :func:`held_side`). With the frames'
+    ``seconds``, a jump of the aim is made a saccade (:func:`saccades_over_jumps`).
 
     Both eyes are computed together, as arrays ``(2, F, ...)``."""
     parents = [int(rig.parents[e]) for e in rig.eyes]
@@ -45,6 +48,8 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     pitch = np.clip(raw_pitch, -limits.down, limits.up)
     yaw = np.clip(held_side(np.degrees(np.arctan2(along(left_h), along(fwd_h))), side), -limits.yaw, limits.yaw)
     yaw = yaw * toward_the_pole(raw_pitch)
+    if seconds is not None:
+        yaw, pitch = saccades_over_jumps(np.stack([yaw, pitch], axis=-1), seconds, limits).transpose(2, 0, 1)
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
     u_h = (np.cos(pc) * np.sin(y)) * left_h[:, None] + (np.cos(pc) * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
     rest_eye = rot.multiply(to_head, rig.rest_q[list(rig.eyes)])  # each eye in its parent, looking ahead
@@ -55,6 +60,40 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
         positions=list(pos),
         directions=list(rot.rotate(head, u_h)),
     )
+
+
+JUMP_DEG_S = 1600.0
+"""An eye-in-head step faster than this is a jump of the aim, not a movement: the seed bounds saccades
+at 800 deg/s (781 on the main sequence), and the head's own turn adds little while the eyes lead:
+twice that, no saccade moves the eye."""
+
+
+def saccades_over_jumps(angles: np.ndarray, seconds: np.ndarray, limits: EyeRange) -> np.ndarray:
+    """Eye-in-head (yaw, pitch) ``(E, F, 2)`` with every jump of the aim (a step faster than
+    :data:`JUMP_DEG_S`) made a main-sequence saccade from where the eye was to where the aim goes on.
+
+    The clamped aim of a goal the eyes cannot reach jumps where the goal's side is undefined (it
+    passes behind the head or near its pole) or where the request turns it the other way round; an
+    eye swapped one limit of its range for the other in a frame. What is left of each jump decays
+    with the saccade's profile, so the aim is joined where it was and rejoined once the saccade ends.
+    """
+    if len(seconds) < 2:
+        return angles
+    dt = np.diff(seconds)
+    step = np.diff(angles, axis=1)  # (E, F-1, 2)
+    fast = np.linalg.norm(step, axis=-1) > JUMP_DEG_S * dt
+    if not fast.any():
+        return angles
+    out = angles.copy()
+    for e, j in zip(*np.nonzero(fast)):  # jumps are few: one pass per jump, over its own frames
+        jump = -step[e, j]
+        lasts = float(saccade.duration(np.linalg.norm(jump)))
+        end = int(np.searchsorted(seconds, seconds[j] + lasts, side="right"))
+        left = 1.0 - ease((seconds[j + 1:end] - seconds[j]) / lasts)
+        out[e, j + 1:end] += left[:, None] * jump
+    out[..., 0] = np.clip(out[..., 0], -limits.yaw, limits.yaw)
+    out[..., 1] = np.clip(out[..., 1], -limits.down, limits.up)
+    return out
 
 
 POLE_DEG = 75.0

@@ -65,7 +65,7 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
     ``side`` the side of the head the eyes keep for a point behind it (:func:`aim.held_side`).
     """
     rig, skel_to_world, up_w, base_ae = base.rig, base.skel_to_world, base.up, base.ae
-    eyes = aim_eyes(rig, frame, body.moved, sight_point, options.eye_range, side)
+    eyes = aim_eyes(rig, frame, body.moved, sight_point, options.eye_range, side, clip.seconds)
     new_rot = dict(body.rotations)
     new_rot.update(eyes.rotations)
     new_trans = body.translations
