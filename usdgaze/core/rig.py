@@ -25,6 +25,7 @@ from usdgaze.gaze.definition import ROLES
 
 _MIXAMO_PREFIX = re.compile(r"^mixamorig\d*_")
 _SPINE_ROLES = ("lowerSpine", "upperSpine", "neck")
+_TWIST_WORDS = frozenset({"twist", "roll"})  # helpers that share a body part's name (UE's upperarm_twist_01_l)
 _HINT = ("bind it with --bind ROLE=JOINT[+JOINT...] (roles: " + ", ".join(ROLES) + ") or gaze:binding:<role> on "
          "the SkelRoot's GazeMapAPI (usdgaze inspect lists the joints)")
 
@@ -182,10 +183,14 @@ def _legs_off_the_spine(path: list[int], joints, parents, found, reasons) -> Non
 def _find_head(joints, parents, found, reasons) -> None:
     named = [i for i, j in enumerate(joints) if names.is_head(j)]
     if named:
-        # The one with eyes under it, else the shallowest (a 'HeadTwist' under 'Head' is no head).
+        # The one with eyes under it, else the shallowest (a 'HeadTwist' under 'Head' is no head);
+        # a twist or roll helper is no head either where a plain head is a candidate: 'head_roll'
+        # between neck and head has the eyes under it too, but the head's own motion is below it.
         with_eyes = [i for i in named if any(_eyes_under(i, joints, parents).values())]
+        candidates = with_eyes or named
+        plain = [i for i in candidates if not set(names.tokens(joints[i])) & _TWIST_WORDS]
         depth = {i: len(_path_to_root(i, parents)) for i in named}
-        found["head"] = [min(with_eyes or named, key=depth.get)]
+        found["head"] = [min(plain or candidates, key=depth.get)]
         reasons["head"] = f"name '{names.leaf(joints[found['head'][0]])}'"
         return
     rigify = {names.rigify_number(j): i for i, j in enumerate(joints) if names.rigify_number(j) is not None}

@@ -1,0 +1,124 @@
+"""Rig conventions from studio DCCs that the synthetic rigs do not make, measured with UsdSkel FK.
+
+A twist or roll joint named after the head between the neck and the head (``head_roll``,
+``mixamorig:HeadTwist``, ``Head_Roll_JNT``): the head is the joint the eyes hang from, not the
+head-named helper above it. Bound to the helper, the pass aimed the eyes along the helper's forward,
+so the real head's own nod and turn (which the base motion's eyes follow) were cancelled from the
+first frame on: the line of sight moved by the head's own motion before any directive (1.5-2 deg on
+a 2 deg head sway; 10 deg here) and a shift held off its request by as much.
+
+The stage is written here with pxr and numpy (bone frames in the skeleton, eye joints whose local
++Y looks ahead); every number is measured with UsdSkel's forward kinematics on the composed result
+(tests/measure.py), head and eye axes from the bind pose.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Sdf, Vt
+from scipy.spatial.transform import Rotation as R
+
+import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
+from usdgaze import api
+
+from . import measure
+
+RATE, FRAMES, SHIFT_S, HOLD_S = 30.0, 60, 0.2, 1.5
+
+# key: (parent, position at bind in metres, X left, Y up, Z forward)
+_BODY = {
+    "root": (None, (0.0, 0.0, 0.0)),
+    "pelvis": ("root", (0.0, 0.95, 0.0)),
+    "spine_01": ("pelvis", (0.0, 1.10, 0.0)),
+    "spine_02": ("spine_01", (0.0, 1.28, 0.0)),
+    "neck_01": ("spine_02", (0.0, 1.48, 0.0)),
+    "twist": ("neck_01", (0.0, 1.56, 0.01)),
+    "head": ("twist", (0.0, 1.62, 0.02)),
+    "eye_l": ("head", (0.032, 1.70, 0.10)),
+    "eye_r": ("head", (-0.032, 1.70, 0.10)),
+    "thigh_l": ("pelvis", (0.09, 0.92, 0.0)),
+    "calf_l": ("thigh_l", (0.09, 0.50, 0.0)),
+    "thigh_r": ("pelvis", (-0.09, 0.92, 0.0)),
+    "calf_r": ("thigh_r", (-0.09, 0.50, 0.0)),
+}
+
+
+def _write(path, twist_name: str) -> tuple[str, dict[str, str]]:
+    keys = list(_BODY)
+    leaf = {k: (twist_name if k == "twist" else k) for k in keys}
+    parents = [keys.index(_BODY[k][0]) if _BODY[k][0] else -1 for k in keys]
+    paths: list[str] = []
+    for i, k in enumerate(keys):
+        paths.append(leaf[k] if parents[i] < 0 else f"{paths[parents[i]]}/{leaf[k]}")
+    rng = np.random.default_rng(5)
+    world = np.tile(np.eye(4), (len(keys), 1, 1))
+    for i, k in enumerate(keys):
+        world[i, :3, 3] = _BODY[k][1]
+        # Bone frames: a random roll for the body, eyes whose local +Y looks ahead (+Z).
+        world[i, :3, :3] = (R.from_euler("x", -90, degrees=True) if k.startswith("eye")
+                            else R.from_rotvec([0.0, rng.uniform(-3, 3), 0.0])).as_matrix()
+    local = world.copy()
+    for i, p in enumerate(parents):
+        if p >= 0:
+            local[i] = np.linalg.solve(world[p], world[i])
+    t = np.arange(FRAMES) / RATE
+    rot = np.empty((FRAMES, len(keys), 4))
+    for i, k in enumerate(keys):
+        # The head nods (about left) and turns (about up) on its own, 10 and 6 degrees; the others sway a little.
+        amp = {"head": (10.0, 6.0), "spine_01": (2.0, 3.0), "neck_01": (1.0, 2.0),
+               "twist": (0.0, 1.0)}.get(k, (0.0, 0.0))
+        rv_world = (np.outer(np.radians(amp[0]) * np.sin(2 * np.pi * 0.7 * t), [1.0, 0, 0])
+                    + np.outer(np.radians(amp[1]) * np.sin(2 * np.pi * 0.45 * t + 0.4), [0, 1.0, 0]))
+        rv_local = rv_world @ world[i, :3, :3]  # world axis -> the joint's own axes at bind
+        rot[:, i] = (R.from_matrix(local[i, :3, :3]) * R.from_rotvec(rv_local)).as_quat()
+    trans = np.broadcast_to(local[:, :3, 3], (FRAMES, len(keys), 3))
+    layer = Sdf.Layer.CreateAnonymous("in.usda")
+    layer.timeCodesPerSecond = layer.framesPerSecond = RATE
+    layer.startTimeCode, layer.endTimeCode = 0, FRAMES - 1
+    layer.pseudoRoot.SetInfo("upAxis", "Y")
+    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    tv = Sdf.ValueTypeNames
+    root = Sdf.CreatePrimInLayer(layer, "/Char")
+    root.specifier, root.typeName = Sdf.SpecifierDef, "SkelRoot"
+    skel = Sdf.CreatePrimInLayer(layer, "/Char/Skel")
+    skel.specifier, skel.typeName = Sdf.SpecifierDef, "Skeleton"
+    schemas = Sdf.TokenListOp()
+    schemas.prependedItems = ["SkelBindingAPI"]
+    skel.SetInfo("apiSchemas", schemas)
+    uniform = Sdf.VariabilityUniform
+    usd = lambda m: Vt.Matrix4dArray.FromNumpy(np.ascontiguousarray(np.transpose(m, (0, 2, 1))))  # noqa: E731
+    Sdf.AttributeSpec(skel, "joints", tv.TokenArray, uniform).default = Vt.TokenArray(paths)
+    Sdf.AttributeSpec(skel, "bindTransforms", tv.Matrix4dArray, uniform).default = usd(world)
+    Sdf.AttributeSpec(skel, "restTransforms", tv.Matrix4dArray, uniform).default = usd(local)
+    Sdf.RelationshipSpec(skel, "skel:animationSource", False).targetPathList.explicitItems = ["/Char/Skel/Anim"]
+    anim = Sdf.CreatePrimInLayer(layer, "/Char/Skel/Anim")
+    anim.specifier, anim.typeName = Sdf.SpecifierDef, "SkelAnimation"
+    Sdf.AttributeSpec(anim, "joints", tv.TokenArray, uniform).default = Vt.TokenArray(paths)
+    for name, type_name, values, vt in (("rotations", tv.QuatfArray, rot, Vt.QuatfArray),
+                                        ("translations", tv.Float3Array, trans, Vt.Vec3fArray),
+                                        ("scales", tv.Half3Array, np.ones_like(trans), Vt.Vec3hArray)):
+        attr = Sdf.AttributeSpec(anim, name, type_name)
+        dtype = np.float16 if name == "scales" else np.float32
+        for i in range(FRAMES):
+            layer.SetTimeSample(attr.path, float(i), vt.FromNumpy(np.ascontiguousarray(values[i], dtype=dtype)))
+    layer.Export(str(path))
+    return "/Char/Skel", leaf
+
+
+@pytest.mark.parametrize("twist_name", ["head_roll", "mixamorig_HeadTwist", "Head_Roll_JNT", "neck_02"])
+def test_a_head_named_twist_above_the_head_is_not_the_head(tmp_path, twist_name):
+    skeleton, leaf = _write(tmp_path / "in.usda", twist_name)
+    before = measure.sha256(tmp_path / "in.usda")
+    api.apply(tmp_path / "in.usda", [f"{SHIFT_S}s:30:-10"], tmp_path / "gaze.usda", preview=tmp_path / "preview.usda")
+    assert measure.sha256(tmp_path / "in.usda") == before
+    base = measure.posed(str(tmp_path / "in.usda"), skeleton)
+    new = measure.posed(str(tmp_path / "preview.usda"), skeleton)
+    fwd = measure.character_forward_skel(base, "thigh_l", "thigh_r")
+    change, _, _ = measure.gaze_change(base, new, fwd, "head", ("eye_l", "eye_r"))
+    seconds = base.times / RATE
+    before_shift = np.abs(change[seconds < SHIFT_S]).max()
+    held = np.abs(change[seconds >= HOLD_S] - [30.0, -10.0]).max()
+    # Before the shift the gaze is the base motion's; once it settles, the request within 0.5 deg.
+    assert before_shift < 0.05, (twist_name, before_shift)
+    assert held < 0.5, (twist_name, held)
