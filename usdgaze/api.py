@@ -26,6 +26,7 @@ from usdgaze.usd.layers import (
     atomic_export,
     build_override,
     check_output_path,
+    layer_info,
     reload_if_open,
     write_preview,
 )
@@ -158,17 +159,7 @@ def _run_pass(stage, roots, forced, requests, req):
                     to_skel(clip, result.point_of_sight), result.point_of_sight, 0.003 / clip.meters_per_unit)
             if req.progress:
                 req.progress(clip)
-    return report, overrides, _layer_info(stage)
-
-
-def _layer_info(stage) -> LayerInfo:
-    """Timing and units metadata of the input, copied to every layer written."""
-    from pxr import UsdGeom
-
-    return LayerInfo(float(stage.GetTimeCodesPerSecond()), float(stage.GetFramesPerSecond()),
-                     float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode()),
-                     str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)),
-                     default_prim=stage.GetRootLayer().defaultPrim or None)
+    return report, overrides, layer_info(stage)
 
 
 def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_source: str,

@@ -104,7 +104,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes.attend import apply_attend
     from usdgaze.usd.attendio import add_inspection
-    from usdgaze.usd.layers import AnimOverride, LayerInfo, build_override
+    from usdgaze.usd.layers import AnimOverride, build_override, layer_info
     from usdgaze.usd.objects import check_apart, object_prims, read_objects
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
@@ -149,8 +149,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
                                   "objects": seen})
         report.objects.extend({"skel_root": clip.skel_root, **o} for o in seen)
         if info is None:
-            info = LayerInfo(clip.time_codes_per_second, clip.frames_per_second, clip.start_time, clip.end_time,
-                             clip.up_axis, clip.meters_per_unit, default_prim=stage.GetRootLayer().defaultPrim or None)
+            info = layer_info(stage)
     report.planner = _planner_summary(report.results, steps, frames, time.perf_counter() - t_start,
                                       time.process_time() - cpu_start, settings)
     info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",

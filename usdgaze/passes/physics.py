@@ -375,9 +375,8 @@ def _in_shot_range(clip, stage):
 def _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed, record):
     """Simulate each shot; (reports, the override layer with per-frame terms and inspection prims)."""
     from usdgaze import __version__
-    from usdgaze.api import _layer_info
     from usdgaze.usd.attendio import add_inspection
-    from usdgaze.usd.layers import build_override
+    from usdgaze.usd.layers import build_override, layer_info
 
     reports, overrides, terms, inspections = [], [], {}, []
     for shot in shots:
@@ -398,7 +397,7 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
     failed = [r for r in reports if r.problems]
     if failed and not keep_failed:
         raise UsdGazeError(f"{source}:{failed[0].skeleton}: {failed[0].problems[0]}; nothing written")
-    info = _layer_info(stage)
+    info = layer_info(stage)
     info.custom = {"usdgaze:physics": terms,
                    "usdgaze": {"version": __version__, "input": os.path.basename(source),
                                "command": "attend --physics", "seed": seed, "massKg": float(total_mass),

@@ -107,8 +107,10 @@ class LayerInfo:
 
     time_codes_per_second: float
     frames_per_second: float
-    start_time: float
-    end_time: float
+    start_time: float | None
+    end_time: float | None
+    """The input's startTimeCode and endTimeCode, each None where the input authors none: a layer that
+    authored USD's fallback 0 would give the preview a range of [0, 0] (or [start, 0]) the input lacks."""
     up_axis: str | None = None
     meters_per_unit: float | None = None
     custom: dict = field(default_factory=dict)
@@ -136,11 +138,28 @@ def _to_vt(value):
     return value
 
 
+def layer_info(stage) -> LayerInfo:
+    """Timing and units metadata of the input stage, copied to every layer written (a time range only
+    where the input authors one: USD's fallback 0 is no range)."""
+    from pxr import UsdGeom
+
+    def authored(key: str, value: float) -> float | None:
+        return float(value) if stage.HasAuthoredMetadata(key) else None
+
+    return LayerInfo(float(stage.GetTimeCodesPerSecond()), float(stage.GetFramesPerSecond()),
+                     authored("startTimeCode", stage.GetStartTimeCode()),
+                     authored("endTimeCode", stage.GetEndTimeCode()),
+                     str(UsdGeom.GetStageUpAxis(stage)), float(UsdGeom.GetStageMetersPerUnit(stage)),
+                     default_prim=stage.GetRootLayer().defaultPrim or None)
+
+
 def _set_info(layer: Sdf.Layer, info: LayerInfo) -> None:
     layer.timeCodesPerSecond = info.time_codes_per_second
     layer.framesPerSecond = info.frames_per_second
-    layer.startTimeCode = info.start_time
-    layer.endTimeCode = info.end_time
+    if info.start_time is not None:
+        layer.startTimeCode = info.start_time
+    if info.end_time is not None:
+        layer.endTimeCode = info.end_time
     meta = {}
     if info.up_axis:
         meta["upAxis"] = info.up_axis
