@@ -45,6 +45,8 @@ def os_reason(exc: BaseException) -> str:
     """The OS's words for an OSError, or for the OS failure inside a USD error message."""
     if isinstance(exc, OSError):
         return exc.strerror or str(exc)
+    if isinstance(exc, UnicodeError):  # a name of bytes that are not UTF-8 (os.fsdecode's surrogates)
+        return "the name is not UTF-8, and OpenUSD takes only UTF-8 file names"
     text = str(exc)
     for code in _REASONS:
         if os.strerror(code) in text:
@@ -181,7 +183,7 @@ class Outputs:
             raise UsdGazeError(f"{shown}: folder {shown.parent} does not exist")
         if not folder.is_dir():
             raise UsdGazeError(f"{shown}: {shown.parent} is not a folder")
-        if len(target.name.encode()) > _name_max(folder):
+        if len(os.fsencode(target.name)) > _name_max(folder):
             raise UsdGazeError(f"{shown}: cannot write ({os.strerror(errno.ENAMETOOLONG)})")
         if target.is_dir():
             raise UsdGazeError(f"{shown}: {flag} names a folder, expected a file")

@@ -32,9 +32,10 @@ CATCH = "usdgaze:physics:catch"
 def read_scene(root, clip, source: str, h: float):
     """(object prims, their paths, catch indices) of the stage, or ([], [], []) where it has none."""
     from usdgaze.usd.objects import API_NAME, check_apart, object_prims, scene_prims
+    from usdgaze.usd.plugin import has_api
 
     stage = root.GetStage()
-    if not any(p.HasAPI(API_NAME) for p in scene_prims(stage)):
+    if not any(has_api(p, API_NAME) for p in scene_prims(stage)):
         return [], [], []
     prims = object_prims(stage, source, None)
     check_apart(prims, [root], source)

@@ -207,7 +207,12 @@ def summary(api) -> str:
     from usdgaze.usd import schedule
 
     for root in skel_roots(stage):
-        if schema.has_map(root):
+        try:
+            has = schema.has_map(root)
+        except UsdGazeError as exc:  # applied, but the schema registry was built before usdgaze's plugin
+            lines.append(f"{root.GetPath()}: GazeMapAPI unreadable ({exc})")
+            continue
+        if has:
             n = len(root.GetAttribute("gaze:examples:yaw").Get() or [])
             lines.append(f"{root.GetPath()}: GazeMapAPI, {n} examples")
         else:

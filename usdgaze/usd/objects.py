@@ -21,6 +21,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd.checks import authored_type
+from usdgaze.usd.plugin import has_api
 from usdgaze.usd.targets import PURPOSES, sample_target
 from usdgaze.values import MAX_OBSTACLE_RADIUS_M, MAX_TARGET_DISTANCE_M
 
@@ -189,7 +190,7 @@ def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list
                 raise UsdGazeError(f"{source}:{p}: is inactive (active = false), so it is not in the scene")
             prims.append(prim)
     else:
-        prims = [p for p in scene_prims(stage) if p.HasAPI(API_NAME)]
+        prims = [p for p in scene_prims(stage) if has_api(p, API_NAME)]
     if not prims:
         raise UsdGazeError(f"{source}: no objects to look at: apply {API_NAME} to some prims or pass --objects PATH,...")
     for prim in prims:

@@ -14,6 +14,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdSkel, Vt
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.usd.plugin import has_api
 from usdgaze.passes.requests import DirectiveRequest
 
 API_NAME = "GazeScheduleAPI"
@@ -36,7 +37,7 @@ KINDS = ("shift", "look", "release")
 
 
 def has_schedule(prim: Usd.Prim) -> bool:
-    return bool(prim) and prim.HasAPI(API_NAME)
+    return has_api(prim, API_NAME)
 
 
 def _shortest(x: float) -> float:

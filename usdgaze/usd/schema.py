@@ -61,7 +61,7 @@ _INT32 = (-(2**31), 2**31 - 1)
 
 def has_map(prim: Usd.Prim) -> bool:
     """Whether ``prim`` has ``GazeMapAPI`` applied (authored or composed)."""
-    return bool(prim) and prim.HasAPI(API_NAME)
+    return _plugin.has_api(prim, API_NAME, GazeMapError)
 
 
 def _check_map_prim(prim: Usd.Prim, where: str) -> None:
