@@ -313,12 +313,25 @@ def compose_trs(translation: np.ndarray, rotation: np.ndarray, scale: np.ndarray
     return m
 
 
-def decompose_tr(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Translation, rotation and per-axis scale of column-vector 4x4 matrices without shear."""
-    m = np.asarray(m, dtype=float)
-    lin = m[..., :3, :3]
+def rotation_part(lin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation and per-axis scale of column-vector linear parts ``(..., 3, 3)`` without shear: ``lin =
+    R diag(scale)``. A mirrored part (negative determinant: a negative scale, as some rigs mirror a
+    joint) takes the mirror on its x scale, as UsdSkel's own decomposition does."""
+    lin = np.asarray(lin, dtype=float)
     scale = np.linalg.norm(lin, axis=-2)
-    return m[..., :3, 3].copy(), from_matrix(lin), scale
+    mirrored = np.linalg.det(lin) < 0.0
+    if np.any(mirrored):
+        flip = np.where(mirrored[..., None], [-1.0, 1.0, 1.0], 1.0)
+        scale, lin = scale * flip, lin * flip[..., None, :]
+    return from_matrix(lin), scale
+
+
+def decompose_tr(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Translation, rotation and per-axis scale of column-vector 4x4 matrices without shear (see
+    :func:`rotation_part`)."""
+    m = np.asarray(m, dtype=float)
+    q, scale = rotation_part(m[..., :3, :3])
+    return m[..., :3, 3].copy(), q, scale
 
 
 def align_hemisphere(q: np.ndarray, ref: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import Pose, forward, with_ancestors
 from usdgaze.core.rig import CharacterFrame, Chain
+from usdgaze.errors import UsdGazeError
 from usdgaze.passes.sight import azimuth_elevation, directions_to_world
 from usdgaze.passes.options import PassOptions
 
@@ -50,10 +51,25 @@ class Rig:
         return np.broadcast_to(self.added_t[j], (f, 3)), np.broadcast_to(rot.IDENTITY, (f, 4)), np.broadcast_to(1.0, (f, 3))
 
 
+def _check_unmirrored(clip: SkelClip, chain: Chain, rest_world: np.ndarray) -> None:
+    """The chain and everything above it must not be mirrored in the neutral pose: its turns are
+    rotations of right-handed frames. A mirrored joint elsewhere (a hand, a leg, an eye: a negative
+    scale, as some rigs mirror one side) is carried as it is."""
+    above = with_ancestors(list(chain.path), clip.parents)
+    det = np.linalg.det(rest_world[above, :3, :3])
+    if np.any(det <= 0.0):
+        k = int(np.argmax(det <= 0.0))
+        raise UsdGazeError(f"{clip.source}:{clip.skeleton}: joint '{clip.joints[above[k]]}' of the gaze chain is mirrored "
+                           f"in the {clip.neutral_source.split(' ')[0]} (its transform's determinant is {det[k]:.3g}, a "
+                           f"negative scale); the chain from the skeleton's root to the head must be unmirrored (mirror "
+                           f"the SkelRoot's transform instead)")
+
+
 def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Rig:
     """The rig with its eye joints: existing ones, or a left and a right added under the head."""
     rest_world = clip.neutral()
-    rest_q = rot.from_matrix(rest_world[:, :3, :3])
+    _check_unmirrored(clip, chain, rest_world)
+    rest_q, _ = rot.rotation_part(rest_world[:, :3, :3])
     if chain.eyes is not None:
         return Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {})
     head = chain.head
@@ -159,8 +175,12 @@ def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOp
                    rig.parents, rig.local)
     skel_to_world = clip.skel_to_world[:, :3, :3]
     up_w = clip.world_up
-    head_axis = rot.rotate(rot.conjugate(rig.rest_q[chain.head]), frame.forward)
-    sight = directions_to_world(skel_to_world, rot.rotate(pose.rotation[chain.head], head_axis))
+    if chain.head in pose.linear:  # scales on the chain: the head's axis goes through its full linear map
+        head_axis = np.linalg.solve(clip.neutral()[chain.head, :3, :3], frame.forward)
+        looks = rot.normalize(np.einsum("fij,j->fi", pose.linear[chain.head], head_axis))
+    else:
+        looks = rot.rotate(pose.rotation[chain.head], rot.rotate(rot.conjugate(rig.rest_q[chain.head]), frame.forward))
+    sight = directions_to_world(skel_to_world, looks)
     return Base(rig, pose, skel_to_world, up_w, sight, azimuth_elevation(sight, up_w))
 
 

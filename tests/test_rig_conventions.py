@@ -1,4 +1,5 @@
-"""Rig conventions from studio DCCs that the synthetic rigs do not make, measured with UsdSkel FK.
+"""Rig conventions from studio DCCs that the synthetic rigs do not make, measured with UsdSkel FK:
+a head-named twist joint, squash and stretch, joints mirrored by a negative scale.
 
 A twist or roll joint named after the head between the neck and the head (``head_roll``,
 ``mixamorig:HeadTwist``, ``Head_Roll_JNT``): the head is the joint the eyes hang from, not the
@@ -21,6 +22,7 @@ from scipy.spatial.transform import Rotation as R
 
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from usdgaze import api
+from usdgaze.console.main import main
 
 from . import measure
 
@@ -44,7 +46,11 @@ _BODY = {
 }
 
 
-def _write(path, twist_name: str) -> tuple[str, dict[str, str]]:
+def _write(path, twist_name: str = "neck_02", scale: dict | None = None, squash: dict | None = None
+           ) -> tuple[str, dict[str, str]]:
+    """The rig; ``scale``: a joint's own (local) scale in the bind pose, which its children inherit (a
+    negative one mirrors it); ``squash``: a joint's scale animated about that, (x, y, z) amplitudes."""
+    scale, squash = scale or {}, squash or {}
     keys = list(_BODY)
     leaf = {k: (twist_name if k == "twist" else k) for k in keys}
     parents = [keys.index(_BODY[k][0]) if _BODY[k][0] else -1 for k in keys]
@@ -62,6 +68,11 @@ def _write(path, twist_name: str) -> tuple[str, dict[str, str]]:
     for i, p in enumerate(parents):
         if p >= 0:
             local[i] = np.linalg.solve(world[p], world[i])
+    rigid = local.copy()
+    own = np.array([scale.get(k, (1.0, 1.0, 1.0)) for k in keys], dtype=float)
+    local[:, :3, :3] = rigid[:, :3, :3] * own[:, None, :]
+    for i, p in enumerate(parents):  # the bind pose as UsdSkel composes the scaled locals
+        world[i] = local[i] if p < 0 else world[p] @ local[i]
     t = np.arange(FRAMES) / RATE
     rot = np.empty((FRAMES, len(keys), 4))
     for i, k in enumerate(keys):
@@ -71,8 +82,11 @@ def _write(path, twist_name: str) -> tuple[str, dict[str, str]]:
         rv_world = (np.outer(np.radians(amp[0]) * np.sin(2 * np.pi * 0.7 * t), [1.0, 0, 0])
                     + np.outer(np.radians(amp[1]) * np.sin(2 * np.pi * 0.45 * t + 0.4), [0, 1.0, 0]))
         rv_local = rv_world @ world[i, :3, :3]  # world axis -> the joint's own axes at bind
-        rot[:, i] = (R.from_matrix(local[i, :3, :3]) * R.from_rotvec(rv_local)).as_quat()
+        rot[:, i] = (R.from_matrix(rigid[i, :3, :3]) * R.from_rotvec(rv_local)).as_quat()
     trans = np.broadcast_to(local[:, :3, 3], (FRAMES, len(keys), 3))
+    scales = np.broadcast_to(own, (FRAMES, len(keys), 3)).copy()
+    for k, amp in squash.items():
+        scales[:, keys.index(k)] *= 1.0 + np.outer(np.sin(2 * np.pi * 0.5 * t), amp)
     layer = Sdf.Layer.CreateAnonymous("in.usda")
     layer.timeCodesPerSecond = layer.framesPerSecond = RATE
     layer.startTimeCode, layer.endTimeCode = 0, FRAMES - 1
@@ -97,7 +111,7 @@ def _write(path, twist_name: str) -> tuple[str, dict[str, str]]:
     Sdf.AttributeSpec(anim, "joints", tv.TokenArray, uniform).default = Vt.TokenArray(paths)
     for name, type_name, values, vt in (("rotations", tv.QuatfArray, rot, Vt.QuatfArray),
                                         ("translations", tv.Float3Array, trans, Vt.Vec3fArray),
-                                        ("scales", tv.Half3Array, np.ones_like(trans), Vt.Vec3hArray)):
+                                        ("scales", tv.Half3Array, scales, Vt.Vec3hArray)):
         attr = Sdf.AttributeSpec(anim, name, type_name)
         dtype = np.float16 if name == "scales" else np.float32
         for i in range(FRAMES):
@@ -122,3 +136,57 @@ def test_a_head_named_twist_above_the_head_is_not_the_head(tmp_path, twist_name)
     # Before the shift the gaze is the base motion's; once it settles, the request within 0.5 deg.
     assert before_shift < 0.05, (twist_name, before_shift)
     assert held < 0.5, (twist_name, held)
+
+
+def _gaze(tmp_path, skeleton, *directives, look_at=None):
+    before = measure.sha256(tmp_path / "in.usda")
+    api.apply(tmp_path / "in.usda", list(directives), tmp_path / "gaze.usda", preview=tmp_path / "preview.usda",
+              look_at=look_at or [])
+    assert measure.sha256(tmp_path / "in.usda") == before
+    return measure.posed(str(tmp_path / "in.usda"), skeleton), measure.posed(str(tmp_path / "preview.usda"), skeleton)
+
+
+@pytest.mark.parametrize("scale, squash", [
+    ({"head": (1.0, 1.3, 0.9)}, {}),  # a head modelled stretched
+    ({}, {"head": (-0.1, 0.2, -0.1)}),  # squash and stretch, animated
+    ({}, {"neck_01": (-0.1, 0.2, -0.1)}),  # on the neck
+])
+def test_eyes_in_a_squashed_and_stretched_head_aim_where_asked(tmp_path, scale, squash):
+    """The eyes turn in a scaled socket: aimed through the head's rotation alone, the gaze here moved
+    0.07 deg before any directive (the stretched head) and held 2.8 and 2.7 deg off the shift (the
+    squashes); on the rigs of a sweep, look-at targets were missed by up to 8.6 deg."""
+    skeleton, _ = _write(tmp_path / "in.usda", scale=scale, squash=squash)
+    base, new = _gaze(tmp_path, skeleton, f"{SHIFT_S}s:30:-10")
+    fwd = measure.character_forward_skel(base, "thigh_l", "thigh_r")
+    change, _, _ = measure.gaze_change(base, new, fwd, "head", ("eye_l", "eye_r"))
+    seconds = base.times / RATE
+    assert np.abs(change[seconds < SHIFT_S]).max() < 0.05
+    assert np.abs(change[seconds >= HOLD_S] - [30.0, -10.0]).max() < 0.5
+
+    base_eyes = 0.5 * (base.position("eye_l") + base.position("eye_r"))[0]
+    target = base_eyes + 1.2 * fwd + 0.4 * np.cross([0.0, 1.0, 0.0], fwd) - [0.0, 0.25, 0.0]
+    _, new = _gaze(tmp_path, skeleton, look_at=[f"{target[0]:.5f},{target[1]:.5f},{target[2]:.5f}@{SHIFT_S}s"])
+    for eye in ("eye_l", "eye_r"):
+        to_target = target - new.position(eye)
+        to_target /= np.linalg.norm(to_target, axis=-1, keepdims=True)
+        miss = measure.angle_between(new.axis(eye, measure.local_forward(new, eye, fwd)), to_target)
+        assert miss[seconds >= HOLD_S].max() < 0.5, (eye, miss[seconds >= HOLD_S].max())
+
+
+@pytest.mark.parametrize("mirrored", ["eye_r", "thigh_r"])
+def test_a_joint_mirrored_off_the_chain_is_carried(tmp_path, mirrored):
+    """A negative scale mirrors one side of some rigs: the command stopped with an internal error
+    (exit 1) on any such joint, a leg or an eye included."""
+    skeleton, _ = _write(tmp_path / "in.usda", scale={mirrored: (-1.0, 1.0, 1.0)})
+    base, new = _gaze(tmp_path, skeleton, f"{SHIFT_S}s:30:-10")
+    fwd = measure.character_forward_skel(base, "thigh_l", "thigh_r")
+    change, _, _ = measure.gaze_change(base, new, fwd, "head", ("eye_l", "eye_r"))
+    assert np.abs(change[base.times / RATE >= HOLD_S] - [30.0, -10.0]).max() < 0.5
+
+
+def test_a_mirrored_chain_is_refused_in_one_line(tmp_path, capsys):
+    _write(tmp_path / "in.usda", scale={"root": (-1.0, 1.0, 1.0)})
+    assert main(["apply", str(tmp_path / "in.usda"), "--shift", "0.2s:30:0", "--out", str(tmp_path / "gaze.usda")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "joint 'root' of the gaze chain is mirrored" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.usda"]
