@@ -123,3 +123,25 @@ def test_an_unreadable_plugin_on_the_plugin_path_is_a_warning_not_a_traceback(tm
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "known True"
     assert "Traceback" not in run.stderr and "couldn't be read" in run.stderr, run.stderr
+
+
+def test_standard_output_that_cannot_take_the_report(tmp_path):
+    """A report echoed to a full disk was an internal error (exit 1, which a farm retries); to a reader
+    that went away (``| head``) click exited 1 too. Now one line, exit 2; and a quiet 141, as a
+    process that SIGPIPE stopped (the outputs are written before the report)."""
+    cmu = os.path.join(ROOT, "sample_stages", "cmu", "cmu_131_02.usdc")
+    args = [sys.executable, "-m", "usdgaze", "apply", cmu, "--shift", "1s:30:0", "--json"]
+    with open("/dev/full", "w") as full:
+        run = subprocess.run(args + ["--out", str(tmp_path / "a.usdc")], stdout=full, stderr=subprocess.PIPE,
+                             text=True, cwd=ROOT, timeout=120)
+    assert run.returncode == 2, run.stderr
+    assert run.stderr == "usdgaze: error: cannot write to standard output (No space left on device)\n"
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before the report is written
+    try:
+        run = subprocess.run(args + ["--out", str(tmp_path / "b.usdc")], stdout=write, stderr=subprocess.PIPE,
+                             text=True, cwd=ROOT, timeout=120)
+    finally:
+        os.close(write)
+    assert run.returncode == 141 and run.stderr == "", (run.returncode, run.stderr)
+    assert (tmp_path / "b.usdc").is_file()

@@ -178,13 +178,46 @@ def _run(argv: list[str] | None) -> int:
         return EXIT_BAD_INPUT
     except click.exceptions.Exit as exc:
         return exc.exit_code
-    except Exception as exc:  # a bug: say so in one line, keep the traceback for whoever debugs it
-        if os.environ.get("USDGAZE_DEBUG"):
-            traceback.print_exc()
-        _fail(f"internal error: {type(exc).__name__}: {exc} (set USDGAZE_DEBUG=1 for the traceback)")
-        return EXIT_INTERNAL
+    except SystemExit as exc:
+        if exc.code == 1 and type(sys.stdout).__name__.endswith("PacifyFlushWrapper"):
+            # click's answer to a reader that went away (`| head`), silent: exit as a process that
+            # SIGPIPE stopped does, not with the 1 of a bug.
+            return 128 + signal.SIGPIPE
+        raise
+    except OSError as exc:
+        if not _stdout_failed(exc):
+            return _bug(exc)
+        from usdgaze.files.transaction import os_reason
+
+        _fail(f"cannot write to standard output ({os_reason(exc)})")
+        return EXIT_BAD_INPUT
+    except Exception as exc:
+        return _bug(exc)
     # A command's own exit code (``validate`` exits 3 on problems), which click returns here.
     return code if isinstance(code, int) else 0
+
+
+def _stdout_failed(exc: OSError) -> bool:
+    """Whether ``exc`` is standard output refusing what is echoed to it (a full disk); it is then pointed
+    at the null device, so that Python's own flush at exit says nothing more."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    frame = tb.tb_frame if tb is not None else None
+    if frame is None or frame.f_code.co_name != "echo" or "click" not in frame.f_code.co_filename:
+        return False
+    if getattr(frame.f_locals.get("file"), "name", None) != "<stdout>":
+        return False
+    sys.stdout = open(os.devnull, "w")
+    return True
+
+
+def _bug(exc: Exception) -> int:
+    """A bug: said in one line, the traceback kept for whoever debugs it."""
+    if os.environ.get("USDGAZE_DEBUG"):
+        traceback.print_exception(exc)
+    _fail(f"internal error: {type(exc).__name__}: {exc} (set USDGAZE_DEBUG=1 for the traceback)")
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":
