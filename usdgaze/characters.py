@@ -170,10 +170,14 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
     directives = []
     for r in requests:
         t = r.time_s(clip.start_time, tcps)
-        if not first - 1e-9 <= t <= last + 1e-9:
+        # The ends as this message prints them (6 digits) are inside: a thousandth of a frame, or the
+        # rounding of the printed seconds, past an end is that end.
+        slack = max(1e-9, 1e-3 / tcps, 5e-6 * max(abs(first), abs(last)))
+        if not first - slack <= t <= last + slack:
             raise UsdGazeError(
                 f"{clip.where()}: {r.flag} lies outside the animation (time codes {clip.times[0]:g} to "
                 f"{clip.times[-1]:g}, {first:g} to {last:g} s)")
+        t = min(max(t, first), last)
         index = -1
         if r.kind == "look":
             key = r.target if r.target is not None else r.point

@@ -148,12 +148,40 @@ def read_array(samples: Samples, times: np.ndarray, dtype, width: int, count: in
 _CHUNK_FRAMES = 4096  # checks run over frame chunks: no float64 or boolean copy of the whole animation
 
 
-def check_values(rotations: np.ndarray, translations: np.ndarray, where: str) -> None:
-    """Finite values and unit quaternions, computed chunk by chunk in the arrays' own float32."""
+def check_values(rotations: np.ndarray, translations: np.ndarray, where: str, times=None, joints=None,
+                 authored=None) -> None:
+    """Finite values and unit quaternions, computed chunk by chunk in the arrays' own float32.
+
+    A failure names the attribute, the time code and the joint (``times``, ``joints``: the arrays'
+    frames and columns; ``authored``: per attribute, the times it authors, preferred over a frame
+    that USD interpolates from a bad key)."""
     for lo in range(0, len(rotations), _CHUNK_FRAMES):
         r = rotations[lo:lo + _CHUNK_FRAMES]
-        if not (np.isfinite(r).all() and np.isfinite(translations[lo:lo + _CHUNK_FRAMES]).all()):
-            raise UsdGazeError(f"{where}: rotations or translations hold NaN or infinite values")
+        t = translations[lo:lo + _CHUNK_FRAMES]
+        if not (np.isfinite(r).all() and np.isfinite(t).all()):
+            bad = [(k, name, ~np.isfinite(v).all(axis=-1)) for k, (name, v) in
+                   enumerate((("rotations", r), ("translations", t))) if not np.isfinite(v).all()]
+            at = [_first_bad(mask, lo, times, (authored or {}).get(name)) + (name,) for k, name, mask in bad]
+            frame, joint, name = min(at)
+            raise UsdGazeError(f"{where}.{name}: NaN or infinite values{_at(frame, joint, times, joints)}")
         norm = np.sqrt(np.einsum("fjk,fjk->fj", r, r))
-        if np.any(np.abs(norm - 1.0) > 1e-2):
-            raise UsdGazeError(f"{where}.rotations: not unit quaternions")
+        off = np.abs(norm - 1.0) > 1e-2
+        if np.any(off):
+            frame, joint = _first_bad(off, lo, times, (authored or {}).get("rotations"))
+            raise UsdGazeError(f"{where}.rotations: not unit quaternions{_at(frame, joint, times, joints)}"
+                               f"{'' if times is None else f' (length {float(norm[frame - lo, joint]):.3g})'}")
+
+
+def _first_bad(mask: np.ndarray, lo: int, times, authored) -> tuple[int, int]:
+    """(frame, joint) of the first bad entry of a chunk's ``(F, J)`` mask: at an authored time where one is."""
+    frames = np.flatnonzero(mask.any(axis=1))
+    if times is not None and authored is not None and len(authored):
+        keyed = frames[np.isin(np.asarray(times)[lo + frames], np.asarray(authored, dtype=float))]
+        frames = keyed if len(keyed) else frames
+    f = int(frames[0])
+    return lo + f, int(np.flatnonzero(mask[f])[0])
+
+
+def _at(frame: int, joint: int, times, joints) -> str:
+    where = "" if times is None else f" at time code {float(times[frame]):g}"
+    return where + ("" if joints is None else f" (joint '{joints[joint]}')")

@@ -267,7 +267,7 @@ def _on_every_frame(times: np.ndarray, stage: Usd.Stage, where_anim: str) -> np.
     return np.sort(np.concatenate([times, grid[near >= 0.5 * step]]))
 
 
-def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
+def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str, joints: list[str] | None = None):
     """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation,
     and whether it holds one pose: with defaults only, or one time sample (USD holds that value at
     every time), it is sampled at every frame of the stage's range."""
@@ -284,7 +284,8 @@ def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str):
     rotations = read_array(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
     translations = read_array(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = read_array(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
-    check_values(rotations, translations, where_anim)
+    authored = {name: s.times() for name, s in zip(("rotations", "translations"), attrs[:2]) if s.attr}
+    check_values(rotations, translations, where_anim, times, joints, authored)
     checks.check_scales(scales, f"{where_anim}.scales")
     return times, rotations, translations, scales, held
 
@@ -311,7 +312,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         anim = UsdSkel.Animation(anim_prim)
         animation = str(anim_prim.GetPath())
         anim_joints, anim_to_skel, ignored = _animated_joints(anim, joints, skel, where_anim)
-        times, rotations, translations, scales, held = _animation_samples(anim, len(anim_joints), where_anim)
+        times, rotations, translations, scales, held = _animation_samples(anim, len(anim_joints), where_anim, anim_joints)
         if ignored:
             notes.append(f"{where_anim}.joints: {len(ignored)} of its joints are not joints of {skel.GetPath()} "
                          f"('{ignored[0]}'{', ...' if len(ignored) > 1 else ''}); UsdSkel ignores them, and the layer "
