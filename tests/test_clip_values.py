@@ -108,3 +108,22 @@ def test_the_last_second_as_the_message_prints_it_is_inside(tmp_path):
     code, _, err = run_inprocess(["apply", str(r.path), "--shift", f"{last + 1 / 30:.6f}s:30:0", "--out",
                                   str(tmp_path / "gaze2.usda")], tmp_path)
     assert code == 2 and "lies outside the animation" in err, err
+
+
+def test_a_shift_the_animation_ends_before_it_settles_is_said(tmp_path):
+    """A shift two frames before the end reaches a little of its request: that was said only as
+    "hold error n/a" in the report, nothing on stderr; now one warning with what the last frame shows,
+    which UsdSkel FK agrees with."""
+    r = rig(tmp_path, frames=60, time_codes_per_second=30.0)
+    preview = tmp_path / "preview.usda"
+    code, _, err = run_inprocess(["apply", str(r.path), "--shift", f"{float(r.times[-3]):g}:30:-10", "--out",
+                                  str(tmp_path / "gaze.usda"), "--preview", str(preview)], tmp_path)
+    assert code == 0, err
+    line = [w for w in err.splitlines() if "before it settles" in w]
+    assert len(line) == 1, err
+    yaw, pitch = line[0].split("reached about yaw ")[1].split(" on the last frame")[0].split(", pitch ")
+    said = [float(yaw), float(pitch)]
+    base, new = measure.posed(str(r.path), r.skeleton), measure.posed(str(preview), r.skeleton)
+    change, _, _ = measure.gaze_change(base, new, r.forward, r.leaf["head"], r.eye_leaves, measure.sight_line)
+    assert 1.0 < abs(change[-1, 0]) < 29.0  # part of the way
+    assert np.abs(change[-1] - said).max() < 0.5, (change[-1], said)

@@ -175,7 +175,10 @@ def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae:
     for k, sh in enumerate(shifts):
         end = ends[k] if ends is not None else shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
         hold = plan.settled & (seconds >= sh.time_s) & (seconds < end)
-        if not np.any(hold) or np.abs(achieved[hold] - plan.requested[hold]).max() <= options.tolerance_deg:
+        if not np.any(hold):
+            warnings.extend(_cut_short(clip, sh, end, achieved))
+            continue
+        if np.abs(achieved[hold] - plan.requested[hold]).max() <= options.tolerance_deg:
             continue
         reach = achieved[hold].mean(axis=0)
         angles = eye_angles[hold]
@@ -196,3 +199,15 @@ def reach_warnings(clip: SkelClip, shifts: list[Shift], plan: Schedule, base_ae:
             f"reached about yaw {reach[0]:.1f}, pitch {reach[1]:.1f} ({why})"
         )
     return warnings
+
+
+def _cut_short(clip: SkelClip, sh: Shift, end: float, achieved: np.ndarray) -> list[str]:
+    """The line for a shift the animation ends before it settles (a next directive that interrupts
+    it is asked for, and says nothing)."""
+    seconds = clip.seconds
+    if end < seconds[-1] or sh.time_s > seconds[-1]:
+        return []
+    reach = achieved[-1]
+    return [f"{clip.where()}: shift at {sh.time_s:g} s asks for yaw {sh.yaw:g}, pitch {sh.pitch:g} deg; the "
+            f"animation ends {seconds[-1] - sh.time_s:.3g} s after it starts, before it settles: reached about "
+            f"yaw {reach[0]:.1f}, pitch {reach[1]:.1f} on the last frame"]
