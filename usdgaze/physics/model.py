@@ -200,6 +200,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
 
     kind = ["free"] + ["weld" if b in eyes or b in passive or _welded(joints[idx[b]], roles, bparent, b, children)
                        else "ball" for b in range(1, n)]
+    _check_mirrored(joints, idx, bparent, kind, to_model @ world[idx, :3, :3], where)
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
     feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]  # topmost foot bodies
@@ -224,6 +225,21 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         axis=axis, range_deg=range_deg, mass=mass, com=com, inertia=inertia, inertia_quat=iquat,
         radius=radius, geoms=geoms, strength=strength, to_model=to_model, total_mass=float(total_mass),
         height=height, lift=-lowest, feet=feet, forward=forward, eyes=sorted(eyes), rest_pos=pos, rest_rot=rmat)
+
+
+def _check_mirrored(joints, idx, bparent, kind, lin: np.ndarray, where: str) -> None:
+    """A body below a mirrored joint (a negative scale in the rest pose) may only be welded: a mirrored
+    leaf or welded chain (an eye, a hand's fingers) rides as the input has it, but the joints a
+    mirrored frame carries turn the other way round in the skeleton than in the model, which the
+    written animation would get wrong; the base's own frame must be unmirrored."""
+    mirrored = np.linalg.det(lin) < 0.0
+    bad = [b for b in range(len(idx)) if (b == 0 and mirrored[0]) or (b and kind[b] != "weld" and mirrored[bparent[b]])]
+    if bad:
+        b = bad[0]
+        what = (f"the simulated root joint '{joints[idx[b]]}' is mirrored" if b == 0 else
+                f"joint '{joints[idx[b]]}' moves below mirrored joint '{joints[idx[bparent[b]]]}'")
+        raise UsdGazeError(f"{where}: {what} at rest (a negative scale); the body cannot simulate a mirrored "
+                           f"limb: unmirror it in the rig (mirror the SkelRoot's transform to mirror the whole character)")
 
 
 @dataclass(frozen=True)
@@ -257,7 +273,9 @@ def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
     """Model-space rest positions, orientations (quaternions and matrices) of the bodies, and each
     body's offset and rotation relative to its parent."""
     pos = world[:, :3, 3] @ to_model.T
-    orient = rot.from_matrix(to_model @ world[:, :3, :3])
+    # A joint mirrored by a negative scale (some rigs mirror an eye, a hand or a leg) takes the mirror
+    # on its x scale, as UsdSkel's decomposition does; its body frame is the rotation that is left.
+    orient, _ = rot.rotation_part(to_model @ world[:, :3, :3])
     rmat = rot.to_matrix(orient)
     n = len(world)
     offset = np.zeros((n, 3))

@@ -54,7 +54,7 @@ def _xyzw(q: np.ndarray) -> np.ndarray:
 def to_qpos(m: BodyModel, ref: Reference) -> np.ndarray:
     """``qpos`` ``(F, nq)`` of the reference, frame by frame."""
     world = reference_world(ref, m.parents)[:, m.bodies]
-    orient = rot.from_matrix(m.to_model @ world[..., :3, :3])
+    orient, _ = rot.rotation_part(m.to_model @ world[..., :3, :3])  # a mirrored joint: as the model's rest frames
     qadr, _ = m.layout()
     nq = int(qadr[-1] + {"free": 7, "ball": 4, "hinge": 1, "weld": 0}[m.kind[-1]])
     qpos = np.zeros((len(world), nq))
