@@ -141,5 +141,6 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
             state += f"; {'; '.join(r.reference_notes)}"
         click.echo(f"{r.skeleton}: {state}; pelvis >= {r.min_pelvis_ratio:.0%} of the reference, mean joint error "
                    f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground, "
+                   f"root <= {100 * r.max_root_drift_m:.1f} cm from the reference's across the ground, "
                    f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s")
     click.echo(f"wrote {out}")

@@ -67,6 +67,9 @@ class ShotReport:
     unmendable: list[str] = field(default_factory=list)
     # What in the reference itself no simulated body can follow (``physics.feasible``): said, not retried.
     reference_notes: list[str] = field(default_factory=list)
+    # How far the root strayed from the reference's across the ground (a push, a step to a stone or
+    # round an obstacle moves it on purpose; a body sliding on its toes, by accident).
+    max_root_drift_m: float = 0.0
 
 
 def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
@@ -236,10 +239,11 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         mean_joint_error_deg=float(result.joint_error_deg.mean()),
                         max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
                         wall_s=wall, problems=problems, diverged=result.diverged,
+                        max_root_drift_m=float(result.root_drift_m.max()),
                         reference_notes=result.reference_notes + feasible.scale_notes(clip.scales, clip.anim_joints))
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),
-             "headingErrorDeg": result.heading_error_deg.tolist()}
+             "headingErrorDeg": result.heading_error_deg.tolist(), "rootDriftM": result.root_drift_m.tolist()}
     terms.update({key: [float(v) for v in values] for key, values in result.task_terms.items()})  # NaN: no value
     return report, terms
 

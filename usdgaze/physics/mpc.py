@@ -106,6 +106,12 @@ class Result:
         return self.fell_at is not None
 
     @property
+    def root_drift_m(self) -> np.ndarray:
+        """(K,) horizontal distance of the simulated root from the reference's (the model is Z-up, in
+        metres): a body that slides or tiptoes away stays up, and only this says so."""
+        return np.linalg.norm(self.qpos[:, :2] - self.ref_qpos[:, :2], axis=1)
+
+    @property
     def heading_error_deg(self) -> np.ndarray:
         """(K,) how far the base turned about the vertical from the reference's (:func:`heading_errors_deg`)."""
         return heading_errors_deg(self.qpos, self.ref_qpos)
