@@ -9,7 +9,6 @@ import numpy as np
 
 from usdgaze.core import rotations as rot
 from usdgaze.gaze import saccade
-from usdgaze.gaze.motion import ease
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import Pose
 from usdgaze.core.rig import CharacterFrame
@@ -31,7 +30,7 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
              side: np.ndarray | None = None, seconds: np.ndarray | None = None) -> EyeAim:
     """Point each eye at the point of sight (Listing's law: no torsion), within the eye range; a point
     behind the head on the side ``side (F,)`` says (see :func:`held_side`). With the frames'
-    ``seconds``, a jump of the aim is made a saccade (:func:`saccades_over_jumps`).
+    ``seconds``, no eye turns faster than the seed's bound (:func:`capped_speed`).
 
     Both eyes are computed together, as arrays ``(2, F, ...)``."""
     parents = [int(rig.parents[e]) for e in rig.eyes]
@@ -47,7 +46,7 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     yaw = np.clip(held_side(np.degrees(np.arctan2(along(left_h), along(fwd_h))), side), -limits.yaw, limits.yaw)
     yaw = yaw * toward_the_pole(raw_pitch)
     if seconds is not None:
-        yaw, pitch = saccades_over_jumps(np.stack([yaw, pitch], axis=-1), seconds, limits).transpose(2, 0, 1)
+        yaw, pitch = capped_speed(np.stack([yaw, pitch], axis=-1), seconds).transpose(2, 0, 1)
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
     u_h = (np.cos(pc) * np.sin(y)) * left_h[:, None] + (np.cos(pc) * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
     turned = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h[:, None], u_h), rest_eye[:, None]))
@@ -91,37 +90,38 @@ def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
             lambda u: rot.normalize(np.einsum("efij,efj->efi", head, u)))
 
 
-JUMP_DEG_S = 1600.0
-"""An eye-in-head step faster than this is a jump of the aim, not a movement: the seed bounds saccades
-at 800 deg/s (781 on the main sequence), and the head's own turn adds little while the eyes lead:
-twice that, no saccade moves the eye."""
+def capped_speed(angles: np.ndarray, seconds: np.ndarray, max_deg_s: float = saccade.MAX_SACCADE_DEG_S) -> np.ndarray:
+    """Eye-in-head (yaw, pitch) ``(E, F, 2)`` turning no faster than ``max_deg_s`` (the seed's bound on
+    the eyes, 800 deg/s): where the aim runs ahead, the eye follows it at that speed until it is back on.
 
-
-def saccades_over_jumps(angles: np.ndarray, seconds: np.ndarray, limits: EyeRange) -> np.ndarray:
-    """Eye-in-head (yaw, pitch) ``(E, F, 2)`` with every jump of the aim (a step faster than
-    :data:`JUMP_DEG_S`) made a main-sequence saccade from where the eye was to where the aim goes on.
-
-    The clamped aim of a goal the eyes cannot reach jumps where the goal's side is undefined (it
-    passes behind the head or near its pole) or where the request turns it the other way round; an
-    eye swapped one limit of its range for the other in a frame. What is left of each jump decays
-    with the saccade's profile, so the aim is joined where it was and rejoined once the saccade ends.
+    The clamped aim of a goal the eyes cannot reach jumps where the goal's side is undefined (it passes
+    behind the head or near its pole, or the base's own line of sight passes the zenith) or where the
+    request turns it the other way round: an eye swapped one limit of its range for the other in a
+    frame. Only the frames from such a step until the eye is back on its aim are walked one by one.
     """
     if len(seconds) < 2:
         return angles
     dt = np.diff(seconds)
-    step = np.diff(angles, axis=1)  # (E, F-1, 2)
-    fast = np.linalg.norm(step, axis=-1) > JUMP_DEG_S * dt
+    reach = max_deg_s * dt  # (F-1,)
+    fast = np.linalg.norm(np.diff(angles, axis=1), axis=-1) > reach * (1.0 + 1e-9)
     if not fast.any():
         return angles
     out = angles.copy()
-    for e, j in zip(*np.nonzero(fast)):  # jumps are few: one pass per jump, over its own frames
-        jump = -step[e, j]
-        lasts = float(saccade.duration(np.linalg.norm(jump)))
-        end = int(np.searchsorted(seconds, seconds[j] + lasts, side="right"))
-        left = 1.0 - ease((seconds[j + 1:end] - seconds[j]) / lasts)
-        out[e, j + 1:end] += left[:, None] * jump
-    out[..., 0] = np.clip(out[..., 0], -limits.yaw, limits.yaw)
-    out[..., 1] = np.clip(out[..., 1], -limits.down, limits.up)
+    for e in range(len(angles)):
+        ahead = np.flatnonzero(fast[e])
+        k = 0
+        while True:
+            i = int(np.searchsorted(ahead, k))
+            if i == len(ahead):
+                break
+            k = int(ahead[i]) + 1  # the first frame the aim runs ahead of the eye
+            while k < len(seconds):
+                d = angles[e, k] - out[e, k - 1]
+                n = float(np.hypot(d[0], d[1]))
+                if n <= reach[k - 1]:
+                    break  # back on the aim: out[e, k] is the aim's own
+                out[e, k] = out[e, k - 1] + d * (reach[k - 1] / n)
+                k += 1
     return out
 
 
