@@ -73,7 +73,7 @@ def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
     lin_p = neutral[parents]
     lin_e = np.stack([neutral[e] if e < n else neutral[p] for e, p in zip(eyes, parents)])
     col = np.linalg.norm(np.concatenate([lin_p, lin_e]), axis=-2)
-    unscaled = np.allclose(col, 1.0, rtol=0.0, atol=1e-5) and np.all(np.linalg.det(lin_e) > 0.0)
+    unscaled = float(np.abs(col - 1.0).max()) <= 1e-5 and bool(np.all(np.linalg.det(lin_e) > 0.0))
     if unscaled and not any(p in moved.linear for p in parents):
         to_parent = rot.conjugate(rig.rest_q[parents])  # (2, 4)
         axes = [rot.rotate(to_parent, v) for v in (frame.forward, frame.left, frame.up)]
