@@ -58,6 +58,8 @@ _ALIASES = {"name": "trial", "target_yaw": "yaw", "target_pitch": "pitch", "path
 
 
 def _number(value, key: str, where: str) -> float:
+    if isinstance(value, bool):  # TOML true/false: float() would read them as 1 and 0
+        raise SheetError(f"{where}: {key} {str(value).lower()} is not a number")
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -91,6 +93,12 @@ def _trial(row: dict, index: int, base: Path, where: str, seen: set[str]) -> Tri
     for key in ("file", "yaw", "pitch"):
         if row.get(key) in (None, ""):
             raise SheetError(f"{where}: no {key}")
+    # TOML values keep their types: a path or a name must be text (a number names a trial too).
+    for key, kinds, what in (("file", (str,), "a path"), ("skeleton", (str,), "a Skeleton prim path"),
+                             ("trial", (str, int), "a name")):
+        value = row.get(key)
+        if value is not None and (not isinstance(value, kinds) or isinstance(value, bool)):
+            raise SheetError(f"{where}: {key} {value!r} is not {what}")
     file = Path(str(row["file"]))
     file = file if file.is_absolute() else base / file
     name = str(row.get("trial") or "") or file.stem

@@ -78,6 +78,16 @@ def gaze_map_arrays(prim: Usd.Prim, time_range=None) -> list:
             errors.append(_error(prim, path, "WrongType", f"{name}: authored as {type(value).__name__}, expected {_TYPES[name][0]}"))
             continue
         lengths[name] = len(value)
+    # The settings, bindings and forward: read_map refuses a wrong type too, so say so here.
+    for name in (n for n in _TYPES if n not in EXAMPLE_ATTRS):
+        attr, value = _values(prim, name)
+        if value is None:
+            continue
+        path = prim.GetPath().AppendProperty(name)
+        if attr.GetNumTimeSamples():
+            errors.append(_error(prim, path, "Animated", f"{name}: has time samples; gaze map attributes are uniform"))
+        if not isinstance(value, _TYPES[name][1]) or isinstance(value, bool):
+            errors.append(_error(prim, path, "WrongType", f"{name}: authored as {type(value).__name__}, expected {_TYPES[name][0]}"))
     if lengths:
         counts = np.array(list(lengths.values()))
         values, freq = np.unique(counts, return_counts=True)
