@@ -3,6 +3,8 @@ checks every GazeMapAPI attribute's type as `apply` does."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from usdgaze.console.main import main
@@ -67,3 +69,54 @@ def test_validate_names_a_map_setting_binding_or_forward_of_the_wrong_type(tmp_p
     problems = run(path, only_usdgaze=True)
     assert [(p["site"], p["error"], p["message"]) for p in problems] == [
         (f"/GazeMap.{name}", "WrongType", f"{name}: authored as {authored}, expected {expected}")]
+
+
+def _dumped(tmp_path, edit=None):
+    out = tmp_path / "map.usda"
+    assert main(["dump-map", str(out)]) == 0
+    if edit is not None:
+        from pxr import Sdf
+
+        layer = Sdf.Layer.FindOrOpen(str(out))
+        edit(layer)
+        layer.Save()
+    return out
+
+
+def test_a_map_file_passes_its_own_validate_and_inspect_says_what_it_is(tmp_path, capsys):
+    """Every map the tool wrote failed `validate` (exit 3: no upAxis, no metersPerUnit, which a file of
+    classes alone does not need), and `inspect` said only "no SkelRoot on the stage"."""
+    out = _dumped(tmp_path)
+    capsys.readouterr()
+    assert main(["validate", str(out)]) == 0, capsys.readouterr().out
+    assert main(["inspect", str(out)]) == 2
+    assert "only the class /GazeMap (a gaze map file: give it to apply --map" in capsys.readouterr().err
+
+
+def test_an_inactive_map_prim_is_refused(tmp_path, capsys):
+    """`apply --map` used a map switched off with active = false, without a word."""
+    out = _dumped(tmp_path, lambda layer: setattr(layer.GetPrimAtPath("/GazeMap"), "active", False))
+    cmu = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_02.usdc"
+    capsys.readouterr()
+    assert main(["apply", str(cmu), "--map", f"{out}:/GazeMap", "--shift", "1s:30:0", "--out",
+                 str(tmp_path / "gaze.usda")]) == 2
+    assert "/GazeMap: is inactive (active = false)" in capsys.readouterr().err
+    assert not (tmp_path / "gaze.usda").exists()
+
+
+def test_a_trial_that_never_reached_its_target_is_said(tmp_path, capsys):
+    """A clip labelled with a target its head never turned toward was stored with the eyes far past
+    their range in the head, silently; the map then fell short wherever it was used."""
+    from . import ingest_synth as synth
+
+    session = synth.write_skel_session(tmp_path / "s")
+    text = session.sheet.read_text()
+    first = session.trials[1]  # relabel one trial: the same motion, a target 120 deg further round
+    wrong = first.yaw + 120.0 if first.yaw <= 0 else first.yaw - 120.0
+    text = text.replace(f'name = "{first.name}"\nfile = "{first.file.name}"\nyaw = {first.yaw:g}',
+                        f'name = "{first.name}"\nfile = "{first.file.name}"\nyaw = {wrong:g}')
+    session.sheet.write_text(text)
+    capsys.readouterr()
+    assert main(["build-map", str(session.sheet), "--out", str(tmp_path / "map.usda")]) == 0
+    said = [line for line in capsys.readouterr().out.splitlines() if "past their range" in line]
+    assert len(said) == 1 and said[0].split()[0] == first.name, said

@@ -31,7 +31,7 @@ def select_roots(stage, source: str, skel_root: str | None):
     """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
     from pxr import Sdf, UsdSkel
 
-    from usdgaze.usd.skelio import skel_roots
+    from usdgaze.usd.skelio import no_skel_root, skel_roots
 
     if skel_root:
         if not Sdf.Path.IsValidPathString(skel_root) or not (Sdf.Path(skel_root).IsAbsolutePath()
@@ -45,7 +45,7 @@ def select_roots(stage, source: str, skel_root: str | None):
         return [prim]
     roots = skel_roots(stage)
     if not roots:
-        raise UsdGazeError(f"{source}: no SkelRoot on the stage")
+        raise no_skel_root(stage, source)
     with_map = [r for r in roots if schema.has_map(r)]
     if with_map:
         return with_map

@@ -37,6 +37,7 @@ from usdgaze.gaze import motion
 from usdgaze.core import rotations as rot
 from usdgaze.errors import UsdGazeError
 from usdgaze.ingest.settings import BuildSettings
+from usdgaze.passes.options import EyeRange
 
 CHAIN = ("pelvis", "lowerSpine", "upperSpine", "neck")
 """The four measured segments, in P+ order; the last one's landmark is the head."""
@@ -261,6 +262,14 @@ def _pose_warnings(offsets: np.ndarray, net_angles: np.ndarray, yaw: float) -> l
     body_yaw = float(rot.direction_to_yaw_pitch(rot.rotate(body, rot.FORWARD), 0.0)[0])
     if abs(yaw) >= 20.0 and abs(body_yaw) >= 10.0 and np.sign(body_yaw) != np.sign(yaw):
         warnings.append(f"the head turned {body_yaw:+.0f} deg, the other way from the target yaw {yaw:+g}")
+    # The eyes take what the body left of the target: past their range, the trial never reached it
+    # (a head turned 15 deg up for a target at (150, -60) was stored with the eyes 130 deg in the head).
+    eye_yaw, eye_pitch = (float(v) for v in rot.direction_to_yaw_pitch(rot.rotate(offsets[4], rot.FORWARD), 0.0))
+    limits = EyeRange()
+    if abs(eye_yaw) > limits.yaw + 1.0 or not -limits.down - 1.0 <= eye_pitch <= limits.up + 1.0:
+        warnings.append(f"the eyes would turn yaw {eye_yaw:+.0f}, pitch {eye_pitch:+.0f} deg in the head to reach the "
+                        f"target, past their range (yaw +-{limits.yaw:g}, up {limits.up:g}, down {limits.down:g}): the "
+                        f"trial did not reach its target, or the sheet names another")
     return warnings
 
 

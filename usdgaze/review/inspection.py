@@ -16,7 +16,7 @@ def inspect_stage(path: str, hints=None) -> dict:
     from usdgaze import api
     from usdgaze.usd import schema
     from usdgaze.usd.checks import check_stage
-    from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
+    from usdgaze.usd.skelio import no_skel_root, read_clip, skel_roots, skeletons_under
     from usdgaze.usd.stage import open_stage
 
     require_file(path)
@@ -61,5 +61,5 @@ def inspect_stage(path: str, hints=None) -> dict:
             entry["skeletons"].append(s)
         info["skel_roots"].append(entry)
     if not info["skel_roots"]:
-        raise UsdGazeError(f"{path}: no SkelRoot on the stage")
+        raise no_skel_root(stage, str(path))
     return info

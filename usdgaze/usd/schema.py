@@ -69,8 +69,11 @@ def _check_map_prim(prim: Usd.Prim, where: str) -> None:
     _require_schema(where)
     if not prim:
         raise GazeMapError(f"{where}: no such prim")
+    if not prim.IsActive():  # composed, but out of the scene: a map switched off is no map to use
+        raise GazeMapError(f"{where}: is inactive (active = false), so its {API_NAME} is not in the scene")
     if not has_map(prim):
-        raise GazeMapError(f"{where}: no {API_NAME} applied")
+        unloaded = prim.HasAuthoredPayloads() and not prim.IsLoaded()
+        raise GazeMapError(f"{where}: no {API_NAME} applied" + (" (its payload is not loaded)" if unloaded else ""))
     if not prim.IsA(UsdSkel.Root):
         raise GazeMapError(f"{where}: {API_NAME} is applied to a prim of type {_type_name(prim)}; it applies only to SkelRoot")
 

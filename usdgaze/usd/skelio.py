@@ -18,6 +18,15 @@ def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:
     return [p for p in stage.Traverse(Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Root)]
 
 
+def no_skel_root(stage: Usd.Stage, source: str) -> UsdGazeError:
+    """The error for a stage without a SkelRoot; a map file (its map on a class SkelRoot) says so."""
+    classes = [p for p in stage.Traverse(Usd.PrimAllPrimsPredicate) if p.IsAbstract() and p.IsA(UsdSkel.Root)]
+    if classes:
+        return UsdGazeError(f"{source}: no SkelRoot on the stage, only the class {classes[0].GetPath()} (a gaze map "
+                            f"file: give it to apply --map, or reference it from a character's SkelRoot)")
+    return UsdGazeError(f"{source}: no SkelRoot on the stage")
+
+
 def skeletons_under(root: Usd.Prim) -> list[Usd.Prim]:
     """Skeleton prims below a SkelRoot."""
     return [p for p in Usd.PrimRange(root, Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Skeleton)]
