@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from distributed import Client, LocalCluster
 
 from usdgaze.console.main import main
@@ -32,14 +33,48 @@ def test_shots_run_as_tasks_on_a_dask_cluster(tmp_path):
     assert _samples(tmp_path / "out" / "walk2.usdc") == _samples(tmp_path / "direct.usdc")
 
 
-def test_unreachable_scheduler_is_one_line(tmp_path, capsys):
-    import dask
+def _server(answer: bytes | None):
+    """A TCP server on a free port that answers every connection with ``answer`` and closes it, or
+    (None) reads and never answers, as an HTTP port does a dask handshake."""
+    import socket
+    import threading
 
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    sock.listen(8)
+
+    def serve() -> None:
+        while True:
+            try:
+                conn, _ = sock.accept()
+            except OSError:
+                return
+            if answer is not None:
+                conn.sendall(answer)
+                conn.close()
+
+    threading.Thread(target=serve, daemon=True).start()
+    return sock, f"tcp://127.0.0.1:{sock.getsockname()[1]}"
+
+
+@pytest.mark.parametrize("answer", [None, b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n" * 4, "closed"])
+def test_a_port_that_is_no_scheduler_is_one_line(tmp_path, capsys, monkeypatch, answer):
+    """A closed port (it took distributed's default 30 s), bytes that are no dask protocol (exit 1, "MemoryError:
+    Unable to allocate 3.07 EiB"), a port that never answers the handshake (the dashboard's HTTP: it hung)."""
+    from usdgaze.batch import engine
+
+    monkeypatch.setattr(engine, "DASK_CONNECT_S", 1)
     manifest = _tree(tmp_path, THREE)
-    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
-        assert main(["batch", str(manifest), "--dask", "tcp://127.0.0.1:9"]) == 2
+    sock, address = _server(None if answer == "closed" else answer)
+    if answer == "closed":
+        sock.close()
+    try:
+        assert main(["batch", str(manifest), "--dask", address]) == 2
+    finally:
+        sock.close()
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "tcp://127.0.0.1:9" in err
+    assert err.count("\n") == 0 and f"--dask {address}: cannot connect to a dask scheduler there" in err, err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
 def test_a_worker_running_shots_on_several_threads_writes_what_one_thread_does(tmp_path):

@@ -207,6 +207,35 @@ def _stop_workers(pool: ProcessPoolExecutor) -> None:
             child.kill()
 
 
+DASK_CONNECT_S = 10
+"""Seconds to reach the scheduler at --dask before saying it cannot be reached."""
+
+
+def _connect(client_type, address: str):
+    """``client_type(address)`` within DASK_CONNECT_S seconds (and half that for the handshake), from a daemon
+    thread: at a port that accepts and never answers a dask handshake (the dashboard's HTTP on :8787)
+    distributed's own timeouts never fired, and the command hung."""
+    import threading
+
+    done: dict = {}
+
+    def connect() -> None:
+        try:
+            done["client"] = client_type(address, timeout=f"{DASK_CONNECT_S}s")
+        except BaseException as exc:  # handed to the caller, who says it in one line
+            done["error"] = exc
+
+    thread = threading.Thread(target=connect, name="usdgaze-dask-connect", daemon=True)
+    thread.start()
+    wait = 1.5 * DASK_CONNECT_S
+    thread.join(wait)
+    if "error" in done:
+        raise done["error"]
+    if "client" not in done:
+        raise TimeoutError(f"no dask handshake in {wait:g} s (is it a scheduler's port, not its dashboard's?)")
+    return done["client"]
+
+
 def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
     """Records as shots finish, each shot one task on the dask.distributed cluster at ``address``."""
     from usdgaze.errors import UsdGazeError
@@ -216,13 +245,16 @@ def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
     except ImportError:
         raise UsdGazeError("--dask needs dask.distributed: pip install 'usdgaze[dask]'") from None
     try:
-        client = Client(address)  # connect timeout: distributed.comm.timeouts.connect
-    except (OSError, TimeoutError) as exc:
-        raise UsdGazeError(f"--dask {address}: cannot connect to the scheduler ({exc})") from None
+        # A bounded wait: at a port that is no scheduler (the dashboard's HTTP on :8787) the handshake
+        # never completed, and a closed port took distributed's default 30 s to say so.
+        client = _connect(Client, address)
     except ValueError as exc:  # distributed's parse of the address
         raise UsdGazeError(f"--dask {address!r}: not a scheduler address such as tcp://host:8786 ({exc})") from None
     except TypeError as exc:  # a protocol this installation cannot speak: ucx:// without UCX, tls:// without a context
         raise UsdGazeError(f"--dask {address}: cannot connect with that protocol here ({exc})") from None
+    except Exception as exc:  # refused, timed out, or bytes that are no dask protocol (a MemoryError of 3 EiB)
+        raise UsdGazeError(f"--dask {address}: cannot connect to a dask scheduler there ({type(exc).__name__}: "
+                           f"{' '.join(str(exc).split())[:200]})") from None
     with client:
         futures = [client.submit(run_shot, shot, force, True, key=f"usdgaze-{shot.name}-{uuid.uuid4().hex[:8]}",
                                  pure=False) for shot in shots]

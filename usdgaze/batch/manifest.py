@@ -46,12 +46,24 @@ def _text(key: str):
     return check
 
 
-def _path(key: str, layer: bool = False):
+def _path(key: str, layer: bool = False, suffixes: tuple[str, ...] = ()):
+    if layer:
+        suffixes = (".usda", ".usdc", ".usd")
+
     def check(value: Any, label: Label, base: Path) -> str:
         path = os.path.normpath(os.path.join(base, _text(key)(value, label, base)))
-        if layer and Path(path).suffix.lower() not in (".usda", ".usdc", ".usd"):
-            raise UsdGazeError(f"{label(key, repr(value))}: must end in .usda, .usdc or .usd")
+        if suffixes and Path(path).suffix.lower() not in suffixes:
+            *most, last = suffixes
+            raise UsdGazeError(f"{label(key, repr(value))}: must end in {', '.join(most)} or {last}")
         return path
+    return check
+
+
+def _prim_path(key: str):
+    def check(value: Any, label: Label, base: Path) -> str:
+        if not _text(key)(value, label, base).startswith("/"):
+            raise UsdGazeError(f"{label(key, repr(value))}: expected an absolute prim path such as /Character")
+        return value
     return check
 
 
@@ -73,7 +85,16 @@ def _shifts(value: Any, label: Label, base: Path) -> list[str]:
 
     if isinstance(value, (str, bytes)) or not isinstance(value, list):
         raise UsdGazeError(f"{label('shifts', repr(value))}: expected a list of \"TIME:YAW:PITCH\" strings")
-    return [str(parse_shift(text, label)) for text in value]
+    out = []
+    for text in value:
+        try:
+            out.append(str(parse_shift(text, label)))
+        except UsdGazeError as exc:  # a weight= or blend= option's message names the CLI's flag
+            message = str(exc)
+            if not message.startswith("--shift "):
+                raise
+            raise UsdGazeError(f"{label('shift', repr(text))}: {message.split(chr(39) + ': ', 1)[-1]}") from None
+    return out
 
 
 def _directives(key: str, parse: str, form: str):
@@ -177,14 +198,14 @@ KEYS: dict[str, Key] = {
     "out": Key(_path("out", layer=True), "out", required=True, output=True),
     "preview": Key(_path("preview", layer=True), "preview", output=True, commands=_APPLY),
     "sublayer_into": Key(_path("sublayer_into", layer=True), "sublayer_into", output=True, commands=_APPLY),
-    "plot": Key(_path("plot"), "plot", output=True, commands=_APPLY),
+    "plot": Key(_path("plot", suffixes=(".png", ".pdf", ".svg")), "plot", output=True, commands=_APPLY),
     "shifts": Key(_shifts, "shifts", commands=_APPLY),
     "look_at": Key(_directives("look_at", "parse_look", "TARGET@TIME"), "look_at", commands=_APPLY),
     "release": Key(_directives("release", "parse_release", "TIME"), "release", commands=_APPLY),
     "eye_timing": Key(_choice("eye_timing", ("saccade", "model")), "look.eye_timing", commands=_APPLY),
     "guides": Key(_flag("guides"), "guides", commands=_APPLY),
     "map": Key(_map, "map_spec", keyed=False, commands=_APPLY),
-    "skel_root": Key(_text("skel_root"), "skel_root"),
+    "skel_root": Key(_prim_path("skel_root"), "skel_root"),
     "fixation": Key(_fixation, "options.fixation_m", commands=_APPLY),
     "bind": Key(_as_given, "options.binding"),
     "forward": Key(_as_given, "options.binding"),

@@ -126,6 +126,8 @@ class Outputs:
         self._committing = False
         self._closing = False
         self._pending: int | None = None
+        self._raised = False
+        """The handler has raised Interrupted: a further signal waits for the cleanup (``_on_signal``)."""
 
     # -- context: signals and cleanup --------------------------------------------------------------
     def __enter__(self) -> "Outputs":
@@ -154,11 +156,16 @@ class Outputs:
             raise Interrupted(self._pending) from exc
 
     def _on_signal(self, signum, frame) -> None:
-        if self._committing or self._closing:  # renames (or their rollback) and cleanup run to their end
+        # Renames (or their rollback) and cleanup run to their end. So does the unwinding of an
+        # Interrupted already raised: a second signal (a pool's SIGTERM right after the terminal's
+        # SIGINT) raised again, at the first instruction of __exit__, skipped the cleanup and left
+        # the temporary folder behind.
+        if self._committing or self._closing or self._raised:
             self._pending = signum
             return
         if later_if_importing(signum, frame):  # raised there, the import could swallow it
             return
+        self._raised = True
         raise Interrupted(signum)  # not KeyboardInterrupt: click would turn that into "Aborted!"
 
     # -- reads and claims --------------------------------------------------------------------------

@@ -1,0 +1,64 @@
+"""Batch sweep regressions: manifest values checked up front, and a second stop signal while the
+first one unwinds still cleans up the writer's temporaries."""
+
+from __future__ import annotations
+
+import signal
+
+import pytest
+
+from usdgaze.batch.manifest import load_manifest
+from usdgaze.errors import Interrupted, UsdGazeError
+from usdgaze.files.transaction import TMP_PREFIX, Outputs
+
+
+def _manifest(tmp_path, extra: str):
+    (tmp_path / "in.usda").write_text("#usda 1.0\n")
+    path = tmp_path / "m.toml"
+    path.write_text('[[job]]\nname = "w"\ninput = "in.usda"\nout = "gaze.usdc"\n' + extra)
+    return path
+
+
+@pytest.mark.parametrize("extra, words", [
+    ('shifts = ["1s:10:0:weight=2"]\n', ["job 0 'w': shift = '1s:10:0:weight=2'", "weight must be a number in [0, 1]"]),
+    ('shifts = ["1s:10:0:blend=-1"]\n', ["job 0 'w': shift = '1s:10:0:blend=-1'", "blend must be >= 0"]),
+    ('shifts = ["1s:10:0:foo=1"]\n', ["job 0 'w': shift = '1s:10:0:foo=1'", "unknown or repeated option"]),
+    ('shifts = ["1s:10:0"]\nplot = "gaze.txt"\n', ["job 0 'w': plot = 'gaze.txt'", "must end in .png, .pdf or .svg"]),
+    ('shifts = ["1s:10:0"]\nskel_root = "Body"\n', ["job 0 'w': skel_root = 'Body'", "absolute prim path"]),
+])
+def test_values_are_refused_naming_manifest_job_and_key(tmp_path, extra, words):
+    path = _manifest(tmp_path, extra)
+    with pytest.raises(UsdGazeError) as info:
+        load_manifest(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: "), message
+    assert "--shift" not in message
+    for word in words:
+        assert word in message
+
+
+def test_good_plot_and_skel_root_pass(tmp_path):
+    shot, = load_manifest(_manifest(tmp_path, 'shifts = ["1s:10:0:weight=0.5"]\nplot = "g.PNG"\nskel_root = "/Body"\n'))
+    assert shot.values["skel_root"] == "/Body" and shot.values["plot"].endswith("g.PNG")
+
+
+class _SecondSignalAtExit(Outputs):
+    """A SIGTERM whose handler runs as ``__exit__`` begins, while SIGINT's Interrupted unwinds: what a
+    pool worker sees on Ctrl-C (the terminal's SIGINT, then the parent's SIGTERM)."""
+
+    def __exit__(self, *exc):
+        signal.getsignal(signal.SIGTERM)(signal.SIGTERM, None)
+        return super().__exit__(*exc)
+
+
+def test_second_signal_while_interrupted_leaves_no_temporaries(tmp_path):
+    before = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    with pytest.raises(Interrupted) as info:
+        with _SecondSignalAtExit() as tx:
+            tx.claim(tmp_path / "gaze.usda", "--out")
+            tx.stage_text(tmp_path / "gaze.usda", "#usda 1.0\n")
+            signal.getsignal(signal.SIGINT)(signal.SIGINT, None)
+    assert info.value.signum == signal.SIGINT
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(TMP_PREFIX)] == []
+    assert not (tmp_path / "gaze.usda").exists()
+    assert {sig: signal.getsignal(sig) for sig in before} == before
