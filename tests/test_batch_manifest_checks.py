@@ -1,5 +1,5 @@
-"""Batch sweep regressions: manifest values checked up front, and a second stop signal while the
-first one unwinds still cleans up the writer's temporaries."""
+"""Batch checks: manifest values checked up front; a second stop signal while the first one unwinds
+still cleans up the writer's temporaries; a pool worker whose shot was stopped takes no other."""
 
 from __future__ import annotations
 
@@ -62,3 +62,20 @@ def test_second_signal_while_interrupted_leaves_no_temporaries(tmp_path):
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(TMP_PREFIX)] == []
     assert not (tmp_path / "gaze.usda").exists()
     assert {sig: signal.getsignal(sig) for sig in before} == before
+
+
+def test_a_pool_worker_ends_once_a_stop_signal_interrupted_its_shot(monkeypatch):
+    """The pool handed a worker whose shot a stop signal interrupted the next queued shot: 2-3 more
+    shots ran after a Ctrl-C. The worker now ends there, with the signal's exit status."""
+    import multiprocessing
+
+    from usdgaze.batch import engine
+
+    def interrupted(shot, force=False, limit=False):
+        raise Interrupted(signal.SIGINT)
+
+    monkeypatch.setattr(engine, "run_shot", interrupted)
+    worker = multiprocessing.get_context("fork").Process(target=engine._pool_shot, args=(None, False))
+    worker.start()
+    worker.join(30)
+    assert worker.exitcode == 128 + signal.SIGINT

@@ -156,13 +156,25 @@ def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
         with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context,
                                  initializer=_pool_worker, initargs=(forked,)) as pool:
             with _signals_held():  # the workers start (fork) in submit: see _pool_worker
-                futures = [pool.submit(run_shot, shot, force) for shot in shots]
+                futures = [pool.submit(_pool_shot, shot, force) for shot in shots]
             try:
                 for future in as_completed(futures):
                     yield future.result()
             except BaseException:  # SIGTERM or SIGINT here: stop the workers' shots too (each cleans up)
                 _stop_workers(pool)
                 raise
+
+
+def _pool_shot(shot: Shot, force: bool) -> dict:
+    """:func:`run_shot` in a pool worker, which ends once a stop signal has interrupted a shot (its
+    writer has cleaned up by then): the pool hands a worker whose shot raised the next queued shot,
+    and 2-3 more shots ran after a Ctrl-C."""
+    from usdgaze.errors import Interrupted
+
+    try:
+        return run_shot(shot, force)
+    except Interrupted as exc:
+        os._exit(128 + exc.signum)
 
 
 def _pool_worker(forked: bool) -> None:
