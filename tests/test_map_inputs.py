@@ -120,3 +120,24 @@ def test_a_trial_that_never_reached_its_target_is_said(tmp_path, capsys):
     assert main(["build-map", str(session.sheet), "--out", str(tmp_path / "map.usda")]) == 0
     said = [line for line in capsys.readouterr().out.splitlines() if "past their range" in line]
     assert len(said) == 1 and said[0].split()[0] == first.name, said
+
+
+def test_a_long_occlusion_filled_with_a_straight_line_is_said(tmp_path, capsys):
+    """A marker unseen for 0.4 s across a trial's head turn was filled linearly and the trial marked ok:
+    the only sign was the count of filled samples in the report."""
+    import numpy as np
+
+    from . import ingest_synth as synth
+
+    session = synth.write_c3d_session(tmp_path / "s")
+    trial = next(t for t in session.trials if t.yaw != 0)
+    rng = np.random.default_rng(3)
+    points, onset = synth.simulate_trial(trial.motion, rng, rate=synth.RATE)
+    gap = slice(onset, onset + int(0.4 * synth.RATE))
+    points[gap, 0] = np.nan
+    synth.write_points(trial.file, synth.LABELS, points, synth.RATE)
+    capsys.readouterr()
+    assert main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out",
+                 str(tmp_path / "map.usda")]) == 0
+    said = [line for line in capsys.readouterr().out.splitlines() if "filled with a straight line" in line]
+    assert len(said) == 1 and said[0].split()[0] == trial.name and f"'{synth.LABELS[0]}'" in said[0], said

@@ -36,6 +36,11 @@ class BuildError(UsdGazeError):
     """The session as a whole cannot become a map."""
 
 
+LONG_FILL_S = 0.25
+"""An occlusion filled longer than this is warned about: a head turn is a straight line there (gaps of
+a few frames, 0.15 s at most at 60 Hz, are what every capture has)."""
+
+
 @dataclass
 class TrialReport:
     """What happened to one trial: the report table's row."""
@@ -212,6 +217,11 @@ def _load_trials(sheet: Sheet, markerset: MarkerSet | None,
             continue
         loaded[trial.name] = series
         report.rate, report.units, report.filled_samples = series.rate, series.units, series.filled
+        longest = series.longest_fill
+        if longest is not None and (longest[2] - longest[1] + 1) / series.rate > LONG_FILL_S:
+            marker, first, last = longest
+            report.warnings.append(f"marker '{marker}' occluded over frames {first}-{last} "
+                                   f"({(last - first + 1) / series.rate:.2f} s), filled with a straight line")
     return reports, loaded
 
 

@@ -36,6 +36,8 @@ class TrialSeries:
     mm_per_unit: float
     filled: int = 0
     """Occluded samples filled by :func:`.cleaning.fill_gaps`."""
+    longest_fill: tuple[str, int, int] | None = None
+    """The longest run of filled frames: (marker, first frame, last frame), None where none was filled."""
 
     @property
     def frames(self) -> int:
@@ -83,7 +85,20 @@ def marker_series(capture: MarkerCapture, markerset: MarkerSet, where: str) -> T
         units=capture.units,
         mm_per_unit=capture.mm_per_unit,
         filled=int(mask.sum()),
+        longest_fill=_longest_run(mask, [capture.labels[i] for i in idx]),
     )
+
+
+def _longest_run(mask: np.ndarray, labels: list[str]) -> tuple[str, int, int] | None:
+    """(label, first, last frame) of the longest run of True down a column of ``mask (F, M)``."""
+    best = None
+    for m in np.flatnonzero(mask.any(axis=0)):  # markers, not frames: a dozen columns
+        edges = np.flatnonzero(np.diff(np.r_[0, mask[:, m].astype(np.int8), 0]))
+        starts, ends = edges[::2], edges[1::2]
+        k = int(np.argmax(ends - starts))
+        if best is None or ends[k] - starts[k] > best[2] - best[1] + 1:
+            best = (labels[m], int(starts[k]), int(ends[k]) - 1)
+    return best
 
 
 def read_marker_series(path: str, markerset: MarkerSet, where: str) -> TrialSeries:
