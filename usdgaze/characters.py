@@ -145,13 +145,34 @@ def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list
     return schedule.read_schedule(root, source)
 
 
-def _check_not_itself(target: str, clip: SkelClip) -> None:
-    """A look-at target that is the character (its SkelRoot, a prim holding it, its Skeleton) moves with
-    it and lies in it: its own bounds' centre was looked at, down into its body, with a miss warning."""
+def _skinned_by(stage, clip: SkelClip) -> list:
+    """Paths of the prims UsdSkel deforms with ``clip``'s Skeleton (its skinned meshes)."""
+    from pxr import Usd, UsdSkel
+
+    root = UsdSkel.Root(stage.GetPrimAtPath(clip.skel_root))
+    if not root:
+        return []
+    cache = UsdSkel.Cache()
+    predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    cache.Populate(root, predicate)
+    return [q.GetPrim().GetPath() for b in cache.ComputeSkelBindings(root, predicate)
+            if str(b.GetSkeleton().GetPrim().GetPath()) == clip.skeleton for q in b.GetSkinningTargets()]
+
+
+def _check_not_itself(target: str, clip: SkelClip, stage=None) -> None:
+    """A look-at target that is the character (its SkelRoot, a prim holding it, its Skeleton, a mesh its
+    Skeleton skins or a prim holding one) moves with it and lies in it: its own bounds' centre was looked
+    at, down into its body (a skinned mesh's bounds are even those of its rest pose), with a warning that
+    it was behind the character."""
     from pxr import Sdf
 
     path = Sdf.Path(target)
-    if Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton)):
+    own = Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton))
+    if not own and stage is not None and path.HasPrefix(Sdf.Path(clip.skel_root)):
+        if any(p.HasPrefix(path) for p in _skinned_by(stage, clip)):
+            raise UsdGazeError(f"{clip.source}:{target}: is (or holds) a mesh skinned by {clip.skeleton}, the body of the "
+                               f"character {clip.skel_root} itself; a look-at target must be another prim")
+    if own:
         raise UsdGazeError(f"{clip.source}:{target}: is the character {clip.skel_root} itself (or holds it, or is its "
                            "Skeleton); a look-at target must be another prim (on a stage of several characters, --skel-root "
                            "picks the one that looks)")
@@ -184,7 +205,7 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
             if key not in index_of:
                 index_of[key] = len(targets)
                 if r.target is not None:
-                    _check_not_itself(r.target, clip)
+                    _check_not_itself(r.target, clip, stage)
                     targets.append(sample_target(stage, r.target, clip.times, clip.source))
                     names.append(r.target)
                 else:

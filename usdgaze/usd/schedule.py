@@ -79,6 +79,12 @@ def _array(prim: Usd.Prim, name: str, where: str, count: int | None, found: _Fou
     return list(value)
 
 
+def _offset(prim: Usd.Prim, name: str) -> Sdf.LayerOffset:
+    """The layer offset from the layer holding the attribute's strongest opinion to the stage's root layer."""
+    stack = prim.GetAttribute(name).GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default())
+    return stack[0][1] if stack else Sdf.LayerOffset()
+
+
 def read_schedule(prim: Usd.Prim, source: str) -> list[DirectiveRequest]:
     """The directives on ``prim`` (a SkelRoot with GazeScheduleAPI), checked, in time order; the first
     problem found is a one-line error."""
@@ -105,6 +111,14 @@ def _read(prim: Usd.Prim, source: str, found: _Found) -> list[DirectiveRequest]:
         return []
     # A column found unusable reads as not authored: its entries' checks are skipped, not repeated.
     cols = {name: _array(prim, name, where, len(times), found) for name in ATTRS if name != TIME}
+    # Time codes follow the layer offsets (and timeCodesPerSecond) by which the layer holding them is
+    # brought in, as time samples and SdfTimeCode values do: a schedule authored in an asset referenced
+    # with an offset had its looks played at the asset's times against the animation at the shot's.
+    offset = _offset(prim, TIME)
+    times = [float(offset * float(t)) if np.isfinite(float(t)) else float(t) for t in times]
+    if cols[BLEND] is not None:
+        scale = _offset(prim, BLEND).scale
+        cols[BLEND] = [float(b) * scale for b in cols[BLEND]]
     rel = prim.GetRelationship(TARGETS_REL)
     targets = [str(p) for p in rel.GetForwardedTargets()] if rel else []
     out = []

@@ -63,10 +63,20 @@ def _varying(prim: Usd.Prim, boundable: bool) -> bool:
                 if attr.GetNumTimeSamples() > 1 or attr.ValueMightBeTimeVarying():
                     return True
     else:
-        pivot = prim.GetAttribute("xformOp:translate:pivot")
-        if pivot and pivot.ValueMightBeTimeVarying():
+        pivot = _pivot(prim)
+        if pivot is not None and pivot.ValueMightBeTimeVarying():
             return True
     return False
+
+
+def _pivot(prim: Usd.Prim) -> Usd.Attribute | None:
+    """``xformOp:translate:pivot`` where the prim's xformOpOrder uses it and it has a value: an attribute
+    of that name left out of the order does not move the prim, and its point was looked at."""
+    attr = prim.GetAttribute("xformOp:translate:pivot")
+    if not attr or not attr.HasValue():
+        return None
+    order = UsdGeom.Xformable(prim).GetXformOpOrderAttr().Get() or []
+    return attr if "xformOp:translate:pivot" in [str(o) for o in order] else None
 
 
 def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str) -> np.ndarray:
@@ -76,21 +86,23 @@ def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str) -
     sample_times = np.asarray(times, dtype=float) if _varying(prim, boundable) else np.asarray(times[:1], dtype=float)
     out = np.empty((len(sample_times), 3))
     if boundable:
-        cache = UsdGeom.BBoxCache(Usd.TimeCode(float(sample_times[0])), PURPOSES, useExtentsHint=True)
         for i, t in enumerate(sample_times):
-            cache.SetTime(Usd.TimeCode(float(t)))
+            # A cache per time: BBoxCache.SetTime keeps the bounds it computed for prims with no authored
+            # extent (a Mesh with animated points, a SkelRoot or Skeleton, whose extent is computed), so
+            # one cache moved through the frames gave the first frame's bounds on every frame.
+            cache = UsdGeom.BBoxCache(Usd.TimeCode(float(t)), PURPOSES, useExtentsHint=True)
             box = cache.ComputeWorldBound(prim)
             if box.GetRange().IsEmpty():
                 raise UsdGazeError(f"{source}:{path}: has no extent at time code {t:g}; "
                                    "author an extent (or look at a point X,Y,Z)")
             out[i] = np.array(box.ComputeCentroid(), dtype=float)
     else:
-        pivot_attr = prim.GetAttribute("xformOp:translate:pivot")
+        pivot_attr = _pivot(prim)
         cache = UsdGeom.XformCache(Usd.TimeCode(float(sample_times[0])))
         for i, t in enumerate(sample_times):
             cache.SetTime(Usd.TimeCode(float(t)))
             m = np.array(cache.GetLocalToWorldTransform(prim), dtype=float)  # row vectors
-            pivot = np.array(pivot_attr.Get(Usd.TimeCode(float(t))) if pivot_attr and pivot_attr.HasValue()
+            pivot = np.array(pivot_attr.Get(Usd.TimeCode(float(t))) if pivot_attr is not None
                              else (0.0, 0.0, 0.0), dtype=float)
             out[i] = np.append(pivot, 1.0) @ m[:, :3]
     if not np.all(np.isfinite(out)):

@@ -1,0 +1,82 @@
+"""Look-at targets as studio scenes hold them, and schedules brought in by reference.
+
+Each expected position or time comes from the authored numbers (points, xform ops, layer offsets) or
+from USD's own composition of the animation, never from usdgaze's reading of the target.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel
+
+from usdgaze.console.main import main
+from usdgaze.passes.requests import DirectiveRequest
+from usdgaze.usd import schedule
+from usdgaze.usd.targets import sample_target
+
+from . import synthetic as syn
+
+
+def test_a_mesh_with_animated_points_and_no_extent_is_followed(tmp_path):
+    """With no authored extent USD computes a mesh's bounds from its points; one BBoxCache moved
+    from frame to frame kept the first frame's, so the eyes stayed where the mesh had been."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    mesh = UsdGeom.Mesh.Define(stage, "/World/Sheet")
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    square = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])
+    times = np.arange(0.0, 49.0)
+    for t in times[::4]:
+        mesh.GetPointsAttr().Set([Gf.Vec3f(*p) for p in square + [1.2 - 0.05 * t, 1.3, 2.0]], float(t))
+    got = sample_target(stage, "/World/Sheet", times, "s.usda")
+    keys = times[::4]
+    expected_x = np.interp(times, keys, 1.2 - 0.05 * keys)  # the square's centre, linear between samples
+    assert np.abs(got[:, 0] - expected_x).max() < 1e-5, np.abs(got[:, 0] - expected_x).max()
+    assert np.abs(got[:, 1:] - [1.3, 2.0]).max() < 1e-5
+
+
+def test_a_pivot_attribute_left_out_of_the_op_order_is_not_the_pivot(tmp_path):
+    """USD ignores an xformOp attribute that xformOpOrder does not list; its point was looked at."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    lamp = UsdGeom.Xform.Define(stage, "/World/Lamp")
+    lamp.AddTranslateOp().Set(Gf.Vec3d(-1.0, 1.4, 2.0))
+    lamp.GetPrim().CreateAttribute("xformOp:translate:pivot", Sdf.ValueTypeNames.Double3).Set(Gf.Vec3d(0, 3, 0))
+    got = sample_target(stage, "/World/Lamp", np.arange(3.0), "s.usda")
+    assert np.abs(got - [-1.0, 1.4, 2.0]).max() < 1e-9, got[0]
+
+
+def test_the_characters_own_skinned_mesh_is_refused(tmp_path, capsys):
+    """A mesh the character's Skeleton skins is its own body (its bounds even those of the rest pose):
+    it was looked at, down and behind, with a warning that the target was out of reach."""
+    rig = syn.make_rig(tmp_path / "in.usda", frames=30)
+    assert rig.mesh and Sdf.Path(rig.mesh).HasPrefix(Sdf.Path(rig.skel_root))
+    code = main(["apply", str(rig.path), "--look-at", f"{rig.mesh}@5", "--out", str(tmp_path / "gaze.usda")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, (code, err)
+    assert rig.mesh in err[0] and "skinned" in err[0]
+    assert not (tmp_path / "gaze.usda").exists()
+
+
+@pytest.mark.parametrize("offset, scale", [(20.0, 1.0), (100.0, 2.0)])
+def test_a_schedule_in_a_referenced_asset_follows_the_reference_offset(tmp_path, offset, scale):
+    """The schedule's time codes play against the animation as it is brought in: an asset referenced
+    at an offset had its looks at the asset's own times, against the animation at the shot's."""
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=120, time_codes_per_second=60.0)
+    asset = Usd.Stage.Open(str(rig.path))
+    body = asset.GetPrimAtPath(rig.skel_root)
+    schedule.write_schedule(body, [DirectiveRequest("look", 30.0, point=(0.0, 1.5, 3.0)),
+                                   DirectiveRequest("release", 80.0, blend=10.0)])
+    asset.GetRootLayer().Save()
+    shot = Usd.Stage.CreateNew(str(tmp_path / "shot.usda"))
+    shot.SetTimeCodesPerSecond(60.0)
+    hero = shot.DefinePrim("/Hero")
+    hero.GetReferences().AddReference(str(rig.path), Sdf.Path(rig.skel_root), Sdf.LayerOffset(offset, scale))
+    directives = schedule.read_schedule(hero, "shot.usda")
+    # Where USD puts the animation's samples through the same reference.
+    anim = UsdSkel.Animation(shot.GetPrimAtPath("/Hero" + rig.animation[len(rig.skel_root):]))
+    first = anim.GetRotationsAttr().GetTimeSamples()[0]
+    authored_first = float(rig.times[0])
+    assert first == pytest.approx(offset + scale * authored_first)
+    assert [d.time for d in directives] == pytest.approx([offset + scale * 30.0, offset + scale * 80.0])
+    assert directives[1].blend == pytest.approx(scale * 10.0)
