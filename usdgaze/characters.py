@@ -145,18 +145,34 @@ def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list
     return schedule.read_schedule(root, source)
 
 
-def _skinned_by(stage, clip: SkelClip) -> list:
-    """Paths of the prims UsdSkel deforms with ``clip``'s Skeleton (its skinned meshes)."""
+def _skinned_by(stage, skel_root: str, skeleton: str | None = None) -> list:
+    """Paths of the prims UsdSkel deforms under ``skel_root`` (with ``skeleton`` only, where given)."""
     from pxr import Usd, UsdSkel
 
-    root = UsdSkel.Root(stage.GetPrimAtPath(clip.skel_root))
+    root = UsdSkel.Root(stage.GetPrimAtPath(skel_root))
     if not root:
         return []
     cache = UsdSkel.Cache()
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     cache.Populate(root, predicate)
     return [q.GetPrim().GetPath() for b in cache.ComputeSkelBindings(root, predicate)
-            if str(b.GetSkeleton().GetPrim().GetPath()) == clip.skeleton for q in b.GetSkinningTargets()]
+            if skeleton is None or str(b.GetSkeleton().GetPrim().GetPath()) == skeleton for q in b.GetSkinningTargets()]
+
+
+def _check_not_skinned(stage, target: str, source: str) -> None:
+    """A target that is (or holds) a mesh another character's Skeleton skins: its bounds are those of
+    the mesh's rest pose, where the body is not (a walking character's: 14-18 deg off, silently)."""
+    from pxr import Sdf, UsdSkel
+
+    path = Sdf.Path(target)
+    prim = stage.GetPrimAtPath(path)
+    root = UsdSkel.Root.Find(prim) if prim else None
+    if not root or root.GetPrim().GetPath() == path:
+        return
+    if any(p.HasPrefix(path) for p in _skinned_by(stage, str(root.GetPrim().GetPath()))):
+        raise UsdGazeError(f"{source}:{target}: is (or holds) a skinned mesh, whose bounds are its rest pose, not "
+                           f"where the body is; look at the SkelRoot {root.GetPrim().GetPath()} (its bounds follow "
+                           f"the body) or at a point")
 
 
 def _check_not_itself(target: str, clip: SkelClip, stage=None) -> None:
@@ -169,7 +185,7 @@ def _check_not_itself(target: str, clip: SkelClip, stage=None) -> None:
     path = Sdf.Path(target)
     own = Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton))
     if not own and stage is not None and path.HasPrefix(Sdf.Path(clip.skel_root)):
-        if any(p.HasPrefix(path) for p in _skinned_by(stage, clip)):
+        if any(p.HasPrefix(path) for p in _skinned_by(stage, clip.skel_root, clip.skeleton)):
             raise UsdGazeError(f"{clip.source}:{target}: is (or holds) a mesh skinned by {clip.skeleton}, the body of the "
                                f"character {clip.skel_root} itself; a look-at target must be another prim")
     if own:
@@ -206,6 +222,7 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
                 index_of[key] = len(targets)
                 if r.target is not None:
                     _check_not_itself(r.target, clip, stage)
+                    _check_not_skinned(stage, r.target, clip.source)
                     targets.append(sample_target(stage, r.target, clip.times, clip.source))
                     names.append(r.target)
                 else:
