@@ -46,6 +46,22 @@ def test_a_pivot_attribute_left_out_of_the_op_order_is_not_the_pivot(tmp_path):
     assert np.abs(got - [-1.0, 1.4, 2.0]).max() < 1e-9, got[0]
 
 
+def test_a_maya_rotate_pivot_is_the_targets_point(tmp_path):
+    """mayaUSD writes a transform whose pivot was moved as translate, rotatePivot, rotate, and the
+    rotatePivot's inverse: the point an artist placed is the rotate pivot (the origin was looked at,
+    50 deg from it in a sweep's door)."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    door = UsdGeom.Xform.Define(stage, "/World/Door")
+    door.AddTranslateOp().Set(Gf.Vec3d(1.0, 0.0, 2.0))
+    pivot = door.AddTranslateOp(opSuffix="rotatePivot")
+    pivot.Set(Gf.Vec3d(0.4, 1.5, 0.0))
+    door.AddRotateYOp().Set(90.0)
+    door.AddTranslateOp(opSuffix="rotatePivot", isInverseOp=True)
+    got = sample_target(stage, "/World/Door", np.arange(3.0), "s.usda")
+    # The pivot point: translate + pivot (rotating about the pivot leaves the pivot itself in place).
+    assert np.abs(got - [1.4, 1.5, 2.0]).max() < 1e-9, got[0]
+
+
 def test_the_characters_own_skinned_mesh_is_refused(tmp_path, capsys):
     """A mesh the character's Skeleton skins is its own body (its bounds even those of the rest pose):
     it was looked at, down and behind, with a warning that the target was out of reach."""

@@ -69,14 +69,20 @@ def _varying(prim: Usd.Prim, boundable: bool) -> bool:
     return False
 
 
+PIVOTS = ("xformOp:translate:pivot", "xformOp:translate:rotatePivot")
+"""The pivot ops a target's point is taken from, the first the prim uses: USD's common pivot, then
+Maya's rotate pivot (as mayaUSD exports a transform whose pivot was moved)."""
+
+
 def _pivot(prim: Usd.Prim) -> Usd.Attribute | None:
-    """``xformOp:translate:pivot`` where the prim's xformOpOrder uses it and it has a value: an attribute
+    """The first of :data:`PIVOTS` that the prim's xformOpOrder uses and that has a value: an attribute
     of that name left out of the order does not move the prim, and its point was looked at."""
-    attr = prim.GetAttribute("xformOp:translate:pivot")
-    if not attr or not attr.HasValue():
-        return None
-    order = UsdGeom.Xformable(prim).GetXformOpOrderAttr().Get() or []
-    return attr if "xformOp:translate:pivot" in [str(o) for o in order] else None
+    order = [str(o) for o in (UsdGeom.Xformable(prim).GetXformOpOrderAttr().Get() or [])]
+    for name in PIVOTS:
+        attr = prim.GetAttribute(name)
+        if attr and attr.HasValue() and name in order:
+            return attr
+    return None
 
 
 def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str) -> np.ndarray:
