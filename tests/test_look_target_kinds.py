@@ -124,3 +124,17 @@ def test_another_characters_skinned_mesh_is_refused_for_its_skelroot(tmp_path, c
     assert "/Other/Body/BodyMesh/Cylinder: is (or holds) a skinned mesh" in err and "look at the SkelRoot /Other/Body" in err
     assert not (tmp_path / "gaze.usda").exists()
     assert main(args + ["--look-at", "/Other/Body@60"]) == 0  # the SkelRoot itself is a target
+
+
+def test_a_target_under_an_inactive_prim_says_so(tmp_path):
+    """It said "no such prim": USD composes no children of an inactive prim."""
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.usd.targets import check_target
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    UsdGeom.Xform.Define(stage, "/World/Props/Lamp")
+    stage.GetPrimAtPath("/World/Props").SetActive(False)
+    with pytest.raises(UsdGazeError, match="is under the inactive prim /World/Props"):
+        check_target(stage, "/World/Props/Lamp", "s.usda")
+    with pytest.raises(UsdGazeError, match="no such prim"):
+        check_target(stage, "/World/Elsewhere/Lamp", "s.usda")

@@ -22,6 +22,13 @@ def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
         raise UsdGazeError(f"{source}: look-at target '{path}' is neither an absolute prim path nor a point X,Y,Z")
     prim = stage.GetPrimAtPath(path)
     if not prim or not prim.IsValid():
+        above = Sdf.Path(path).GetParentPath()
+        while not above.IsAbsoluteRootPath() and not stage.GetPrimAtPath(above):
+            above = above.GetParentPath()
+        holder = stage.GetPrimAtPath(above)
+        if holder and not holder.IsPseudoRoot() and not holder.IsActive():  # its children are not composed
+            raise UsdGazeError(f"{source}:{path}: is under the inactive prim {above} (active = false), so it is not "
+                               "in the scene (look-at target)")
         raise UsdGazeError(f"{source}:{path}: no such prim (look-at target)")
     if not prim.IsActive():
         raise UsdGazeError(f"{source}:{path}: is inactive (active = false), so it is not in the scene (look-at target)")
