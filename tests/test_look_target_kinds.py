@@ -138,3 +138,15 @@ def test_a_target_under_an_inactive_prim_says_so(tmp_path):
         check_target(stage, "/World/Props/Lamp", "s.usda")
     with pytest.raises(UsdGazeError, match="no such prim"):
         check_target(stage, "/World/Elsewhere/Lamp", "s.usda")
+
+
+def test_a_schedule_time_outside_the_clip_names_the_schedule(tmp_path, capsys):
+    """It named the SkelAnimation and '--release 900', a flag the user never typed."""
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=120, time_codes_per_second=60.0)
+    stage = Usd.Stage.Open(str(rig.path))
+    schedule.write_schedule(stage.GetPrimAtPath(rig.skel_root), [DirectiveRequest("look", 30.0, point=(0.0, 1.5, 3.0)),
+                                                                  DirectiveRequest("release", 900.0)])
+    stage.GetRootLayer().Save()
+    assert main(["apply", str(rig.path), "--out", str(tmp_path / "gaze.usda")]) == 2
+    err = capsys.readouterr().err
+    assert f"{rig.skel_root}.gaze:schedule:time: entry 1 (--release 900) lies outside the animation" in err, err

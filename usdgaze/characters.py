@@ -211,9 +211,10 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
         # rounding of the printed seconds, past an end is that end.
         slack = max(1e-9, 1e-3 / tcps, 5e-6 * max(abs(first), abs(last)))
         if not first - slack <= t <= last + slack:
+            said = f"{r.origin} ({r.flag})" if r.origin else f"{clip.where()}: {r.flag}"
             raise UsdGazeError(
-                f"{clip.where()}: {r.flag} lies outside the animation (time codes {clip.times[0]:g} to "
-                f"{clip.times[-1]:g}, {first:g} to {last:g} s)")
+                f"{said} lies outside the animation{f' {clip.animation}' if r.origin else ''} (time codes "
+                f"{clip.times[0]:g} to {clip.times[-1]:g}, {first:g} to {last:g} s)")
         t = min(max(t, first), last)
         index = -1
         if r.kind == "look":

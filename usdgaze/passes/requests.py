@@ -15,7 +15,7 @@ flag text, so flags and a schedule that say the same thing record the same text.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -49,6 +49,8 @@ class DirectiveRequest:
     weight: float = 1.0
     blend: float = 0.0
     blend_seconds: bool = False
+    origin: str | None = field(default=None, compare=False, repr=False)
+    """Where an authored directive comes from (``FILE:PRIM.ATTRIBUTE entry K``), for messages; flags have none."""
 
     def time_s(self, start_time: float, time_codes_per_second: float) -> float:
         return self.time if self.seconds else (self.time - start_time) / time_codes_per_second

@@ -8,6 +8,7 @@ the same flags give the same layer byte for byte. Errors read ``FILE:PRIM.ATTRIB
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -128,7 +129,7 @@ def _read(prim: Usd.Prim, source: str, found: _Found) -> list[DirectiveRequest]:
             return ATTRS[name][2] if values is None else values[k]
         d = _directive(k, times, col, cols[POINT] is not None, targets, where, found)
         if d is not None:
-            out.append(d)
+            out.append(dataclasses.replace(d, origin=f"{where}.{TIME}: entry {k}"))
     return out
 
 
