@@ -101,6 +101,9 @@ def test_summary_prints_the_map_and_the_schedule(shot, capsys):
     from usdgaze.usd.schedule import write_schedule
 
     stage.SetEditTarget(stage.GetSessionLayer())
+    # The schedule's time codes are mapped as time samples are: a session layer authoring no
+    # timeCodesPerSecond counts in USD's fallback 24 (a sample at 240 there is at 1200 on this stage).
+    stage.GetSessionLayer().timeCodesPerSecond = stage.GetRootLayer().timeCodesPerSecond
     write_schedule(stage.GetPrimAtPath("/root/Body"), [DirectiveRequest("shift", 240.0, yaw=30.0)])
     assert "GazeScheduleAPI: 240:30:0" in usdview.summary(view)
 
