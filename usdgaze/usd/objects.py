@@ -76,10 +76,29 @@ def _attr(prim: Usd.Prim, name: str, default, where: str):
     problem = type_problem(attr)
     if problem:
         raise UsdGazeError(f"{where}.{problem}")
+    if attr.GetResolveInfo().GetSource() in (Usd.ResolveInfoSourceTimeSamples, Usd.ResolveInfoSourceValueClips):
+        # Radius and kind are uniform (one value for the shot). Time samples (a DCC export writes a
+        # sample per frame) are not what Get() at the default time sees: that is the schema's fallback
+        # (0.1 m, no kind), so a sampled "ballistic" or a sampled negative radius went unnoticed.
+        times = attr.GetTimeSamples()
+        values = [attr.Get(t) for t in times]
+        if not values or any(v is None for v in values):
+            raise UsdGazeError(f"{where}.{name}: has no value")
+        first = values[0]
+        for t, v in zip(times, values):
+            both_nan = isinstance(v, float) and isinstance(first, float) and np.isnan(v) and np.isnan(first)
+            if v != first and not both_nan:
+                raise UsdGazeError(f"{where}.{name}: {_shown(first)} at time {times[0]:g} but {_shown(v)} at time "
+                                   f"{t:g}; it is one value for the whole shot (uniform): author it once")
+        return first
     value = attr.Get()
     if value is None:
         raise UsdGazeError(f"{where}.{name}: has no value")
     return value
+
+
+def _shown(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else f"'{value}'"
 
 
 def _importance(prim: Usd.Prim, time_codes: np.ndarray, where: str) -> np.ndarray:

@@ -1,0 +1,72 @@
+"""``usdgaze attend`` with GazeObjectAPI attributes as a layout artist's DCC writes them: radius and kind
+are uniform (one value for the shot), but an export often writes them as time samples. USD's value at
+the default time is then the schema's fallback (0.1 m, no kind), so before, a sampled "ballistic" was
+read as no kind and a sampled negative radius went through. Now equal samples are that value, and
+samples that differ are one line naming the prim and attribute, exit 2."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pxr import Gf, Sdf
+
+import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
+from usdgaze.console.main import main
+
+ATTEND = Path(__file__).resolve().parents[1] / "sample_stages" / "attend"
+FPS = 120.00479955795427
+
+
+def _stage(path: Path, radius=None, kind=None, sampled: bool = False) -> Path:
+    """The standing clip and one ball thrown towards the character; radius/kind as a default or as samples."""
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.startTimeCode, layer.endTimeCode = 1, 241
+    layer.timeCodesPerSecond = layer.framesPerSecond = FPS
+    layer.pseudoRoot.SetInfo("upAxis", "Y")
+    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    layer.subLayerPaths[:] = [str(ATTEND / "standing.usdc"), str(ATTEND.parent / "cmu" / "cmu_131_01.usdc")]
+    Sdf.CreatePrimInLayer(layer, "/Objects").specifier = Sdf.SpecifierDef
+    ball = Sdf.CreatePrimInLayer(layer, "/Objects/Ball")
+    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
+    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    tr = Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3)
+    for f in range(1, 242, 8):  # from 6 m ahead and to the left, falling under gravity
+        t = (f - 1) / FPS
+        layer.SetTimeSample(tr.path, f, Gf.Vec3d(2.0 - 1.2 * t, 1.6 + 3.0 * t - 4.905 * t * t, 4.0 - 3.5 * t))
+    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    for name, type_name, value in (("gaze:object:radius", Sdf.ValueTypeNames.Float, radius),
+                                   ("gaze:object:kind", Sdf.ValueTypeNames.Token, kind)):
+        if value is None:
+            continue
+        attr = Sdf.AttributeSpec(ball, name, type_name)
+        if not sampled:
+            attr.default = value
+            continue
+        values = value if isinstance(value, list) else [value, value]
+        for f, v in zip((1, 121), values):
+            layer.SetTimeSample(attr.path, f, v)
+    layer.Save()
+    return path
+
+
+def test_a_uniform_attribute_written_as_equal_samples_is_that_value(tmp_path):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    plain = _stage(tmp_path / "a" / "shot.usda", radius=0.25, kind="ballistic")
+    sampled = _stage(tmp_path / "b" / "shot.usda", radius=0.25, kind="ballistic", sampled=True)
+    for stage in (plain, sampled):
+        assert main(["attend", str(stage), "--out", str(stage.parent / "out.usda")]) == 0
+    # the same ball, the same belief, the same layer (the input's file name is the same too)
+    assert (tmp_path / "a" / "out.usda").read_bytes() == (tmp_path / "b" / "out.usda").read_bytes()
+
+
+def test_uniform_attribute_samples_that_differ_are_one_line(tmp_path, capsys):
+    for i, (radius, kind, attr) in enumerate((([0.2, -1.0], None, "gaze:object:radius"),
+                                              (None, ["ballistic", "bouncy"], "gaze:object:kind"))):
+        stage = _stage(tmp_path / f"shot{i}.usda", radius=radius, kind=kind, sampled=True)
+        out = tmp_path / f"out{i}.usda"
+        assert main(["attend", str(stage), "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"/Objects/Ball.{attr}" in err[0], err
+        assert not out.exists()
