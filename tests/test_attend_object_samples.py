@@ -70,3 +70,50 @@ def test_uniform_attribute_samples_that_differ_are_one_line(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and f"/Objects/Ball.{attr}" in err[0], err
         assert not out.exists()
+
+
+def test_no_eye_turns_faster_than_800_deg_s_on_a_near_object(tmp_path):
+    """The planner bounds the eyes' common (cyclopean) direction at 800 deg/s; vergence on an object
+    20 cm away took one eye to 856 deg/s on top of it. Each eye, by UsdSkel FK on the written layer."""
+    import numpy as np
+    from pxr import Sdf
+
+    from tests import measure
+    from tests.attend_support import ATTEND, compose
+
+    from usdgaze.console.main import main
+
+    src = Sdf.Layer.FindOrOpen(str(ATTEND / "ball_throw.usda"))
+    inp = tmp_path / "near.usda"
+    layer = Sdf.Layer.CreateNew(str(inp))
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(layer, key, getattr(src, key))
+    for key in ("upAxis", "metersPerUnit", "defaultPrim"):
+        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    layer.subLayerPaths[:] = [str(ATTEND / "standing.usdc"), str(ATTEND.parent / "cmu" / "cmu_131_01.usdc")]
+    layer.Save()
+    base = measure.posed(str(inp), "/root/Body/BodySkel")
+    fwd = measure.character_forward_skel(base, "LeftHip", "RightHip")
+    at = (0.30673, 1.32057, -1.66412)  # 20 cm from the standing character's eyes, low and to its right
+    group = Sdf.CreatePrimInLayer(layer, "/Objects")
+    group.specifier, group.typeName = Sdf.SpecifierDef, "Xform"
+    ball = Sdf.CreatePrimInLayer(layer, "/Objects/Near")
+    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
+    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    Sdf.AttributeSpec(ball, "gaze:object:importance", Sdf.ValueTypeNames.Float).default = 1.0
+    Sdf.AttributeSpec(ball, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = 0.02
+    Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.02
+    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = tuple(float(v) for v in at)
+    layer.Save()
+    out = tmp_path / "gaze.usda"
+    assert main(["attend", str(inp), "--out", str(out)]) == 0
+    new = measure.posed(str(compose(tmp_path, inp, out)), "/root/Body/BodySkel")
+    up = np.linalg.solve(new.skel_to_world[:3, :3].T, new.up)
+    for eye in ("LeftEye", "RightEye"):
+        yaw, pitch = measure.eye_in_head(new, "Head", eye, fwd, np.cross(up, fwd), up)
+        y, p = np.radians(yaw), np.radians(pitch)
+        d = np.stack([np.cos(p) * np.cos(y), np.cos(p) * np.sin(y), np.sin(p)], -1)
+        step = np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(-1), -1, 1)))
+        speed = step / np.diff(new.times) * float(src.timeCodesPerSecond)
+        assert speed.max() <= 800.0 * 1.02, (eye, speed.max())
