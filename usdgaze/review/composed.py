@@ -169,7 +169,8 @@ def _pose(clip, joints: list[str], rest_local: np.ndarray, parents: np.ndarray) 
                                      clip.scales[:, known].astype(float))
     skel = world_matrices(local, parents)
     world = np.einsum("fij,fkjl->fkil", np.broadcast_to(clip.skel_to_world, (f, 4, 4)), skel)
-    q = np.broadcast_to(rot.from_matrix(rest_local[:, :3, :3]), (f, n, 4)).copy()
+    # rotation_part, not from_matrix: a joint mirrored by a negative rest scale (an eye, a hand) is a rotation too
+    q = np.broadcast_to(rot.rotation_part(rest_local[:, :3, :3])[0], (f, n, 4)).copy()
     q[:, cols] = rot.normalize(clip.rotations[:, known].astype(float))
     return Posed(q, world)
 

@@ -60,24 +60,25 @@ def _objects(review, seconds: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def _figures(review, which: str, rows: np.ndarray) -> list[render.Figure]:
+def _figures(review, which: str, times: np.ndarray, rows: list[np.ndarray]) -> list[render.Figure]:
+    """Each character's figure at the output ``times`` (seconds), posed from its own ``rows``."""
     out = []
-    objects = _objects(review, review.characters[0].seconds[rows])
-    for c in review.characters:
+    objects = _objects(review, times)
+    for c, own in zip(review.characters, rows):
         posed = c.base if which == "base" else c.gaze
         units_per_m = _units_per_m(c)
         origin, direction = analysis.sight(c, posed)
         reach = (review.fixation_m or 2.0) * units_per_m
-        pos = posed.world[rows, :, :3, 3]
+        pos = posed.world[own, :, :3, 3]
         bones = _bones(c, posed, units_per_m)
         out.append(render.Figure(
             positions=pos, bones=bones, head=c.chain.head,
-            head_forward=analysis.head_direction(c, posed)[rows],
-            sight_origin=origin[rows], sight_end=origin[rows] + reach * direction[rows],
+            head_forward=analysis.head_direction(c, posed)[own],
+            sight_origin=origin[own], sight_end=origin[own] + reach * direction[own],
             body=render.BASE_BODY if which == "base" else render.GAZE_BODY,
             sight=render.BASE_SIGHT if which == "base" else render.GAZE_SIGHT,
             caption="base" if which == "base" else "gaze", focus=c.chain.pelvis,
-            targets={**{look.label: look.positions[rows] for look in c.looks}, **objects},
+            targets={**{look.label: look.positions[own] for look in c.looks}, **objects},
         ))
     return out
 
@@ -189,10 +190,11 @@ class _PaletteDraw:
 class Scene:
     """Everything projected once; :meth:`frame` draws one output frame."""
 
-    def __init__(self, review, opts: PreviewOptions, stage, seconds: np.ndarray, rows: np.ndarray,
+    def __init__(self, review, opts: PreviewOptions, stage, seconds: np.ndarray, rows: list[np.ndarray],
                  size: int) -> None:
+        """``rows``: per character, its sample row for each output time in ``seconds``."""
         self.seconds, self.size, self.opts = seconds, size, opts
-        base, gaze = _figures(review, "base", rows), _figures(review, "gaze", rows)
+        base, gaze = _figures(review, "base", seconds, rows), _figures(review, "gaze", seconds, rows)
         self.panels = [base, gaze] if opts.layout == "side-by-side" else [base + gaze]
         cam = _camera(review, opts, stage, base + gaze, seconds, size, size)
         c = review.characters[0]
@@ -236,22 +238,33 @@ def sample_rows(seconds: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray
     if not 1.0 <= fps <= 240.0:  # NaN included; more frames than that only fill memory
         raise UsdGazeError(f"--fps {fps:g}: expected 1 to 240 frames per second")
     times = np.arange(seconds[0], seconds[-1] + 1e-9, 1.0 / fps)
+    return times, nearest_rows(seconds, times)
+
+
+def nearest_rows(seconds: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """For each of ``times``, the row of the nearest of ``seconds`` (held before and after the clip)."""
     rows = np.clip(np.searchsorted(seconds, times), 0, len(seconds) - 1)
     earlier = np.clip(rows - 1, 0, len(seconds) - 1)
-    rows = np.where(np.abs(seconds[earlier] - times) <= np.abs(seconds[rows] - times), earlier, rows)
-    return times, rows
+    return np.where(np.abs(seconds[earlier] - times) <= np.abs(seconds[rows] - times), earlier, rows)
+
+
+def _span(review) -> np.ndarray:
+    """First and last second any character is sampled at: characters of several lengths (or sample
+    rates) are all drawn over the whole shot, each from its own samples."""
+    return np.array([min(float(c.seconds[0]) for c in review.characters),
+                     max(float(c.seconds[-1]) for c in review.characters)])
 
 
 def build_scene(review, opts: PreviewOptions, stage, times: np.ndarray | None = None) -> Scene:
     """The scene at ``opts.fps`` (or at the given times, in seconds from the stage start)."""
     if opts.layout not in LAYOUTS:
         raise UsdGazeError(f"--layout {opts.layout}: expected one of {', '.join(LAYOUTS)}")
-    seconds = review.characters[0].seconds
     if times is None:
-        times, rows = sample_rows(seconds, opts.fps)
+        times, _ = sample_rows(_span(review), opts.fps)
+        rows = [nearest_rows(c.seconds, times) for c in review.characters]
     else:
         times = np.asarray(times, dtype=float)
-        rows = np.clip(np.searchsorted(seconds, times - 1e-9), 0, len(seconds) - 1)
+        rows = [np.clip(np.searchsorted(c.seconds, times - 1e-9), 0, len(c.seconds) - 1) for c in review.characters]
     return Scene(review, opts, stage, times, rows, opts.size)
 
 
@@ -259,8 +272,8 @@ def contact_sheet(review, opts: PreviewOptions, stage):
     """``sheet_count`` frames evenly over the clip, in a grid, as one RGB image."""
     from PIL import Image
 
-    seconds = review.characters[0].seconds
-    times = np.linspace(seconds[0], seconds[-1], max(1, opts.sheet_count))
+    span = _span(review)
+    times = np.linspace(span[0], span[1], max(1, opts.sheet_count))
     scene = build_scene(review, opts, stage, times)
     cols = max(1, min(opts.sheet_columns, len(times)))
     rows = int(np.ceil(len(times) / cols))

@@ -1,0 +1,124 @@
+"""Review commands (``plot``, ``preview``) on rigs and stages other than the samples.
+
+- A rig that mirrors a joint off the gaze chain by a negative scale (a hand, an eye): ``apply``
+  takes it, and ``plot``/``preview`` of its layer used to stop with exit 1 (an internal error,
+  "non-positive determinant ... in a rotation matrix") while reading the rest pose.
+- Several characters whose clips differ in length: ``preview`` used to draw every character at the
+  first one's sample rows, so a longer first character made it exit 1 (IndexError) and a shorter one
+  cut the others' animation short.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageSequence
+from pxr import Gf, Sdf, Usd, Vt
+
+from usdgaze import api
+from usdgaze.console.main import main
+from usdgaze.review import analysis
+from usdgaze.review.composed import read_review
+
+from . import measure
+from . import synthetic as syn
+
+MAP = Path(__file__).resolve().parents[1] / "sample_stages" / "shared_map" / "gaze_map.usda"
+
+
+def _mirror_joint(path: Path, skeleton: str, animation: str, leaf: str) -> None:
+    """Mirror joint ``leaf`` along its own x (rest, bind at and below it, animation scale -1, 1, 1):
+    positions stay, the frames' handedness changes, as rigs that mirror one side have it."""
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    stage = Usd.Stage.Open(layer)
+    skel = stage.GetPrimAtPath(skeleton)
+    joints = [str(j) for j in skel.GetAttribute("joints").Get()]
+    j = next(i for i, name in enumerate(joints) if name.rsplit("/", 1)[-1] == leaf)
+    below = [i for i, name in enumerate(joints) if name.startswith(joints[j] + "/")]
+    rest = np.array(skel.GetAttribute("restTransforms").Get())
+    bind = np.array(skel.GetAttribute("bindTransforms").Get())
+    rest[j] = np.diag([-1.0, 1.0, 1.0, 1.0]) @ rest[j]
+    skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(rest))
+    index = {name: i for i, name in enumerate(joints)}
+    for i in [j, *below]:
+        bind[i] = rest[i] @ bind[index[joints[i].rsplit("/", 1)[0]]]
+    skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(bind))
+    anim = stage.GetPrimAtPath(animation)
+    k = [str(x) for x in anim.GetAttribute("joints").Get()].index(joints[j])
+    scales = anim.GetAttribute("scales")
+    for t in scales.GetTimeSamples() or [Usd.TimeCode.Default()]:
+        s = np.array(scales.Get(t), dtype=float)
+        s[k] = (-1.0, 1.0, 1.0)
+        scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
+    layer.Save()
+
+
+def test_plot_and_preview_of_a_rig_with_a_mirrored_hand(tmp_path):
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", meters_per_unit=0.01, frames=20,
+                       mesh=False, walk_speed=0.0, time_codes_per_second=30.0)
+    _mirror_joint(rig.path, rig.skeleton, rig.animation, rig.leaf["hand_r"])
+    layer = tmp_path / "g.usda"
+    api.apply(str(rig.path), ["0.1s:30:0"], layer, preview=str(tmp_path / "p.usda"))
+
+    assert main(["plot", str(rig.path), "--layer", str(layer), "--out", str(tmp_path / "plots")]) == 0
+    assert (tmp_path / "plots" / "Character_gaze.png").is_file()
+    assert main(["preview", str(rig.path), "--layer", str(layer), "--out", str(tmp_path / "p.gif"),
+                 "--size", "96"]) == 0
+    # What the plot draws is what UsdSkel's FK gives on the composed result.
+    review = read_review(str(rig.path), str(layer))
+    achieved = analysis.achieved_change(review.characters[0])
+    base = measure.posed(str(rig.path), rig.skeleton)
+    new = measure.posed(str(tmp_path / "p.usda"), rig.skeleton)
+    fwd = measure.character_forward_skel(base, rig.leaf["thigh_l"], rig.leaf["thigh_r"])
+    change, _, _ = measure.gaze_change(base, new, fwd, rig.leaf["head"], (rig.leaf["eye_l"], rig.leaf["eye_r"]))
+    assert np.abs(measure.wrap(achieved - change)).max() < 0.01
+
+
+def _two_characters(tmp_path: Path, frames_a: int, frames_b: int) -> Path:
+    """/A and /B (``frames_a``/``frames_b`` samples at 30 per second) side by side, sharing the sample map."""
+    for name, frames, x in (("A", frames_a, -1.0), ("B", frames_b, 1.0)):
+        syn.make_rig(tmp_path / f"{name}.usda", convention="mixamo", frames=frames, mesh=False, walk_speed=0.0,
+                     time_codes_per_second=30.0, root_path=f"/{name}")
+        syn.edit(tmp_path / f"{name}.usda", lambda layer, x=x, name=name: _offset(layer, f"/{name}", x))
+    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    shot.timeCodesPerSecond = shot.framesPerSecond = 30.0
+    shot.startTimeCode, shot.endTimeCode = 0.0, float(max(frames_a, frames_b) - 1)
+    shot.pseudoRoot.SetInfo("upAxis", "Y")
+    shot.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    shot.subLayerPaths[:] = ["A.usda", "B.usda"]
+    cls = Sdf.PrimSpec(shot.pseudoRoot, "Map", Sdf.SpecifierClass)
+    cls.referenceList.Prepend(Sdf.Reference(str(MAP), "/GazeMap"))
+    for name in ("A", "B"):
+        over = Sdf.PrimSpec(shot.pseudoRoot, name, Sdf.SpecifierOver)
+        over.inheritPathList.Prepend("/Map")
+    shot.Save()
+    return tmp_path / "shot.usda"
+
+
+def _offset(layer: Sdf.Layer, root: str, x: float) -> None:
+    spec = layer.GetPrimAtPath(root)
+    Sdf.AttributeSpec(spec, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(x, 0, 0)
+    Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:translate"])
+
+
+def _gif_frames(path: Path) -> int:
+    return sum(1 for _ in ImageSequence.Iterator(Image.open(path)))
+
+
+def test_preview_draws_characters_of_different_lengths_over_the_whole_shot(tmp_path):
+    for long_first in (True, False):
+        folder = tmp_path / ("long_first" if long_first else "short_first")
+        folder.mkdir()
+        frames = (16, 10) if long_first else (10, 16)
+        shot = _two_characters(folder, *frames)
+        layer = folder / "g.usda"
+        report = api.apply(str(shot), ["0.1s:30:0"], layer)
+        assert len(report.characters) == 2
+        out = folder / "p.gif"
+        assert main(["preview", str(shot), "--layer", str(layer), "--out", str(out), "--size", "96",
+                     "--fps", "30", "--sheet", str(folder / "s.png"), "--sheet-count", "4"]) == 0
+        # 30 output frames per second over the longer clip (16 samples at 30 per second), whichever
+        # character comes first.
+        assert _gif_frames(out) == 16
