@@ -228,3 +228,17 @@ def test_internal_errors_exit_1_with_one_line_unless_debugging(src, tmp_path):
                         "(set USDGAZE_DEBUG=1 for the traceback)\n")
     p = subprocess.run(args, capture_output=True, text=True, env=dict(env, USDGAZE_DEBUG="1"))
     assert p.returncode == 1 and "Traceback" in p.stderr and 'raise RuntimeError("boom")' in p.stderr
+
+
+def test_an_option_of_one_value_given_twice_is_refused(tmp_path, capsys):
+    """click kept the last of two --skel-root without a word: only the second character got its gaze."""
+    import pathlib
+
+    from usdgaze.console.main import main
+
+    crowd = pathlib.Path(__file__).resolve().parents[1] / "sample_stages" / "shared_map" / "crowd.usda"
+    args = ["apply", str(crowd), "--shift", "1s:30:0", "--out", str(tmp_path / "g.usda")]
+    assert main(args + ["--skel-root", "/CrowdA/Body", "--skel-root=/CrowdB/Body"]) == 2
+    assert capsys.readouterr().err == "usdgaze: error: --skel-root is given 2 times; it takes one value\n"
+    assert not (tmp_path / "g.usda").exists()
+    assert main(args + ["--skel-root", "/CrowdA/Body", "--shift", "2s:0:0"]) == 0  # repeatable options repeat

@@ -71,7 +71,29 @@ class _LazyGroup(click.Group):
         if name not in _COMMANDS:
             return None
         module, attr = _COMMANDS[name]
-        return getattr(importlib.import_module(module), attr)
+        command = getattr(importlib.import_module(module), attr)
+        if not getattr(command, "_refuses_repeats", False):
+            parse = command.parse_args
+
+            def parse_args(ctx: click.Context, args: list[str]) -> list[str]:
+                _refuse_repeats(command, args)
+                return parse(ctx, args)
+
+            command.parse_args, command._refuses_repeats = parse_args, True
+        return command
+
+
+def _refuse_repeats(command: click.Command, args: list[str]) -> None:
+    """An option of one value given twice is refused: click keeps the last without a word (two
+    --skel-root ran the second character only)."""
+    given = args[:args.index("--")] if "--" in args else args
+    for p in command.params:
+        if not isinstance(p, click.Option) or p.multiple or p.count or p.is_flag:
+            continue
+        names = p.opts + p.secondary_opts
+        n = sum(a in names or any(a.startswith(o + "=") for o in names if o.startswith("--")) for a in given)
+        if n > 1:
+            raise click.UsageError(f"{p.opts[0]} is given {n} times; it takes one value")
 
 
 @click.group(cls=_LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
