@@ -131,7 +131,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)
         codes = clip.start_time + t_plan * clip.time_codes_per_second
         objs = read_objects(stage, source, prims, codes, clip.meters_per_unit)
-        things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind) for o in objs]
+        things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
         result = apply_attend(clip, chain, frame, things, settings.loop_options(), progress)
         steps += len(result.planner_times)
         frames += len(clip.times)

@@ -56,7 +56,8 @@ def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop
     codes = clip.start_time + h * np.arange(steps) * clip.time_codes_per_second
     objs = read_objects(root.GetStage(), source, prims, codes, clip.meters_per_unit)
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # stage axes -> model axes (metres kept)
-    return [loop.Thing(o.path, o.positions @ rot.T, o.importance, o.view_radius, o.kind) for o in objs]
+    return [loop.Thing(o.path, o.positions @ rot.T, o.importance, o.view_radius, o.kind, visible=o.visible)
+            for o in objs]
 
 
 def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,

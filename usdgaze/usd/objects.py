@@ -39,6 +39,8 @@ class StageObject:
     radius: float
     kind: str
     sized: bool = False  # the radius is authored (not the schema's fallback)
+    visible: np.ndarray | None = None
+    """(K,) whether USD draws it (its and its ancestors' visibility); None: at every time."""
 
     @property
     def view_radius(self) -> float:
@@ -281,5 +283,30 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
         if np.abs(pos).max(initial=0.0) > MAX_TARGET_DISTANCE_M:
             raise UsdGazeError(f"{where}: lies over {MAX_TARGET_DISTANCE_M:g} m from the world's origin at some "
                                "time; a point that far is only a direction")
-        out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind, authored is not None))
+        out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind, authored is not None,
+                               _visibility(prim, time_codes)))
+    return out
+
+
+def _visibility(prim: Usd.Prim, time_codes: np.ndarray) -> np.ndarray | None:
+    """Whether the object is drawn at each time code, or None where it always is: an invisible object
+    (a prop hidden until it is thrown) was seen and looked at (92% of a shot where it never showed)."""
+    above = [p for p in _ancestry(prim) if p.IsA(UsdGeom.Imageable)]
+    attrs = [UsdGeom.Imageable(p).GetVisibilityAttr() for p in above]
+    image = UsdGeom.Imageable(prim)
+    if not any(a and a.ValueMightBeTimeVarying() for a in attrs):
+        # At a time code, not the default time: one time sample (USD holds it) is no default value.
+        at = Usd.TimeCode(float(time_codes[0])) if len(time_codes) else Usd.TimeCode.Default()
+        shown = image.ComputeVisibility(at) != UsdGeom.Tokens.invisible
+        return None if shown else np.zeros(len(time_codes), dtype=bool)
+    # Animated visibility (rare): evaluated at each step, the object's own and its ancestors'.
+    return np.array([image.ComputeVisibility(Usd.TimeCode(float(t))) != UsdGeom.Tokens.invisible
+                     for t in time_codes], dtype=bool)
+
+
+def _ancestry(prim: Usd.Prim) -> list[Usd.Prim]:
+    out = []
+    while prim and not prim.IsPseudoRoot():
+        out.append(prim)
+        prim = prim.GetParent()
     return out

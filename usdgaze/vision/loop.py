@@ -57,6 +57,11 @@ class Thing:
         return np.array([0.0, 0.0, 0.0]) if self.kind != "ballistic" else -GRAVITY * self.up
 
     up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    visible: np.ndarray | None = None
+    """(K,) whether it is drawn at each step (an invisible object is not seen); None: always."""
+
+    def visible_at(self, k: int) -> bool:
+        return True if self.visible is None else bool(self.visible[min(k, len(self.visible) - 1)])
 
     def importance_at(self, k: int) -> float:
         imp = np.atleast_1d(self.importance)
@@ -110,7 +115,7 @@ class Filters:
         seen = np.zeros(len(self.things), bool)
         for j, th in enumerate(self.things):
             p = th.positions[min(k, len(th.positions) - 1)]
-            seen[j] = bool(in_view(p, eyes, forward, th.radius))
+            seen[j] = th.visible_at(k) and bool(in_view(p, eyes, forward, th.radius))
             z = r = None
             if seen[j]:
                 r = float(noise(pps, p, self.opts.eta)[0])

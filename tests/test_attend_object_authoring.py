@@ -117,3 +117,71 @@ def test_no_eye_turns_faster_than_800_deg_s_on_a_near_object(tmp_path):
         step = np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(-1), -1, 1)))
         speed = step / np.diff(new.times) * float(src.timeCodesPerSecond)
         assert speed.max() <= 800.0 * 1.02, (eye, speed.max())
+
+
+
+def _stage_with(tmp_path, objects):
+    """The standing sample's character and ``objects``: (path, position, importance, visibility samples)."""
+    from pxr import Sdf
+
+    from tests.attend_support import ATTEND
+
+    src = Sdf.Layer.FindOrOpen(str(ATTEND / "ball_throw.usda"))
+    inp = tmp_path / "objects.usda"
+    layer = Sdf.Layer.CreateNew(str(inp))
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(layer, key, getattr(src, key))
+    for key in ("upAxis", "metersPerUnit", "defaultPrim"):
+        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    layer.subLayerPaths[:] = [str(ATTEND / "standing.usdc"), str(ATTEND.parent / "cmu" / "cmu_131_01.usdc")]
+    group = Sdf.CreatePrimInLayer(layer, "/Objects")
+    group.specifier, group.typeName = Sdf.SpecifierDef, "Xform"
+    for path, at, importance, shown in objects:
+        ball = Sdf.CreatePrimInLayer(layer, path)
+        ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
+        ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+        Sdf.AttributeSpec(ball, "gaze:object:importance", Sdf.ValueTypeNames.Float).default = importance
+        Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.1
+        Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform).default = ["xformOp:translate"]
+        Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = at
+        if shown:
+            vis = Sdf.AttributeSpec(ball, "visibility", Sdf.ValueTypeNames.Token, Sdf.VariabilityVarying)
+            for t, token in shown:
+                layer.SetTimeSample(vis.path, t, token)
+    layer.Save()
+    return inp
+
+
+def test_an_object_is_not_seen_while_it_is_invisible(tmp_path):
+    """Visibility was not read: a prop hidden the whole shot was fixated on 92% of its frames, and one
+    shown at 1 s was looked at from its first frame. Measured by UsdSkel FK: the angle between each
+    eye's line of sight and the object, against 2 deg."""
+    import numpy as np
+
+    from tests import measure
+    from tests.attend_support import compose
+
+    from usdgaze.console.main import main
+
+    shown_at = 121.0  # 1 s in
+    # 2 m ahead of the standing character's head: 20 deg left and 10 down; 20 right; 30 right, 5 up.
+    hidden, late = (-0.0057, 1.3553, 0.115), (-0.3417, 1.5296, 0.0242)
+    inp = _stage_with(tmp_path, [("/Objects/A", (1.321, 1.008, -0.175), 1.0, None),
+                                 ("/Objects/Hidden", hidden, 5.0, [(1.0, "invisible")]),
+                                 ("/Objects/Late", late, 5.0, [(1.0, "invisible"), (shown_at, "inherited")])])
+    out = tmp_path / "gaze.usda"
+    assert main(["attend", str(inp), "--out", str(out)]) == 0
+    new = measure.posed(str(compose(tmp_path, inp, out)), "/root/Body/BodySkel")
+    fwd = measure.character_forward_skel(new, "LeftHip", "RightHip")
+    looked = {}
+    for name, at in (("Hidden", hidden), ("Late", late)):
+        miss = []
+        for eye in ("LeftEye", "RightEye"):
+            to = np.asarray(at) - new.position(eye)
+            to /= np.linalg.norm(to, axis=-1, keepdims=True)
+            miss.append(measure.angle_between(new.axis(eye, measure.local_forward(new, eye, fwd)), to))
+        on = np.maximum(*miss) < 2.0
+        unseen = np.ones(len(new.times), bool) if name == "Hidden" else new.times < shown_at
+        assert not on[unseen].any(), (name, new.times[unseen & on][:5])
+        looked[name] = on
+    assert looked["Late"][new.times >= shown_at].any()  # once shown, it is looked at
