@@ -44,6 +44,8 @@ VALIDATORS = {
                          "and GazeMapAPI sits on a SkelRoot.",
     "AnimationArrays": "A SkelAnimation's rotations, translations and scales hold one finite entry per joint at "
                        "every time sample, and its rotations are unit quaternions.",
+    "SkeletonArrays": "A Skeleton's bindTransforms and restTransforms, where authored, hold one finite matrix per "
+                      "joint of its joints array.",
     "GazeSchedule": "A GazeScheduleAPI reads as a schedule (arrays one per directive, known kinds, times in order, "
                     "weights and blends in range), each target is an Xformable or Boundable prim of the stage, "
                     "and each directive lies in the stage's time range.",
@@ -52,7 +54,8 @@ VALIDATORS = {
     "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift parses and "
                          "starts inside the stage's time range, every character it names is a SkelRoot there.",
 }
-VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "GazeSchedule": ["UsdGazeGazeScheduleAPI"],
+VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "SkeletonArrays": ["UsdSkelSkeleton"],
+                          "GazeSchedule": ["UsdGazeGazeScheduleAPI"],
                           "GazeObject": ["UsdGazeGazeObjectAPI"], "GazeLayerSchedule": []}
 USDVIEW_PLUGIN = "usdgaze.review.usdview_plugin"
 

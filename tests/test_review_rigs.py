@@ -122,3 +122,33 @@ def test_preview_draws_characters_of_different_lengths_over_the_whole_shot(tmp_p
         # 30 output frames per second over the longer clip (16 samples at 30 per second), whichever
         # character comes first.
         assert _gif_frames(out) == 16
+
+
+def test_validate_reads_the_skeleton_arrays_a_layer_adding_eyes_writes(tmp_path, capsys):
+    """The override of a rig without eyes writes the Skeleton's joints, bind and rest transforms: a short
+    or NaN one passed validate (exit 0) while plot, preview and apply refused the stage."""
+    from pathlib import Path
+
+    import numpy as np
+    from pxr import Sdf, Vt
+
+    from usdgaze.console.main import main
+
+    cmu = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_02.usdc"
+    out = tmp_path / "gaze.usda"
+    assert main(["apply", str(cmu), "--shift", "1s:30:0", "--out", str(out)]) == 0
+    assert main(["validate", str(cmu), "--layer", str(out)]) == 0
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    bind = layer.GetAttributeAtPath("/root/Body/BodySkel.bindTransforms")
+    bind.default = Vt.Matrix4dArray(list(bind.default)[:-1])
+    rest = layer.GetAttributeAtPath("/root/Body/BodySkel.restTransforms")
+    broken = np.array(rest.default)
+    broken[3, 0, 0] = np.nan
+    rest.default = Vt.Matrix4dArray.FromNumpy(broken)
+    layer.Save()
+    capsys.readouterr()
+    assert main(["validate", str(cmu), "--layer", str(out)]) == 3
+    said = capsys.readouterr().out
+    n = len(layer.GetAttributeAtPath("/root/Body/BodySkel.joints").default)
+    assert f"bindTransforms: {n - 1} entries, expected {n} (one per joint)" in said, said
+    assert "restTransforms: NaN or infinite values" in said, said

@@ -209,6 +209,27 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
     return errors
 
 
+def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
+    """A Skeleton's bind and rest transforms, where authored, one finite matrix per joint (a layer that
+    adds eyes writes all three: a short or broken one passed validate and failed every reader)."""
+    skel = UsdSkel.Skeleton(prim)
+    joints = skel.GetJointsAttr().Get()
+    n = 0 if joints is None else len(joints)
+    errors = []
+    for attr in (skel.GetBindTransformsAttr(), skel.GetRestTransformsAttr()):
+        if not attr or not attr.HasAuthoredValue():
+            continue
+        value = attr.Get()
+        m = np.asarray(value if value is not None else [], dtype=float).reshape(-1, 4, 4)
+        if joints is None:
+            errors.append(_error(prim, attr.GetPath(), "NoJoints", f"{attr.GetName()}: authored, but the Skeleton has no joints"))
+        elif len(m) != n:
+            errors.append(_error(prim, attr.GetPath(), "Length", f"{attr.GetName()}: {len(m)} entries, expected {n} (one per joint)"))
+        elif not np.isfinite(m).all():
+            errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values"))
+    return errors
+
+
 def _malformed(prim: Usd.Prim, text: str):
     """One of the schedule reader's lines (``:PRIM[.ATTRIBUTE]: problem``), sited on the attribute it names."""
     prefix = f":{prim.GetPath()}"
@@ -347,6 +368,7 @@ TASKS = {
     "GazeMapUnitQuaternions": gaze_map_unit_quaternions,
     "GazeMapRoleJoints": gaze_map_role_joints,
     "AnimationArrays": animation_arrays,
+    "SkeletonArrays": skeleton_arrays,
     "GazeSchedule": gaze_schedule,
     "GazeObject": gaze_object,
 }
