@@ -238,7 +238,7 @@ def test_an_option_of_one_value_given_twice_is_refused(tmp_path, capsys):
 
     crowd = pathlib.Path(__file__).resolve().parents[1] / "sample_stages" / "shared_map" / "crowd.usda"
     args = ["apply", str(crowd), "--shift", "1s:30:0", "--out", str(tmp_path / "g.usda")]
-    assert main(args + ["--skel-root", "/CrowdA/Body", "--skel-root=/CrowdB/Body"]) == 2
+    assert main(args + ["--skel-root", "/Crowd/CrowdA/Body", "--skel-root=/Crowd/CrowdB/Body"]) == 2
     assert capsys.readouterr().err == "usdgaze: error: --skel-root is given 2 times; it takes one value\n"
     assert not (tmp_path / "g.usda").exists()
-    assert main(args + ["--skel-root", "/CrowdA/Body", "--shift", "2s:0:0"]) == 0  # repeatable options repeat
+    assert main(args + ["--skel-root", "/Crowd/CrowdA/Body", "--shift", "2s:0:0"]) == 0  # repeatable options repeat

@@ -322,7 +322,7 @@ def test_request_beyond_reach_warns_with_the_reachable_value(tmp_path, eye_range
 def test_crowd_sharing_one_map_gets_both_characters_in_one_layer(tmp_path):
     shifts = ["150:60:0", "450:-90:10"]
     report = api.apply(CROWD, shifts, tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda")
-    assert [c.skel_root for c in report.characters] == ["/CrowdA/Body", "/CrowdB/Body"]
+    assert [c.skel_root for c in report.characters] == ["/Crowd/CrowdA/Body", "/Crowd/CrowdB/Body"]
     assert all("GazeMapAPI" in c.map_source for c in report.characters)
     layer = Sdf.Layer.FindOrOpen(str(tmp_path / "gaze.usdc"))
     for c in report.characters:

@@ -24,7 +24,7 @@ SAMPLES = [ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc", ROOT / "sample_st
            ROOT / "sample_stages" / "shared_map" / "crowd.usda", ROOT / "sample_stages" / "shared_map" / "gaze_map.usda",
            *sorted((ROOT / "sample_stages" / "attend").glob("*.usd*"))]
 CROWD = SAMPLES[2]
-MAP_PRIM = "/CrowdA/Body"
+MAP_PRIM = "/Crowd/CrowdA/Body"
 
 
 def _ours(stage) -> list:

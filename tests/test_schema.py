@@ -459,7 +459,7 @@ def test_validate_in_memory_timing():
 def test_shared_map_sample():
     stage = Usd.Stage.Open(str(SHARED / "crowd.usda"))
     expected = schema.load_map(str(SHARED / "gaze_map.usda"))
-    for path in ("/CrowdA/Body", "/CrowdB/Body"):
+    for path in ("/Crowd/CrowdA/Body", "/Crowd/CrowdB/Body"):
         prim = stage.GetPrimAtPath(path)
         assert prim.GetTypeName() == "SkelRoot" and not prim.IsAbstract()
         assert schema.has_map(prim)
@@ -479,7 +479,7 @@ def test_editing_the_shared_map_changes_every_character(tmp_path):
     layer.GetAttributeAtPath("/GazeMap.gaze:examples:yaw").default = Vt.FloatArray.FromNumpy(yaw)
     layer.Save()
     stage = Usd.Stage.Open(str(root / "shared_map" / "crowd.usda"))
-    for path in ("/CrowdA/Body", "/CrowdB/Body"):
+    for path in ("/Crowd/CrowdA/Body", "/Crowd/CrowdB/Body"):
         definition = schema.read_map(stage.GetPrimAtPath(path))
         assert definition.settings.neck_share == 0.8
         assert definition.params[0, 0] == -179.5
