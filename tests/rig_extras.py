@@ -1,5 +1,6 @@
-"""Joints added to a synthetic rig after it is written: a production rig's helpers (UE5's twist and
-IK joints) on top of :mod:`tests.synthetic`'s body. Test support; pxr only."""
+"""Joints added to or changed on a synthetic rig after it is written: a production rig's helpers (UE5's
+twist and IK joints) on top of :mod:`tests.synthetic`'s body, a joint mirrored by a negative scale.
+Test support; pxr only."""
 
 from __future__ import annotations
 
@@ -91,3 +92,36 @@ def secondary_chains(rig) -> list[tuple[str, str | None, tuple, bool]]:
             ("skirt_01", "pelvis", at("pelvis", 0.1, -0.1, 0.1), True),
             ("skirt_02", "skirt_01", at("pelvis", 0.12, -0.3, 0.12), True),
             ("skirt_03", "skirt_02", at("pelvis", 0.13, -0.45, 0.13), False)]
+
+
+def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> None:
+    """Mirror joint ``leaf`` along its own x: its local x row (UsdSkel matrices are row-vector)
+    negated in the rest transforms, the bind transforms at and below it recomputed, and a scale of
+    (-1, 1, 1) in the animation. Positions stay; the frames' handedness changes."""
+    from pxr import Sdf
+
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    stage = Usd.Stage.Open(layer)
+    skel = stage.GetPrimAtPath(skeleton)
+    joints = [str(j) for j in skel.GetAttribute("joints").Get()]
+    j = next(i for i, name in enumerate(joints) if name.rsplit("/", 1)[-1] == leaf)
+    below = [i for i, name in enumerate(joints) if name.startswith(joints[j] + "/")]
+    rest = np.array(skel.GetAttribute("restTransforms").Get())
+    bind = np.array(skel.GetAttribute("bindTransforms").Get())
+    rest[j] = np.diag([-1.0, 1.0, 1.0, 1.0]) @ rest[j]
+    skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(rest))
+    # Bind transforms (skeleton space) of the joint and those below: rest FK from the parent's bind.
+    index = {name: i for i, name in enumerate(joints)}
+    for i in [j, *below]:
+        bind[i] = rest[i] @ bind[index[joints[i].rsplit("/", 1)[0]]]
+    skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(bind))
+    anim = stage.GetPrimAtPath(animation)
+    anim_joints = [str(x) for x in anim.GetAttribute("joints").Get()]
+    k = anim_joints.index(joints[j])
+    scales = anim.GetAttribute("scales")
+    times = scales.GetTimeSamples()
+    for t in times or [Usd.TimeCode.Default()]:
+        s = np.array(scales.Get(t), dtype=float)
+        s[k] = (-1.0, 1.0, 1.0)
+        scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
+    layer.Save()

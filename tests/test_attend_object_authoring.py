@@ -83,29 +83,10 @@ def test_no_eye_turns_faster_than_800_deg_s_on_a_near_object(tmp_path):
 
     from usdgaze.console.main import main
 
-    src = Sdf.Layer.FindOrOpen(str(ATTEND / "ball_throw.usda"))
-    inp = tmp_path / "near.usda"
-    layer = Sdf.Layer.CreateNew(str(inp))
-    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
-        setattr(layer, key, getattr(src, key))
-    for key in ("upAxis", "metersPerUnit", "defaultPrim"):
-        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
-    layer.subLayerPaths[:] = [str(ATTEND / "standing.usdc"), str(ATTEND.parent / "cmu" / "cmu_131_01.usdc")]
-    layer.Save()
-    base = measure.posed(str(inp), "/root/Body/BodySkel")
-    fwd = measure.character_forward_skel(base, "LeftHip", "RightHip")
+    rate = Sdf.Layer.FindOrOpen(str(ATTEND / "ball_throw.usda")).timeCodesPerSecond
     at = (0.30673, 1.32057, -1.66412)  # 20 cm from the standing character's eyes, low and to its right
-    group = Sdf.CreatePrimInLayer(layer, "/Objects")
-    group.specifier, group.typeName = Sdf.SpecifierDef, "Xform"
-    ball = Sdf.CreatePrimInLayer(layer, "/Objects/Near")
-    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
-    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
-    Sdf.AttributeSpec(ball, "gaze:object:importance", Sdf.ValueTypeNames.Float).default = 1.0
-    Sdf.AttributeSpec(ball, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = 0.02
-    Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.02
-    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform).default = ["xformOp:translate"]
-    Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = tuple(float(v) for v in at)
-    layer.Save()
+    inp = _stage_with(tmp_path, [("/Objects/Near", at, 1.0, None, 0.02)])
+    fwd = measure.character_forward_skel(measure.posed(str(inp), "/root/Body/BodySkel"), "LeftHip", "RightHip")
     out = tmp_path / "gaze.usda"
     assert main(["attend", str(inp), "--out", str(out)]) == 0
     new = measure.posed(str(compose(tmp_path, inp, out)), "/root/Body/BodySkel")
@@ -115,13 +96,14 @@ def test_no_eye_turns_faster_than_800_deg_s_on_a_near_object(tmp_path):
         y, p = np.radians(yaw), np.radians(pitch)
         d = np.stack([np.cos(p) * np.cos(y), np.cos(p) * np.sin(y), np.sin(p)], -1)
         step = np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(-1), -1, 1)))
-        speed = step / np.diff(new.times) * float(src.timeCodesPerSecond)
+        speed = step / np.diff(new.times) * float(rate)
         assert speed.max() <= 800.0 * 1.02, (eye, speed.max())
 
 
 
 def _stage_with(tmp_path, objects):
-    """The standing sample's character and ``objects``: (path, position, importance, visibility samples)."""
+    """The standing sample's character and ``objects``: (path, position, importance, visibility samples
+    or None[, an authored radius])."""
     from pxr import Sdf
 
     from tests.attend_support import ATTEND
@@ -136,12 +118,14 @@ def _stage_with(tmp_path, objects):
     layer.subLayerPaths[:] = [str(ATTEND / "standing.usdc"), str(ATTEND.parent / "cmu" / "cmu_131_01.usdc")]
     group = Sdf.CreatePrimInLayer(layer, "/Objects")
     group.specifier, group.typeName = Sdf.SpecifierDef, "Xform"
-    for path, at, importance, shown in objects:
+    for path, at, importance, shown, *sized in objects:
         ball = Sdf.CreatePrimInLayer(layer, path)
         ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
         ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
         Sdf.AttributeSpec(ball, "gaze:object:importance", Sdf.ValueTypeNames.Float).default = importance
-        Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.1
+        Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = sized[0] if sized else 0.1
+        if sized:
+            Sdf.AttributeSpec(ball, "gaze:object:radius", Sdf.ValueTypeNames.Float).default = sized[0]
         Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform).default = ["xformOp:translate"]
         Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = at
         if shown:

@@ -17,47 +17,15 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
-from . import measure
+from . import measure, rig_extras
 from . import synthetic as syn
-
-
-def _mirror_joint(path: Path, skeleton: str, animation: str, leaf: str) -> None:
-    """Mirror joint ``leaf`` along its own x: its local x row (UsdSkel matrices are row-vector)
-    negated in the rest transforms, the bind transforms at and below it recomputed, and a scale of
-    (-1, 1, 1) in the animation. Positions stay; the frames' handedness changes."""
-    layer = Sdf.Layer.FindOrOpen(str(path))
-    stage = Usd.Stage.Open(layer)
-    skel = stage.GetPrimAtPath(skeleton)
-    joints = [str(j) for j in skel.GetAttribute("joints").Get()]
-    j = next(i for i, name in enumerate(joints) if name.rsplit("/", 1)[-1] == leaf)
-    below = [i for i, name in enumerate(joints) if name.startswith(joints[j] + "/")]
-    rest = np.array(skel.GetAttribute("restTransforms").Get())
-    bind = np.array(skel.GetAttribute("bindTransforms").Get())
-    rest[j] = np.diag([-1.0, 1.0, 1.0, 1.0]) @ rest[j]
-    skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(rest))
-    # Bind transforms (skeleton space) of the joint and those below: rest FK from the parent's bind.
-    index = {name: i for i, name in enumerate(joints)}
-    for i in [j, *below]:
-        bind[i] = rest[i] @ bind[index[joints[i].rsplit("/", 1)[0]]]
-    skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(bind))
-    anim = stage.GetPrimAtPath(animation)
-    anim_joints = [str(x) for x in anim.GetAttribute("joints").Get()]
-    k = anim_joints.index(joints[j])
-    scales = anim.GetAttribute("scales")
-    times = scales.GetTimeSamples()
-    for t in times or [Usd.TimeCode.Default()]:
-        s = np.array(scales.Get(t), dtype=float)
-        s[k] = (-1.0, 1.0, 1.0)
-        scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
-    layer.Save()
 
 
 def _rig(tmp: Path, leaf_key: str):
     rig = syn.make_rig(tmp / "rig.usda", convention="mixamo", up_axis="Y", meters_per_unit=0.01, frames=12,
                        mesh=False, walk_speed=0.0, time_codes_per_second=30.0)
-    _mirror_joint(rig.path, rig.skeleton, rig.animation, rig.leaf[leaf_key])
+    rig_extras.mirror_joint(rig.path, rig.skeleton, rig.animation, rig.leaf[leaf_key])
     return rig
 
 

@@ -14,50 +14,23 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image, ImageSequence
-from pxr import Gf, Sdf, Usd, Vt
+from pxr import Gf, Sdf, Vt
 
 from usdgaze import api
 from usdgaze.console.main import main
 from usdgaze.review import analysis
 from usdgaze.review.composed import read_review
 
-from . import measure
+from . import measure, rig_extras
 from . import synthetic as syn
 
 MAP = Path(__file__).resolve().parents[1] / "sample_stages" / "shared_map" / "gaze_map.usda"
 
 
-def _mirror_joint(path: Path, skeleton: str, animation: str, leaf: str) -> None:
-    """Mirror joint ``leaf`` along its own x (rest, bind at and below it, animation scale -1, 1, 1):
-    positions stay, the frames' handedness changes, as rigs that mirror one side have it."""
-    layer = Sdf.Layer.FindOrOpen(str(path))
-    stage = Usd.Stage.Open(layer)
-    skel = stage.GetPrimAtPath(skeleton)
-    joints = [str(j) for j in skel.GetAttribute("joints").Get()]
-    j = next(i for i, name in enumerate(joints) if name.rsplit("/", 1)[-1] == leaf)
-    below = [i for i, name in enumerate(joints) if name.startswith(joints[j] + "/")]
-    rest = np.array(skel.GetAttribute("restTransforms").Get())
-    bind = np.array(skel.GetAttribute("bindTransforms").Get())
-    rest[j] = np.diag([-1.0, 1.0, 1.0, 1.0]) @ rest[j]
-    skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(rest))
-    index = {name: i for i, name in enumerate(joints)}
-    for i in [j, *below]:
-        bind[i] = rest[i] @ bind[index[joints[i].rsplit("/", 1)[0]]]
-    skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(bind))
-    anim = stage.GetPrimAtPath(animation)
-    k = [str(x) for x in anim.GetAttribute("joints").Get()].index(joints[j])
-    scales = anim.GetAttribute("scales")
-    for t in scales.GetTimeSamples() or [Usd.TimeCode.Default()]:
-        s = np.array(scales.Get(t), dtype=float)
-        s[k] = (-1.0, 1.0, 1.0)
-        scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
-    layer.Save()
-
-
 def test_plot_and_preview_of_a_rig_with_a_mirrored_hand(tmp_path):
     rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", meters_per_unit=0.01, frames=20,
                        mesh=False, walk_speed=0.0, time_codes_per_second=30.0)
-    _mirror_joint(rig.path, rig.skeleton, rig.animation, rig.leaf["hand_r"])
+    rig_extras.mirror_joint(rig.path, rig.skeleton, rig.animation, rig.leaf["hand_r"])
     layer = tmp_path / "g.usda"
     api.apply(str(rig.path), ["0.1s:30:0"], layer, preview=str(tmp_path / "p.usda"))
 
@@ -130,8 +103,6 @@ def test_validate_reads_the_skeleton_arrays_a_layer_adding_eyes_writes(tmp_path,
     from pathlib import Path
 
     import numpy as np
-    from pxr import Sdf, Vt
-
     from usdgaze.console.main import main
 
     cmu = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_02.usdc"
