@@ -40,6 +40,10 @@ def test_a_sigint_in_openusds_module_loader_during_import_is_not_swallowed():
     run = _python("""
         import signal, sys
 
+        # Python's own Ctrl-C handler, as on a terminal: a process started in the background (a shell's
+        # `cmd &`) inherits SIGINT ignored, and then no signal is raised at all.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
         class Stop:
             fired = False
             def find_spec(self, name, path, target=None):
