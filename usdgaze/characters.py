@@ -145,53 +145,44 @@ def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list
     return schedule.read_schedule(root, source)
 
 
-def _skinned_by(stage, skel_root: str, skeleton: str | None = None) -> list:
-    """Paths of the prims UsdSkel deforms under ``skel_root`` (with ``skeleton`` only, where given)."""
+def _skinned_by(stage, skel_root) -> list:
+    """(path, Skeleton path) of each prim UsdSkel deforms under the SkelRoot ``skel_root``."""
     from pxr import Usd, UsdSkel
 
-    root = UsdSkel.Root(stage.GetPrimAtPath(skel_root))
-    if not root:
-        return []
+    root = UsdSkel.Root(skel_root)
     cache = UsdSkel.Cache()
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     cache.Populate(root, predicate)
-    return [q.GetPrim().GetPath() for b in cache.ComputeSkelBindings(root, predicate)
-            if skeleton is None or str(b.GetSkeleton().GetPrim().GetPath()) == skeleton for q in b.GetSkinningTargets()]
+    return [(q.GetPrim().GetPath(), str(b.GetSkeleton().GetPrim().GetPath()))
+            for b in cache.ComputeSkelBindings(root, predicate) for q in b.GetSkinningTargets()]
 
 
-def _check_not_skinned(stage, target: str, source: str) -> None:
-    """A target that is (or holds) a mesh another character's Skeleton skins: its bounds are those of
-    the mesh's rest pose, where the body is not (a walking character's: 14-18 deg off, silently)."""
+def _check_target_prim(stage, target: str, clip: SkelClip) -> None:
+    """A look-at target that is the character (its SkelRoot, a prim holding it, its Skeleton, a mesh its
+    Skeleton skins or a prim holding one) moves with it and lies in it: its own bounds' centre was looked
+    at, down into its body, with a warning that it was behind the character. A skinned mesh of another
+    character (or a prim holding one below its SkelRoot) has the bounds of its rest pose, where the body
+    is not (a walking character's: 14-18 deg off, silently)."""
     from pxr import Sdf, UsdSkel
 
     path = Sdf.Path(target)
+    if Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton)):
+        raise UsdGazeError(f"{clip.source}:{target}: is the character {clip.skel_root} itself (or holds it, or is its "
+                           "Skeleton); a look-at target must be another prim (on a stage of several characters, --skel-root "
+                           "picks the one that looks)")
     prim = stage.GetPrimAtPath(path)
     root = UsdSkel.Root.Find(prim) if prim else None
     if not root or root.GetPrim().GetPath() == path:
         return
-    if any(p.HasPrefix(path) for p in _skinned_by(stage, str(root.GetPrim().GetPath()))):
-        raise UsdGazeError(f"{source}:{target}: is (or holds) a skinned mesh, whose bounds are its rest pose, not "
-                           f"where the body is; look at the SkelRoot {root.GetPrim().GetPath()} (its bounds follow "
-                           f"the body) or at a point")
-
-
-def _check_not_itself(target: str, clip: SkelClip, stage=None) -> None:
-    """A look-at target that is the character (its SkelRoot, a prim holding it, its Skeleton, a mesh its
-    Skeleton skins or a prim holding one) moves with it and lies in it: its own bounds' centre was looked
-    at, down into its body (a skinned mesh's bounds are even those of its rest pose), with a warning that
-    it was behind the character."""
-    from pxr import Sdf
-
-    path = Sdf.Path(target)
-    own = Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton))
-    if not own and stage is not None and path.HasPrefix(Sdf.Path(clip.skel_root)):
-        if any(p.HasPrefix(path) for p in _skinned_by(stage, clip.skel_root, clip.skeleton)):
-            raise UsdGazeError(f"{clip.source}:{target}: is (or holds) a mesh skinned by {clip.skeleton}, the body of the "
-                               f"character {clip.skel_root} itself; a look-at target must be another prim")
-    if own:
-        raise UsdGazeError(f"{clip.source}:{target}: is the character {clip.skel_root} itself (or holds it, or is its "
-                           "Skeleton); a look-at target must be another prim (on a stage of several characters, --skel-root "
-                           "picks the one that looks)")
+    held = [skel for p, skel in _skinned_by(stage, root.GetPrim()) if p.HasPrefix(path)]
+    if not held:
+        return
+    if str(root.GetPrim().GetPath()) == clip.skel_root and clip.skeleton in held:
+        raise UsdGazeError(f"{clip.source}:{target}: is (or holds) a mesh skinned by {clip.skeleton}, the body of the "
+                           f"character {clip.skel_root} itself; a look-at target must be another prim")
+    raise UsdGazeError(f"{clip.source}:{target}: is (or holds) a skinned mesh, whose bounds are its rest pose, not "
+                       f"where the body is; look at the SkelRoot {root.GetPrim().GetPath()} (its bounds follow "
+                       f"the body) or at a point")
 
 
 def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
@@ -222,8 +213,7 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
             if key not in index_of:
                 index_of[key] = len(targets)
                 if r.target is not None:
-                    _check_not_itself(r.target, clip, stage)
-                    _check_not_skinned(stage, r.target, clip.source)
+                    _check_target_prim(stage, r.target, clip)
                     targets.append(sample_target(stage, r.target, clip.times, clip.source))
                     names.append(r.target)
                 else:

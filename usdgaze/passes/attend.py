@@ -145,7 +145,7 @@ def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local,
     sight_skel = mid + dist[:, None] * direction
     # Each eye within the seed's 800 deg/s: the planner bounds the cyclopean direction, and vergence on
     # a near object took one eye to 856 deg/s on top of it.
-    eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP, seconds=clip.seconds if len(clip.seconds) == n else None)
+    eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP, seconds=clip.seconds)
     return eyes.rotations, _world(clip.skel_to_world, sight_skel)
 
 
