@@ -49,14 +49,21 @@ class Epoch:
     events: list  # (frame, "target" | "direction" | "base", cut)
 
 
-def gaze_weights(directives: list[Directive], seconds: np.ndarray) -> np.ndarray:
-    """Gaze weight per frame: each key eases from the weight at its time to its own over its blend."""
+def gaze_weights(directives: list[Directive], seconds: np.ndarray, base_shown: np.ndarray | None = None) -> np.ndarray:
+    """Gaze weight per frame: each key eases from the weight at its time to its own over its blend.
+
+    ``base_shown`` (per frame): where the animation shows the base motion's own gaze, whatever the
+    weight; a look or shift that starts there eases in from 0 (from the weight left there, 1 before
+    any key, a half-weight look with a blend had swung 95% of the way to its goal and back to 50%).
+    """
     w = np.ones(len(seconds))
     for d in directives:
         rows = seconds >= d.time_s
         if not np.any(rows):
             continue
-        w0 = w[np.argmax(rows)]
+        first = int(np.argmax(rows))
+        from_base = base_shown is not None and d.kind != "release" and (first == 0 or base_shown[first - 1])
+        w0 = 0.0 if from_base else w[first]
         s = motion.ease((seconds[rows] - d.time_s) / d.blend_s) if d.blend_s > 0 else np.ones(int(rows.sum()))
         w[rows] = w0 + (d.weight - w0) * s
     return w

@@ -95,11 +95,31 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.where(d > 0, d, 1.0)[..., None], d
 
 
-def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray, too_near: np.ndarray) -> np.ndarray:
+STEEP_DEG = 60.0
+"""A target this far above or below the horizon and behind the base azimuth is reached over the top
+(or under), the head tilted back past the vertical, where that is within reach, not by turning round."""
+
+
+def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray, too_near: np.ndarray,
+              over: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
     """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped; on the
-    frames ``too_near`` (nearer than the near point) it is out of reach, as if straight behind."""
-    ae = azimuth_elevation(points - eye, up) - base_ae
+    frames ``too_near`` (nearer than the near point) it is out of reach, as if straight behind.
+
+    A steep target behind the base azimuth is given over the pole (azimuth half a turn round,
+    elevation past 90) where that change is within ``over`` (up, down: the body's pitch reach plus
+    the eyes'): by azimuth alone, a target straight above a standing character was behind it, then
+    ahead, as the head bobbed, and let go and taken up again 16 times in 9 s (the eyes 33 deg a frame).
+    """
+    ae = azimuth_elevation(points - eye, up)
+    target_el = ae[:, 1].copy()
+    ae -= base_ae
     ae[:, 0] = (ae[:, 0] + 180.0) % 360.0 - 180.0
+    side = np.sign(target_el)
+    pole = side * 180.0 - target_el - base_ae[:, 1]  # the elevation change over the pole
+    reach = np.where(side > 0, over[0], over[1])
+    flip = (np.abs(target_el) >= STEEP_DEG) & (np.abs(ae[:, 0]) > 90.0) & (np.abs(pole) <= reach)
+    ae[flip, 0] -= 180.0 * np.sign(ae[flip, 0])
+    ae[flip, 1] = pole[flip]
     # No eye fixates nearer than its near point, and a target crossing the head swings its direction
     # through the back of it within a few frames (pursued, 55 deg in a frame): let go until it is out.
     ae[too_near, 0] = 180.0
@@ -212,14 +232,15 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     _check_distance(clip, directives, targets, eye_b, target_names)
     near = NEAR_POINT_M / clip.meters_per_unit
     too_near = {k: _nearer(t, eye_b, near) for k, t in enumerate(targets)}
-    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, too_near[d.target])
+    over = (look.reach_pitch_deg + options.eye_range.up, look.reach_pitch_deg + options.eye_range.down)
+    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, too_near[d.target], over)
            for d in directives if d.kind == "look"}
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
     scheduler = Scheduler(gaze_map, seconds)
     shifts, epochs, keys = plan_directives(gaze_map, directives, seconds, rel, base.ae, options.eye_range, look, scheduler)
     plan = scheduler.plan(shifts)
-    weight = gaze_weights(keys, seconds)
+    weight = gaze_weights(keys, seconds, _base_shown(directives, seconds, plan))
     full = weight >= 1.0
     part = np.flatnonzero(~full)  # most shots hold full weight throughout: scale only the other frames
     disp = plan.displacement
@@ -253,8 +274,25 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     # (hold error, reach warnings) against what was asked, so a request the cap cuts short is said.
     for d, end in _shift_spans(directives):  # frames at full gaze weight only: a partial weight asks for less
         result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
-    result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [], too_near)
+    result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [], too_near, up)
     return result
+
+
+def _base_shown(directives: list[Directive], seconds: np.ndarray, plan: Schedule) -> np.ndarray:
+    """Frames that show the base motion's own gaze: before the first directive, and where a release
+    has brought the body back and it has settled (the time-sorted ``directives``)."""
+    latest = np.searchsorted([d.time_s for d in directives], seconds, side="right") - 1
+    shown = latest < 0
+    released = np.array([d.kind == "release" for d in directives])[latest[~shown]]
+    at_rest = np.all(np.abs(plan.displacement[~shown] - rot.IDENTITY) < 1e-9, axis=(1, 2)) & plan.settled[~shown]
+    shown[~shown] = released & at_rest
+    return shown
+
+
+def _miss_deg(base_ae: np.ndarray, achieved: np.ndarray, requested: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Degrees between the achieved and the requested line of sight, per frame (changes against ``base_ae``)."""
+    a, b = direction_from(base_ae + achieved, up), direction_from(base_ae + requested, up)
+    return np.degrees(np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0)))
 
 
 def _shift_spans(directives: list[Directive]) -> list[tuple[Directive, float]]:
@@ -264,7 +302,7 @@ def _shift_spans(directives: list[Directive]) -> list[tuple[Directive, float]]:
 
 
 def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], result: PassResult,
-              base_ae: np.ndarray, options: PassOptions, names: list[str], too_near: dict) -> list[str]:
+              base_ae: np.ndarray, options: PassOptions, names: list[str], too_near: dict, up: np.ndarray) -> list[str]:
     """Shifts that miss their request once settled; targets that went out of reach (``too_near``:
     per target, the frames it is nearer than the near point)."""
     shifts = [(Shift(d.time_s, d.yaw, d.pitch), end) for d, end in _shift_spans(directives)]
@@ -283,7 +321,9 @@ def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], 
         for f, kind, _ in epoch.events:  # only while the target is held, not while let go
             if kind == "base":
                 rows[f:end] = False
-        miss = np.linalg.norm(result.achieved - result.requested, axis=1)
+        # The angle between the lines, not the norm of (azimuth, elevation) differences: near the
+        # vertical an azimuth means little (a target overhead 'missed by 269 deg').
+        miss = _miss_deg(base_ae, result.achieved, result.requested, up)
         held = rows & result.settled
         if np.any(held) and miss[held].max() > options.tolerance_deg:
             out.append(f"{clip.where()}: look at {name} from {d.time_s:g} s: the line of sight misses the target "
