@@ -49,3 +49,34 @@ def b_sublayer_into_a_shot_that_references_at_an_offset(d):
 def b_look_at_its_own_skeleton(d):
     r = rig(d)
     return ["apply", str(r.path), "--look-at", f"{r.skeleton}@10", "--out", str(d / "gaze.usdc")]
+
+
+def b_out_is_a_layer_the_sublayer_root_composes(d):
+    """``--out set.usda`` where ``shot.usda`` sublayers [set.usda, in.usda]: the set dressing was replaced."""
+    r = rig(d)
+    (d / "set.usda").write_text('#usda 1.0\ndef Xform "Set" {}\n')
+    (d / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./set.usda@, @./in.usda@]\n)\n')
+    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "set.usda"),
+            "--sublayer-into", str(d / "shot.usda")]
+
+
+def b_look_at_an_ill_formed_prim_path(d):
+    """USD's own warning about the path had come first, a second line on stderr."""
+    r = rig(d)
+    return ["apply", str(r.path), "--look-at", "/World/Do or@10", "--out", str(d / "gaze.usdc")]
+
+
+def b_sublayer_into_a_shot_with_a_broken_sublayer(d):
+    """Another sublayer of the shot does not parse (it was said not to compose the input at all)."""
+    r = rig(d)
+    (d / "broken.usda").write_text('#usda 1.0\ndef Xform "A" { garbage }\n')
+    (d / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./broken.usda@, @./in.usda@]\n)\n')
+    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc"),
+            "--sublayer-into", str(d / "shot.usda")]
+
+
+def b_out_is_a_dangling_link_into_a_missing_folder(d):
+    """The link's own folder exists: "folder . does not exist" named the wrong one."""
+    r = rig(d)
+    (d / "gaze.usdc").symlink_to(d / "missing" / "x.usdc")
+    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc")]

@@ -103,6 +103,25 @@ def _claim_outputs(tx: Outputs, req: ApplyRequest) -> None:
         if not os.path.isfile(req.sublayer_into):
             raise UsdGazeError(f"{req.sublayer_into}: no such file to insert the sublayer into")
         tx.claim(req.sublayer_into, "--sublayer-into", edit=True)
+        _read_root_layers(tx, req.sublayer_into, req.out)
+
+
+def _read_root_layers(tx: Outputs, root: str | os.PathLike, out: str | os.PathLike) -> None:
+    """Record the layers ``root`` composes as read: ``--out`` naming one of them (the set dressing it
+    sublayers beside the input) had replaced it with the override. Only an earlier usdgaze override in
+    that slot is ``--out``'s to replace, as a rerun does."""
+    from usdgaze.files.identity import FileId
+    from usdgaze.usd.layers import is_override
+    from usdgaze.usd.stage import layer_dependencies, without_usd_warnings
+
+    with without_usd_warnings():  # a sublayer may be this command's output, not written yet
+        files = layer_dependencies(os.path.realpath(root))
+    own, out_id = FileId.of(root), FileId.of(out)
+    for f in files:
+        fid = FileId.of(f)
+        if fid == own or (fid == out_id and is_override(f)):
+            continue
+        tx.read(f, f"layer composed by --sublayer-into {root}")
 
 
 def _open_input(tx: Outputs, source: str):

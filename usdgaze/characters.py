@@ -165,6 +165,8 @@ def _check_target_prim(stage, target: str, clip: SkelClip) -> None:
     is not (a walking character's: 14-18 deg off, silently)."""
     from pxr import Sdf, UsdSkel
 
+    if not Sdf.Path.IsValidPathString(target):  # usd.targets.check_target says so, in one line
+        return
     path = Sdf.Path(target)
     if Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton)):
         raise UsdGazeError(f"{clip.source}:{target}: is the character {clip.skel_root} itself (or holds it, or is its "

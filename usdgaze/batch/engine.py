@@ -256,6 +256,14 @@ def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
         from distributed import Client, as_completed as dask_completed
     except ImportError:
         raise UsdGazeError("--dask needs dask.distributed: pip install 'usdgaze[dask]'") from None
+    if address.strip().lower().startswith("tls://"):
+        from distributed.security import Security
+
+        # Said before connecting: distributed's own TypeError for it raced its client's start (an empty
+        # AssertionError now and then).
+        if Security().get_connection_args("client").get("ssl_context") is None:
+            raise UsdGazeError(f"--dask {address}: cannot connect with that protocol here (no TLS security in dask's "
+                               "configuration: distributed.comm.tls)")
     try:
         # A bounded wait: at a port that is no scheduler (the dashboard's HTTP on :8787) the handshake
         # never completed, and a closed port took distributed's default 30 s to say so.

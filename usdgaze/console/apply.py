@@ -29,7 +29,8 @@ import numpy as np
 @click.option("--skel-root", default=None, help="SkelRoot prim path (default: every SkelRoot with a GazeMapAPI, else the only one).")
 @click.option("--map", "map_spec", default=None, metavar="FILE[:PRIM]", help="Gaze map to use instead of the SkelRoot's or the built-in one.")
 @click.option("--sublayer-into", default=None, type=click.Path(dir_okay=False), metavar="ROOT",
-              help="Insert the override as the strongest sublayer of ROOT (only ROOT's subLayers change).")
+              help="Insert the override as the strongest sublayer of ROOT (only ROOT's subLayers change; "
+                   "OpenUSD writes the layer anew, so # comments in a text ROOT are not kept).")
 @click.option("--preview", default=None, type=click.Path(dir_okay=False), metavar="NEW_ROOT",
               help="Write a new root layer that sublayers [override, input].")
 @click.option("--fixation", default=2.0, show_default=True, type=float, help="Distance of the point of sight, metres.")

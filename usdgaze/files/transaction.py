@@ -108,6 +108,17 @@ class _Staged:
         self.temp: Path | None = None
 
 
+def _text_usd(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is an existing ``.usd`` file in the text encoding (``.usd`` holds either)."""
+    if Path(path).suffix.lower() != ".usd":
+        return False
+    try:
+        with open(path, "rb") as f:
+            return f.read(8) != b"PXR-USDC"
+    except OSError:  # a new file: USD's default encoding
+        return False
+
+
 class Outputs:
     """One command's outputs, all or none. Use as a context manager; ``commit`` on success."""
 
@@ -187,6 +198,8 @@ class Outputs:
         target = real_path(path) if follow else _unfollowed(path)
         folder = target.parent
         if not folder.exists():
+            if follow and os.path.islink(shown):  # a dangling link: its target's folder, not the link's
+                raise UsdGazeError(f"{shown}: links to {target}, whose folder {folder} does not exist")
             raise UsdGazeError(f"{shown}: folder {shown.parent} does not exist")
         if not folder.is_dir():
             raise UsdGazeError(f"{shown}: {shown.parent} is not a folder")
@@ -232,9 +245,12 @@ class Outputs:
         item.temp = temp
 
     def stage_layer(self, path: str | os.PathLike, layer) -> None:
-        """Stage a USD layer (Sdf ``Export``; the format follows the suffix)."""
+        """Stage a USD layer (Sdf ``Export``; the format follows the suffix, and a ``.usd`` file that
+        is replaced keeps its encoding: a text root edited by ``--sublayer-into`` had become a crate)."""
+        args = {"format": "usda"} if _text_usd(path) else {}
+
         def export(temp: str) -> None:
-            if not layer.Export(temp):
+            if not layer.Export(temp, args=args):
                 raise OSError(errno.EIO, "USD could not write the layer")
         self.stage_with(path, export)
 

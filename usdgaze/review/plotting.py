@@ -228,11 +228,18 @@ def figures(review) -> dict[str, object]:
     return out
 
 
+_NO_DATE = {"pdf": {"CreationDate": None}, "svg": {"Date": None}}
+"""matplotlib stamps PDF and SVG files with the time they were written: the same run must give the same bytes."""
+
+
 def save_figure(fig, path: str | os.PathLike, outputs, dpi: int = 100) -> None:
-    """Stage ``fig`` through the command's writer and close it."""
+    """Stage ``fig`` through the command's writer and close it (the same figure, the same bytes)."""
     plt = pyplot()
+    fmt = Path(path).suffix.lstrip(".").lower()
     try:
-        outputs.stage_with(path, lambda temp: fig.savefig(temp, dpi=dpi, format=Path(path).suffix.lstrip(".").lower()))
+        # SVG's clip-path ids are random unless salted.
+        with plt.rc_context({"svg.hashsalt": "usdgaze"}):
+            outputs.stage_with(path, lambda temp: fig.savefig(temp, dpi=dpi, format=fmt, metadata=_NO_DATE.get(fmt)))
     finally:
         plt.close(fig)
 

@@ -88,6 +88,8 @@ class AnimOverride:
             skeleton=clip.skeleton if new else None,
             define=new,
         )
+        if new and clip.authored_poses[0]:
+            override._driven_only(set(result.changed_joints) | set(result.added_joints))
         if result.added_joints:
             override.skeleton = clip.skeleton
             override.skeleton_joints = clip.joints + result.added_joints
@@ -99,6 +101,16 @@ class AnimOverride:
             if clip.joint_names is not None:
                 override.joint_names = clip.joint_names + [j.rsplit("/", 1)[-1] for j in result.added_joints]
         return override
+
+    def _driven_only(self, driven: set[str]) -> None:
+        """A new animation lists only the joints the pass drives: the others keep the skeleton's rest
+        pose to the bit (listed, each was its float copy, ~1e-7 off the double-precision rest)."""
+        keep = [i for i, j in enumerate(self.joints) if j in driven]
+        self.joints = [self.joints[i] for i in keep]
+        for name in ("rotations", "translations", "scales"):
+            values = getattr(self, name)
+            if values is not None:
+                setattr(self, name, values[:, keep])
 
 
 @dataclass
@@ -233,6 +245,15 @@ def _bind_animation(layer: Sdf.Layer, skeleton: str, animation: str) -> None:
     skel.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"]))
     rel = Sdf.RelationshipSpec(skel, "skel:animationSource", custom=False)
     rel.targetPathList.explicitItems = [Sdf.Path(animation)]
+
+
+def is_override(path: str | os.PathLike) -> bool:
+    """Whether the layer file at ``path`` is one usdgaze wrote (its ``usdgaze`` custom layer data)."""
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(os.fspath(path), metadataOnly=True)
+    except Exception:  # unreadable: not ours
+        return False
+    return layer is not None and "usdgaze" in dict(layer.customLayerData)
 
 
 def relative_asset_path(target: str | os.PathLike, from_layer: str | os.PathLike) -> str:

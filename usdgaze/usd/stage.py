@@ -125,13 +125,31 @@ def _scratch() -> int:
     return fd
 
 
-def layer_dependencies(path: str | os.PathLike) -> list[str]:
-    """Files a layer on disk brings in (sublayers, references, payloads, clips), without opening a stage."""
+def layer_stack(layer: Sdf.Layer) -> list[tuple[str, str, Sdf.LayerOffset]]:
+    """(identifier, real path, time offset to ``layer``) of every layer of ``layer``'s layer stack,
+    strongest first, as Pcp composes it (nested offsets and timeCodesPerSecond ratios included).
+    Names, not layers: a layer only the stack's cache held expires with it."""
+    from pxr import Pcp
+
+    ident = Pcp.LayerStackIdentifier(layer)
+    cache = Pcp.Cache(ident)
+    stack, _errors = cache.ComputeLayerStack(ident)
+    return [(l.identifier, l.realPath, o) for l, o in zip(stack.layers, stack.layerOffsets)]
+
+
+def layer_dependencies(path: str | os.PathLike, strict: bool = False) -> list[str]:
+    """Files a layer on disk brings in (sublayers, references, payloads, clips), without opening a stage.
+
+    Unreadable (it or a layer it brings in): none, for a command that says so in its own words, or
+    with ``strict`` a one-line error naming it (a shot with a broken sublayer was said not to compose
+    the input at all)."""
     from pxr import UsdUtils
 
     try:
         layers, assets, _unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(os.fspath(path)))
-    except Exception:  # unreadable: the command that reads it says so in its own words
+    except Exception as exc:
+        if strict:
+            raise UsdGazeError(f"{path}: cannot read the layers it brings in ({usd_failure(exc)})") from None
         return []
     files = [layer.realPath for layer in layers if layer is not None and not layer.anonymous and layer.realPath]
     return files + [str(a) for a in assets if a and os.path.isfile(str(a))]

@@ -2,7 +2,8 @@
 
 ROOT must compose the input at the input's own paths and times (through its sublayers, at any offset,
 or through a reference or payload without one); the override goes first at the offset at which ROOT's
-layer stack brings the input in. Only ROOT's ``subLayers`` change.
+layer stack brings the input in. Only ROOT's ``subLayers`` change (its opinions, metadata and encoding are
+kept; OpenUSD writes it anew, so the ``#`` comments of a text file are not).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import TYPE_CHECKING
 from pxr import Sdf
 
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.files.identity import FileId
 from usdgaze.files.transaction import Outputs, outputs_of
 from usdgaze.usd.layers import USD_FORMATS, relative_asset_path
 
@@ -47,8 +49,8 @@ def check_sublayer_target(root: str | os.PathLike, anim_paths: list[str],
         # The edit goes to the file a symlinked root names, so its sublayers are read from there (one may
         # be this command's output, not written yet: USD's warning about it is not ours to pass on).
         with without_usd_warnings():
-            composed = {os.path.realpath(f) for f in layer_dependencies(os.path.realpath(root))}
-        if os.path.realpath(input_path) not in composed:
+            composed = {FileId.of(f) for f in layer_dependencies(os.path.realpath(root), strict=True)}
+        if FileId.of(input_path) not in composed:
             raise UsdGazeError(f"{root}: does not compose {input_path} (no sublayer, reference or payload brings "
                                "it in), so the override would change nothing there; use the shot layer that does")
         _check_same_paths(root, input_path, anim_paths)
@@ -85,7 +87,7 @@ def _check_same_paths(root: str | os.PathLike, input_path: str | os.PathLike, an
         stage = Usd.Stage.OpenMasked(os.path.realpath(root), Usd.StagePopulationMask([Sdf.Path(p) for p in anim_paths]))
     for path in anim_paths:
         prim = stage.GetPrimAtPath(path)
-        if not prim or not any(os.path.realpath(s.layer.realPath or "") == real_input for s in prim.GetPrimStack()):
+        if not prim or not any(_same_file(s.layer.realPath, real_input) for s in prim.GetPrimStack()):
             raise UsdGazeError(f"{root}: brings {input_path} in, but not at {path} (a reference or payload puts it "
                                "elsewhere), so the override, made at the input's paths, would change nothing there; "
                                "run apply on this layer itself (--skel-root the shot's character) and sublayer that")
@@ -104,18 +106,16 @@ def _arc_offset(prim: Usd.Prim, real_input: str) -> Sdf.LayerOffset | None:
         node = nodes.pop()
         nodes.extend(node.children)
         for layer, offset in zip(node.layerStack.layers, node.layerStack.layerOffsets):
-            if os.path.realpath(layer.realPath or "") == real_input:
+            if _same_file(layer.realPath, real_input):
                 return node.mapToRoot.timeOffset * offset
     return None
 
 
 def _stack_offsets(layer: Sdf.Layer) -> list[tuple[str, Sdf.LayerOffset]]:
     """(real path, offset to the root) of every layer in ``layer``'s layer stack, as Pcp composes it."""
-    from pxr import Pcp
+    from usdgaze.usd.stage import layer_stack
 
-    ident = Pcp.LayerStackIdentifier(layer)
-    stack, _errors = Pcp.Cache(ident).ComputeLayerStack(ident)
-    return [(l.realPath, o) for l, o in zip(stack.layers, stack.layerOffsets)]
+    return [(real, o) for _, real, o in layer_stack(layer)]
 
 
 def override_offset(root: str | os.PathLike, input_path: str | os.PathLike | None) -> Sdf.LayerOffset:
@@ -135,7 +135,7 @@ def override_offset(root: str | os.PathLike, input_path: str | os.PathLike | Non
 
 def _offset_in_stack(layer: Sdf.Layer, real_target: str) -> Sdf.LayerOffset | None:
     """The offset at which ``layer``'s layer stack brings in the file ``real_target``; None if it does not."""
-    return next((o for p, o in _stack_offsets(layer) if p and os.path.realpath(p) == real_target), None)
+    return next((o for p, o in _stack_offsets(layer) if _same_file(p, real_target)), None)
 
 
 def _scaling(layer: Sdf.Layer, target: str) -> Sdf.LayerOffset:
@@ -150,10 +150,14 @@ def _scaling(layer: Sdf.Layer, target: str) -> Sdf.LayerOffset:
 
 
 def _listed(layer: Sdf.Layer, real_root: str, override: str | os.PathLike) -> list[int]:
-    """Indices of ``layer``'s subLayers that name ``override`` (any spelling, symlinks followed)."""
-    target = os.path.realpath(override)
+    """Indices of ``layer``'s subLayers that name ``override`` (any spelling, symlinks and hard links followed)."""
     folder = os.path.dirname(real_root)
-    return [i for i, p in enumerate(layer.subLayerPaths) if os.path.realpath(os.path.join(folder, p)) == target]
+    return [i for i, p in enumerate(layer.subLayerPaths) if _same_file(os.path.join(folder, p), override)]
+
+
+def _same_file(a: str | None, b: str | os.PathLike) -> bool:
+    """Whether two paths name one file on disk (by identity: a hard link of the input is the input)."""
+    return bool(a) and FileId.of(a) == FileId.of(b)
 
 
 def sublayered(root: str | os.PathLike, override: str | os.PathLike, input_path=None) -> bool:
