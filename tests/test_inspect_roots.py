@@ -52,3 +52,31 @@ def test_inspect_lists_every_skel_root_with_its_own_problem(tmp_path, capsys):
     text = capsys.readouterr().out.splitlines()
     empty = text.index("SkelRoot /Empty  gaze map: none (the built-in map is used)")
     assert text[empty + 1] == "  no Skeleton under this SkelRoot"
+
+
+def test_a_skeleton_belongs_to_its_nearest_skel_root(tmp_path, capsys):
+    """A character's SkelRoot inside another (a set's): its skeleton was listed under both, and
+    ``apply --skel-root`` the inner one was refused, its animation said to drive the outer one's too."""
+    from pxr import Usd, UsdGeom, UsdSkel
+
+    from . import measure
+
+    r = syn.make_rig(tmp_path / "in.usda", frames=60, mesh=False)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "nested.usda"))
+    stage.SetStartTimeCode(0), stage.SetEndTimeCode(59), stage.SetTimeCodesPerSecond(r.time_codes_per_second)
+    UsdGeom.SetStageUpAxis(stage, "Y"), UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdSkel.Root.Define(stage, "/Outer")
+    stage.DefinePrim("/Outer/Inner").GetReferences().AddReference("./in.usda", "/Character")
+    stage.GetRootLayer().defaultPrim = "Outer"
+    stage.Save()
+    assert main(["inspect", str(tmp_path / "nested.usda"), "--json"]) == 0
+    roots = {root["path"]: [s["path"] for s in root["skeletons"]] for root in json.loads(capsys.readouterr().out)["skel_roots"]}
+    assert roots == {"/Outer": [], "/Outer/Inner": ["/Outer/Inner/Skel"]}
+    preview = tmp_path / "preview.usda"
+    assert main(["apply", str(tmp_path / "nested.usda"), "--skel-root", "/Outer/Inner", "--shift", "10:40:0",
+                 "--out", str(tmp_path / "g.usdc"), "--preview", str(preview)]) == 0
+    base = measure.posed(str(tmp_path / "nested.usda"), "/Outer/Inner/Skel")
+    new = measure.posed(str(preview), "/Outer/Inner/Skel")
+    head = r.leaf["head"]
+    turned = measure.rotation_angle_deg(new.world[:, new.index(head), :3, :3], base.world[:, base.index(head), :3, :3])
+    assert turned[-1] > 5.0  # the inner character's head turned (its share of the 40 deg)

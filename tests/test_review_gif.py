@@ -62,3 +62,16 @@ def test_frames_are_written_as_they_come():
     write_gif(out, frames(), 40)
     # When the fourth frame is drawn, the first two are already in the file.
     assert written[0] == 0 and written[3] > written[1] > 0
+
+
+def test_frame_delays_keep_the_clock():
+    """Delays are whole centiseconds: 24 fps's 4.17 rounded every frame played 4% fast; each delay is
+    now where the clock should be after its frame, rounded, less where it was."""
+    rng = np.random.default_rng(5)
+    frames = [Image.fromarray(rng.integers(0, 256, size=(8, 8, 3), dtype=np.uint8)) for _ in range(48)]
+    out = io.BytesIO()
+    write_gif(out, iter(frames), 1000.0 / 24)
+    delays = [f.info["duration"] for f in ImageSequence.Iterator(Image.open(io.BytesIO(out.getvalue())))]
+    assert len(delays) == 48 and set(delays) == {40, 50}
+    assert np.all(np.abs(np.cumsum(delays) - 1000.0 / 24 * np.arange(1, 49)) <= 5.0)  # never off by more than half a cs
+    assert sum(delays) == 2000

@@ -160,3 +160,48 @@ def test_bad_preview_requests_are_one_line(run, tmp_path):
                             (["--out", str(tmp_path / "x.gif"), "--fps", "0"], "--fps")):
         assert main(["preview", str(CMU), "--layer", str(layer), *extra]) == 2
     assert not any(tmp_path.iterdir())
+
+
+def test_a_camera_facing_away_draws_no_figure_and_a_nan_camera_is_one_line(run, tmp_path, capsys):
+    """Points behind a camera prim were divided by their negative depth and drawn mirrored, upside
+    down; a camera with a NaN translate crashed (exit 1) after a dozen USD warnings."""
+    folder, layer = run
+    stage_path = tmp_path / "shot.usda"
+    root = composed_root(None)
+    stage = Usd.Stage.Open(root)
+    UsdGeom.Camera.Define(stage, "/Away").AddTranslateOp().Set(Gf.Vec3d(0.0, 100.0, -600.0))  # looks down -Z, away
+    UsdGeom.Camera.Define(stage, "/Broken").AddTranslateOp().Set(Gf.Vec3d(float("nan"), 100.0, 600.0))
+    root.Export(str(stage_path))
+    review = read_review(stage_path, layer)
+    composed, _ = composed_stage(stage_path, layer)
+    scene = pv.build_scene(review, pv.PreviewOptions(camera="/Away", layout="overlay", size=200), composed,
+                           times=review.characters[0].seconds[[10, 400]])
+    for i in range(2):
+        assert np.isnan(scene.projected[0][1].joints[i, :, :2]).all()
+        panel = np.asarray(scene.frame(i).convert("RGB"))[render.LABEL_H:].astype(int)
+        body = [np.abs(panel - np.array(c)).sum(-1) <= 30 for c in (render.BASE_BODY, render.GAZE_BODY)]
+        assert not np.any(body)
+    capsys.readouterr()
+    assert main(["preview", str(stage_path), "--layer", str(layer), "--out", str(tmp_path / "x.png"),
+                 "--camera", "/Broken"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not finite" in err[0], err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_an_odd_size_mp4_and_a_gif_faster_than_gifs_play(run, tmp_path, capsys):
+    """H.264's 4:2:0 needs even sizes (``--size 65`` failed in ffmpeg, six lines of its output); a GIF
+    at 240 fps had 0 cs delays (played at ~10 fps): refused above 50."""
+    import imageio.v3 as iio
+
+    folder, layer = run
+    mp4 = tmp_path / "odd.mp4"
+    assert main(["preview", str(CMU), "--layer", str(layer), "--out", str(mp4), "--fps", "4", "--size", "65",
+                 "--layout", "overlay"]) == 0
+    video = iio.imread(mp4, index=None, plugin="FFMPEG")
+    assert video.shape[1] % 2 == 0 and video.shape[2] % 2 == 0 and video.shape[2] == 66
+    capsys.readouterr()
+    assert main(["preview", str(CMU), "--layer", str(layer), "--out", str(tmp_path / "fast.gif"), "--fps", "60"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "at most 50 frames per second" in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["odd.mp4"]

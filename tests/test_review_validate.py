@@ -127,6 +127,8 @@ def test_validate_is_silent_on_a_clean_result_and_lints_a_bad_one(tmp_path, caps
     assert main(["validate", str(preview)]) == 0
     assert main(["validate", str(SAMPLES[0]), "--layer", str(tmp_path / "g.usdc")]) == 0
     assert capsys.readouterr() == ("", "")
+    assert main(["validate", str(preview), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == []  # printed nothing: no JSON for a reader to parse
 
     # A malformed copy of the map file: two problems, one line each, exit 3 (bad input stays 2).
     bad = tmp_path / "bad.usda"

@@ -23,7 +23,8 @@ def inspect(input_path, bind, forward, as_json) -> None:
         click.echo(json.dumps(info, indent=2))
         return
     click.echo(f"{info['file']}: upAxis {info['up_axis']}, metersPerUnit {info['meters_per_unit']:g}, "
-               f"time codes {info['start']:g}..{info['end']:g} at {info['time_codes_per_second']:g}/s")
+               + (f"time codes {info['start']:g}..{info['end']:g}" if info["start"] is not None else "no time range authored")
+               + f" at {info['time_codes_per_second']:g}/s")
     for root in info["skel_roots"]:
         click.echo(f"SkelRoot {root['path']}  gaze map: {root['map']}")
         if not root["skeletons"]:
@@ -38,7 +39,7 @@ def inspect(input_path, bind, forward, as_json) -> None:
                 click.echo(f"    animation: none bound (UsdSkel shows the rest pose); the layer defines {s['animation']} "
                            f"holding it, {s['frames']} frames of the stage's range, {span}")
             elif s["held_pose"]:
-                click.echo(f"    animation {s['animation']}  one held pose (no time samples): {s['frames']} frames of "
+                click.echo(f"    animation {s['animation']}  one held pose (a default or a single time sample): {s['frames']} frames of "
                            f"the stage's range, {span}")
             else:
                 click.echo(f"    animation {s['animation']}  {s['frames']} samples, {span}")

@@ -39,7 +39,7 @@ def preview(input_path, layer, out, sheet, camera, layout, fps, size, sheet_coun
     started = time.perf_counter()
     out_path = Path(out)
     is_sheet = out_path.suffix.lower() == ".png"
-    pv.check_output(out_path, "sheet" if is_sheet else "animation")
+    pv.check_output(out_path, "sheet" if is_sheet else "animation", fps)
     if sheet is not None:
         pv.check_output(sheet, "sheet")
     opts = pv.PreviewOptions(camera=camera, layout=layout, fps=fps, size=size, sheet_count=sheet_count)

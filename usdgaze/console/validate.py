@@ -25,9 +25,8 @@ def validate(stage_path, layer, only_usdgaze, as_json) -> None:
     from usdgaze.review.validation import run
 
     problems = run(stage_path, layer, only_usdgaze=only_usdgaze)
-    if as_json:
-        if problems:
-            click.echo(json.dumps(problems, indent=2))
+    if as_json:  # a clean stage too: [] is what a JSON reader can parse
+        click.echo(json.dumps(problems, indent=2))
     else:
         for p in problems:
             click.echo(f"{p['file']}:{p['site']}: {p['severity']}: {p['message']} ({p['validator']}.{p['error']})")

@@ -71,7 +71,8 @@ def achieved_change(c) -> np.ndarray:
 
 
 def requested_steps(seconds: np.ndarray, shifts) -> np.ndarray:
-    """The requests as steps ``(F, 2)``: each holds from its time until the next (0 before the first)."""
+    """The requests as steps ``(F, 2)``: each holds from its time until the next (0 before the first;
+    NaN while a look holds, whose request is a target)."""
     out = np.zeros((len(seconds), 2))
     for t, yaw, pitch in sorted(shifts):
         out[seconds >= t] = (yaw, pitch)
@@ -127,6 +128,8 @@ def shift_cascade(c, shifts) -> list[ShiftCurves]:
     disp = rot.multiply(c.gaze.local_q[:, idx], rot.conjugate(c.base.local_q[:, idx]))
     out = []
     for k, (t0, yaw, pitch), rows in _shift_windows(c.seconds, shifts):
+        if np.isnan(yaw):  # a look: no change asked
+            continue
         start = disp[rows[0]]
         turned = np.degrees(rot.angle(rot.multiply(disp[rows], rot.conjugate(start)[None])))
         out.append(ShiftCurves(k, float(t0), float(yaw), float(pitch), c.seconds[rows] - c.seconds[rows[0]],
@@ -185,7 +188,9 @@ def peak_speeds(c, shifts, speed: np.ndarray | None = None) -> np.ndarray:
     speed = change_speed(c) if speed is None else speed
     change = achieved_change(c)
     out = []
-    for _, _, rows in _shift_windows(c.seconds, shifts):
+    for _, (_, yaw, _), rows in _shift_windows(c.seconds, shifts):
+        if np.isnan(yaw):  # a look's saccades are pursuit and catch-up, not one shift
+            continue
         out.append((np.linalg.norm(change[rows[-1]] - change[rows[0]]), speed[rows].max()))
     return np.array(out).reshape(-1, 2)
 

@@ -106,6 +106,34 @@ class Review:
     attention: list[Attention] = field(default_factory=list)
 
 
+def _may_touch(skel, touched: set[str]) -> bool:
+    """Whether the layer's prims include ``skel``'s bound animation or anything under it (an animation
+    the layer defined for a skeleton that had none)."""
+    from pxr import UsdSkel
+
+    targets = UsdSkel.BindingAPI(skel.GetPrim()).GetAnimationSourceRel().GetForwardedTargets()
+    below = str(skel.GetPath()) + "/"
+    return any(str(t) in touched for t in targets) or any(p.startswith(below) for p in touched)
+
+
+def _check_same_frames(base, gaze, layer_file: str, source: str) -> None:
+    """The layer animates the frames the input does: one made for another take (a re-export of other
+    length or rate) or placed at another time had made the review's arrays disagree (exit 1)."""
+    if len(base.times) == len(gaze.times) and np.array_equal(base.times, gaze.times):
+        return
+    def span(c):
+        return f"{len(c.times)} at time codes {c.times[0]:g}..{c.times[-1]:g}"
+    raise UsdGazeError(f"{layer_file}:{gaze.animation}: the layer's frames ({span(gaze)} with the input's) are not the "
+                       f"input's ({span(base)}); review it over the input it was made for")
+
+
+def _in_stack(root: Sdf.Layer, layer: Sdf.Layer) -> bool:
+    """Whether ``layer`` is in ``root``'s layer stack (``--sublayer-into`` put it in the shot)."""
+    from usdgaze.usd.stage import layer_stack
+
+    return any(name == layer.identifier for name, _, _ in layer_stack(root))
+
+
 def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike):
     """A stage on an anonymous root layer that sublayers ``[layer, input]``: the result, in memory only.
 
@@ -143,7 +171,8 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
         for name in ("upAxis", "metersPerUnit", "defaultPrim"):
             if base_layer.pseudoRoot.HasInfo(name):
                 root.pseudoRoot.SetInfo(name, base_layer.pseudoRoot.GetInfo(name))
-        root.subLayerPaths.append(gaze_layer.identifier)
+        if in_memory or not _in_stack(base_layer, gaze_layer):  # a shot that sublayers it has it at its offset
+            root.subLayerPaths.append(gaze_layer.identifier)
         root.subLayerPaths.append(base_layer.identifier)
     stage = open_root(root, source)
     if not UsdGeom.GetStageUpAxis(stage):
@@ -198,6 +227,8 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     for root in roots:
         own = own_map(root, source)
         for skel in skeletons_under(root):
+            if not skel_root and not _may_touch(skel, touched):  # another character: its problems are not this review's
+                continue
             gaze_clip = read_clip(stage, skel, root, source)
             if gaze_clip.animation not in touched:
                 continue
@@ -206,6 +237,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 base_clip = read_clip(stage, stage.GetPrimAtPath(skel.GetPath()), stage.GetPrimAtPath(root.GetPath()), source)
             finally:
                 stage.UnmuteLayer(gaze_layer.identifier)
+            _check_same_frames(base_clip, gaze_clip, layer_file, source)
             chain, frame = api.bind(gaze_clip, own, hints)
             parents = gaze_clip.parents
             review.characters.append(CharacterReview(
@@ -218,9 +250,10 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),
                 meters_per_unit=gaze_clip.meters_per_unit,
             ))
-            review.characters[-1].looks = _looks(stage, root, gaze_clip, source, record, layer_file)
-            if not review.shifts and record.get("shifts"):
-                review.shifts = _shifts(record["shifts"], gaze_clip, layer_file)
+            clock = _recorded_clock(stage, gaze_layer, gaze_clip)
+            review.characters[-1].looks = _looks(stage, root, gaze_clip, source, record, layer_file, clock)
+            if not review.shifts:
+                review.shifts = _requests(record, str(root.GetPath()), layer_file, clock)
     review.attention = read_attention(stage, source)
     if not review.characters:
         raise UsdGazeError(f"{layer_file}: overrides no SkelAnimation of {source}; is it a usdgaze layer for this input?")
@@ -271,18 +304,36 @@ def read_attention(stage, source: str) -> list[Attention]:
     return out
 
 
-def _looks(stage, root, clip, source: str, record: dict, layer_file: str) -> list[Look]:
-    """Look directives the pass was given (the layer's record), else the SkelRoot's schedule; each
-    holds until the next directive (or the clip's end)."""
+def _recorded_clock(stage, layer, clip):
+    """Seconds on ``clip`` of a directive the layer records: in the input's time codes (or seconds
+    from its start; the layer carries the input's timing), brought to the stage through the layer's
+    offset (a shot that sublayers it later than the input's own time)."""
+    from pxr import Sdf
+
+    from usdgaze.usd.stage import layer_stack
+
+    offset = next((o for name, _, o in layer_stack(stage.GetRootLayer()) if name == layer.identifier), Sdf.LayerOffset())
+    start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
+
+    def seconds(d) -> float:
+        code = offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
+        return (code - clip.start_time) / clip.time_codes_per_second
+    return seconds
+
+
+def _looks(stage, root, clip, source: str, record: dict, layer_file: str, clock) -> list[Look]:
+    """Look directives the pass was given (the layer's record, timed by ``clock``), else the SkelRoot's
+    schedule; each holds until the next directive (or the clip's end)."""
     from usdgaze.usd import schedule
     from usdgaze.usd.targets import sample_target
 
     directives = _recorded_directives(record, str(root.GetPath()), layer_file)
+    tc = clock
     if directives is None:
         if not schedule.has_schedule(root):
             return []
         directives = schedule.read_schedule(root, source)
-    tc = lambda d: d.time_s(clip.start_time, clip.time_codes_per_second)  # noqa: E731
+        tc = lambda d: d.time_s(clip.start_time, clip.time_codes_per_second)  # noqa: E731
     directives = sorted(directives, key=tc)
     out = []
     for k, d in enumerate(directives):
@@ -325,16 +376,26 @@ def _prim_specs(layer):
     return [p for p in out if p is not None]
 
 
-def _shifts(texts, clip, where: str) -> list[tuple[float, float, float]]:
-    from usdgaze.api import ShiftRequest
+def _requests(record: dict, root: str, layer_file: str, clock) -> list[tuple[float, float, float]]:
+    """(seconds, yaw, pitch) of what the pass was asked, in time order: a shift's change (times its
+    weight, the share of the way it turns), a release's return to 0, and a look as NaN (a target,
+    not a change; the target panel measures it). From the directives recorded for ``root``, else the
+    layer's shifts (a layer without directives)."""
+    from usdgaze.passes.requests import parse_shift
 
+    directives = _recorded_directives(record, root, layer_file)
+    if directives is None:
+        directives = []
+        for text in record.get("shifts") or []:
+            try:
+                directives.append(parse_shift(str(text)))
+            except UsdGazeError as exc:
+                raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.shifts: {exc}") from None
     out = []
-    for text in texts:
-        try:
-            r = ShiftRequest.parse(str(text))
-        except UsdGazeError as exc:
-            raise UsdGazeError(f"{where}: customLayerData usdgaze.shifts: {exc}") from None
-        out.append((r.to_shift(clip).time_s, r.yaw, r.pitch))
+    for d in directives:
+        t = clock(d)
+        change = {"shift": (d.weight * d.yaw, d.weight * d.pitch), "release": (0.0, 0.0)}.get(d.kind, (np.nan, np.nan))
+        out.append((t, *change))
     return sorted(out)
 
 

@@ -26,8 +26,8 @@ def inspect_stage(path: str, hints=None) -> dict:
         "file": str(path),
         "up_axis": str(UsdGeom.GetStageUpAxis(stage)),
         "meters_per_unit": float(UsdGeom.GetStageMetersPerUnit(stage)),
-        "start": float(stage.GetStartTimeCode()),
-        "end": float(stage.GetEndTimeCode()),
+        "start": float(stage.GetStartTimeCode()) if stage.HasAuthoredTimeCodeRange() else None,
+        "end": float(stage.GetEndTimeCode()) if stage.HasAuthoredTimeCodeRange() else None,
         "time_codes_per_second": float(stage.GetTimeCodesPerSecond()),
         "skel_roots": [],
     }

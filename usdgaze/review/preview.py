@@ -30,8 +30,13 @@ class PreviewOptions:
     sheet_columns: int = 4
 
 
-def check_output(path: str | os.PathLike, kind: str) -> Path:
-    """An animation (.gif/.mp4) or a contact sheet (.png) path, or a one-line error."""
+GIF_MAX_FPS = 50.0
+"""A GIF's frame delays are whole centiseconds, and players hold one under 2 for 10: 50 frames per
+second at most (at 240 the delays were 0, and it played at about 10)."""
+
+
+def check_output(path: str | os.PathLike, kind: str, fps: float | None = None) -> Path:
+    """An animation (.gif/.mp4, at ``fps``) or a contact sheet (.png) path, or a one-line error."""
     p = Path(path)
     try:
         import PIL  # noqa: F401
@@ -41,8 +46,12 @@ def check_output(path: str | os.PathLike, kind: str) -> Path:
     if p.suffix.lower() not in allowed:
         want = ".gif or .mp4 (or .png for a contact sheet)" if kind == "animation" else ".png"
         raise UsdGazeError(f"{p}: preview output must end in {want}")
+    if p.suffix.lower() == ".gif" and fps is not None and fps > GIF_MAX_FPS:
+        raise UsdGazeError(f"{p}: --fps {fps:g}: a GIF holds at most {GIF_MAX_FPS:g} frames per second; "
+                           "give a lower --fps, or write an .mp4")
     if p.suffix.lower() == ".mp4":
         try:
+            import imageio  # noqa: F401
             import imageio_ffmpeg  # noqa: F401
         except ImportError:
             raise UsdGazeError(f"{p}: MP4 needs imageio-ffmpeg: pip install 'usdgaze[video]' (or write a .gif)") from None
@@ -117,6 +126,8 @@ def prim_camera(stage, path: str, seconds: np.ndarray, width: int, height: int) 
     """A UsdGeom.Camera of the stage, sampled at the output times (fitted to the panel's width)."""
     from pxr import Sdf, Usd, UsdGeom
 
+    from usdgaze.usd.stage import without_usd_warnings
+
     if not Sdf.Path.IsValidPathString(path) or not Sdf.Path(path).IsAbsolutePath():
         raise UsdGazeError(f"--camera '{path}': expected front, side, top or the absolute path of a Camera prim")
     prim = stage.GetPrimAtPath(path)
@@ -126,13 +137,19 @@ def prim_camera(stage, path: str, seconds: np.ndarray, width: int, height: int) 
     tcps, start = stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode()
     views, projs = [], []
     ratio = 1.0
-    for t in seconds:  # one Gf.Camera per output frame, not per sample
-        gf = cam.GetCamera(Usd.TimeCode(start + t * tcps))
-        ratio = 1.0 / gf.aspectRatio if gf.aspectRatio > 0 else 1.0
-        frustum = gf.frustum
-        views.append(np.array(frustum.ComputeViewMatrix()).T)
-        projs.append(np.array(frustum.ComputeProjectionMatrix()).T)
-    return render.Camera(width, height, np.stack(views), projection=np.stack(projs), aperture_ratio=ratio)
+    with without_usd_warnings():  # a camera that is no transform (NaN) is said below, in one line
+        for t in seconds:  # one Gf.Camera per output frame, not per sample
+            gf = cam.GetCamera(Usd.TimeCode(start + t * tcps))
+            ratio = 1.0 / gf.aspectRatio if gf.aspectRatio > 0 else 1.0
+            frustum = gf.frustum
+            views.append(np.array(frustum.ComputeViewMatrix()).T)
+            projs.append(np.array(frustum.ComputeProjectionMatrix()).T)
+    views, projs = np.stack(views), np.stack(projs)
+    bad = ~(np.isfinite(views).all(axis=(1, 2)) & np.isfinite(projs).all(axis=(1, 2)))
+    if bad.any():
+        raise UsdGazeError(f"--camera {path}: its transform or lens is not finite (NaN or infinity) at time code "
+                           f"{start + seconds[np.argmax(bad)] * tcps:g}")
+    return render.Camera(width, height, views, projection=projs, aperture_ratio=ratio)
 
 
 # -- drawing --------------------------------------------------------------------------------------
@@ -174,14 +191,18 @@ class _PaletteDraw:
             return None
         return self._p.index.get(colour) if colour in self._p.index else self._p.add(colour)
 
+    # A shape with a point off the picture (behind a camera: NaN, see render.Camera.project) is not drawn.
     def line(self, xy, fill=None, width=1, joint=None):
-        self._d.line(xy, fill=self._i(fill), width=width, joint=joint)
+        if np.isfinite(xy).all():
+            self._d.line(xy, fill=self._i(fill), width=width, joint=joint)
 
     def ellipse(self, xy, fill=None, outline=None, width=1):
-        self._d.ellipse(xy, fill=self._i(fill), outline=self._i(outline), width=width)
+        if np.isfinite(xy).all():
+            self._d.ellipse(xy, fill=self._i(fill), outline=self._i(outline), width=width)
 
     def rectangle(self, xy, fill=None, outline=None, width=1):
-        self._d.rectangle(xy, fill=self._i(fill), outline=self._i(outline), width=width)
+        if np.isfinite(xy).all():
+            self._d.rectangle(xy, fill=self._i(fill), outline=self._i(outline), width=width)
 
     def text(self, xy, text, fill=None):
         self._d.text(xy, text, fill=self._i(fill))
@@ -309,7 +330,7 @@ def write_animation(scene: Scene, path: Path, outputs) -> int:
 
         def write(temp: str) -> None:
             with open(temp, "wb") as out:
-                write_gif(out, frames, int(round(1000.0 / fps)))
+                write_gif(out, frames, 1000.0 / fps)
     else:
         def write(temp: str) -> None:
             import imageio.v2 as imageio
@@ -317,11 +338,18 @@ def write_animation(scene: Scene, path: Path, outputs) -> int:
             with imageio.get_writer(temp, format="FFMPEG", mode="I", fps=fps, codec="libx264",
                                     quality=7, macro_block_size=1, ffmpeg_log_level="error") as w:
                 for frame in frames:
-                    w.append_data(np.asarray(frame.convert("RGB")))
+                    w.append_data(_even(np.asarray(frame.convert("RGB"))))
     outputs.stage_with(path, write)
     if failed:
         raise failed[0]
     return len(scene.seconds)
+
+
+def _even(rgb: np.ndarray) -> np.ndarray:
+    """The frame with an odd width or height made even by repeating its last column or row: H.264's
+    4:2:0 colour needs even sizes (an odd --size failed in ffmpeg)."""
+    h, w = rgb.shape[:2]
+    return np.pad(rgb, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge") if h % 2 or w % 2 else rgb
 
 
 def write_png(image, path: Path, outputs) -> None:

@@ -73,7 +73,9 @@ class Camera:
             x, y = p[..., 0] * self.scale, p[..., 1] * self.scale
         else:
             clip = np.einsum("fij,fnj->fni", self.projection[:, :, :3], p) + self.projection[:, None, :, 3]
-            w = np.where(np.abs(clip[..., 3]) > 1e-9, clip[..., 3], 1e-9)
+            # A point behind the camera (or on its plane) has no place in the picture: NaN, not drawn
+            # (divided by its negative w, it was drawn mirrored, upside down).
+            w = np.where(clip[..., 3] > 1e-9, clip[..., 3], np.nan)
             x, y = clip[..., 0] / w * (self.width / 2), clip[..., 1] / w * (self.width / 2) * self.aperture_ratio
         return np.stack([self.width / 2 + x, self.height / 2 - y, depth], axis=-1)
 

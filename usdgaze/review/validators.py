@@ -303,24 +303,31 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
 def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
     """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
     range, and every character it names is a SkelRoot on the stage."""
-    from usdgaze.values import ShiftRequest
     from usdgaze.errors import UsdGazeError
+    from usdgaze.passes.requests import parse_shift
+    from usdgaze.usd.stage import layer_stack
 
     errors = []
-    start, end, tcps = stage.GetStartTimeCode(), stage.GetEndTimeCode(), stage.GetTimeCodesPerSecond()
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    offsets = {name: o for name, _, o in layer_stack(stage.GetRootLayer())}
     for layer in stage.GetLayerStack(includeSessionLayers=False):
         record = (layer.customLayerData or {}).get("usdgaze")
         if not isinstance(record, dict) or "shifts" not in record:
             continue
         name = layer.GetDisplayName()
         lo, hi = _sampled_range(stage, record.get("characters", []), start, end)
+        # The recorded times are the input's: its time codes, or seconds from its start (the layer
+        # carries the input's timing), brought to the stage through the layer's own offset.
+        offset = offsets.get(layer.identifier, Sdf.LayerOffset())
+        layer_start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
         for text in record.get("shifts", []):
             try:
-                shift = ShiftRequest.parse(str(text))
+                shift = parse_shift(str(text))
             except UsdGazeError as exc:
                 errors.append(_stage_error(stage, "BadShift", f"{name}: customLayerData usdgaze.shifts: {exc}"))
                 continue
-            code = start + shift.time * tcps if shift.seconds else shift.time
+            local = layer_start + shift.time * layer.timeCodesPerSecond if shift.seconds else shift.time
+            code = offset * local
             if (stage.HasAuthoredTimeCodeRange() or lo < hi) and not lo <= code <= hi:
                 errors.append(_stage_error(stage, "ShiftOutOfRange",
                                            f"{name}: shift {text} starts at time code {code:g}, outside the stage's "

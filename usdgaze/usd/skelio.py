@@ -28,8 +28,16 @@ def no_skel_root(stage: Usd.Stage, source: str) -> UsdGazeError:
 
 
 def skeletons_under(root: Usd.Prim) -> list[Usd.Prim]:
-    """Skeleton prims below a SkelRoot."""
-    return [p for p in Usd.PrimRange(root, Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Skeleton)]
+    """Skeleton prims below a SkelRoot, not below a SkelRoot nested in it: a skeleton is its nearest
+    SkelRoot's (counted for both, the outer root's selection refused the inner one's as unselected)."""
+    out = []
+    prims = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies()))
+    for p in prims:
+        if p != root and p.IsA(UsdSkel.Root):
+            prims.PruneChildren()
+        elif p.IsA(UsdSkel.Skeleton):
+            out.append(p)
+    return out
 
 
 def _animation_source(skel: Usd.Prim) -> tuple[bool, Usd.Prim | None]:
