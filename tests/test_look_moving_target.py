@@ -47,5 +47,15 @@ def test_a_dropping_ball_is_caught_up_at_saccade_speed(tmp_path):
                              np.cos(np.radians(pitch)) * np.cos(np.radians(yaw))])
         speed = measure.angle_between(d[1:], d[:-1]) * FPS
         assert speed.max() < 800.0, (eye, speed.max())  # the seed's saccade cap
-        # The eyes did follow it down: 20 deg below the head's horizon once the ball has landed.
-        assert pitch[new.times >= 1.8 * FPS].max() < -20.0, pitch[new.times >= 1.8 * FPS].max()
+    # The gaze did follow it down: the line of sight on the landed ball (67 deg below the horizon).
+    mid = 0.5 * (base.position(left) + base.position(right))
+    ball = mid + rig.forward * 0.3 + rig.up * (0.2 - 0.9)
+    sight = measure.sight_line(new, left, right, measure.local_forward(new, left, rig.forward),
+                               measure.local_forward(new, right, rig.forward))
+    eyes = 0.5 * (new.position(left) + new.position(right))
+    to_ball = (ball - eyes) / np.linalg.norm(ball - eyes, axis=1, keepdims=True)
+    landed = new.times >= 1.8 * FPS
+    miss = measure.angle_between(sight, to_ball)[landed]
+    # On it but for the walk's bob, which carries the eyes 12-14 deg off at their limit now and then
+    # (left at the horizon, it would be 67 deg off).
+    assert np.median(miss) < 5.0 and miss.max() < 20.0, (np.median(miss), miss.max())

@@ -26,7 +26,7 @@ class SynthesisSettings:
     """Fixed-point corrections of a query against its measured gaze change on the canonical chain."""
     seed: int = 0
     """Seed of the random blends, so that a map always builds the same way."""
-    neck_share: float = 0.5
+    neck_share: float = 1.0
     """Outside the sampled region: share of the missing rotation taken by the neck (the eyes take the rest)."""
 
 

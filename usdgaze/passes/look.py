@@ -95,31 +95,25 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.where(d > 0, d, 1.0)[..., None], d
 
 
-STEEP_DEG = 60.0
-"""A target this far above or below the horizon and behind the base azimuth is reached over the top
-(or under), the head tilted back past the vertical, where that is within reach, not by turning round."""
+POLE_BAND_DEG = 15.0
+"""Within this of the vertical a target's azimuth says little of its direction (at 89 deg, 10 deg of
+azimuth are 0.2 deg of arc) and whirls as the eyes bob under it: it is asked for in proportion."""
 
 
-def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray, too_near: np.ndarray,
-              over: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.ndarray, too_near: np.ndarray) -> np.ndarray:
     """Target (azimuth, elevation) from ``eye`` against the base line of sight, yaw wrapped; on the
     frames ``too_near`` (nearer than the near point) it is out of reach, as if straight behind.
 
-    A steep target behind the base azimuth is given over the pole (azimuth half a turn round,
-    elevation past 90) where that change is within ``over`` (up, down: the body's pitch reach plus
-    the eyes'): by azimuth alone, a target straight above a standing character was behind it, then
-    ahead, as the head bobbed, and let go and taken up again 16 times in 9 s (the eyes 33 deg a frame).
+    Within ``POLE_BAND_DEG`` of the vertical the azimuth counts in proportion to the distance from it
+    (all of it at the band's edge, none overhead): by azimuth alone, a target straight above a standing
+    character was behind it, then ahead, as the head bobbed, and let go and taken up again 16 times in
+    9 s (the eyes 33 deg a frame). The eyes, aimed at the target itself, take what the body leaves.
     """
     ae = azimuth_elevation(points - eye, up)
-    target_el = ae[:, 1].copy()
+    share = np.clip((90.0 - np.abs(ae[:, 1])) / POLE_BAND_DEG, 0.0, 1.0)  # of the azimuth asked for
     ae -= base_ae
     ae[:, 0] = (ae[:, 0] + 180.0) % 360.0 - 180.0
-    side = np.sign(target_el)
-    pole = side * 180.0 - target_el - base_ae[:, 1]  # the elevation change over the pole
-    reach = np.where(side > 0, over[0], over[1])
-    flip = (np.abs(target_el) >= STEEP_DEG) & (np.abs(ae[:, 0]) > 90.0) & (np.abs(pole) <= reach)
-    ae[flip, 0] -= 180.0 * np.sign(ae[flip, 0])
-    ae[flip, 1] = pole[flip]
+    ae[:, 0] *= share
     # No eye fixates nearer than its near point, and a target crossing the head swings its direction
     # through the back of it within a few frames (pursued, 55 deg in a frame): let go until it is out.
     ae[too_near, 0] = 180.0
@@ -232,8 +226,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     _check_distance(clip, directives, targets, eye_b, target_names)
     near = NEAR_POINT_M / clip.meters_per_unit
     too_near = {k: _nearer(t, eye_b, near) for k, t in enumerate(targets)}
-    over = (look.reach_pitch_deg + options.eye_range.up, look.reach_pitch_deg + options.eye_range.down)
-    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, too_near[d.target], over)
+    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, too_near[d.target])
            for d in directives if d.kind == "look"}
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again

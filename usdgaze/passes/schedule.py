@@ -25,6 +25,7 @@ frames, the head 826 deg/s). A segment already headed toward the new target (a r
 moving one) goes on along the interrupted path."""
 _RATE_DT_S = 1e-3  # the step the interrupted shift's rates are measured over
 
+
 @dataclass
 class Schedule:
     displacement: np.ndarray
