@@ -65,9 +65,19 @@ def slerp(a: np.ndarray, b: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.cos(theta) * a + np.sin(theta) * ortho
 
 
+def target_rates(target: np.ndarray, eye: np.ndarray, seconds: np.ndarray) -> np.ndarray:
+    """Angular velocity ``(F, 3)`` (rad/s) of the target's own motion seen from the eye: its world
+    velocity across the line of sight (see :func:`pursue`)."""
+    los = target - eye
+    dist = np.maximum(np.linalg.norm(los, axis=-1), 1e-12)
+    velocity = np.gradient(target, seconds, axis=0) if len(seconds) > 1 else np.zeros_like(target)
+    return np.cross(los / dist[:, None], velocity) / dist[:, None]
+
+
 def pursue(target: np.ndarray, eye: np.ndarray, seconds: np.ndarray, start: int, onset_s: float,
-           latency_s: float = 0.15, max_deg_s: float = MAX_PURSUIT_DEG_S) -> np.ndarray:
-    """Tracked point ``(F', 3)`` for frames ``start..``: on the target at ``start``, then turning with
+           latency_s: float = 0.15, max_deg_s: float = MAX_PURSUIT_DEG_S, rates: np.ndarray | None = None,
+           stop: int | None = None) -> np.ndarray:
+    """Tracked point ``(F', 3)`` for frames ``start..stop``: on the target at ``start``, then turning with
     the target's own angular velocity as it was ``latency_s`` earlier (none before ``onset_s +
     latency_s``: motion seen only since the target was picked), capped at ``max_deg_s``.
 
@@ -75,17 +85,17 @@ def pursue(target: np.ndarray, eye: np.ndarray, seconds: np.ndarray, start: int,
     enters, because the eyes cancel it at once (VOR), so a still target is held exactly. The lag
     behind the target is a rotation about the eye that accumulates (pursuit - target) angular
     velocity; summing its rotation vectors is exact for motion about one axis (a target circling or
-    crossing the viewer) and close for the small lags that catch-up saccades leave.
+    crossing the viewer) and close for the small lags that catch-up saccades leave. ``rates``: the
+    :func:`target_rates` of the whole path, for a caller that pursues it again and again; a frame's
+    point does not depend on ``stop``.
     """
-    t = seconds[start:]
+    stop = len(seconds) if stop is None else stop
+    t = seconds[start:stop]
     if len(t) < 2:
         return target[start:start + 1].copy()
-    # Angular velocity of the target's own motion seen from the eye, over the whole path (rad/s),
-    # so the late copy reaches back before ``start`` (a catch-up saccade does not reset pursuit).
-    los_all = target - eye
-    dist_all = np.maximum(np.linalg.norm(los_all, axis=-1), 1e-12)
-    velocity = np.gradient(target, seconds, axis=0) if len(seconds) > 1 else np.zeros_like(target)
-    omega_all = np.cross(los_all / dist_all[:, None], velocity) / dist_all[:, None]
+    # The target's rates over the whole path, so the late copy reaches back before ``start`` (a
+    # catch-up saccade does not reset pursuit).
+    omega_all = target_rates(target, eye, seconds) if rates is None else rates
     mid = 0.5 * (t[1:] + t[:-1])
     omega = np.column_stack([np.interp(mid, seconds, omega_all[:, k]) for k in range(3)])
     seen = mid - latency_s
@@ -94,4 +104,4 @@ def pursue(target: np.ndarray, eye: np.ndarray, seconds: np.ndarray, start: int,
     speed = np.linalg.norm(delayed, axis=-1)
     pursuit = delayed * np.minimum(1.0, np.radians(max_deg_s) / np.maximum(speed, 1e-12))[:, None]
     lag = np.concatenate([np.zeros((1, 3)), np.cumsum((pursuit - omega) * np.diff(t)[:, None], axis=0)])
-    return eye[start:] + rot.rotate(rot.from_rotvec(lag), los_all[start:])
+    return eye[start:stop] + rot.rotate(rot.from_rotvec(lag), target[start:stop] - eye[start:stop])

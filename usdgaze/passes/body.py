@@ -15,6 +15,10 @@ from usdgaze.passes.options import EyeRange, Shift
 from usdgaze.passes.schedule import Scheduler
 
 
+TRACK_WINDOW_S = 2.0
+"""How far ahead a held target's next re-plan or let-go is looked for at a time."""
+
+
 class CachedMap:
     """A gaze map that answers each (yaw, pitch) once: the planner re-schedules the same shifts many
     times as it adds new ones, and a corrected query costs tens of milliseconds."""
@@ -89,17 +93,22 @@ class TargetPlanner:
             cursor, lost = self._reacquire(cursor) if lost else self._track(cursor)
 
     def _track(self, cursor: int) -> tuple[int | None, bool]:
-        """While the target is held: the next re-plan, or the let-go when it goes out of reach."""
+        """While the target is held: the next re-plan, or the let-go when it goes out of reach; looked
+        for ``TRACK_WINDOW_S`` ahead at a time (each frame's test is its own, so the first found is the
+        same: over the whole rest of the clip at every re-plan, a 50,000-frame shot's took 36 s)."""
         s, opts, lim, rel = self.seconds, self.opts, self.limits, self.rel
-        window = (np.arange(len(s)) >= cursor) & (np.arange(len(s)) < self.end)
-        near = rot.unwrap_near(rel[:, 0], self.current[0])
-        plan = self.scheduler.plan(self.shifts)
-        head = motion.achieved_gaze(body_only(plan.displacement), float(self.current[0]))
+        hi = min(self.end, max(cursor + 1, int(np.searchsorted(s, s[cursor] + TRACK_WINDOW_S))))
+        # ``soon`` looks ahead of each frame: the stretch reaches that far past the window.
+        ext = min(len(s), int(np.searchsorted(s, s[hi - 1] + opts.anticipation_s, "right")) + 1)
+        sl = slice(cursor, ext)
+        disp, timing = self.scheduler.window(self.shifts, cursor, ext)
+        near = rot.unwrap_near(rel[sl, 0], self.current[0])
+        head = motion.achieved_gaze(body_only(disp), float(self.current[0]))
         # Let a shift get well under way before the next one takes over from it.
-        wait = max(opts.replan_interval_s, 0.5 * plan.timing[-1]["duration"]) if plan.timing else 0.0
-        need_yaw, need_pitch = near - head[:, 0], rel[:, 1] - head[:, 1]
+        wait = max(opts.replan_interval_s, 0.5 * timing[-1]["duration"]) if timing else 0.0
+        need_yaw, need_pitch = near - head[:, 0], rel[sl, 1] - head[:, 1]
         # Azimuth degrees are arc degrees only at the horizon (72 deg down, 40 of azimuth are 12 of arc).
-        need_yaw = need_yaw * np.cos(np.radians(np.clip(self.base_ae[:, 1] + rel[:, 1], -90.0, 90.0)))
+        need_yaw = need_yaw * np.cos(np.radians(np.clip(self.base_ae[sl, 1] + rel[sl, 1], -90.0, 90.0)))
         f = opts.replan_fraction
         # A body already at its reach the way the eyes need more cannot help them: a target by the feet
         # (72 deg down, past the -80 deg reach's comfort) re-planned the body every 0.2 s as the base
@@ -108,22 +117,23 @@ class TargetPlanner:
         trig = ((np.abs(need_yaw) > f * lim.yaw) & ~(at[0] & (need_yaw * self.current[0] > 0.0))) \
             | ((need_pitch > f * lim.up) & ~(at[1] & (self.current[1] > 0.0))) \
             | ((need_pitch < -f * lim.down) & ~(at[1] & (self.current[1] < 0.0)))
-        trig = soon(trig, s, opts.anticipation_s)
+        trig = soon(trig, s[sl], opts.anticipation_s)
+        window = np.arange(ext - cursor) < hi - cursor
         out = np.flatnonzero(window & (np.abs(near) > self.sight_limit))
-        go = np.flatnonzero(window & trig & (s >= self.last + wait))
-        j_out = int(out[0]) if len(out) else self.end
-        j_go = int(go[0]) if len(go) else self.end
+        go = np.flatnonzero(window & trig & (s[sl] >= self.last + wait))
+        j_out = cursor + int(out[0]) if len(out) else self.end
+        j_go = cursor + int(go[0]) if len(go) else self.end
         if j_out >= self.end and j_go >= self.end:
-            return None, False
+            return (hi, False) if hi < self.end else (None, False)
         if j_out <= j_go:  # behind the character: let go, look ahead
-            self._add(j_out, np.zeros(2), disp=plan.displacement)
+            self._add(j_out, np.zeros(2), start=disp[j_out - cursor])
             self.current, self.last = np.zeros(2), s[j_out]
             self.events.append((j_out, "base", False))
             return j_out + 1, True
-        new, timing = self._request(j_go, near[j_go], self.current)
+        new, timing = self._request(j_go, near[j_go - cursor], self.current)
         if np.abs(new - self.current).max() < 5.0:  # e.g. already at the edge of reach
             return int(np.searchsorted(s, s[j_go] + opts.replan_interval_s)), False
-        self._add(j_go, new, timing, plan.displacement)
+        self._add(j_go, new, timing, disp[j_go - cursor])
         self.current, self.last = new, s[j_go]
         return j_go + 1, False
 
@@ -165,14 +175,14 @@ class TargetPlanner:
         world[0] = (world[0] + 180.0) % 360.0 - 180.0
         return new, (float(world[0]), float(world[1]))
 
-    def _add(self, j: int, new: np.ndarray, timing=None, disp=None) -> None:
+    def _add(self, j: int, new: np.ndarray, timing=None, start=None) -> None:
         """A body shift at frame j, never faster per segment than the pace allows from where the
-        body is then (a shift in progress included)."""
-        if disp is None:
-            disp = self.scheduler.plan(self.shifts).displacement
+        body is then (``start``, its segment offsets there; a shift in progress included)."""
+        if start is None:
+            start = self.scheduler.window(self.shifts, j, j + 1)[0][0]
         change = timing if timing is not None else tuple(new - self.current)
         self.shifts.append(Shift(float(self.seconds[j]), *new, timing_change=timing,
-                                 min_duration_s=min_duration(self.map, disp[j], new, change, self.opts.body_pace_deg_s)))
+                                 min_duration_s=min_duration(self.map, start, new, change, self.opts.body_pace_deg_s)))
 
 
 def body_only(offsets: np.ndarray) -> np.ndarray:

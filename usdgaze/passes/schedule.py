@@ -80,9 +80,12 @@ class _Segment:
         progress (fraction of the change, overshoot included) at ``at``."""
         tau = motion.normalized_time(at - self.start_s, self.motion.duration)
         settled = np.flatnonzero(tau >= 1.0)
-        if self.inherit or len(settled) < 2:
+        if len(settled) < 2:
             return self._evaluate(at, tau)
-        # From a fixed start, every settled frame holds the same state: one of them is evaluated.
+        # Every settled frame holds the same state, the target (from a moving start too: its share is
+        # none once every segment's profile is 1): one of them is evaluated. Each frame of a shift that
+        # took over from another was, to the end of the clip: a planner's 860 re-plans of a held target
+        # on a 50,000-frame shot took 13.6 s.
         keep = np.ones(len(at), dtype=bool)
         keep[settled[1:]] = False
         source = np.cumsum(keep) - 1
@@ -149,6 +152,17 @@ class Scheduler:
 
     def plan(self, shifts: list[Shift]) -> Schedule:
         """The schedule of ``shifts`` (a copy: later calls do not change it)."""
+        self._update(shifts)
+        return Schedule(self.disp.copy(), self.wanted.copy(), self.settled.copy(), list(self.info),
+                        self.progress.copy())
+
+    def window(self, shifts: list[Shift], lo: int, hi: int) -> tuple[np.ndarray, list[dict]]:
+        """The segment offsets of frames ``lo..hi`` (a copy) and each shift's timing, of the schedule of
+        ``shifts``: a planner that looks a stretch ahead copies that stretch, not the whole clip."""
+        self._update(shifts)
+        return self.disp[lo:hi].copy(), list(self.info)
+
+    def _update(self, shifts: list[Shift]) -> None:
         n = len(self.shifts)
         if shifts[:n] != self.shifts:
             self._reset()
@@ -161,8 +175,6 @@ class Scheduler:
                 # A shift's frames end where the next known one starts (that one writes the rest).
                 until = shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
                 self._append(shifts[k], requests[k], targets[k], until)
-        return Schedule(self.disp.copy(), self.wanted.copy(), self.settled.copy(), list(self.info),
-                        self.progress.copy())
 
     def _append(self, shift: Shift, request: np.ndarray, target: np.ndarray, until: float = np.inf) -> None:
         seconds, previous = self.seconds, self.last
