@@ -116,11 +116,12 @@ def _may_touch(skel, touched: set[str]) -> bool:
     return any(str(t) in touched for t in targets) or any(p.startswith(below) for p in touched)
 
 
-def _check_same_frames(base, gaze, layer_file: str, source: str) -> None:
+def _check_same_frames(base, gaze, layer_file: str) -> None:
     """The layer animates the frames the input does: one made for another take (a re-export of other
     length or rate) or placed at another time had made the review's arrays disagree (exit 1)."""
     if len(base.times) == len(gaze.times) and np.array_equal(base.times, gaze.times):
         return
+
     def span(c):
         return f"{len(c.times)} at time codes {c.times[0]:g}..{c.times[-1]:g}"
     raise UsdGazeError(f"{layer_file}:{gaze.animation}: the layer's frames ({span(gaze)} with the input's) are not the "
@@ -245,7 +246,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 base_clip = read_clip(stage, stage.GetPrimAtPath(skel.GetPath()), stage.GetPrimAtPath(root.GetPath()), source)
             finally:
                 stage.UnmuteLayer(gaze_layer.identifier)
-            _check_same_frames(base_clip, gaze_clip, layer_file, source)
+            _check_same_frames(base_clip, gaze_clip, layer_file)
             chain, frame = api.bind(gaze_clip, own, hints)
             parents = gaze_clip.parents
             review.characters.append(CharacterReview(
