@@ -24,12 +24,16 @@ def _run(tmp_path, stage, *args, name="out.usdc"):
     return out, gaze(compose(tmp_path, stage, out, name + ".usda"))
 
 
-def _api_run(tmp, stage, name, **settings):
+PROGRESS: list[tuple[int, int]] = []
+"""The planner's progress calls of the "per step" run (see test_the_planner_reports_every_step)."""
+
+
+def _api_run(tmp, stage, name, progress=None, **settings):
     """A run through the Python API, for settings the command line does not expose."""
     from usdgaze.attend import AttendSettings, attend
 
     out = tmp / name
-    attend(stage, out, settings=AttendSettings(window_s=0.6, **settings))
+    attend(stage, out, settings=AttendSettings(window_s=0.6, **settings), progress=progress)
     return gaze(compose(tmp, stage, out, name + ".usda"))
 
 
@@ -41,7 +45,8 @@ def two_balls(tmp_path_factory):
     seeds = [(f"uncertainty seed {n}", ("--seed", str(n))) for n in SEEDS]
     for key, args in [("distance", ("--cost", "distance")), ("sequential", ("--cost", "sequential"))] + seeds:
         runs[key] = _run(tmp, stage, *args, name=f"{key.replace(' ', '_')}.usdc")[1]
-    runs["per step"] = _api_run(tmp, stage, "per_step.usdc", alpha_per_second=False)
+    runs["per step"] = _api_run(tmp, stage, "per_step.usdc", progress=lambda k, n: PROGRESS.append((k, n)),
+                                alpha_per_second=False)
     for key, g in runs.items():
         runs[key] = (g, positions(g.stage, "/Objects/BallLeft", g.times), positions(g.stage, "/Objects/BallRight", g.times))
     return runs
@@ -102,6 +107,13 @@ def _switches(on, min_frames=3):
 
 def _min_frames(g, seconds):
     return int(round(seconds / np.median(np.diff(g.seconds))))
+
+
+def test_the_planner_reports_every_step(two_balls):
+    """``attend`` shows a bar of the planner's steps on a terminal (it was silent for minutes on a long
+    shot): the loop reports each step done of all of them."""
+    steps = PROGRESS[-1][1]
+    assert steps > 10 and PROGRESS == [(k, steps) for k in range(1, steps + 1)]
 
 
 def test_distance_cost_keeps_the_point_of_sight_between_the_balls(two_balls):

@@ -58,13 +58,13 @@ class Progress:
 
 
 class StepBar:
-    """``progress(k, steps)`` of a physics simulation (``passes.physics.run``) as a tqdm bar on a
-    terminal; a call with a smaller ``k`` than the last starts the next simulation (another shot, or
+    """``progress(k, steps)`` of a physics simulation (``passes.physics.run``) or of the attend
+    planner (``vision.loop.run``) as a tqdm bar on a terminal; a call with a smaller ``k`` than the last starts the next simulation (another shot, or
     a shot simulated again) on the same bar. Off a terminal it writes nothing: a farm's log gets the
     command's one line per shot."""
 
-    def __init__(self, stream: TextIO | None = None, bar: bool | None = None) -> None:
-        self.stream = stream or sys.stderr
+    def __init__(self, stream: TextIO | None = None, bar: bool | None = None, desc: str = "simulation") -> None:
+        self.stream, self.desc = stream or sys.stderr, desc
         self.on = self.stream.isatty() if bar is None else bar
         self.bar, self.last, self.runs = None, 0, 0
 
@@ -76,7 +76,7 @@ class StepBar:
 
             self.close()
             self.runs += 1
-            self.bar = tqdm(total=steps, unit="step", desc=f"simulation {self.runs}", file=self.stream,
+            self.bar = tqdm(total=steps, unit="step", desc=f"{self.desc} {self.runs}", file=self.stream,
                             dynamic_ncols=True, leave=False)
         self.bar.update(k - self.bar.n)
         self.last = k

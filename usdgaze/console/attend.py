@@ -79,7 +79,13 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
     settings = AttendSettings(alpha=alpha, cost=cost, seed=seed, realize=realize,
                               window_s=AttendSettings.window_s if window_s is None else window_s,
                               binding=parse_hints(bind, forward))
-    report = run(input_path, out, paths, settings, skel_root=skel_root)
+    from usdgaze.batch.progress import StepBar
+
+    bar = StepBar(desc="planning")  # a bar of the planner's steps on a terminal: a long shot takes minutes
+    try:
+        report = run(input_path, out, paths, settings, skel_root=skel_root, progress=bar)
+    finally:
+        bar.close()
     for w in report.warnings:  # as apply says them: on stderr, JSON or not
         click.echo(f"usdgaze: warning: {w}", err=True)
     summary = {"output": report.output, "characters": report.characters, "objects": report.objects,

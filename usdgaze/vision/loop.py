@@ -253,7 +253,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         e = e + h * de
         qb = _body_step(qb, u[eye.nu:], h, body.LO, body.HI)
         if progress:
-            progress(k)
+            progress(k + 1, n_steps)
     return out
 
 
