@@ -51,13 +51,17 @@ def b_look_at_its_own_skeleton(d):
     return ["apply", str(r.path), "--look-at", f"{r.skeleton}@10", "--out", str(d / "gaze.usdc")]
 
 
+def _into_shot_over(d, name: str, text: str, out: str) -> list[str]:
+    """``apply --sublayer-into shot.usda``, the shot sublayering [``name`` (holding ``text``), in.usda]."""
+    r = rig(d)
+    (d / name).write_text(text)
+    (d / "shot.usda").write_text(f'#usda 1.0\n(\n    subLayers = [@./{name}@, @./in.usda@]\n)\n')
+    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / out), "--sublayer-into", str(d / "shot.usda")]
+
+
 def b_out_is_a_layer_the_sublayer_root_composes(d):
     """``--out set.usda`` where ``shot.usda`` sublayers [set.usda, in.usda]: the set dressing was replaced."""
-    r = rig(d)
-    (d / "set.usda").write_text('#usda 1.0\ndef Xform "Set" {}\n')
-    (d / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./set.usda@, @./in.usda@]\n)\n')
-    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "set.usda"),
-            "--sublayer-into", str(d / "shot.usda")]
+    return _into_shot_over(d, "set.usda", '#usda 1.0\ndef Xform "Set" {}\n', out="set.usda")
 
 
 def b_look_at_an_ill_formed_prim_path(d):
@@ -68,11 +72,7 @@ def b_look_at_an_ill_formed_prim_path(d):
 
 def b_sublayer_into_a_shot_with_a_broken_sublayer(d):
     """Another sublayer of the shot does not parse (it was said not to compose the input at all)."""
-    r = rig(d)
-    (d / "broken.usda").write_text('#usda 1.0\ndef Xform "A" { garbage }\n')
-    (d / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./broken.usda@, @./in.usda@]\n)\n')
-    return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc"),
-            "--sublayer-into", str(d / "shot.usda")]
+    return _into_shot_over(d, "broken.usda", '#usda 1.0\ndef Xform "A" { garbage }\n', out="gaze.usdc")
 
 
 def b_out_is_a_dangling_link_into_a_missing_folder(d):

@@ -233,6 +233,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
     touched = {str(p.path) for p in _prim_specs(gaze_layer)}
     hints = from_record(record, layer_file)  # the --bind/--forward the pass was given
+    offset = _layer_offset(stage, gaze_layer)
     for root in roots:
         own = own_map(root, source)
         for skel in skeletons_under(root):
@@ -259,7 +260,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),
                 meters_per_unit=gaze_clip.meters_per_unit,
             ))
-            clock = _recorded_clock(stage, gaze_layer, gaze_clip)
+            clock = _recorded_clock(gaze_layer, offset, gaze_clip)
             review.characters[-1].looks = _looks(stage, root, gaze_clip, source, record, layer_file, clock)
             if not review.shifts:
                 review.shifts = _requests(record, str(root.GetPath()), layer_file, clock)
@@ -313,15 +314,19 @@ def read_attention(stage, source: str) -> list[Attention]:
     return out
 
 
-def _recorded_clock(stage, layer, clip):
-    """Seconds on ``clip`` of a directive the layer records: in the input's time codes (or seconds
-    from its start; the layer carries the input's timing), brought to the stage through the layer's
-    offset (a shot that sublayers it later than the input's own time)."""
+def _layer_offset(stage, layer):
+    """The time offset at which the stage's root layer stack brings ``layer`` in (identity if not)."""
     from pxr import Sdf
 
     from usdgaze.usd.stage import layer_stack
 
-    offset = next((o for name, _, o in layer_stack(stage.GetRootLayer()) if name == layer.identifier), Sdf.LayerOffset())
+    return next((o for name, _, o in layer_stack(stage.GetRootLayer()) if name == layer.identifier), Sdf.LayerOffset())
+
+
+def _recorded_clock(layer, offset, clip):
+    """Seconds on ``clip`` of a directive the layer records: in the input's time codes (or seconds
+    from its start; the layer carries the input's timing), brought to the stage through the layer's
+    ``offset`` (a shot that sublayers it later than the input's own time)."""
     start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
 
     def seconds(d) -> float:
