@@ -22,9 +22,8 @@ from usdgaze.passes.requests import DirectiveRequest, check_directives
 from usdgaze.usd import schema
 from usdgaze.usd.layers import (
     AnimOverride,
-    LayerInfo,
+    OverrideLayer,
     atomic_export,
-    build_override,
     check_output_path,
     layer_info,
     reload_if_open,
@@ -61,10 +60,10 @@ def run(req: ApplyRequest) -> ApplyReport:
         stage = _open_input(tx, req.source)
         forced = schema.load_map(req.map_spec, tx) if req.map_spec else None
         roots = select_roots(stage, req.source, req.skel_root)
-        report, overrides, info = _run_pass(stage, roots, forced, requests, req)
-        info.custom = _provenance(req.source, requests, report, req.options, req.look)
-        info.custom["usdgaze"].update(req.record)
-        _stage_outputs(tx, req, stage, report, overrides, info)
+        report, written = _run_pass(stage, roots, forced, requests, req)
+        custom = _provenance(req.source, requests, report, req.options, req.look)
+        custom["usdgaze"].update(req.record)
+        _stage_outputs(tx, req, stage, report, written, custom)
     if req.sublayer_into is not None:
         reload_if_open(req.sublayer_into)
     return report
@@ -133,13 +132,14 @@ def _open_input(tx: Outputs, source: str):
     return stage
 
 
-def _run_pass(stage, roots, forced, requests, req):
-    """Read every skeleton under ``roots``, run the gaze pass, collect overrides and the report."""
+def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, OverrideLayer]:
+    """Read every skeleton under ``roots`` and run the gaze pass on it; each character's result goes
+    into the override layer as it is done (the report keeps what the summary and guides need)."""
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     source = req.source
     report = ApplyReport(output=str(req.out), input=req.source)
-    overrides: list[AnimOverride] = []
+    written = OverrideLayer(layer_info(stage), fmt=Path(req.out).suffix.lstrip("."), custom_later=True)
     seen_anims: dict[str, str] = {}
     others = animations_elsewhere(stage, roots)
     for root in roots:
@@ -170,15 +170,15 @@ def _run_pass(stage, roots, forced, requests, req):
             directives, targets, names = clip_directives(stage, clip, root_requests)
             result = apply_look(clip, chain, frame, gaze_map, directives, targets, req.options, req.look, names)
             report.warnings.extend(result.warnings)
-            overrides.append(AnimOverride.of(clip, result, move_roots=bool(chain.leg_roots)))
-            report.characters.append(_character_report(clip, chain, frame, map_source, result))
+            written.add(AnimOverride.of(clip, result, move_roots=bool(chain.leg_roots)))
+            report.characters.append(_character_report(clip, chain, frame, map_source, result.reviewed()))
             if req.guides:
                 report.characters[-1].guide = (
                     clip.times, np.stack([to_skel(clip, p) for p in result.eye_positions]),
                     to_skel(clip, result.point_of_sight), result.point_of_sight, 0.003 / clip.meters_per_unit)
             if req.progress:
                 req.progress(clip)
-    return report, overrides, layer_info(stage)
+    return report, written
 
 
 def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_source: str,
@@ -215,14 +215,13 @@ def _provenance(source: str, requests: list[DirectiveRequest], report: ApplyRepo
 
 
 def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
-                   overrides: list[AnimOverride], info: LayerInfo) -> None:
+                   written: OverrideLayer, custom: dict) -> None:
     """Stage the override, then the preview, plot or sublayer edit; the caller's ``with`` commits them."""
     animations = [c.animation for c in report.characters]
     if req.sublayer_into is not None:  # refuse before anything is staged
-        check_sublayer_target(req.sublayer_into, animations, req.source,
-                              bound=tuple(o.skeleton for o in overrides if o.define))
+        check_sublayer_target(req.sublayer_into, animations, req.source, bound=tuple(written.bound))
     out = Path(req.out)
-    layer = build_override(overrides, info, fmt=out.suffix.lstrip("."))
+    layer, info = written.finish(custom), written.info
     if req.guides:
         from pxr import Sdf
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -80,3 +80,9 @@ class PassResult:
     """World position of each eye per frame ``(2, F, 3)`` (left first)."""
     point_of_sight: np.ndarray | None = None
     """World point the eyes fixate per frame ``(F, 3)``."""
+
+    def reviewed(self) -> "PassResult":
+        """This result without its animation arrays (``None``), for a report kept once they are
+        written: a crowd's float64 arrays then need not all be held until the layer is."""
+        return replace(self, rotations=None, translations=None, scales=None,
+                       added_rest_local=None, added_bind_world=None)

@@ -201,41 +201,77 @@ def _vt_rows(values: np.ndarray, vt):
     return map(vt.FromNumpy, values)
 
 
+class OverrideLayer:
+    """The override layer, filled one animation at a time: a crowd's characters are written as each
+    is done, so their float64 results need not all be held until the end."""
+
+    def __init__(self, info: LayerInfo, fmt: str = "usdc", custom_later: bool = False):
+        self.layer = Sdf.Layer.CreateAnonymous(f"usdgaze_override.{fmt}")
+        self.info = info
+        self.bound: list[str] = []
+        """Skeletons a new animation was bound to."""
+        self._custom_later = custom_later
+        with Sdf.ChangeBlock():
+            _set_info(self.layer, info)
+            if custom_later:  # hold its place among the layer's fields: the file is the same either way
+                self.layer.customLayerData = {"usdgaze": "pending"}
+
+    def add(self, o: AnimOverride) -> None:
+        """Author ``over`` opinions (or a new, bound animation) for one animation."""
+        with Sdf.ChangeBlock():
+            _author(self.layer, o)
+        if o.define:
+            self.bound.append(o.skeleton)
+
+    def finish(self, custom: dict | None = None) -> Sdf.Layer:
+        """The layer, with ``custom`` as its customLayerData and the input's default prim where the
+        layer has that prim."""
+        layer, info = self.layer, self.info
+        if self._custom_later != (custom is not None):
+            raise ValueError("finish() takes custom data exactly when the layer was made with custom_later")
+        with Sdf.ChangeBlock():
+            if custom is not None:
+                layer.customLayerData = _to_vt(custom)
+            if info.default_prim and layer.GetPrimAtPath(Sdf.Path.absoluteRootPath.AppendChild(info.default_prim)):
+                layer.defaultPrim = info.default_prim
+        return layer
+
+
 def build_override(overrides: list[AnimOverride], info: LayerInfo, fmt: str = "usdc") -> Sdf.Layer:
     """An anonymous layer holding only ``over`` opinions for the given animations and skeletons."""
-    layer = Sdf.Layer.CreateAnonymous(f"usdgaze_override.{fmt}")
-    with Sdf.ChangeBlock():
-        _set_info(layer, info)
-        for o in overrides:
-            prim = Sdf.CreatePrimInLayer(layer, o.animation)
-            prim.specifier = Sdf.SpecifierDef if o.define else Sdf.SpecifierOver
-            if o.define:
-                prim.typeName = "SkelAnimation"
-                _bind_animation(layer, o.skeleton, o.animation)
-            codes = np.asarray(o.times, dtype=float).tolist()
-            if o.write_joints:
-                _attr(prim, "joints", Sdf.ValueTypeNames.TokenArray, uniform=True).default = Vt.TokenArray(o.joints)
-            columns = (
-                ("rotations", Sdf.ValueTypeNames.QuatfArray, o.rotations, Vt.QuatfArray),
-                ("translations", Sdf.ValueTypeNames.Float3Array, o.translations, Vt.Vec3fArray),
-                ("scales", Sdf.ValueTypeNames.Half3Array, o.scales, Vt.Vec3hArray),
-            )
-            for name, type_name, values, vt in columns:
-                if values is not None:
-                    set_rows(layer, _attr(prim, name, type_name).path, codes, values, vt)
-            if o.skeleton and o.skeleton_joints is not None:
-                skel = Sdf.CreatePrimInLayer(layer, o.skeleton)
-                skel.specifier = Sdf.SpecifierOver
-                _attr(skel, "joints", Sdf.ValueTypeNames.TokenArray, True).default = Vt.TokenArray(o.skeleton_joints)
-                for name, mats in (("restTransforms", o.rest_transforms), ("bindTransforms", o.bind_transforms)):
-                    if mats is not None:
-                        usd = rot.matrices_to_usd(mats)
-                        _attr(skel, name, Sdf.ValueTypeNames.Matrix4dArray, True).default = Vt.Matrix4dArray.FromNumpy(usd)
-                if o.joint_names is not None:
-                    _attr(skel, "jointNames", Sdf.ValueTypeNames.TokenArray, True).default = Vt.TokenArray(o.joint_names)
-        if info.default_prim and layer.GetPrimAtPath(Sdf.Path.absoluteRootPath.AppendChild(info.default_prim)):
-            layer.defaultPrim = info.default_prim
-    return layer
+    out = OverrideLayer(info, fmt)
+    for o in overrides:
+        out.add(o)
+    return out.finish()
+
+
+def _author(layer: Sdf.Layer, o: AnimOverride) -> None:
+    prim = Sdf.CreatePrimInLayer(layer, o.animation)
+    prim.specifier = Sdf.SpecifierDef if o.define else Sdf.SpecifierOver
+    if o.define:
+        prim.typeName = "SkelAnimation"
+        _bind_animation(layer, o.skeleton, o.animation)
+    codes = np.asarray(o.times, dtype=float).tolist()
+    if o.write_joints:
+        _attr(prim, "joints", Sdf.ValueTypeNames.TokenArray, uniform=True).default = Vt.TokenArray(o.joints)
+    columns = (
+        ("rotations", Sdf.ValueTypeNames.QuatfArray, o.rotations, Vt.QuatfArray),
+        ("translations", Sdf.ValueTypeNames.Float3Array, o.translations, Vt.Vec3fArray),
+        ("scales", Sdf.ValueTypeNames.Half3Array, o.scales, Vt.Vec3hArray),
+    )
+    for name, type_name, values, vt in columns:
+        if values is not None:
+            set_rows(layer, _attr(prim, name, type_name).path, codes, values, vt)
+    if o.skeleton and o.skeleton_joints is not None:
+        skel = Sdf.CreatePrimInLayer(layer, o.skeleton)
+        skel.specifier = Sdf.SpecifierOver
+        _attr(skel, "joints", Sdf.ValueTypeNames.TokenArray, True).default = Vt.TokenArray(o.skeleton_joints)
+        for name, mats in (("restTransforms", o.rest_transforms), ("bindTransforms", o.bind_transforms)):
+            if mats is not None:
+                usd = rot.matrices_to_usd(mats)
+                _attr(skel, name, Sdf.ValueTypeNames.Matrix4dArray, True).default = Vt.Matrix4dArray.FromNumpy(usd)
+        if o.joint_names is not None:
+            _attr(skel, "jointNames", Sdf.ValueTypeNames.TokenArray, True).default = Vt.TokenArray(o.joint_names)
 
 
 def _bind_animation(layer: Sdf.Layer, skeleton: str, animation: str) -> None:
