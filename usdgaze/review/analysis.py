@@ -44,14 +44,14 @@ def eye_local_axes(c) -> list[np.ndarray]:
 def sight(c, posed) -> tuple[np.ndarray, np.ndarray]:
     """Origin ``(F, 3)`` and unit line of sight ``(F, 3)`` of the two eyes in stage space."""
     (el, er), (al, ar) = c.eyes, eye_local_axes(c)
-    w = posed.world
-    return line_of_sight(w[:, el, :3, 3], _apply(w[:, el, :3, :3], al), w[:, er, :3, 3], _apply(w[:, er, :3, :3], ar))
+    p = posed.positions
+    return line_of_sight(p[:, el], _apply(posed.axes(el), al), p[:, er], _apply(posed.axes(er), ar))
 
 
 def head_direction(c, posed) -> np.ndarray:
     """Where the head looks ``(F, 3)``: its neutral-pose forward axis, carried by its pose."""
     h = c.chain.head
-    return _apply(posed.world[:, h, :3, :3], _solve(c.neutral_world[h, :3, :3], c.frame.forward))
+    return _apply(posed.axes(h), _solve(c.neutral_world[h, :3, :3], c.frame.forward))
 
 
 def _unwrap_deg(a: np.ndarray) -> np.ndarray:
@@ -140,12 +140,12 @@ def shift_cascade(c, shifts) -> list[ShiftCurves]:
 def eye_in_head(c) -> np.ndarray:
     """Eye-in-head (yaw + left, pitch + up) per frame and eye ``(F, 2, 2)`` deg, head axes from the neutral (bind) pose."""
     h = c.chain.head
-    head_m = c.gaze.world[:, h, :3, :3]
+    head_m = c.gaze.axes(h)
     neutral_h = c.neutral_world[h, :3, :3]
     fwd, left, up = (_solve(neutral_h, v) for v in (c.frame.forward, c.frame.left, c.frame.up))
     out = np.zeros((len(c.seconds), 2, 2))
     for i, (e, axis) in enumerate(zip(c.eyes, eye_local_axes(c))):
-        d = _solve(head_m, _apply(c.gaze.world[:, e, :3, :3], axis))
+        d = _solve(head_m, _apply(c.gaze.axes(e), axis))
         out[:, i, 0] = np.degrees(np.arctan2(d @ left, d @ fwd))
         out[:, i, 1] = np.degrees(np.arcsin(np.clip(d @ up, -1.0, 1.0)))
     return out

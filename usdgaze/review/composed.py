@@ -26,15 +26,20 @@ EYE_RANGE_KEY = "eyeRange"
 
 @dataclass
 class Posed:
-    """One skeleton's joints over frames: local rotations and world (stage-space) matrices."""
+    """One skeleton's joints over frames: local rotations, stage-space positions, and the world axes
+    of the joints a review measures (head and eyes): all joints' 4x4 world matrices of a long shot
+    had been most of the review's memory."""
 
     local_q: np.ndarray
     """Local rotations ``(F, J, 4)`` (x, y, z, w)."""
-    world: np.ndarray
-    """Column-vector world matrices ``(F, J, 4, 4)`` (skeleton space carried to the stage)."""
+    positions: np.ndarray
+    """Stage-space joint positions ``(F, J, 3)``."""
+    world_axes: dict[int, np.ndarray]
+    """Joint index -> the upper 3x3 of its column-vector world matrix ``(F, 3, 3)`` (rotation and scale)."""
 
-    def positions(self) -> np.ndarray:
-        return self.world[..., :3, 3]
+    def axes(self, joint: int) -> np.ndarray:
+        """The world axes ``(F, 3, 3)`` of ``joint`` (one of those posed with its axes)."""
+        return self.world_axes[joint]
 
 
 @dataclass
@@ -193,24 +198,28 @@ _POSE_FRAMES = 2048
 tripled the review's peak memory (plot 4.1 GB at 100 joints x 50,000 frames)."""
 
 
-def _pose(clip, joints: list[str], rest_local: np.ndarray, parents: np.ndarray) -> Posed:
-    """FK of every frame (in blocks of frames); joints the clip does not animate (or lacks) keep their rest."""
+def _pose(clip, joints: list[str], rest_local: np.ndarray, parents: np.ndarray, chain: Chain) -> Posed:
+    """FK of every frame (in blocks of frames); joints the clip does not animate (or lacks) keep their
+    rest. World axes are kept for the chain's head and eyes."""
     f, n = len(clip.times), len(joints)
     index = {j: i for i, j in enumerate(joints)}
     known = np.flatnonzero(clip.anim_to_skel >= 0)  # a joint the skeleton lacks poses nothing
     cols = np.array([index[clip.joints[s]] for s in clip.anim_to_skel[known]], dtype=int)
-    world = np.empty((f, n, 4, 4))
+    kept = sorted({chain.head, *(chain.eyes or ())})
+    positions, axes = np.empty((f, n, 3)), np.empty((f, len(kept), 3, 3))
     to_world = np.broadcast_to(clip.skel_to_world, (f, 4, 4))
     for lo in range(0, f, _POSE_FRAMES):
         rows = slice(lo, min(f, lo + _POSE_FRAMES))
         local = np.broadcast_to(rest_local, (rows.stop - lo, n, 4, 4)).copy()
         local[:, cols] = rot.compose_trs(clip.translations[rows, known].astype(float),
                                          clip.rotations[rows, known].astype(float), clip.scales[rows, known].astype(float))
-        world[rows] = np.einsum("fij,fkjl->fkil", to_world[rows], world_matrices(local, parents))
+        world = np.einsum("fij,fkjl->fkil", to_world[rows], world_matrices(local, parents))
+        positions[rows] = world[..., :3, 3]
+        axes[rows] = world[:, kept, :3, :3]
     # rotation_part, not from_matrix: a joint mirrored by a negative rest scale (an eye, a hand) is a rotation too
     q = np.broadcast_to(rot.rotation_part(rest_local[:, :3, :3])[0], (f, n, 4)).copy()
     q[:, cols] = rot.normalize(clip.rotations[:, known].astype(float))
-    return Posed(q, world)
+    return Posed(q, positions, {j: axes[:, i] for i, j in enumerate(kept)})
 
 
 def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
@@ -253,8 +262,8 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
             review.characters.append(CharacterReview(
                 skel_root=gaze_clip.skel_root, skeleton=gaze_clip.skeleton, joints=list(gaze_clip.joints),
                 parents=parents, seconds=gaze_clip.seconds,
-                base=_pose(base_clip, gaze_clip.joints, gaze_clip.rest_local, parents),
-                gaze=_pose(gaze_clip, gaze_clip.joints, gaze_clip.rest_local, parents),
+                base=_pose(base_clip, gaze_clip.joints, gaze_clip.rest_local, parents, chain),
+                gaze=_pose(gaze_clip, gaze_clip.joints, gaze_clip.rest_local, parents, chain),
                 chain=chain, frame=frame, neutral_world=gaze_clip.neutral(),
                 skel_to_world=gaze_clip.skel_to_world,
                 up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),

@@ -78,7 +78,7 @@ def _figures(review, which: str, times: np.ndarray, rows: list[np.ndarray]) -> l
         units_per_m = _units_per_m(c)
         origin, direction = analysis.sight(c, posed)
         reach = (review.fixation_m or 2.0) * units_per_m
-        pos = posed.world[own, :, :3, 3]
+        pos = posed.positions[own]
         bones = _bones(c, posed, units_per_m)
         out.append(render.Figure(
             positions=pos, bones=bones, head=c.chain.head,
@@ -99,7 +99,7 @@ body segments (an adult's thigh is ~0.45 m): they are not drawn."""
 
 def _bones(c, posed, units_per_m: float) -> list[tuple[int, int]]:
     """(child, parent) pairs drawn as capsules: body segments, not eyes, not root-motion links."""
-    pos = posed.world[:, :, :3, 3]
+    pos = posed.positions
     out = []
     for j, p in enumerate(c.parents):
         if p < 0 or j in (c.eyes or ()):

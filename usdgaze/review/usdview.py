@@ -71,7 +71,7 @@ def _characters(stage):
                 chain, frame = gaze_api.bind(clip, own, hints)
             except UsdGazeError:
                 continue
-            posed = _pose(clip, clip.joints, clip.rest_local, clip.parents)
+            posed = _pose(clip, clip.joints, clip.rest_local, clip.parents, chain)
             out.append((clip, CharacterReview(
                 skel_root=clip.skel_root, skeleton=clip.skeleton, joints=clip.joints, parents=clip.parents,
                 seconds=clip.seconds, base=posed, gaze=posed, chain=chain, frame=frame,
@@ -138,7 +138,7 @@ def show_lines_of_sight(api, length_m: float = 2.0) -> str:
             if c.eyes:
                 origin, direction = analysis.sight(c, c.gaze)
             else:
-                origin, direction = c.gaze.world[:, c.chain.head, :3, 3], analysis.head_direction(c, c.gaze)
+                origin, direction = c.gaze.positions[:, c.chain.head], analysis.head_direction(c, c.gaze)
             reach = length_m / clip.meters_per_unit
             spec = _def(session, f"{LINES}/Character{k}", "BasisCurves")
             _attr(spec, "type", Sdf.ValueTypeNames.Token, "linear")
@@ -177,7 +177,7 @@ def select_chain_joints(api) -> str:
                 _attr(spec, "primvars:displayColor", Sdf.ValueTypeNames.Color3fArray, Vt.Vec3fArray([(0.1, 0.7, 0.3)]))
                 _attr(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Vt.TokenArray(["xformOp:translate"]))
                 op = _attr(spec, "xformOp:translate", Sdf.ValueTypeNames.Double3)
-                for t, p in zip(clip.times, c.gaze.world[:, j, :3, 3]):
+                for t, p in zip(clip.times, c.gaze.positions[:, j]):
                     session.SetTimeSample(op.path, float(t), tuple(float(v) for v in p))
                 made.append((path, c.joints[j]))
     api.ClearPrimSelection()
