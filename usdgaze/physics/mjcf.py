@@ -48,7 +48,7 @@ def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> s
     out = [f'<mujoco model={quoteattr(name)}>',
            '  <compiler angle="degree" inertiafromgeom="false" autolimits="true"/>',
            # jacobian="sparse": MuJoCo's "auto" picks dense under 60 dofs, yet the CMU bodies' 54 take
-           # 9-17% less CPU per simulated second sparse (docs/physics.md, "Sparse Jacobians").
+           # 9-17% less CPU per simulated second sparse (docs/physics-log.md, "Sparse Jacobians").
            f'  <option timestep="{timestep:.6g}" integrator="Euler" jacobian="sparse" gravity="0 0 -9.81"/>',
            '  <size memory="8M"/>',
            '  <default>',

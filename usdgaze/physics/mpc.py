@@ -70,7 +70,7 @@ class Options:
     iterations: int = 1  # solver iterations a step after the first window
     # The physics pass simulates a shot with a problem (a fall, a stone missed, an obstacle touched) again
     # with this many (none where it is <= iterations): with one, 3 of 12 stepping-stone shots fell, and
-    # throws fell in 1 of 5 in some configurations; with two, none (docs/physics.md, "A shot with a
+    # throws fell in 1 of 5 in some configurations; with two, none (docs/physics-log.md, "A shot with a
     # problem is simulated again").
     retry_iterations: int = 2
     first_iterations: int = 5
