@@ -55,6 +55,45 @@ def test_animation_validator_reports_the_first_bad_sample_of_each_array(tmp_path
     assert f"translations: {len(r.anim_joints) - 1} entries at time 4" in found["Length"]
 
 
+def test_instances_of_one_broken_asset_are_each_reported_and_a_fixed_layer_is_clean_next_run(tmp_path):
+    """A crowd's instances share their asset's samples, checked once a run: each instance still gets
+    its own error, one that lists fewer joints gets its own length check, and a run after the layer
+    is fixed in memory sees the fix."""
+    from usdgaze.review import validation
+
+    from . import synthetic as syn
+
+    r = syn.make_rig(tmp_path / "rig.usda", frames=12, mesh=False)
+    rig = Sdf.Layer.FindOrOpen(str(r.path))
+    rotations = Sdf.Path(r.animation).AppendProperty("rotations")
+    good = rig.QueryTimeSample(rotations, 3)
+    v = list(good)
+    v[2] = Gf.Quatf(float("nan"), 0, 0, 0)
+    rig.SetTimeSample(rotations, 3, Vt.QuatfArray(v))
+    rig.Save()
+    root = r.skel_root
+    joints = r.anim_joints
+    shorter = ", ".join(f'"{j}"' for j in joints[:-1])
+    anim = r.animation[len(root):]
+    crowd = tmp_path / "crowd.usda"
+    crowd.write_text("#usda 1.0\n(\n    timeCodesPerSecond = 60\n)\n" + "".join(  # the rig's: times map as they are
+        f'def "C{i}" (prepend references = @./rig.usda@<{root}>)\n{{\n' +
+        (f'    over "{anim.strip("/")}"\n    {{\n        uniform token[] joints = [{shorter}]\n    }}\n' if i == 3 else "") + "}\n"
+        for i in range(4)))
+    found = [p for p in validation.run(crowd, only_usdgaze=True) if p["validator"].endswith("AnimationArrays")]
+    by_site = {p["site"]: (p["error"], p["message"]) for p in found}
+    for i in range(3):
+        error, message = by_site[f"/C{i}{anim}.rotations"]
+        assert error == "NotFinite" and "at time 3" in message
+    error, message = by_site[f"/C3{anim}.rotations"]
+    assert error == "Length" and f"{len(joints)} entries at time 0, expected {len(joints) - 1}" in message
+    assert len(found) >= 4
+    rig.SetTimeSample(rotations, 3, good)  # fixed in memory: the next run reads it anew
+    again = [p for p in validation.run(crowd, only_usdgaze=True)
+             if p["validator"].endswith("AnimationArrays") and not p["site"].startswith("/C3")]
+    assert again == []
+
+
 @pytest.mark.parametrize("path", SAMPLES, ids=lambda p: p.name)
 def test_every_validator_passes_on_the_sample_stages(path):
     assert _ours(Usd.Stage.Open(str(path))) == []

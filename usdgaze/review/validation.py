@@ -26,6 +26,7 @@ def run(stage_path: str | os.PathLike, layer: str | os.PathLike | None = None, o
     from pxr import UsdValidation
 
     from usdgaze.review import validators
+    from usdgaze.review.sample_checks import shared_samples
 
     stage = _open(str(stage_path), None if layer is None else str(layer))
     registry = UsdValidation.ValidationRegistry()
@@ -34,7 +35,8 @@ def run(stage_path: str | os.PathLike, layer: str | os.PathLike | None = None, o
     # Every prim, abstract classes included: a map file holds its map on a class prim.
     from pxr import Usd
 
-    errors = UsdValidation.ValidationContext([v for v in chosen if v is not None]).Validate(stage, Usd.PrimAllPrimsPredicate)
+    with shared_samples():
+        errors = UsdValidation.ValidationContext([v for v in chosen if v is not None]).Validate(stage, Usd.PrimAllPrimsPredicate)
     if _holds_only_classes(stage):
         # A map file (dump-map, build-map) holds abstract classes alone, no geometry: the units and
         # up axis of the stage that brings it in are the ones that count, so its own are not asked for.

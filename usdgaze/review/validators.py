@@ -28,6 +28,7 @@ from usdgaze.gaze.definition import (
     _range_text,
 )
 from usdgaze.gaze.motion import TIMING_FIELDS
+from usdgaze.review.sample_checks import first_bad
 
 PLUGIN = "usdgaze.review.validators"
 """The Python plugin's name in plugInfo.json (= this module); validator names are ``PLUGIN:Name``."""
@@ -191,46 +192,18 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
     for attr, width in ((anim.GetRotationsAttr(), 4), (anim.GetTranslationsAttr(), 3), (anim.GetScalesAttr(), 3)):
         if not attr or not attr.HasAuthoredValue():
             continue
-        times, values = _all_samples(attr)
-        # The first sample at which any check fails, in the order length, finite, unit, as one error.
-        wrong = next((i for i, v in enumerate(values) if len(v) != n * width), len(values))
-        a = np.asarray(values[:wrong], dtype=float).reshape(wrong, n, width)
-        bad_finite = ~np.isfinite(a).all(axis=(1, 2))
-        bad_unit = np.zeros(wrong, dtype=bool) if width != 4 else \
-            np.any(np.abs(np.linalg.norm(np.nan_to_num(a), axis=2) - 1.0) > 1e-2, axis=1) & ~bad_finite
-        first = np.flatnonzero(bad_finite | bad_unit)
-        i = int(first[0]) if len(first) else wrong
-        if i >= len(values):
+        found = first_bad(attr, n, width)
+        if found is None:
             continue
-        at = "default" if times[i] is None else f"time {times[i]:g}"
-        if i == wrong:
+        kind, at, entries = found
+        if kind == "Length":
             errors.append(_error(prim, attr.GetPath(), "Length",
-                                 f"{attr.GetName()}: {len(values[i]) // width} entries at {at}, expected {n} (one per joint)"))
-        elif bad_finite[i]:
+                                 f"{attr.GetName()}: {entries} entries at {at}, expected {n} (one per joint)"))
+        elif kind == "NotFinite":
             errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values at {at}"))
         else:
             errors.append(_error(prim, attr.GetPath(), "NotUnit", f"{attr.GetName()}: not unit quaternions at {at}"))
     return errors
-
-
-def _all_samples(attr: Usd.Attribute) -> tuple[list, list[np.ndarray]]:
-    """(times, flat values) of an array attribute, its default as time None where it has no samples;
-    from the one layer that holds the samples where that is where they resolve (a ``Get`` per sample
-    composed each anew: a 200-character crowd's took 12 s)."""
-    from usdgaze.usd.samples import Samples
-
-    def flat(value) -> np.ndarray:
-        return np.asarray(value if value is not None else [], dtype=float).ravel()
-
-    samples = Samples(attr)
-    if samples.found is not None and samples.found[2].IsIdentity():
-        layer, path, _ = samples.found
-        times = list(samples.own)
-        return times, [flat(layer.QueryTimeSample(path, t)) for t in times]
-    times = attr.GetTimeSamples()
-    if not times:
-        return [None], [flat(attr.Get())]
-    return list(times), [flat(attr.Get(t)) for t in times]
 
 
 def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
