@@ -5,7 +5,8 @@
   95% of the way to its goal in three frames and back to 50% (and ``weight=1:blend=24`` did not ease).
 * A shift that interrupts another lets the given-up shift's segments coast to a stop: they had gone on
   toward the old goal (170 deg, given up for 0 after 0.4 s: the pelvis 5.7 -> 18.2 deg, then back 18
-  deg in two frames, 12.2 deg in one; the head 826 deg/s in the world).
+  deg in two frames, 12.2 deg in one; the head 826 deg/s in the world), and the return is timed from
+  where the coast stops (the head 556 deg/s against 296 for a return from the settled 170).
 """
 
 from __future__ import annotations
@@ -76,3 +77,22 @@ def test_an_interrupted_shift_does_not_go_on_toward_its_old_goal(tmp_path):
     assert speed.max() < 650.0, (speed.max(), new.times[1:][speed.argmax()])
     # The return still gets there: the base motion's gaze, to the bit of the pelvis.
     assert moved[new.times >= 120].max() < 0.5
+
+
+def test_a_reversal_moves_the_head_no_faster_than_a_settled_return(tmp_path):
+    """A return shift that interrupts the outward one is timed from where the head's coast stops, not
+    from where the gaze is at the interruption: the head still turning away at speed has that much
+    further to come back (170 deg given up for 0 after 0.42 s: 556 deg/s in the world, against 296 for
+    the same return from a settled 170)."""
+    rig = syn.make_rig(tmp_path / "in.usda", frames=240, time_codes_per_second=24)
+
+    def head_peak(*shifts):
+        folder = tmp_path / str(len(list(tmp_path.iterdir())))
+        folder.mkdir()
+        _, new = _apply(folder, rig, *[a for s in shifts for a in ("--shift", s)])
+        head = new.world[:, new.index(rig.leaf["head"]), :3, :3]
+        return (measure.rotation_angle_deg(head[1:], head[:-1]) * rig.time_codes_per_second).max()
+
+    settled = head_peak("48:170:0", "168:0:0")
+    reversal = head_peak("48:170:0", "58:0:0")
+    assert reversal < 1.1 * settled, (reversal, settled)

@@ -185,7 +185,7 @@ class Scheduler:
         if previous is None:
             start_delta = np.zeros(2)
         elif inherit:
-            start_delta = previous.evaluate(np.array([t0]))[1][0]
+            start_delta = _where_it_stops(previous, t0, request)
         else:
             start_delta = previous.request
         change = request - start_delta if shift.timing_change is None else np.asarray(shift.timing_change)
@@ -207,3 +207,13 @@ class Scheduler:
         })
         self.shifts.append(shift)
         self.last = segment
+
+
+def _where_it_stops(previous: _Segment, t0: np.float64, request: np.ndarray) -> np.ndarray:
+    """The wanted gaze change a shift interrupted at ``t0`` leaves: where it is, or, when it is moving
+    away from ``request``, where coasting (:data:`COAST_S`) stops it. The new shift is timed from
+    there: a head turning away at speed has that much further to come back."""
+    wanted = previous.evaluate(t0 + np.array([0.0, _RATE_DT_S]))[1]
+    rate = (wanted[1] - wanted[0]) / _RATE_DT_S
+    stops = wanted[0] + rate * COAST_S
+    return stops if np.linalg.norm(request - stops) > np.linalg.norm(request - wanted[0]) else wanted[0]
