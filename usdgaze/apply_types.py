@@ -57,6 +57,8 @@ class CharacterReport:
     frames: int
     added_joints: list[str]
     result: PassResult
+    """The pass's result without its animation arrays (``rotations``, ``translations``, ``scales``
+    are None): those are in the written layer, and a crowd's are not all held until the end."""
     guide: tuple | None = None
     """(times, eye positions (2, F, 3) and point of sight (F, 3) in skeleton space, point of sight in
     world space, line width), when guides are written."""
