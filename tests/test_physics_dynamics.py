@@ -215,3 +215,36 @@ def test_the_planner_tracks_a_reference_with_its_toes_out_of_the_ground(body):
     others = np.setdiff1d(np.arange(dyn.nq), toes)
     assert np.array_equal(target[:, others], ref[:, others])
     assert 5.0 < np.degrees(np.abs(target[:, toes] - ref[:, toes]).max()) <= 45.0 + 1e-6
+
+
+def test_a_foot_still_in_the_ground_is_lifted_by_its_leg(body):
+    """Where turning the toes out does not clear a foot (the lunge's ankle itself 4-5 cm deep for 12
+    steps), the planner's target bends that leg's hip and knee, by the least, until the foot's lowest
+    capsule point is on the ground; the pelvis, the other leg and every clear frame stay as they are."""
+    from usdgaze.physics.tracking import clear_ground, lift_feet, resample
+
+    dyn, qpos = body
+    toes_out = clear_ground(dyn, resample(qpos, np.arange(len(qpos)) / 120.0, 0.02, dyn))
+    target = lift_feet(dyn, toes_out)
+    feet = [b for b, r in enumerate(dyn.model.role) if r == "foot"]
+    geoms = np.flatnonzero(np.isin(dyn.mj.geom_bodyid - 1, feet))
+    before, after = _deepest_foot_point(dyn.mj, toes_out, geoms), _deepest_foot_point(dyn.mj, target, geoms)
+    assert (before > 0.02).sum() >= 10 and before.max() > 0.04
+    assert after.max() < 1e-3
+    m = dyn.model
+    qadr, _ = m.layout()
+    legs = [b for foot in m.feet for b in (m.body_parent[foot], m.body_parent[m.body_parent[foot]])]
+    cols = np.concatenate([qadr[b] + np.arange(4 if m.kind[b] == "ball" else 1) for b in legs])
+    others = np.setdiff1d(np.arange(dyn.nq), cols)
+    assert np.array_equal(target[:, others], toes_out[:, others])
+    clear = before == 0.0
+    assert np.array_equal(target[clear], toes_out[clear])
+    # The least bend: no leg joint turns more than 30 degrees.
+    for b in legs:
+        a = qadr[b]
+        if m.kind[b] == "ball":
+            w = np.abs(np.sum(target[:, a:a + 4] * toes_out[:, a:a + 4], axis=1)).clip(0.0, 1.0)
+            turn = 2.0 * np.degrees(np.arccos(w))
+        else:
+            turn = np.degrees(np.abs(target[:, a] - toes_out[:, a]))
+        assert turn.max() < 30.0, (m.names[b], turn.max())

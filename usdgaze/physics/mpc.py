@@ -23,7 +23,7 @@ import numpy as np
 from usdgaze.physics import feasible
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.model import BodyModel
-from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, resample, velocities
+from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, lift_feet, resample, velocities
 
 FALL_RATIO = 0.8  # the bar: pelvis below 80% of the reference's height is a fall
 # The most regularization a window of the coupled loop starts from (``ddp.RecedingHorizon(carry_max=)``,
@@ -256,6 +256,7 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
     # A reference whose first frame is in the floor is tracked raised as it starts: tracked as it is,
     # a body started on one toe 5 cm up pushed itself off the ground (a 0.4 s flight at h 0.03).
     target[:, 2] += _start_lift(plan.mj, mujoco.MjData(plan.mj), target[0])
+    target = lift_feet(plan, target)  # then a foot still in the ground is lifted by its leg
     ref_v = velocities(target, h, plan.mj)
     tracking = BodyTracking(plan, target, ref_v, _head_body(model), options.weights)
     made = [factory(plan, target) for factory in tasks]
