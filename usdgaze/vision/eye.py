@@ -51,7 +51,9 @@ def zeta_for(d: np.ndarray) -> np.ndarray:
 
 def speed_bound(t: np.ndarray) -> np.ndarray:
     """B(t), rad/s: saccade speed in the first 200 ms of every 400 ms, pursuit speed otherwise."""
-    phase = np.mod(t, SACCADE_WINDOW_S + RECHARGE_S)
+    # A step's time is k * h in floating point: 40 * 0.025 % 0.4 is 0.19999999999999996, which made
+    # the first step of some recharge windows (1.0 s, 1.8 s, ...) a saccade step. A nanosecond settles it.
+    phase = np.mod(np.asarray(t) + 1e-9, SACCADE_WINDOW_S + RECHARGE_S)
     return np.where(phase < SACCADE_WINDOW_S, SACCADE_SPEED, PURSUIT_SPEED)
 
 

@@ -1,0 +1,79 @@
+"""The saccade rhythm of ``usdgaze attend`` on the written layer (UsdSkel FK): in every recharge window
+(200-400 ms of each 400 ms, counted from the clip's first frame) the eyes turn in the head at most at
+the pursuit speed, 100 deg/s, at any frame rate and wherever the clip starts.
+
+A ball that jumps 70 deg from side to side every 0.3 s keeps asking for saccades, so a window whose
+bound is wrong shows. Windows are found from the frame times with a tolerance: t = 1.0 s is the start
+of a recharge window even though 1.0 % 0.4 is 0.19999999999999996 in floating point.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom
+
+from usdgaze.console.main import main
+
+from . import measure
+from . import synthetic as syn
+from .attend_support import compose
+
+SPEED_TOL = 1.02  # frame sampling of linear interpolation between planner steps never adds speed
+
+
+def _jumping_ball(tmp: Path, tcps: float, start: float, seconds: float = 2.0) -> tuple[Path, syn.Rig]:
+    """A standing rig and a ball 2 m from its eyes, 35 deg left then right, switching every 0.3 s."""
+    frames = int(round(seconds * tcps)) + 1
+    rig = syn.make_rig(tmp / "in.usda", frames=frames, time_codes_per_second=tcps, start_time=start,
+                       mesh=False, walk_speed=0.0)
+    p = measure.posed(str(rig.path), rig.skeleton)
+    s2w = p.skel_to_world[:3, :3]
+    eyes = 0.5 * (p.position(rig.leaf["eye_l"])[0] + p.position(rig.leaf["eye_r"])[0])
+    fwd, left = (v @ s2w / np.linalg.norm(v @ s2w) for v in (rig.forward, rig.left))
+    layer = Sdf.Layer.CreateNew(str(tmp / "scene.usda"))
+    layer.subLayerPaths[:] = [str(rig.path)]
+    src = Sdf.Layer.FindOrOpen(str(rig.path))
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(layer, key, getattr(src, key))
+    for key in ("upAxis", "metersPerUnit"):
+        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    stage = Usd.Stage.Open(layer)
+    ball = UsdGeom.Sphere.Define(stage, "/Objects/Ball")
+    ball.GetPrim().SetMetadata("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    op = ball.AddTranslateOp()
+    for s in np.arange(0.0, seconds + 1e-9, 0.25 / tcps):  # four samples a frame: the jumps are sharp
+        a = np.radians(35.0) * (1 if int(s / 0.3) % 2 == 0 else -1)
+        op.Set(Gf.Vec3d(*(eyes + 2.0 * (np.cos(a) * fwd + np.sin(a) * left))), Usd.TimeCode(start + s * tcps))
+    layer.Save()
+    return tmp / "scene.usda", rig
+
+
+def _eye_in_head_speed(stage: Path, rig: syn.Rig, tcps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Frame times (s from the first frame) and the cyclopean eye-in-head speed between frames, deg/s."""
+    p = measure.posed(str(stage), rig.skeleton)
+    eye_l, eye_r, head = rig.leaf["eye_l"], rig.leaf["eye_r"], rig.leaf["head"]
+    fwd = rig.forward
+    v = measure.sight_line(p, eye_l, eye_r, measure.local_forward(p, eye_l, fwd), measure.local_forward(p, eye_r, fwd))
+    axes = [p.axis(head, measure.local_forward(p, head, a)) for a in (fwd, rig.left, rig.up)]
+    d = np.stack([(v * a).sum(-1) for a in axes], -1)  # the line of sight in the head's frame
+    secs = (p.times - p.times[0]) / tcps
+    step = np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(-1), -1, 1)))
+    return secs, step / np.diff(secs)
+
+
+@pytest.mark.parametrize("tcps, start", [(24.0, 0.0), (60.0, 1001.0)])
+def test_no_saccade_in_a_recharge_window(tmp_path, tcps, start):
+    scene, rig = _jumping_ball(tmp_path, tcps, start)
+    out = tmp_path / "gaze.usda"
+    assert main(["attend", str(scene), "--out", str(out), "--window", "0.4"]) == 0
+    secs, speed = _eye_in_head_speed(compose(tmp_path, scene, out), rig, tcps)
+    period = np.floor((secs + 1e-6) / 0.4)
+    phase = secs - 0.4 * period
+    a, b = phase[:-1], phase[1:]
+    recharge = (a >= 0.2 - 1e-6) & (period[:-1] == period[1:])  # both frames inside one recharge window
+    assert recharge.sum() > 10 and speed.max() > 300  # the ball asks for saccades
+    worst = int(np.argmax(np.where(recharge, speed, 0)))
+    assert speed[recharge].max() <= 100 * SPEED_TOL, (secs[worst], speed[worst])
