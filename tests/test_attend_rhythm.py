@@ -9,6 +9,7 @@ of a recharge window even though 1.0 % 0.4 is 0.19999999999999996 in floating po
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +25,10 @@ from .attend_support import compose
 SPEED_TOL = 1.02  # frame sampling of linear interpolation between planner steps never adds speed
 
 
-def _jumping_ball(tmp: Path, tcps: float, start: float, seconds: float = 2.0) -> tuple[Path, syn.Rig]:
-    """A standing rig and a ball 2 m from its eyes, 35 deg left then right, switching every 0.3 s."""
+def _jumping_ball(tmp: Path, tcps: float, start: float, stage_start: float | None = None, seconds: float = 2.0
+                  ) -> tuple[Path, syn.Rig]:
+    """A standing rig and a ball 2 m from its eyes, 35 deg left then right, switching every 0.3 s (from
+    the clip's first frame); the stage starts at ``stage_start`` (default: that frame)."""
     frames = int(round(seconds * tcps)) + 1
     rig = syn.make_rig(tmp / "in.usda", frames=frames, time_codes_per_second=tcps, start_time=start,
                        mesh=False, walk_speed=0.0)
@@ -40,6 +43,8 @@ def _jumping_ball(tmp: Path, tcps: float, start: float, seconds: float = 2.0) ->
         setattr(layer, key, getattr(src, key))
     for key in ("upAxis", "metersPerUnit"):
         layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    if stage_start is not None:
+        layer.startTimeCode = stage_start
     stage = Usd.Stage.Open(layer)
     ball = UsdGeom.Sphere.Define(stage, "/Objects/Ball")
     ball.GetPrim().SetMetadata("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
@@ -64,11 +69,16 @@ def _eye_in_head_speed(stage: Path, rig: syn.Rig, tcps: float) -> tuple[np.ndarr
     return secs, step / np.diff(secs)
 
 
-@pytest.mark.parametrize("tcps, start", [(24.0, 0.0), (60.0, 1001.0)])
-def test_no_saccade_in_a_recharge_window(tmp_path, tcps, start):
-    scene, rig = _jumping_ball(tmp_path, tcps, start)
+@pytest.mark.parametrize("tcps, start, stage_start", [(24.0, 0.0, None), (60.0, 1001.0, None), (24.0, 1001.0, 1.0)])
+def test_no_saccade_in_a_recharge_window(tmp_path, capsys, tcps, start, stage_start):
+    """The last case: a clip at 1001 in a stage that starts at 1 (a DCC's default range). Its windows
+    count from the clip's first frame, and the 41.7 s before the clip are not planned."""
+    scene, rig = _jumping_ball(tmp_path, tcps, start, stage_start)
     out = tmp_path / "gaze.usda"
-    assert main(["attend", str(scene), "--out", str(out), "--window", "0.4"]) == 0
+    capsys.readouterr()
+    assert main(["attend", str(scene), "--out", str(out), "--window", "0.4", "--json"]) == 0
+    planner = json.loads(capsys.readouterr().out)["planner"]
+    assert planner["steps"] <= 2.0 / planner["h"] + 1  # the clip's 2 s, not the stage's time before it
     secs, speed = _eye_in_head_speed(compose(tmp_path, scene, out), rig, tcps)
     period = np.floor((secs + 1e-6) / 0.4)
     phase = secs - 0.4 * period

@@ -102,7 +102,7 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
 
 def _attend(stage, source, out_path, objects, settings, skel_root, progress, record=None):
     from usdgaze.characters import bind_root, select_roots
-    from usdgaze.passes.attend import apply_attend
+    from usdgaze.passes.attend import apply_attend, planner_times
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, build_override, layer_info
     from usdgaze.usd.objects import check_apart, object_prims, read_objects
@@ -128,7 +128,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
                                    f"plans the first, {skels[0].GetPath()}, and leaves the others as they are")
         chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
         h = settings.h
-        t_plan = np.arange(0.0, clip.seconds[-1] + 1e-9, h)
+        t_plan = planner_times(clip.seconds, h)
         codes = clip.start_time + t_plan * clip.time_codes_per_second
         objs = read_objects(stage, source, prims, codes, clip.meters_per_unit)
         things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
@@ -186,10 +186,11 @@ def _realize_map(stage, source, root, clip, chain, frame, prims, result, h):
 
     definition = own_map(root, source) or default_definition()
     targets = [o.positions for o in read_objects(stage, source, prims, clip.times, 1.0)]  # stage units
-    directives = [Directive(t, "look", target=j) if j >= 0 else Directive(t, "release")
+    t0 = float(result.planner_times[0])  # fixations count from the planner's first step, directives from the stage's start
+    directives = [Directive(t0 + t, "look", target=j) if j >= 0 else Directive(t0 + t, "release")
                   for t, j in loop.fixations(result.loop, h)]
     if not directives:
-        directives = [Directive(0.0, "release")]
+        directives = [Directive(t0, "release")]
     return apply_look(clip, chain, frame, built_map(definition), directives, targets,
                       target_names=[str(p.GetPath()) for p in prims])
 

@@ -65,6 +65,14 @@ def _world(m: np.ndarray, p: np.ndarray) -> np.ndarray:
     return np.einsum("fij,fj->fi", m[:, :3, :3], p) + m[:, :3, 3]
 
 
+def planner_times(seconds: np.ndarray, h: float) -> np.ndarray:
+    """The planner's grid, seconds from the stage's start: every h from the clip's first frame to its last.
+
+    From the first frame, not the stage's start: a clip at time code 1001 in a stage starting at 1 was
+    planned for the 41.7 s before it too (25 times the work), its saccade rhythm shifted off its start."""
+    return seconds[0] + np.arange(0.0, seconds[-1] - seconds[0] + 1e-9, h)
+
+
 def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: Pose, h: float
                ) -> tuple[BaseChain, np.ndarray]:
     """The base motion's pivots, eye midpoint and head axes on the planner grid (world, metres)."""
@@ -77,7 +85,7 @@ def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: P
     axes = np.stack([rot.normalize(np.einsum("fij,fj->fi", s2w[:, :3, :3], rot.rotate(to_rest, np.broadcast_to(v, (len(to_rest), 3)))))
                      for v in (frame.forward, frame.left, frame.up)], -1)
     seconds = clip.seconds
-    t = np.arange(0.0, seconds[-1] + 1e-9, h)
+    t = planner_times(seconds, h)
     P = [_interp(t, seconds, p) for p in pts]
     A = _interp(t, seconds, axes)
     # re-orthonormalize the interpolated head axes (forward first, then up)
