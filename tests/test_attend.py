@@ -129,14 +129,15 @@ def test_distance_cost_keeps_the_point_of_sight_between_the_balls(two_balls):
 def test_uncertainty_cost_switches_back_and_forth(two_balls):
     """Figure 4c: the point of sight on a ball (not between them) most of the flight, both balls
     watched in turns, switching back and forth. Measured to the first arrival (seeds 0-3): switches
-    between fixations of >= 0.1 s 3, 3, 4, 3; the less watched ball's share 28-42 %; on a ball 72-95 %."""
+    between fixations of >= 0.1 s 3, 3, 4, 3; the less watched ball's share 20-42 %; on a ball 72-95 %.
+    (Seed 0's 28 % was 20 % once no saccade could start at 1.0 s, in a recharge window: 8 of 40 frames.)"""
     switches = []
     for n in SEEDS:
         g, b1, b2 = two_balls[f"uncertainty seed {n}"]
         whole = g.seconds <= ARRIVAL_S[0]
         on = _on_ball(g, b1, b2)[whole]
         assert np.mean(on >= 0) > 0.65, n
-        assert min(np.mean(on == 0), np.mean(on == 1)) > 0.2, n
+        assert min(np.mean(on == 0), np.mean(on == 1)) > 0.15, n
         mid = np.linalg.norm(g.sight - 0.5 * (b1 + b2), axis=1)[whole]
         half = 0.5 * np.linalg.norm(b1 - b2, axis=1)[whole]
         assert np.median(mid / half) > 0.8, n  # at a ball, half their separation from the midpoint (1.0)
@@ -156,9 +157,9 @@ def _last_shares(g, b1, b2, span_s=0.3):
 
 def test_the_ball_to_catch_first_holds_the_eyes_before_it_arrives(catch_balls, two_balls):
     """Figure 4c's dwell on the nearer ball near the arrival, where the balls are thrown to be caught.
-    Measured over the last 0.3 s (9 frames) before BallLeft arrives (seeds 0-3): on BallLeft 67, 100,
-    100, 78 %, on BallRight 22, 0, 0, 0 %; before it, back and forth (2, 4, 4, 2 switches). The same
-    throws arriving at the chest with a constant importance (two_balls.usda): on BallLeft 0, 0, 33, 0 %
+    Measured over the last 0.3 s (9 frames) before BallLeft arrives (seeds 0-3): on BallLeft 78, 100,
+    100, 78 %, on BallRight 0, 0, 0, 0 %; before it, back and forth (2, 4, 4, 2 switches). The same
+    throws arriving at the chest with a constant importance (two_balls.usda): on BallLeft 11, 0, 33, 0 %
     (the later ball is taken)."""
     for n, (g, b1, b2) in catch_balls.items():
         first, other = _last_shares(g, b1, b2)
@@ -260,8 +261,11 @@ def test_eye_range_and_speed_limits(one_ball, two_balls, catch_balls):
         step = np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(-1), -1, 1)))
         speed = step / np.diff(g.seconds)
         assert speed.max() <= 800 * SPEED_TOL
-        phase_a, phase_b = np.mod(g.seconds[:-1], 0.4), np.mod(g.seconds[1:], 0.4)
-        recharge = (phase_a >= 0.2) & (phase_b >= phase_a)  # both ends inside one recharge window
+        # Windows from the frame times with a tolerance: 1.0 % 0.4 is 0.19999999999999996, which left
+        # the windows at 1.0 s (30 fps) out of this check while a saccade ran in them.
+        period = np.floor((g.seconds + 1e-6) / 0.4)
+        phase = g.seconds - 0.4 * period
+        recharge = (phase[:-1] >= 0.2 - 1e-6) & (period[:-1] == period[1:])  # both ends inside one recharge window
         assert recharge.sum() > 10 and speed[recharge].max() <= 100 * SPEED_TOL
 
 
