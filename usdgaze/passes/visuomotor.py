@@ -53,7 +53,9 @@ def read_scene(root, clip, source: str, h: float):
 def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop.Thing]:
     from usdgaze.usd.objects import read_objects
 
-    codes = clip.start_time + h * np.arange(steps) * clip.time_codes_per_second
+    # The simulation's steps run from the clip's first frame; a clip at 1001 in a stage starting at 1
+    # saw its objects 41.7 s early (held at their first samples) when counted from the stage's start.
+    codes = clip.start_time + (clip.seconds[0] + h * np.arange(steps)) * clip.time_codes_per_second
     objs = read_objects(root.GetStage(), source, prims, codes, clip.meters_per_unit)
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # stage axes -> model axes (metres kept)
     return [loop.Thing(o.path, o.positions @ rot.T, o.importance, o.view_radius, o.kind, visible=o.visible)
