@@ -20,11 +20,13 @@ from usdgaze.console.main import main
 
 from . import measure
 from . import synthetic as syn
+from .attend_support import compose
 
 MAP = Path(__file__).resolve().parents[1] / "sample_stages" / "shared_map" / "gaze_map.usda"
 
 
-def _stage(tmp: Path) -> tuple[Path, syn.Rig]:
+def _stage(tmp: Path, names=("A", "B"), place=((0.0, 0.0, 0.0), (0.0, 0.0, 3.0))) -> tuple[Path, syn.Rig]:
+    """Two characters ``names`` (SkelRoot paths without the slash) at the translations ``place``."""
     rig = syn.make_rig(tmp / "rig.usda", frames=24, time_codes_per_second=24, mesh=False, walk_speed=0.0)
     shutil.copy(MAP, tmp / "gaze_map.usda")
     layer = Sdf.Layer.CreateNew(str(tmp / "two.usda"))
@@ -36,13 +38,15 @@ def _stage(tmp: Path) -> tuple[Path, syn.Rig]:
     cls = Sdf.CreatePrimInLayer(layer, "/Map")
     cls.specifier = Sdf.SpecifierClass
     cls.referenceList.Prepend(Sdf.Reference("./gaze_map.usda", "/GazeMap"))
-    for name, z, turn in (("A", 0.0, 0.0), ("B", 3.0, 0.0)):  # B stands 3 m ahead of A, its back to A
+    for name, at in zip(names, place):  # by default B stands 3 m ahead of A, its back to A
         prim = Sdf.CreatePrimInLayer(layer, f"/{name}")
+        for parent in Sdf.Path(f"/{name}").GetParentPath().GetPrefixes():  # a character under a prim
+            layer.GetPrimAtPath(parent).specifier = Sdf.SpecifierDef
         prim.specifier, prim.typeName = Sdf.SpecifierDef, "SkelRoot"
         prim.referenceList.Prepend(Sdf.Reference("./rig.usda", "/Character"))
         prim.inheritPathList.Prepend(Sdf.Path("/Map"))
-        Sdf.AttributeSpec(prim, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(0, 0, z)
-        Sdf.AttributeSpec(prim, "xformOp:rotateY", Sdf.ValueTypeNames.Float).default = turn
+        Sdf.AttributeSpec(prim, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(*at)
+        Sdf.AttributeSpec(prim, "xformOp:rotateY", Sdf.ValueTypeNames.Float).default = 0.0
         Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
                           variability=Sdf.VariabilityUniform).default = ["xformOp:translate", "xformOp:rotateY"]
     layer.Save()
@@ -116,3 +120,27 @@ def test_a_skelroot_with_two_skeletons_says_which_one_attend_plans(tmp_path, cap
     assert np.array_equal(before.world, after.world)
     first_before, first_after = measure.posed(str(rig.path), rig.skeleton), measure.posed(str(preview), rig.skeleton)
     assert not np.array_equal(first_before.world, first_after.world)  # the first one is planned
+
+
+def test_characters_whose_paths_spell_the_same_name_both_get_inspection_prims(tmp_path):
+    """/A_B and /A/B both become ``A_B`` under /UsdGazeAttend: the second character's inspection prims
+    were authored over the first's and the command failed (exit 1, an Sdf error). Each character now
+    has its own scope, and both look at the ball (UsdSkel FK on the written layer)."""
+    stage, rig = _stage(tmp_path, names=("A_B", "A/B"), place=((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)))
+    p = measure.posed(str(stage), "/A_B/Skel")
+    ball = 0.5 * (p.position(rig.leaf["eye_l"])[0] + p.position(rig.leaf["eye_r"])[0]) + np.array([0.5, 0.0, 2.0])
+    _add_ball(stage, ball)
+    out = tmp_path / "attend.usda"
+    assert main(["attend", str(stage), "--out", str(out), "--window", "0.3"]) == 0
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    scopes = layer.GetPrimAtPath("/UsdGazeAttend").nameChildren
+    assert len(scopes) == 2 and all(s.attributes.get("gaze:attend:pointOfSight") for s in scopes)
+    composed = compose(tmp_path, stage, out)
+    for root in ("/A_B", "/A/B"):
+        g = measure.posed(str(composed), f"{root}/Skel")
+        eye_l, eye_r = rig.leaf["eye_l"], rig.leaf["eye_r"]
+        line = measure.sight_line(g, eye_l, eye_r, measure.local_forward(g, eye_l, rig.forward),
+                                  measure.local_forward(g, eye_r, rig.forward))
+        to = ball - 0.5 * (g.position(eye_l) + g.position(eye_r))
+        off = measure.angle_between(line, to / np.linalg.norm(to, axis=1, keepdims=True))
+        assert off[-6:].max() < 5.0, (root, off)

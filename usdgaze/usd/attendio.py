@@ -1,6 +1,7 @@
 """The attend pass's inspection prims: point of sight, eye pose, per-object estimate and uncertainty.
 
-They live under ``/UsdGazeAttend/<character>`` in the override layer (``def Scope`` prims, so muting
+They live under ``/UsdGazeAttend/<character>`` (the SkelRoot's path with ``_`` for ``/``, ``_2``... where
+another character spells the same) in the override layer (``def Scope`` prims, so muting
 the layer removes them with the animation override), authored at the Sdf level:
 
 * ``point3f gaze:attend:pointOfSight`` (world, stage units) and ``float3 gaze:attend:eyePose``
@@ -45,8 +46,10 @@ def add_inspection(layer: Sdf.Layer, character: str, times: np.ndarray, sight: n
     """Author the inspection prims of one character; returns its prim path."""
     taken: set[str] = set()
     with Sdf.ChangeBlock():
-        _scope(layer, ROOT)
-        path = f"{ROOT}/{_name(character, set())}"
+        # Names already there are taken: /A_B and /A/B both spell A_B, and the second was authored
+        # over the first (an Sdf error, exit 1).
+        characters = {child.name for child in _scope(layer, ROOT).nameChildren}
+        path = f"{ROOT}/{_name(character, characters)}"
         prim = _scope(layer, path)
         pos = _attr(prim, "gaze:attend:pointOfSight", Sdf.ValueTypeNames.Point3f).path
         eye = _attr(prim, "gaze:attend:eyePose", Sdf.ValueTypeNames.Float3).path
