@@ -25,6 +25,7 @@ from usdgaze import api
 from usdgaze.console.main import main
 
 from . import measure
+from . import synthetic as syn
 
 RATE, FRAMES, SHIFT_S, HOLD_S = 30.0, 60, 0.2, 1.5
 
@@ -190,3 +191,30 @@ def test_a_mirrored_chain_is_refused_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "joint 'root' of the gaze chain is mirrored" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.usda"]
+
+
+@pytest.mark.parametrize("tilt", [10.0, 20.0])
+def test_a_character_on_a_slope_looks_at_its_target(tmp_path, tilt):
+    """Its parent pitched ``tilt`` degrees, the character is upright in its own space: its eyes'
+    modelled axis (the bind pose's forward) lands on a look-at target (it missed by the tilt)."""
+    rig = syn.make_rig(tmp_path / "in.usda", frames=96, time_codes_per_second=24, walk_speed=0.0, mesh=False,
+                       root_path="/World/Character")
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    world = layer.GetPrimAtPath("/World")
+    world.typeName = "Xform"
+    Sdf.AttributeSpec(world, "xformOp:rotateX", Sdf.ValueTypeNames.Double).default = tilt
+    Sdf.AttributeSpec(world, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:rotateX"])
+    layer.Save()
+    base = measure.posed(str(rig.path), rig.skeleton)
+    left, right = rig.eye_leaves
+    target = 0.5 * (base.position(left) + base.position(right))[0] + np.array([1.0, 0.3, 1.5])
+    preview = tmp_path / "preview.usda"
+    assert main(["apply", str(rig.path), "--look-at", ",".join(f"{v:.5f}" for v in target) + "@12",
+                 "--out", str(tmp_path / "gaze.usdc"), "--preview", str(preview)]) == 0
+    new = measure.posed(str(preview), rig.skeleton)
+    line = measure.sight_line(new, left, right, measure.local_forward(new, left, rig.forward),
+                              measure.local_forward(new, right, rig.forward))
+    goal = target - 0.5 * (new.position(left) + new.position(right))
+    goal /= np.linalg.norm(goal, axis=1, keepdims=True)
+    assert measure.angle_between(line, goal)[new.times >= 48].max() < 1.0

@@ -79,9 +79,28 @@ def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
     return gaze_map
 
 
-def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> CharacterFrame:
+UP_SNAP_DEG = 30.0
+"""The stage's up carried into skeleton space within this of one of its axes is that axis: a character
+placed on a slope (a parent pitched 10 deg) is modelled upright in its own space, and taking the
+tilted vector made its forward, and the eyes' modelled axis with it, miss every target by the tilt.
+An axis exactly (a Z-up rig turned into a Y-up stage) is kept as it is."""
+
+
+def _skeleton_up(clip: SkelClip) -> np.ndarray:
+    """The character's up in skeleton space: the stage's up carried in at the first frame, snapped
+    to the nearest skeleton axis within :data:`UP_SNAP_DEG`."""
     sw = clip.skel_to_world[0, :3, :3]
     up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
+    axis = int(np.argmax(np.abs(up_s)))
+    if np.degrees(np.arccos(min(1.0, abs(float(up_s[axis]))))) < UP_SNAP_DEG:
+        snapped = np.zeros(3)
+        snapped[axis] = np.sign(up_s[axis])
+        return snapped
+    return up_s
+
+
+def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> CharacterFrame:
+    up_s = _skeleton_up(clip)
     return character_frame(joints, clip.neutral(), up_s, forward, where=f"{clip.source}:{clip.skeleton}",
                            forward_label=label)
 
