@@ -37,6 +37,10 @@ MODES = ("uncertainty", "distance", "sequential")
 LOCK_AFTER_STEPS = 8
 PROPOSE_EVERY = 4  # planner steps between look-at proposals (100 ms), and whenever the slots change
 PROPOSAL_MARGIN = np.array([np.radians(2.0), np.radians(2.0), 0.5])  # inside the eye range (rad, rad, mm)
+# ... and at the far end of the focal range a twentieth of that: the distance is zeta/17 / (1 - zeta/17)
+# metres, so 0.5 mm under the top (16.5 mm, 33 m) stopped proposals at 16 m, and an object 20 m away
+# was never looked at (the observation noise grows with the distance from the point of sight to it).
+PROPOSAL_MARGIN_HI = np.array([np.radians(2.0), np.radians(2.0), 0.025])
 PROPOSAL_SPEED = 0.97  # of the speed bound
 
 
@@ -172,7 +176,7 @@ def _look_at_controls(stack, X: np.ndarray, U: np.ndarray, k0: int, target: np.n
     want = np.column_stack([eyemod.angles_for(local), eyemod.zeta_for(np.linalg.norm(local, axis=1))])
     # Just inside the range and the speed bound: the cost's soft bounds already charge the edge itself
     # (smax(0) = gamma / 2), which would price a proposal that only touches them above the warm start.
-    want = np.clip(want, eyemod.LO + PROPOSAL_MARGIN, eyemod.HI - PROPOSAL_MARGIN)
+    want = np.clip(want, eyemod.LO + PROPOSAL_MARGIN, eyemod.HI - PROPOSAL_MARGIN_HI)
     h = eye.h
     out = U.copy()
     e = X[0, eye.xs].copy()
