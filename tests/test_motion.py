@@ -457,3 +457,22 @@ def test_achieved_gaze_measures_composite_direction():
     # Listing's law: the eye rotation has no component about the head's forward axis
     eye_rotvec = Rotation.from_quat(eyes).as_rotvec()
     assert np.abs(eye_rotvec[:, 2]).max() < 1e-12
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_dot_and_length_match_numpy_bit_for_bit(n):
+    """rot.dot / rot.length replace np.sum(a * b, axis=-1) and np.linalg.norm(v, axis=-1) on the pass's
+    hot path: the same bits, strided views and broadcasting included."""
+    from usdgaze.core import rotations as rot
+
+    rng = np.random.default_rng(n)
+    for shape in [(n,), (7, n), (1247, n), (2, 300, n), (0, n), (31, 5, n)]:
+        a = rng.normal(size=shape) * rng.uniform(1e-3, 1e3, size=shape)
+        b = rng.normal(size=shape)
+        for x, y in [(a, b), (a[::2], b[::2]), (a, b[..., :1] * np.ones(n))]:
+            assert np.array_equal(rot.dot(x, y), np.sum(x * y, axis=-1))
+            assert np.array_equal(rot.dot(x, y, keepdims=True), np.sum(x * y, axis=-1, keepdims=True))
+            assert np.array_equal(rot.length(x), np.linalg.norm(x, axis=-1))
+            assert np.array_equal(rot.length(x, keepdims=True), np.linalg.norm(x, axis=-1, keepdims=True))
+    v = rng.normal(size=(100, n))
+    assert np.array_equal(rot.dot(v, v[0]), np.sum(v * v[0], axis=-1))  # one vector against many

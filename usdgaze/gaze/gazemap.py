@@ -172,9 +172,9 @@ class ParametricGazeMap:
             total = candidates.sum(axis=2, keepdims=True)
             candidates = np.where(total > 0, candidates / np.where(total > 0, total, 1.0), weights)
             measured = self._measure(candidates.reshape(-1, n)).reshape(len(_BACKTRACK), q, 2)
-            best_err = np.linalg.norm(err, axis=1)
+            best_err = rot.length(err)
             for candidate, cand_achieved in zip(candidates, measured):
-                cand_err = np.linalg.norm(target - cand_achieved, axis=1)
+                cand_err = rot.length(target - cand_achieved)
                 better = cand_err < best_err
                 weights = np.where(better[:, None], candidate, weights)
                 achieved = np.where(better[:, None], cand_achieved, achieved)

@@ -101,7 +101,7 @@ class GazeMotions:
         # Values too large to normalize come out non-finite or zero, and the map's checks refuse them
         # with their own one-line error: no numpy warning on the way.
         with np.errstate(over="ignore", invalid="ignore"):
-            norm = np.linalg.norm(offsets, axis=-1, keepdims=True)
+            norm = rot.length(offsets, keepdims=True)
             offsets = np.where(np.abs(norm - 1.0) > 1e-6, rot.normalize(offsets), offsets)
         object.__setattr__(self, "offsets", rot.positive_w(offsets))
         object.__setattr__(self, "timing", timing)

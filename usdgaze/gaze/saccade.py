@@ -42,7 +42,7 @@ def progress(elapsed_s: np.ndarray, amplitude_deg: float) -> np.ndarray:
 
 def angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Degrees between unit vectors ``(..., 3)``; stable for small angles."""
-    return np.degrees(2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1)))
+    return np.degrees(2.0 * np.arctan2(rot.length(a - b), rot.length(a + b)))
 
 
 def slerp(a: np.ndarray, b: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -56,7 +56,7 @@ def slerp(a: np.ndarray, b: np.ndarray, s: np.ndarray) -> np.ndarray:
     s = np.asarray(s, dtype=float)
     omega = np.radians(angle_deg(a, b))
     ortho = b - np.sum(a * b, -1, keepdims=True) * a
-    n = np.linalg.norm(ortho, axis=-1, keepdims=True)
+    n = rot.length(ortho, keepdims=True)
     # Nearly opposite: any perpendicular is as good; take one from the smallest component of a.
     pick = np.eye(3)[np.argmin(np.abs(a), axis=-1)]
     fallback = rot.normalize(pick - np.sum(pick * a, -1, keepdims=True) * a)
@@ -69,7 +69,7 @@ def target_rates(target: np.ndarray, eye: np.ndarray, seconds: np.ndarray) -> np
     """Angular velocity ``(F, 3)`` (rad/s) of the target's own motion seen from the eye: its world
     velocity across the line of sight (see :func:`pursue`)."""
     los = target - eye
-    dist = np.maximum(np.linalg.norm(los, axis=-1), 1e-12)
+    dist = np.maximum(rot.length(los), 1e-12)
     velocity = np.gradient(target, seconds, axis=0) if len(seconds) > 1 else np.zeros_like(target)
     return np.cross(los / dist[:, None], velocity) / dist[:, None]
 
@@ -101,7 +101,7 @@ def pursue(target: np.ndarray, eye: np.ndarray, seconds: np.ndarray, start: int,
     seen = mid - latency_s
     delayed = np.column_stack([np.interp(seen, seconds, omega_all[:, k]) for k in range(3)])
     delayed[seen < onset_s] = 0.0
-    speed = np.linalg.norm(delayed, axis=-1)
+    speed = rot.length(delayed)
     pursuit = delayed * np.minimum(1.0, np.radians(max_deg_s) / np.maximum(speed, 1e-12))[:, None]
     lag = np.concatenate([np.zeros((1, 3)), np.cumsum((pursuit - omega) * np.diff(t)[:, None], axis=0)])
     return eye[start:stop] + rot.rotate(rot.from_rotvec(lag), target[start:stop] - eye[start:stop])

@@ -82,7 +82,7 @@ def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
         return (*axes, rest_eye, lambda v: rot.rotate(rot.conjugate(head), v), lambda u: rot.rotate(head, u))
     fwd = rot.normalize(np.linalg.solve(lin_p, np.broadcast_to(frame.forward, (2, 3))[..., None])[..., 0])
     up = np.linalg.solve(lin_p, np.broadcast_to(frame.up, (2, 3))[..., None])[..., 0]
-    up = rot.normalize(up - np.sum(up * fwd, axis=-1, keepdims=True) * fwd)
+    up = rot.normalize(up - rot.dot(up, fwd, keepdims=True) * fwd)
     rest_eye, _ = rot.rotation_part(np.linalg.solve(lin_p, lin_e))
     head = np.stack([moved.linear[p] if p in moved.linear else rot.to_matrix(moved.rotation[p]) for p in parents])
     return (fwd, np.cross(up, fwd), up, rest_eye,
@@ -103,7 +103,7 @@ def capped_speed(angles: np.ndarray, seconds: np.ndarray, max_deg_s: float = sac
         return angles
     dt = np.diff(seconds)
     reach = max_deg_s * dt  # (F-1,)
-    fast = np.linalg.norm(np.diff(angles, axis=1), axis=-1) > reach * (1.0 + 1e-9)
+    fast = rot.length(np.diff(angles, axis=1)) > reach * (1.0 + 1e-9)
     if not fast.any():
         return angles
     out = angles.copy()

@@ -89,7 +89,7 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
     def world(p: np.ndarray) -> np.ndarray:
         return np.einsum("fij,fj->fi", np.broadcast_to(m[:, :3, :3], (len(p), 3, 3)), p) + m[:, :3, 3]
 
-    reach = np.linalg.norm(world(sight_point) - world(origin), axis=-1)
+    reach = rot.length(world(sight_point) - world(origin))
 
     anim_joints, rotations, translations, scales = assemble(rig, new_rot, new_trans)
     result = PassResult(

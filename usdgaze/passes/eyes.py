@@ -14,6 +14,7 @@ from typing import Callable
 
 import numpy as np
 
+from usdgaze.core import rotations as rot
 from usdgaze.gaze import saccade
 from usdgaze.gaze.motion import ease
 from usdgaze.passes.sight import azimuth_elevation, direction_from
@@ -70,7 +71,7 @@ class Sight:
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    d = np.linalg.norm(v, axis=-1)
+    d = rot.length(v)
     return v / np.where(d > 0, d, 1.0)[..., None], d
 
 

@@ -91,7 +91,7 @@ def to_skel(clip: SkelClip, p: np.ndarray) -> np.ndarray:
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    d = np.linalg.norm(v, axis=-1)
+    d = rot.length(v)
     return v / np.where(d > 0, d, 1.0)[..., None], d
 
 
@@ -122,7 +122,7 @@ def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.n
 
 def _nearer(points: np.ndarray, eye: np.ndarray, near: float) -> np.ndarray:
     with np.errstate(over="ignore", invalid="ignore"):  # 1e300 away is refused by _check_distance
-        return np.linalg.norm(points - eye, axis=-1) < near
+        return rot.length(points - eye) < near
 
 
 # -- the pass ----------------------------------------------------------------------------------------
@@ -293,7 +293,7 @@ def _base_shown(directives: list[Directive], seconds: np.ndarray, plan: Schedule
 def _miss_deg(base_ae: np.ndarray, achieved: np.ndarray, requested: np.ndarray, up: np.ndarray) -> np.ndarray:
     """Degrees between the achieved and the requested line of sight, per frame (changes against ``base_ae``)."""
     a, b = direction_from(base_ae + achieved, up), direction_from(base_ae + requested, up)
-    return np.degrees(np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0)))
+    return np.degrees(np.arccos(np.clip(rot.dot(a, b), -1.0, 1.0)))
 
 
 def _shift_spans(directives: list[Directive]) -> list[tuple[Directive, float]]:

@@ -113,12 +113,12 @@ class _Segment:
         d = motion.transition(start, self.target[None], s)
         change = self.request[None, :] - start_delta
         span = self.canon[None, :] - canon_a
-        norm2 = np.sum(span * span, axis=1)
+        norm2 = rot.dot(span, span)
         # Unwrap the canonical yaw along the expected path: a 180 deg change is ambiguous against
         # either end but not against where the shift should be by now.
         c = motion.achieved_gaze(d, canon_a[:, 0] + s[:, 4] * span[:, 0])
         moving = norm2 > 1e-12
-        sigma = np.where(moving, np.sum((c - canon_a) * span, axis=1) / np.where(moving, norm2, 1.0), s[:, 4])
+        sigma = np.where(moving, rot.dot(c - canon_a, span) / np.where(moving, norm2, 1.0), s[:, 4])
         return d, start_delta + sigma[:, None] * change, tau, sigma
 
 
