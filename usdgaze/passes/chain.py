@@ -105,35 +105,49 @@ def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray
     for role, seg in SEGMENT_OF_ROLE.items():
         counts[seg] += len(chain.roles[role])
     role_of = {j: role for role in SEGMENT_OF_ROLE for j in chain.roles[role]}
+    # A role's rotation spread over its joints: the same share for each of them.
+    spread = disp[:, :4].copy()
+    shared = np.flatnonzero(counts > 1)
+    if len(shared):
+        spread[:, shared] = rot.power(disp[:, shared], 1.0 / counts[shared])
+    above = [j for j in chain.path if role_of.get(j) not in (None, "pelvis")]
+    turned = _turn_in_rest_frames(rig, above, [SEGMENT_OF_ROLE[role_of[j]] for j in above], canon, spread)
     new_rot: dict[int, np.ndarray] = {}
     new_world: dict[int, np.ndarray] = {}
-    spread: dict[int, np.ndarray] = {}
     for j in chain.path:
         _, q_j, _ = rig.local(j)
         p = int(rig.parents[j])
         parent_world = new_world.get(p, base.rotation.get(p)) if p >= 0 else np.tile(rot.IDENTITY, (f, 1))
         role = role_of.get(j)
-        if role is None:
-            q_new = q_j
-        else:
-            seg = SEGMENT_OF_ROLE[role]
-            if seg not in spread:  # a role's rotation spread over its joints: the same for each of them
-                spread[seg] = disp[:, seg] if counts[seg] == 1 else rot.power(disp[:, seg], 1.0 / counts[seg])
-            q = spread[seg]
-            if role == "pelvis":
-                # Heading frame: the character frame turned about up to where the pelvis faces now.
-                facing = rot.rotate(rot.multiply(base.rotation[j], rot.conjugate(rig.rest_q[j])), frame.forward)
-                flat = facing - np.outer(facing @ frame.up, frame.up)
-                heading = np.arctan2(np.cross(frame.forward, flat) @ frame.up, flat @ frame.forward)
-                q_world = rot.conjugate_into(rot.multiply(rot.from_axis_angle(frame.up, heading), canon), q)
-                q_new = rot.multiply(rot.conjugate_into(rot.conjugate(parent_world), q_world), q_j)
-            else:
-                # In the parent's frame as it sits at rest, as the paper's dress-pose offsets are.
-                k = rot.multiply(rot.conjugate(rig.rest_q[p]), canon) if p >= 0 else canon
-                q_new = rot.multiply(rot.conjugate_into(k, q), q_j)
-        new_rot[j] = rot.normalize(q_new)
+        if j in turned:
+            new_rot[j] = turned[j]
+        elif role is None:
+            new_rot[j] = rot.normalize(q_j)
+        elif role == "pelvis":
+            # Heading frame: the character frame turned about up to where the pelvis faces now.
+            facing = rot.rotate(rot.multiply(base.rotation[j], rot.conjugate(rig.rest_q[j])), frame.forward)
+            flat = facing - np.outer(facing @ frame.up, frame.up)
+            heading = np.arctan2(np.cross(frame.forward, flat) @ frame.up, flat @ frame.forward)
+            q_world = rot.conjugate_into(rot.multiply(rot.from_axis_angle(frame.up, heading), canon), spread[:, 0])
+            new_rot[j] = rot.normalize(rot.multiply(rot.conjugate_into(rot.conjugate(parent_world), q_world), q_j))
         new_world[j] = rot.normalize(rot.multiply(parent_world, new_rot[j]))
     return new_rot, new_world
+
+
+def _turn_in_rest_frames(rig: Rig, joints: list[int], segments: list[int], canon: np.ndarray,
+                         spread: np.ndarray) -> dict[int, np.ndarray]:
+    """New local rotations of chain ``joints`` (not the pelvis): each one's segment share turned in
+    its parent's frame as it sits at rest, as the paper's dress-pose offsets are. They need no world
+    rotation, so all of them are composed at once, as arrays ``(joints, F, 4)`` (joints first: numpy
+    then runs each operation along the frames, not along a few joints at a time)."""
+    if not joints:
+        return {}
+    parents = rig.parents[joints]
+    k = np.where((parents >= 0)[:, None], rot.multiply(rot.conjugate(rig.rest_q[parents]), canon), canon)
+    local = np.stack([rig.local(j)[1] for j in joints])
+    share = np.swapaxes(spread[:, segments], 0, 1)
+    turned = rot.normalize(rot.multiply(rot.conjugate_into(k[:, None], share), local))
+    return dict(zip(joints, turned))
 
 
 def _counter_rotate_legs(rig: Rig, chain: Chain, base: Pose, new_world: dict[int, np.ndarray]
@@ -141,12 +155,13 @@ def _counter_rotate_legs(rig: Rig, chain: Chain, base: Pose, new_world: dict[int
     """Leg roots keep their world transform: undo the pelvis's change in the pelvis frame."""
     pelvis = chain.pelvis
     undo = rot.multiply(rot.conjugate(new_world[pelvis]), base.rotation[pelvis])
-    rotations, translations = {}, {}
-    for j in chain.leg_roots:
-        t_j, q_j, _ = rig.local(j)
-        rotations[j] = rot.normalize(rot.multiply(undo, q_j))
-        translations[j] = rot.rotate(undo, t_j)
-    return rotations, translations
+    legs = list(chain.leg_roots)
+    if not legs:
+        return {}, {}
+    # All leg roots at once, as arrays (legs, F, ...).
+    t, q = (np.stack([rig.local(j)[k] for j in legs]) for k in (0, 1))
+    turned, moved = rot.normalize(rot.multiply(undo, q)), rot.rotate(undo, t)
+    return dict(zip(legs, turned)), dict(zip(legs, moved))
 
 
 
