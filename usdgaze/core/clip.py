@@ -123,6 +123,6 @@ def _column(values: np.ndarray) -> np.ndarray:
     """One joint's samples ``(F, 3)`` as float64; a column whose every sample has the same bits (a bone
     length, a unit scale) as a read-only broadcast of its first row instead of F copies of it."""
     bits = values.view(np.dtype(f"u{values.dtype.itemsize}"))
-    if len(values) and np.array_equal(bits, np.broadcast_to(bits[0], bits.shape)):
+    if len(values) and (bits == bits[0]).all():
         return np.broadcast_to(values[0].astype(float), values.shape)
     return values.astype(float)

@@ -62,7 +62,8 @@ def normalized_time(elapsed_s: np.ndarray, duration_s: np.ndarray) -> np.ndarray
 
 def profile(t: np.ndarray, start: np.ndarray, peak: np.ndarray, beta: np.ndarray) -> np.ndarray:
     """Angle multiplier s(t) of one segment: 0 before ``start``, ``1 + beta`` at ``peak``, 1 at t >= 1."""
-    t, start, peak, beta = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (t, start, peak, beta)))
+    # No broadcast copies: each step broadcasts as it goes, the per-segment ones on a row of 5.
+    t, start, peak, beta = (np.asarray(a, dtype=float) for a in (t, start, peak, beta))
     start = np.clip(start, 0.0, 1.0)
     peak = np.clip(peak, 0.0, 1.0)
     beta = np.where(peak >= 1.0, 0.0, beta)

@@ -10,7 +10,7 @@ under the pelvis counter-rotate so the legs keep their base world pose.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -206,13 +206,16 @@ class Body:
     rotations: dict[int, np.ndarray]
     translations: dict[int, np.ndarray]
     moved: Pose
+    _centre: np.ndarray | None = field(default=None, repr=False)
 
     def eye_position(self, rig: Rig, e: int) -> np.ndarray:
         return self.moved.place(int(rig.parents[e]), rig.local(e)[0])
 
     def eye_centre(self, rig: Rig) -> np.ndarray:
-        """Skeleton-space midpoint of the eyes ``(F, 3)``."""
-        return 0.5 * sum(self.eye_position(rig, e) for e in rig.eyes)
+        """Skeleton-space midpoint of the eyes ``(F, 3)`` (the pass asks twice: computed once)."""
+        if self._centre is None:
+            self._centre = 0.5 * sum(self.eye_position(rig, e) for e in rig.eyes)
+        return self._centre
 
 
 def move_body(base: Base, chain: Chain, frame: CharacterFrame, displacement: np.ndarray) -> Body:

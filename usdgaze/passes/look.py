@@ -245,7 +245,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     full = weight >= 1.0
     part = np.flatnonzero(~full)  # most shots hold full weight throughout: scale only the other frames
     disp = plan.displacement
-    disp[part] = rot.power(disp[part], weight[part, None])
+    if len(part):
+        disp[part] = rot.power(disp[part], weight[part, None])
     body = move_body(base, chain, frame, disp)
     eye_m = to_world(clip, body.eye_centre(rig))
     fixation = options.fixation_m / clip.meters_per_unit
@@ -265,7 +266,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
 
     # Partial gaze: toward the base line of sight (and the fixation distance) as the weight falls.
     direction, distance = _unit(sight.point - eye_m)
-    direction[part] = saccade.slerp(base.line_of_sight[part], direction[part], weight[part])
+    if len(part):
+        direction[part] = saccade.slerp(base.line_of_sight[part], direction[part], weight[part])
     distance = np.maximum(distance, scene.near)  # nearer, each eye would turn to its own side of the point
     inv = np.where(full, 1.0 / distance, (1.0 - weight) / fixation + weight / distance)
     wanted_point = eye_m + direction / inv[:, None]
