@@ -55,7 +55,7 @@ def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, 
     rotations = rotations or {}
     pose = Pose({}, {}, {})
     trs = {j: local(j) for j in joints}
-    unit = all(np.all(s == 1.0) for _, _, s in trs.values())
+    unit = all(_all_one(s) for _, _, s in trs.values())
     for j in joints:
         t, q, s = trs[j]
         p = int(parents[j])
@@ -69,3 +69,12 @@ def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, 
         if not unit:
             pose.linear[j] = pose.linear[p] @ (rot.to_matrix(q) * s[..., None, :])
     return pose
+
+
+def _all_one(s: np.ndarray) -> bool:
+    """Whether every scale is exactly 1; a column broadcast from one row (a constant one, as most
+    scales are) is judged by that row."""
+    s = np.asarray(s)
+    if s.ndim and len(s) and s.strides[0] == 0:
+        s = s[:1]
+    return bool(np.all(s == 1.0))

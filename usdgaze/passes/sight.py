@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from usdgaze.core import rotations as rot
@@ -9,9 +11,19 @@ from usdgaze.core import rotations as rot
 
 def _horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """e1, e2 with (e1, e2, up) right-handed, so azimuth atan2(d.e2, d.e1) is counter-clockwise from above."""
-    e1 = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = rot.normalize(e1 - (e1 @ up) * up)
-    return e1, np.cross(up, e1)
+    # A pass asks a dozen times for the basis of one up axis (a stage's Y or Z): built once per axis.
+    return _basis_of(np.asarray(up, dtype=float).tobytes())  # bytes: -0.0 is not 0.0 here
+
+
+@functools.lru_cache(maxsize=16)
+def _basis_of(up: bytes) -> tuple[np.ndarray, np.ndarray]:
+    u = np.frombuffer(up)
+    e1 = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = rot.normalize(e1 - (e1 @ u) * u)
+    e2 = np.cross(u, e1)
+    e1.setflags(write=False)  # shared by every caller
+    e2.setflags(write=False)
+    return e1, e2
 
 
 def azimuth_elevation(direction: np.ndarray, up: np.ndarray) -> np.ndarray:
