@@ -107,6 +107,15 @@ class GazeMotions:
         object.__setattr__(self, "offsets", rot.positive_w(offsets))
         object.__setattr__(self, "timing", timing)
 
+    @classmethod
+    def of_checked(cls, offsets: np.ndarray, timing: np.ndarray) -> "GazeMotions":
+        """Motions of offsets taken from checked motions (rows, slices or stacks of them: unit, w >= 0),
+        without checking them again: :meth:`__post_init__` would leave them as they are."""
+        out = object.__new__(cls)
+        object.__setattr__(out, "offsets", offsets)
+        object.__setattr__(out, "timing", np.asarray(timing, dtype=float))
+        return out
+
     @property
     def batch_shape(self) -> tuple[int, ...]:
         return self.timing.shape[:-1]
@@ -115,7 +124,7 @@ class GazeMotions:
         return self.batch_shape[0] if self.batch_shape else 1
 
     def __getitem__(self, index) -> "GazeMotions":
-        return GazeMotions(self.offsets[index], self.timing[index])
+        return GazeMotions.of_checked(self.offsets[index], self.timing[index])
 
     @property
     def duration(self) -> np.ndarray:

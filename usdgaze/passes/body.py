@@ -38,8 +38,8 @@ class CachedMap:
             for i, k in enumerate(missing):
                 self._rows[k] = answer[i]
         rows = [self._rows[k] for k in keys]
-        return motion.GazeMotions(np.stack([r.offsets for r in rows]).reshape(yaw.shape + (5, 4)),
-                                  np.stack([r.timing for r in rows]).reshape(yaw.shape + (7,)))
+        return motion.GazeMotions.of_checked(np.stack([r.offsets for r in rows]).reshape(yaw.shape + (5, 4)),
+                                             np.stack([r.timing for r in rows]).reshape(yaw.shape + (7,)))
 
     def query_full(self, yaw_deg, pitch_deg, correct: bool = True):
         key = (float(yaw_deg), float(pitch_deg), bool(correct))

@@ -194,7 +194,9 @@ class Scheduler:
         if shift.cut or timing[motion.DURATION] < shift.min_duration_s:
             timing = np.array(timing, dtype=float)
             timing[motion.DURATION] = 0.0 if shift.cut else shift.min_duration_s
-        segment = _Segment(float(t0), request, target, motion.GazeMotions(target, timing), previous, bool(inherit))
+        # The target is a row of the map's checked motions (or the identity).
+        segment = _Segment(float(t0), request, target, motion.GazeMotions.of_checked(target, timing), previous,
+                           bool(inherit))
         rows = np.flatnonzero((seconds >= t0) & (seconds < until))
         if len(rows):
             d, w, tau, sigma = segment.evaluate(seconds[rows])
