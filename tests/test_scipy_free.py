@@ -101,3 +101,20 @@ def test_apply_process_does_not_import_scipy(tmp_path):
                            "--look-at", "1,1.5,3@4s", "--out", str(tmp_path / "o.usdc")],
                           capture_output=True, text=True, check=True)
     assert proc.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_sorted_points_answer_as_the_brute_force_pass():
+    """The gaze map's strip search (a few queries at a time) gives nearest()'s answer bit for bit:
+    on the map's samples, off the sampled box, on exact samples and among equidistant grid points."""
+    gaze_map = ParametricGazeMap(defaults.default_definition())
+    rng = np.random.default_rng(4)
+    queries = np.column_stack([rng.uniform(-250, 250, 2000), rng.uniform(-100, 100, 2000)])
+    queries[:50] = gaze_map.sample_params[:50]
+    grid = np.array([(x, y) for x in range(-6, 7) for y in range(-4, 5)], dtype=float) * 10.0
+    on_grid = np.round(rng.uniform(-60, 60, (600, 2)) / 5.0) * 5.0
+    for points, qs in ((gaze_map.sample_params, queries), (grid, on_grid)):
+        index = neighbors.SortedPoints(points)
+        for k in (1, 9, 30):
+            for lo in range(0, len(qs), 3):
+                want, got = neighbors.nearest(points, qs[lo:lo + 3], k), index.nearest(qs[lo:lo + 3], k)
+                assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1]), (k, lo)

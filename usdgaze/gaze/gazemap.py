@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.gaze import motion
-from usdgaze.gaze.neighbors import nearest, squared_distances
+from usdgaze.gaze.neighbors import SortedPoints, squared_distances
 from usdgaze.gaze.triangulation import example_geometry
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import GazeMapDefinition
@@ -99,6 +99,7 @@ class ParametricGazeMap:
         weights = np.concatenate([np.eye(len(self.params)), weights])
         self.sample_weights = weights
         self.sample_params = self._measure(weights)
+        self._samples = SortedPoints(self.sample_params)  # the k-NN search of each query
         self.k = int(min(max(s.neighbors, 1), len(weights)))
         self.low = self.sample_params.min(axis=0)
         self.high = self.sample_params.max(axis=0)
@@ -114,7 +115,7 @@ class ParametricGazeMap:
     def _interpolate(self, points: np.ndarray) -> np.ndarray:
         """Kovar & Gleicher k-NN interpolation of sample blend weights at ``points (Q, 2)``."""
         k = self.k
-        dist, idx = nearest(self.sample_params, points, k + 1)
+        dist, idx = self._samples.nearest(points, k + 1)
         if dist.shape[1] > k:
             cutoff = dist[:, k:k + 1]
             dist, idx = dist[:, :k], idx[:, :k]
