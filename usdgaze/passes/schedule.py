@@ -49,11 +49,11 @@ class _Segment:
     previous: "_Segment | None"
     inherit: bool
     """The previous shift is still moving when this one starts: blend from its live trajectory."""
+    canon: np.ndarray
+    """The canonical gaze change of the target: the end of this shift and the start of a next one
+    that begins after it settles."""
 
     def __post_init__(self) -> None:
-        # The canonical gaze change of the target: the end of this shift and the start of a next one
-        # that begins after it settles.
-        self.canon = motion.achieved_gaze(self.target, self.request[0])
         if self.inherit:  # the state and rates the interrupted shift leaves, for its coast
             d, wanted, _, _ = self.previous.evaluate(self.start_s + np.array([0.0, _RATE_DT_S]))
             self.coast = (d[0], rot.to_rotvec(rot.relative(d[0], d[1])) / _RATE_DT_S,
@@ -171,12 +171,15 @@ class Scheduler:
             requests = np.array([[s.yaw, s.pitch] for s in shifts], dtype=float)
             targets = self.map.query(requests[:, 0], requests[:, 1]).offsets
             targets[np.all(requests == 0.0, axis=1)] = rot.IDENTITY
+            canons = np.zeros((len(shifts), 2))
+            canons[n:] = motion.achieved_gaze(targets[n:], requests[n:, 0])  # the new ones', at once
             for k in range(n, len(shifts)):
                 # A shift's frames end where the next known one starts (that one writes the rest).
                 until = shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
-                self._append(shifts[k], requests[k], targets[k], until)
+                self._append(shifts[k], requests[k], targets[k], canons[k], until)
 
-    def _append(self, shift: Shift, request: np.ndarray, target: np.ndarray, until: float = np.inf) -> None:
+    def _append(self, shift: Shift, request: np.ndarray, target: np.ndarray, canon: np.ndarray,
+                until: float = np.inf) -> None:
         seconds, previous = self.seconds, self.last
         t0 = np.float64(shift.time_s)
         if self.info:  # the previous shift now ends where this one starts
@@ -196,7 +199,7 @@ class Scheduler:
             timing[motion.DURATION] = 0.0 if shift.cut else shift.min_duration_s
         # The target is a row of the map's checked motions (or the identity).
         segment = _Segment(float(t0), request, target, motion.GazeMotions.of_checked(target, timing), previous,
-                           bool(inherit))
+                           bool(inherit), canon)
         rows = np.flatnonzero((seconds >= t0) & (seconds < until))
         if len(rows):
             d, w, tau, sigma = segment.evaluate(seconds[rows])
