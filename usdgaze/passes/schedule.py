@@ -79,47 +79,88 @@ class _Segment:
         """Segment offsets ``(F, 5, 4)``, wanted gaze change ``(F, 2)``, normalized time and gaze
         progress (fraction of the change, overshoot included) at ``at``."""
         tau = motion.normalized_time(at - self.start_s, self.motion.duration)
-        settled = np.flatnonzero(tau >= 1.0)
-        if len(settled) < 2:
-            return self._evaluate(at, tau)
-        # Every settled frame holds the same state, the target (from a moving start too: its share is
-        # none once every segment's profile is 1): one of them is evaluated. Each frame of a shift that
-        # took over from another was, to the end of the clip: a planner's 860 re-plans of a held target
-        # on a 50,000-frame shot took 13.6 s.
-        keep = np.ones(len(at), dtype=bool)
-        keep[settled[1:]] = False
-        source = np.cumsum(keep) - 1
-        source[settled] = source[settled[0]]
+        keep, source = _settled_once(tau)
         d, wanted, _, sigma = self._evaluate(at[keep], tau[keep])
         return d[source], wanted[source], tau, sigma[source]
+
+    def still_start(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Where a shift that does not interrupt another starts: offsets ``(5, 4)``, wanted gaze
+        change and canonical gaze change ``(2,)`` (the previous shift's target, or rest)."""
+        if self.previous is None:
+            return rot.IDENTITY[None].repeat(5, axis=0), np.zeros(2), np.zeros(2)  # identity changes nothing
+        return self.previous.target, self.previous.request, self.previous.canon
 
     def _evaluate(self, at: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         # A still start is one row that broadcasts: its relative rotation and canonical gaze are
         # computed once, not per frame.
-        if self.previous is None:
-            start = np.broadcast_to(rot.IDENTITY, (1, 5, 4))
-            start_delta = canon_a = np.zeros((1, 2))  # identity offsets change nothing
-        elif self.inherit:
+        if self.inherit:
             start, start_delta = self._start(at)
             canon_a = motion.achieved_gaze(start, start_delta[:, 0])
         else:
-            start = self.previous.target[None]
-            start_delta = self.previous.request[None]
-            canon_a = self.previous.canon[None]
+            start, start_delta, canon_a = (a[None] for a in self.still_start())
         m = self.motion
-        s = motion.profile(tau[:, None], m.starts[None, :], m.peak_time, m.overshoot)
-        # Blending from the live start keeps position and velocity continuous at an interruption:
-        # the profile's slope is zero at its start.
-        d = motion.transition(start, self.target[None], s)
-        change = self.request[None, :] - start_delta
-        span = self.canon[None, :] - canon_a
-        norm2 = rot.dot(span, span)
-        # Unwrap the canonical yaw along the expected path: a 180 deg change is ambiguous against
-        # either end but not against where the shift should be by now.
-        c = motion.achieved_gaze(d, canon_a[:, 0] + s[:, 4] * span[:, 0])
-        moving = norm2 > 1e-12
-        sigma = np.where(moving, rot.dot(c - canon_a, span) / np.where(moving, norm2, 1.0), s[:, 4])
-        return d, start_delta + sigma[:, None] * change, tau, sigma
+        d, wanted, sigma = _blend(tau, (start, start_delta, canon_a), (self.target[None], self.request[None, :],
+                                  self.canon[None, :]), (m.starts[None, :], m.peak_time, m.overshoot))
+        return d, wanted, tau, sigma
+
+
+def _settled_once(tau: np.ndarray) -> tuple[slice | np.ndarray, slice | np.ndarray]:
+    """The frames of a segment to evaluate (``keep``) and, per frame, its row among them (``source``).
+
+    Every settled frame holds the same state, the target (from a moving start too: its share is
+    none once every segment's profile is 1): one of them is evaluated. Each frame of a shift that
+    took over from another was, to the end of the clip: a planner's 860 re-plans of a held target
+    on a 50,000-frame shot took 13.6 s."""
+    settled = np.flatnonzero(tau >= 1.0)
+    if len(settled) < 2:
+        return slice(None), slice(None)
+    keep = np.ones(len(tau), dtype=bool)
+    keep[settled[1:]] = False
+    source = np.cumsum(keep) - 1
+    source[settled] = source[settled[0]]
+    return keep, source
+
+
+def _blend(tau: np.ndarray, start: tuple, goal: tuple, timing: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Offsets, wanted gaze change and gaze progress at normalized times ``tau (F,)``, from ``start``
+    (offsets, wanted and canonical gaze change) to ``goal`` (target offsets, request, canonical gaze
+    change) with ``timing`` (segment starts, peak time, overshoot): per frame, or one row that broadcasts."""
+    (start, start_delta, canon_a), (target, request, canon) = start, goal
+    s = motion.profile(tau[:, None], *timing)
+    # Blending from the live start keeps position and velocity continuous at an interruption:
+    # the profile's slope is zero at its start.
+    d = motion.transition(start, target, s)
+    change = request - start_delta
+    span = canon - canon_a
+    norm2 = rot.dot(span, span)
+    # Unwrap the canonical yaw along the expected path: a 180 deg change is ambiguous against
+    # either end but not against where the shift should be by now.
+    c = motion.achieved_gaze(d, canon_a[:, 0] + s[:, 4] * span[:, 0])
+    moving = norm2 > 1e-12
+    sigma = np.where(moving, rot.dot(c - canon_a, span) / np.where(moving, norm2, 1.0), s[:, 4])
+    return d, start_delta + sigma[:, None] * change, sigma
+
+
+def _evaluate_still(segments: list[_Segment], ats: list[np.ndarray]) -> list[tuple]:
+    """:meth:`_Segment.evaluate` of segments that interrupt none (their starts are still), on their
+    frames ``ats``: all of them in one pass, each row with its segment's values (each frame's numbers
+    are its own either way: a pass of four shifts made four passes of some 100 numpy calls each)."""
+    taus = [motion.normalized_time(at - g.start_s, g.motion.duration) for g, at in zip(segments, ats)]
+    kept = [_settled_once(tau) for tau in taus]
+    rows = [tau[keep] for tau, (keep, _) in zip(taus, kept)]
+    each = np.repeat(np.arange(len(segments)), [len(r) for r in rows])
+    starts = [g.still_start() for g in segments]
+    start = tuple(np.stack([st[i] for st in starts])[each] for i in range(3))
+    goal = tuple(np.stack([getattr(g, name) for g in segments])[each] for name in ("target", "request", "canon"))
+    timing = (np.stack([g.motion.starts for g in segments])[each],
+              *(np.stack([getattr(g.motion, name) for g in segments])[each, None] for name in ("peak_time", "overshoot")))
+    d, wanted, sigma = _blend(np.concatenate(rows), start, goal, timing)
+    out, lo = [], 0
+    for tau, r, (_, source) in zip(taus, rows, kept):
+        part = slice(lo, lo + len(r))
+        out.append((d[part][source], wanted[part][source], tau, sigma[part][source]))
+        lo += len(r)
+    return out
 
 
 def schedule(gaze_map: ParametricGazeMap, shifts: list[Shift], seconds: np.ndarray) -> Schedule:
@@ -173,13 +214,29 @@ class Scheduler:
             targets[np.all(requests == 0.0, axis=1)] = rot.IDENTITY
             canons = np.zeros((len(shifts), 2))
             canons[n:] = motion.achieved_gaze(targets[n:], requests[n:, 0])  # the new ones', at once
+            added = []
             for k in range(n, len(shifts)):
                 # A shift's frames end where the next known one starts (that one writes the rest).
                 until = shifts[k + 1].time_s if k + 1 < len(shifts) else np.inf
-                self._append(shifts[k], requests[k], targets[k], canons[k], until)
+                added.append(self._append(shifts[k], requests[k], targets[k], canons[k], until))
+            self._write(added)
+
+    def _write(self, added: list[tuple[_Segment, np.ndarray]]) -> None:
+        """Evaluate the added segments on their frames: those that interrupt a shift one by one, the
+        others all at once."""
+        seconds = self.seconds
+        added = [(g, rows) for g, rows in added if len(rows)]
+        still = [(g, rows) for g, rows in added if not g.inherit]
+        results = [(rows, g.evaluate(seconds[rows])) for g, rows in added if g.inherit]
+        if still:
+            results += zip([rows for _, rows in still], _evaluate_still([g for g, _ in still], [seconds[r] for _, r in still]))
+        for rows, (d, w, tau, sigma) in results:
+            self.disp[rows], self.wanted[rows], self.progress[rows] = d, w, sigma
+            self.settled[rows] = tau >= 1.0
 
     def _append(self, shift: Shift, request: np.ndarray, target: np.ndarray, canon: np.ndarray,
-                until: float = np.inf) -> None:
+                until: float = np.inf) -> tuple[_Segment, np.ndarray]:
+        """Add a shift's segment; it and its frames (the caller evaluates them)."""
         seconds, previous = self.seconds, self.last
         t0 = np.float64(shift.time_s)
         if self.info:  # the previous shift now ends where this one starts
@@ -201,10 +258,6 @@ class Scheduler:
         segment = _Segment(float(t0), request, target, motion.GazeMotions.of_checked(target, timing), previous,
                            bool(inherit), canon)
         rows = np.flatnonzero((seconds >= t0) & (seconds < until))
-        if len(rows):
-            d, w, tau, sigma = segment.evaluate(seconds[rows])
-            self.disp[rows], self.wanted[rows], self.progress[rows] = d, w, sigma
-            self.settled[rows] = tau >= 1.0
         self.info.append({
             "time_s": float(t0), "yaw": float(request[0]), "pitch": float(request[1]),
             **{name: float(v) for name, v in zip(motion.TIMING_FIELDS, timing)},
@@ -212,6 +265,7 @@ class Scheduler:
         })
         self.shifts.append(shift)
         self.last = segment
+        return segment, rows
 
 
 def _where_it_stops(previous: _Segment, t0: np.float64, request: np.ndarray) -> np.ndarray:
