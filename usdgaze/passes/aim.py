@@ -27,15 +27,17 @@ class EyeAim:
 
 
 def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange,
-             side: np.ndarray | None = None, seconds: np.ndarray | None = None) -> EyeAim:
+             side: np.ndarray | None = None, seconds: np.ndarray | None = None,
+             positions: np.ndarray | None = None) -> EyeAim:
     """Point each eye at the point of sight (Listing's law: no torsion), within the eye range; a point
     behind the head on the side ``side (F,)`` says (see :func:`held_side`). With the frames'
     ``seconds``, no eye turns faster than the seed's bound (:func:`capped_speed`).
 
-    Both eyes are computed together, as arrays ``(2, F, ...)``."""
+    Both eyes are computed together, as arrays ``(2, F, ...)``; ``positions`` are the eyes' own, where
+    the caller has them."""
     parents = [int(rig.parents[e]) for e in rig.eyes]
     fwd_h, left_h, up_h, rest_eye, to_head, to_world = _sockets(rig, frame, moved, parents)
-    pos = np.stack([moved.place(p, rig.local(e)[0]) for p, e in zip(parents, rig.eyes)])
+    pos = positions if positions is not None else np.stack([moved.place(p, rig.local(e)[0]) for p, e in zip(parents, rig.eyes)])
     u_h = to_head(rot.normalize(sight_point - pos))
 
     def along(axis: np.ndarray) -> np.ndarray:

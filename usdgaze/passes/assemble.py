@@ -65,7 +65,8 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
     ``side`` the side of the head the eyes keep for a point behind it (:func:`aim.held_side`).
     """
     rig, skel_to_world, up_w, base_ae = base.rig, base.skel_to_world, base.up, base.ae
-    eyes = aim_eyes(rig, frame, body.moved, sight_point, options.eye_range, side, clip.seconds)
+    eyes = aim_eyes(rig, frame, body.moved, sight_point, options.eye_range, side, clip.seconds,
+                    positions=np.stack([body.eye_position(rig, e) for e in rig.eyes]))
     new_rot = dict(body.rotations)
     new_rot.update(eyes.rotations)
     new_trans = body.translations
@@ -89,7 +90,8 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
     def world(p: np.ndarray) -> np.ndarray:
         return np.einsum("fij,fj->fi", np.broadcast_to(m[:, :3, :3], (len(p), 3, 3)), p) + m[:, :3, 3]
 
-    reach = rot.length(world(sight_point) - world(origin))
+    origin_w = world(origin)
+    reach = rot.length(world(sight_point) - origin_w)
 
     anim_joints, rotations, translations, scales = assemble(rig, new_rot, new_trans)
     result = PassResult(
@@ -106,7 +108,7 @@ def finish(clip: SkelClip, chain: Chain, frame: CharacterFrame, base: Base, body
         seconds=clip.seconds,
         shift_timing=plan.timing,
         eye_positions=np.stack([world(p) for p in eyes.positions]),
-        point_of_sight=world(origin) + reach[:, None] * sight_w,
+        point_of_sight=origin_w + reach[:, None] * sight_w,
     )
     if rig.added:
         result.added_rest_local = rig.rest_local[-2:]

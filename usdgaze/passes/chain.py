@@ -207,12 +207,16 @@ class Body:
     translations: dict[int, np.ndarray]
     moved: Pose
     _centre: np.ndarray | None = field(default=None, repr=False)
+    _eyes: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
 
     def eye_position(self, rig: Rig, e: int) -> np.ndarray:
-        return self.moved.place(int(rig.parents[e]), rig.local(e)[0])
+        """Skeleton-space position of eye ``e`` ``(F, 3)`` (the pass asks more than once: computed once)."""
+        if e not in self._eyes:
+            self._eyes[e] = self.moved.place(int(rig.parents[e]), rig.local(e)[0])
+        return self._eyes[e]
 
     def eye_centre(self, rig: Rig) -> np.ndarray:
-        """Skeleton-space midpoint of the eyes ``(F, 3)`` (the pass asks twice: computed once)."""
+        """Skeleton-space midpoint of the eyes ``(F, 3)``."""
         if self._centre is None:
             self._centre = 0.5 * sum(self.eye_position(rig, e) for e in rig.eyes)
         return self._centre

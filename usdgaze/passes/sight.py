@@ -47,11 +47,11 @@ def line_of_sight(left_pos, left_dir, right_pos, right_dir) -> tuple[np.ndarray,
     the midpoint of the rays' closest approach (parallel rays: the mean direction)."""
     origin = 0.5 * (left_pos + right_pos)
     w0 = left_pos - right_pos
-    a = np.sum(left_dir * left_dir, -1)
-    b = np.sum(left_dir * right_dir, -1)
-    c = np.sum(right_dir * right_dir, -1)
-    d = np.sum(left_dir * w0, -1)
-    e = np.sum(right_dir * w0, -1)
+    a = rot.dot(left_dir, left_dir)
+    b = rot.dot(left_dir, right_dir)
+    c = rot.dot(right_dir, right_dir)
+    d = rot.dot(left_dir, w0)
+    e = rot.dot(right_dir, w0)
     den = a * c - b * b
     ok = den > 1e-12
     safe = np.where(ok, den, 1.0)
