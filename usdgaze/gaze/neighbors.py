@@ -72,12 +72,13 @@ class SortedPoints:
         self.points = np.asarray(points, dtype=float)
         self.order = np.argsort(self.points[:, 0], kind="stable")
         self.first = self.points[self.order, 0]
+        self.finite = bool(np.isfinite(self.points).all())  # else the brute-force pass (NaN orders last there)
 
     def nearest(self, queries: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Distances and indices ``(Q, k)`` of the ``k`` points nearest each query, nearest first."""
         queries = np.asarray(queries, dtype=float).reshape(-1, self.points.shape[1])
         k = int(min(k, len(self.points)))
-        if len(queries) > _FEW or k > _PROBE or not np.isfinite(queries).all():
+        if len(queries) > _FEW or k > _PROBE or not (self.finite and np.isfinite(queries).all()):
             return nearest(self.points, queries, k)
         dist = np.empty((len(queries), k))
         idx = np.empty((len(queries), k), dtype=np.intp)
