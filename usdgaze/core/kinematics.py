@@ -45,12 +45,14 @@ class Pose:
         return self.position[j] + rot.rotate(self.rotation[j], offset)
 
 
-def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, np.ndarray] | None = None) -> Pose:
+def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, np.ndarray] | None = None,
+            positions: bool = True) -> Pose:
     """FK of ``joints`` (closed under ancestors, parents first); ``local(j)`` gives (t, q, s) per frame.
 
     With all scales exactly 1 (mocap, most rigs) positions come from quaternions alone; otherwise
     full 3x3 linear parts carry the scales down the chain. ``rotations`` are world rotations the
-    caller already composed the same way from the same locals, taken as they are.
+    caller already composed the same way from the same locals, taken as they are. ``positions=False``
+    leaves out the joints' positions but the roots' (a later call with these rotations adds them).
     """
     rotations = rotations or {}
     pose = Pose({}, {}, {})
@@ -64,7 +66,8 @@ def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, 
             if not unit:
                 pose.linear[j] = rot.to_matrix(q) * s[..., None, :]
             continue
-        pose.position[j] = pose.place(p, t)
+        if positions:
+            pose.position[j] = pose.place(p, t)
         pose.rotation[j] = rotations[j] if j in rotations else rot.normalize(rot.multiply(pose.rotation[p], q))
         if not unit:
             pose.linear[j] = pose.linear[p] @ (rot.to_matrix(q) * s[..., None, :])

@@ -181,13 +181,21 @@ class Base:
     ae: np.ndarray
     """Its (azimuth, elevation) in degrees ``(F, 2)``."""
 
+    def eye_midpoint(self) -> np.ndarray:
+        """Skeleton-space midpoint of the base motion's eyes ``(F, 3)``. The pose holds rotations only:
+        the positions down to the eyes are computed when asked (where look targets are seen from; a
+        pass of shifts alone never asks)."""
+        rig = self.rig
+        pose = forward(with_ancestors(list(rig.eyes), rig.parents), rig.parents, rig.local, self.pose.rotation)
+        return 0.5 * (pose.position[rig.eyes[0]] + pose.position[rig.eyes[1]])
+
 
 def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
     """The rig with eyes (added if missing), base FK of the chain and eyes (the leg roots' counter
     rotation needs only their locals), and the base line of sight (where the head looks)."""
     rig = with_eyes(clip, chain, frame, options)
     pose = forward(with_ancestors(list(chain.path) + list(rig.eyes), rig.parents),
-                   rig.parents, rig.local)
+                   rig.parents, rig.local, positions=False)
     skel_to_world = clip.skel_to_world[:, :3, :3]
     up_w = clip.world_up
     if chain.head in pose.linear:  # scales on the chain: the head's axis goes through its full linear map

@@ -230,7 +230,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     seconds = clip.seconds
     base = prepare(clip, chain, frame, options)
     rig, up = base.rig, base.up
-    eye_b = to_world(clip, 0.5 * (base.pose.position[rig.eyes[0]] + base.pose.position[rig.eyes[1]]))
+    # Where look targets are seen from: the base motion's eyes (shifts alone never ask).
+    eye_b = to_world(clip, base.eye_midpoint()) if targets else None
     _check_distance(clip, directives, targets, eye_b, target_names)
     near = NEAR_POINT_M / clip.meters_per_unit
     too_near = {k: _nearer(t, eye_b, near) for k, t in enumerate(targets)}
