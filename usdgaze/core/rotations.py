@@ -198,22 +198,24 @@ def _norm4(q: np.ndarray) -> np.ndarray:
 
 
 def _orthogonal_to_quat(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions of orthogonal matrices ``(N, 3, 3)``: Shepperd's method, largest-pivot case per matrix."""
+    """Unit quaternions of orthogonal matrices ``(N, 3, 3)``: Shepperd's method, largest-pivot case per matrix.
+
+    All four cases are formed for every matrix and each matrix takes its own (a few whole-array
+    operations, where selecting each case's matrices first cost some thirty small ones)."""
     trace = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
     choice = np.argmax(np.stack([m[:, 0, 0], m[:, 1, 1], m[:, 2, 2], trace], axis=-1), axis=-1)
-    q = np.empty((len(m), 4))
+    cases = np.empty((len(m), 4, 4))
     for i in range(3):
-        sel = choice == i
-        j, k, mm = (i + 1) % 3, (i + 2) % 3, m[sel]
-        q[sel, i] = 1 - trace[sel] + 2 * mm[:, i, i]
-        q[sel, j] = mm[:, j, i] + mm[:, i, j]
-        q[sel, k] = mm[:, k, i] + mm[:, i, k]
-        q[sel, 3] = mm[:, k, j] - mm[:, j, k]
-    sel, mm = choice == 3, m[choice == 3]
-    q[sel, 0] = mm[:, 2, 1] - mm[:, 1, 2]
-    q[sel, 1] = mm[:, 0, 2] - mm[:, 2, 0]
-    q[sel, 2] = mm[:, 1, 0] - mm[:, 0, 1]
-    q[sel, 3] = 1 + trace[sel]
+        j, k = (i + 1) % 3, (i + 2) % 3
+        cases[:, i, i] = 1 - trace + 2 * m[:, i, i]
+        cases[:, i, j] = m[:, j, i] + m[:, i, j]
+        cases[:, i, k] = m[:, k, i] + m[:, i, k]
+        cases[:, i, 3] = m[:, k, j] - m[:, j, k]
+    cases[:, 3, 0] = m[:, 2, 1] - m[:, 1, 2]
+    cases[:, 3, 1] = m[:, 0, 2] - m[:, 2, 0]
+    cases[:, 3, 2] = m[:, 1, 0] - m[:, 0, 1]
+    cases[:, 3, 3] = 1 + trace
+    q = cases[np.arange(len(m)), choice]
     return q / _norm4(q)[:, None]
 
 
