@@ -107,8 +107,9 @@ class ParametricGazeMap:
     # -- measuring -------------------------------------------------------------------------
     def _measure(self, weights: np.ndarray) -> np.ndarray:
         """Measured (yaw, pitch) of blends; yaw unwrapped near the blend's mean example yaw."""
-        offsets = motion.blended_offsets(self._table, weights)
-        hint = (weights / weights.sum(axis=1, keepdims=True)) @ self.params[:, 0]
+        share = motion.blend_shares(weights)  # the blend's and its hint's normalized weights
+        offsets = motion.mixed_offsets(share @ self._table)
+        hint = share @ self.params[:, 0]
         return motion.achieved_gaze(offsets, hint)
 
     # -- querying --------------------------------------------------------------------------

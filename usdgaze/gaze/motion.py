@@ -178,7 +178,7 @@ def blend(motions: GazeMotions, weights: np.ndarray, table: np.ndarray | None = 
     ``table`` is :func:`blend_table` of ``motions``, for a caller that blends the same motions often.
     """
     mixed = _mix(blend_table(motions) if table is None else table, weights)
-    return GazeMotions(_mixed_offsets(mixed), mixed[..., 20:])
+    return GazeMotions(mixed_offsets(mixed), mixed[..., 20:])
 
 
 def blend_table(motions: GazeMotions) -> np.ndarray:
@@ -194,21 +194,28 @@ def blend_timing(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
 def blended_offsets(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """The unit offsets ``(..., 5, 4)`` of :func:`blend` (bit for bit, up to each quaternion's sign,
     which no rotation of a vector sees), without building its motions."""
-    return _mixed_offsets(_mix(table, weights))
+    return mixed_offsets(_mix(table, weights))
 
 
-def _mix(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def blend_shares(weights: np.ndarray) -> np.ndarray:
+    """Blend weights ``(..., E)`` checked and normalized per blend, as :func:`blend` mixes with them."""
     w = np.asarray(weights, dtype=float)
     if np.any(w < 0):
         raise ValueError("blend weights must be non-negative")
     total = w.sum(axis=-1, keepdims=True)
     if np.any(total <= 0):
         raise ValueError("each blend needs at least one positive weight")
-    return (w / total) @ table  # one matrix product (BLAS) for all blends
+    return w / total
 
 
-def _mixed_offsets(mixed: np.ndarray) -> np.ndarray:
+def _mix(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    return blend_shares(weights) @ table  # one matrix product (BLAS) for all blends
+
+
+def mixed_offsets(mixed: np.ndarray) -> np.ndarray:
+    """The unit offsets ``(..., 5, 4)`` of mixed :func:`blend_table` rows (``blend_shares(w) @ table``)."""
     return rot.normalize(mixed[..., :20].reshape(mixed.shape[:-1] + (5, 4)))
+
 
 
 def chain_rotation(offsets: np.ndarray) -> np.ndarray:
