@@ -55,12 +55,16 @@ def slerp(a: np.ndarray, b: np.ndarray, s: np.ndarray) -> np.ndarray:
     b = rot.normalize(b)
     s = np.asarray(s, dtype=float)
     omega = np.radians(angle_deg(a, b))
-    ortho = b - np.sum(a * b, -1, keepdims=True) * a
+    ortho = b - rot.dot(a, b, keepdims=True) * a
     n = rot.length(ortho, keepdims=True)
-    # Nearly opposite: any perpendicular is as good; take one from the smallest component of a.
-    pick = np.eye(3)[np.argmin(np.abs(a), axis=-1)]
-    fallback = rot.normalize(pick - np.sum(pick * a, -1, keepdims=True) * a)
-    ortho = np.where(n > 1e-9, ortho / np.where(n > 1e-9, n, 1.0), fallback)
+    apart = n > 1e-9
+    if apart.all():  # the usual case: no frame needs the fallback
+        ortho = ortho / n
+    else:
+        # Nearly opposite: any perpendicular is as good; take one from the smallest component of a.
+        pick = np.eye(3)[np.argmin(np.abs(a), axis=-1)]
+        fallback = rot.normalize(pick - rot.dot(pick, a, keepdims=True) * a)
+        ortho = np.where(apart, ortho / np.where(apart, n, 1.0), fallback)
     theta = (omega * s)[..., None]
     return np.cos(theta) * a + np.sin(theta) * ortho
 
