@@ -121,15 +121,23 @@ def _settled_once(tau: np.ndarray) -> tuple[slice | np.ndarray, slice | np.ndarr
     return keep, source
 
 
-def _blend(tau: np.ndarray, start: tuple, goal: tuple, timing: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _blend(tau: np.ndarray, start: tuple, goal: tuple, timing: tuple, each: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Offsets, wanted gaze change and gaze progress at normalized times ``tau (F,)``, from ``start``
     (offsets, wanted and canonical gaze change) to ``goal`` (target offsets, request, canonical gaze
-    change) with ``timing`` (segment starts, peak time, overshoot): per frame, or one row that broadcasts."""
+    change) with ``timing`` (segment starts, peak time, overshoot): per frame, or one row that
+    broadcasts; or, with ``each`` (per frame, its row), one row per segment of several."""
     (start, start_delta, canon_a), (target, request, canon) = start, goal
+    # The turn from start to target (motion.transition's), measured once per row, not per frame.
+    turn = rot.to_rotvec(rot.relative(start, target))
+    if each is not None:
+        start, start_delta, canon_a, request, canon, turn = (
+            a[each] for a in (start, start_delta, canon_a, request, canon, turn))
+        timing = (timing[0][each], timing[1][each, None], timing[2][each, None])
     s = motion.profile(tau[:, None], *timing)
     # Blending from the live start keeps position and velocity continuous at an interruption:
     # the profile's slope is zero at its start.
-    d = motion.transition(start, target, s)
+    d = rot.multiply(start, rot.from_rotvec(turn * s[..., None]))
     change = request - start_delta
     span = canon - canon_a
     norm2 = rot.dot(span, span)
@@ -150,11 +158,10 @@ def _evaluate_still(segments: list[_Segment], ats: list[np.ndarray]) -> list[tup
     rows = [tau[keep] for tau, (keep, _) in zip(taus, kept)]
     each = np.repeat(np.arange(len(segments)), [len(r) for r in rows])
     starts = [g.still_start() for g in segments]
-    start = tuple(np.stack([st[i] for st in starts])[each] for i in range(3))
-    goal = tuple(np.stack([getattr(g, name) for g in segments])[each] for name in ("target", "request", "canon"))
-    timing = (np.stack([g.motion.starts for g in segments])[each],
-              *(np.stack([getattr(g.motion, name) for g in segments])[each, None] for name in ("peak_time", "overshoot")))
-    d, wanted, sigma = _blend(np.concatenate(rows), start, goal, timing)
+    start = tuple(np.stack([st[i] for st in starts]) for i in range(3))
+    goal = tuple(np.stack([getattr(g, name) for g in segments]) for name in ("target", "request", "canon"))
+    timing = tuple(np.stack([getattr(g.motion, name) for g in segments]) for name in ("starts", "peak_time", "overshoot"))
+    d, wanted, sigma = _blend(np.concatenate(rows), start, goal, timing, each)
     out, lo = [], 0
     for tau, r, (_, source) in zip(taus, rows, kept):
         part = slice(lo, lo + len(r))
