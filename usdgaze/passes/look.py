@@ -287,9 +287,10 @@ def _base_shown(directives: list[Directive], seconds: np.ndarray, plan: Schedule
     has brought the body back and it has settled (the time-sorted ``directives``)."""
     latest = np.searchsorted([d.time_s for d in directives], seconds, side="right") - 1
     shown = latest < 0
-    released = np.array([d.kind == "release" for d in directives])[latest[~shown]]
-    at_rest = np.all(np.abs(plan.displacement[~shown] - rot.IDENTITY) < 1e-9, axis=(1, 2)) & plan.settled[~shown]
-    shown[~shown] = released & at_rest
+    # Only frames after a release can be back at rest: the others are not measured.
+    rows = np.flatnonzero(~shown)
+    rows = rows[np.array([d.kind == "release" for d in directives], dtype=bool)[latest[rows]]]
+    shown[rows] = np.all(np.abs(plan.displacement[rows] - rot.IDENTITY) < 1e-9, axis=(1, 2)) & plan.settled[rows]
     return shown
 
 
