@@ -61,7 +61,8 @@ class Stages:
         "map build": [(gazemap.ParametricGazeMap, "__init__")],
         "model": [(api, "apply_look"), (api, "bind")],
         "write": [(api, "build_override"), (api, "atomic_export"), (layers, "build_override"),
-                  (layers, "atomic_export")],
+                  (layers, "atomic_export"), (getattr(layers, "OverrideLayer", None), "add"),
+                  (getattr(layers, "OverrideLayer", None), "finish")],
     }
 
     def __init__(self):
