@@ -79,3 +79,31 @@ def test_a_pool_worker_ends_once_a_stop_signal_interrupted_its_shot(monkeypatch)
     worker.start()
     worker.join(30)
     assert worker.exitcode == 128 + signal.SIGINT
+
+
+def test_a_shot_composing_another_shots_output_is_refused_before_that_output_exists(tmp_path, capsys):
+    """Shot b's input sublayers shot a's output. Once a had run that was refused as a clash, but on
+    the first run (the layer not there yet) both ran: b composed a's output or not depending on the
+    order (or raced it on a farm), and the rerun then refused the manifest it had just run."""
+    from usdgaze.console.main import main
+
+    from . import synthetic as syn
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    (tmp_path / "wrap.usda").write_text('#usda 1.0\n(\n    metersPerUnit = 1\n    upAxis = "Y"\n'
+                                        '    subLayers = [@./out/a.usdc@, @./rig.usda@]\n)\n')
+    manifest = tmp_path / "m.toml"
+    manifest.write_text('[defaults]\nshifts = ["0.2s:30:0"]\n'
+                        '[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\n'
+                        '[[job]]\nname = "b"\ninput = "wrap.usda"\nout = "out/b.usdc"\n')
+    with pytest.raises(UsdGazeError) as info:
+        load_manifest(manifest)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{manifest}: ")
+    for word in (str(tmp_path / "out" / "a.usdc"), "job 0 'a' out", "job 1 'b'"):
+        assert word in message, (word, message)
+    capsys.readouterr()
+    assert main(["batch", str(manifest)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "job 1 'b'" in err, err
+    assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.summary.json"))

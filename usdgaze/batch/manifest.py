@@ -383,7 +383,7 @@ def register(ids, path: Path, shots: list[Shot]) -> None:
 
 
 def _register(ids, path: Path, shots: list[Shot]) -> None:
-    from usdgaze.usd.stage import layer_dependencies
+    from usdgaze.usd.stage import layer_dependencies, without_usd_warnings
 
     ids.read(path, "manifest")
     composed: dict[str, list[str]] = {}  # per input file: shots often share their inputs
@@ -393,9 +393,12 @@ def _register(ids, path: Path, shots: list[Shot]) -> None:
             ids.read(s.values["map"].partition(":/")[0], f"map of {s.label}")
     for s in shots:
         # Another shot must not write a layer this one composes: on a farm it would read it half-made.
+        # A layer not there yet counts too: on the first run it is another shot's output to come.
         source = os.path.realpath(s.values["input"])
         if source not in composed:
-            composed[source] = [f for f in layer_dependencies(source) if os.path.realpath(f) != source]
+            with without_usd_warnings():  # USD's multi-line warning for each layer not there yet
+                found = layer_dependencies(source, missing=True)
+            composed[source] = [f for f in found if os.path.realpath(f) != source]
         for f in composed[source]:
             ids.read(f, f"layer composed by the input of {s.label}")
     for s in shots:

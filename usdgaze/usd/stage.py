@@ -137,22 +137,24 @@ def layer_stack(layer: Sdf.Layer) -> list[tuple[str, str, Sdf.LayerOffset]]:
     return [(l.identifier, l.realPath, o) for l, o in zip(stack.layers, stack.layerOffsets)]
 
 
-def layer_dependencies(path: str | os.PathLike, strict: bool = False) -> list[str]:
+def layer_dependencies(path: str | os.PathLike, strict: bool = False, missing: bool = False) -> list[str]:
     """Files a layer on disk brings in (sublayers, references, payloads, clips), without opening a stage.
 
     Unreadable (it or a layer it brings in): none, for a command that says so in its own words, or
     with ``strict`` a one-line error naming it (a shot with a broken sublayer was said not to compose
-    the input at all)."""
+    the input at all). With ``missing``, also the absolute paths of the layers it names that are not
+    there (yet): another command's output, say."""
     from pxr import UsdUtils
 
     try:
-        layers, assets, _unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(os.fspath(path)))
+        layers, assets, unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(os.fspath(path)))
     except Exception as exc:
         if strict:
             raise UsdGazeError(f"{path}: cannot read the layers it brings in ({usd_failure(exc)})") from None
         return []
     files = [layer.realPath for layer in layers if layer is not None and not layer.anonymous and layer.realPath]
-    return files + [str(a) for a in assets if a and os.path.isfile(str(a))]
+    files += [str(a) for a in assets if a and os.path.isfile(str(a))]
+    return files + [str(u) for u in unresolved if u and os.path.isabs(str(u))] if missing else files
 
 
 def composed_files(stage: Usd.Stage) -> list[str]:
