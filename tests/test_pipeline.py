@@ -324,3 +324,30 @@ def test_usd_work_threads_are_lowered_only_in_forked_workers():
     assert got["tbb"] == (got["before"] > 1)  # TBB's worker, started when USD read its plugins
     assert got["inside"] == got["before"]  # kept: lowering it would not stop that worker
     assert got["child"] == 1  # a forked worker has no TBB worker: one USD work thread
+
+
+def test_a_preview_follows_its_shot_when_the_input_moves(tmp_path):
+    """The resume key hashes the input's contents, not its path, so a moved (republished) input did not
+    redo the shot; its preview still sublayered the old path: once that was gone, the preview composed
+    no animation at all. A preview that does not compose the shot's output and input is now redone."""
+    from pxr import Usd
+
+    from . import synthetic as syn
+
+    (tmp_path / "v1").mkdir()
+    syn.make_rig(tmp_path / "v1" / "walk.usda", frames=48)
+    body = '[[job]]\nname = "w"\ninput = "{}/walk.usda"\nout = "out/w.usdc"\npreview = "out/w_preview.usda"\nshifts = ["0.2s:30:0"]\n'
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text(body.format("v1"))
+    assert main(["batch", str(manifest)]) == 0
+    out = measure.sha256(tmp_path / "out" / "w.usdc")
+    (tmp_path / "v1").rename(tmp_path / "v2")
+    manifest.write_text(body.format("v2"))
+    assert main(["batch", str(manifest)]) == 0
+    stage = Usd.Stage.Open(str(tmp_path / "out" / "w_preview.usda"))
+    assert not stage.GetCompositionErrors()
+    used = {os.path.realpath(layer.realPath) for layer in stage.GetUsedLayers() if layer.realPath}
+    assert os.path.realpath(tmp_path / "v2" / "walk.usda") in used
+    assert measure.sha256(tmp_path / "out" / "w.usdc") == out  # the same inputs: the same override
+    assert main(["batch", str(manifest)]) == 0
+    assert _status(_summary(manifest)) == {"w": "skipped"}

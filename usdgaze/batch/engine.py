@@ -57,7 +57,8 @@ def limit_threads(forked: bool = False) -> None:
 
 
 def _outputs_complete(shot: Shot) -> bool:
-    """The shot's files are all there (and its override is in its sublayer target)."""
+    """The shot's files are all there (and its override is in its sublayer target, its preview
+    composes its override and input)."""
     if not all(os.path.isfile(p) for p in shot.outputs()):
         return False
     root = shot.values.get("sublayer_into")
@@ -65,7 +66,26 @@ def _outputs_complete(shot: Shot) -> bool:
         from usdgaze.usd.sublayers import sublayered
 
         return sublayered(root, shot.out, shot.values["input"])
-    return True
+    preview = shot.values.get("preview")
+    return not preview or _previews(preview, shot.out, shot.values["input"])
+
+
+def _previews(preview: str, out: str, source: str) -> bool:
+    """``preview`` sublayers ``out`` and ``source``, as :func:`usdgaze.usd.layers.write_preview` writes
+    it. The key hashes contents, not paths: an input moved elsewhere kept a preview of its old path."""
+    from pxr import Sdf
+
+    from usdgaze.files.identity import FileId
+
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(preview, metadataOnly=True)
+    except Exception:  # an unreadable preview is simply written again
+        return False
+    if layer is None:
+        return False
+    folder = os.path.dirname(os.path.abspath(preview))  # where write_preview made the paths relative to
+    named = [FileId.of(os.path.join(folder, p)) for p in layer.subLayerPaths]
+    return named == [FileId.of(out), FileId.of(source)]
 
 
 def run_shot(shot: Shot, force: bool = False, limit: bool = False) -> dict:
