@@ -16,7 +16,7 @@ import traceback
 import uuid
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
-from typing import Callable, Iterator
+from typing import Callable, Generator, Iterator
 
 from usdgaze.batch.manifest import Shot, apply_kwargs, attend_kwargs
 
@@ -173,36 +173,85 @@ def run_local(shots: list[Shot], workers: int, force: bool) -> Iterator[dict]:
             # Forked workers inherit the pass's modules (UsdSkel, UsdGeom, the model: ~0.1 s of CPU
             # each) instead of importing them again.
             import usdgaze.api  # noqa: F401
-        with ProcessPoolExecutor(max_workers=min(workers, len(shots)), mp_context=context,
-                                 initializer=_pool_worker, initargs=(forked,)) as pool:
-            with _signals_held():  # the workers start (fork) in submit: see _pool_worker
-                futures = [pool.submit(_pool_shot, shot, force) for shot in shots]
-            try:
-                for future in as_completed(futures):
-                    yield future.result()
-            except BaseException:  # SIGTERM or SIGINT here: stop the workers' shots too (each cleans up)
-                _stop_workers(pool)
-                raise
+        todo = list(range(len(shots)))
+        while todo:
+            # A worker that dies (the OOM killer's SIGKILL, a crash in C) breaks the pool: every shot
+            # not finished fails with it. Those it was running run again, each in a pool of its own,
+            # where a death is that shot's; those not started go on in a new pool.
+            running, todo = yield from _pool_round(context, forked, shots, todo, workers, force)
+            if not running:  # it broke before any shot started: no shot to blame, none to retry
+                running, todo = todo, []
+            for i in running:
+                start = time.perf_counter()
+                again, never = yield from _pool_round(context, forked, shots, [i], 1, force)
+                for j in again + never:
+                    yield _died(shots[j], time.perf_counter() - start)
 
 
-def _pool_shot(shot: Shot, force: bool) -> dict:
+def _pool_round(context, forked: bool, shots: list[Shot], todo: list[int], workers: int,
+                force: bool) -> Generator[dict, None, tuple[list[int], list[int]]]:
+    """Run ``shots[i]`` for each ``i`` of ``todo`` in one pool, yielding their records; returns, if a
+    worker died, the shots that were running then and those not started (both unreported)."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    states = context.RawArray("b", len(shots))  # per shot: 1 started, 2 finished (set by the workers)
+    broken = []
+    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=context,
+                             initializer=_pool_worker, initargs=(forked, states)) as pool:
+        with _signals_held():  # the workers start (fork) in submit: see _pool_worker
+            futures = {pool.submit(_pool_shot, shots[i], force, i): i for i in todo}
+        try:
+            for future in as_completed(futures):
+                try:
+                    record = future.result()
+                except BrokenProcessPool:
+                    broken.append(futures[future])
+                    continue
+                yield record
+        except BaseException:  # SIGTERM or SIGINT here: stop the workers' shots too (each cleans up)
+            _stop_workers(pool)
+            raise
+    broken.sort()
+    return [i for i in broken if states[i] == 1], [i for i in broken if states[i] != 1]
+
+
+def _died(shot: Shot, seconds: float) -> dict:
+    """The record of a shot whose worker process died while running it alone."""
+    return {"index": shot.index, "name": shot.name, "input": shot.values["input"], "out": shot.out,
+            "status": INTERNAL, "exit_code": EXIT_CODES[INTERNAL], "seconds": round(seconds, 4),
+            "message": "its worker process ended abruptly (killed, e.g. out of memory, or crashed); "
+                       "nothing of it was written, the other shots ran"}
+
+
+_states = None
+"""This pool worker's view of its pool's shot states (see ``_pool_round``)."""
+
+
+def _pool_shot(shot: Shot, force: bool, slot: int | None = None) -> dict:
     """:func:`run_shot` in a pool worker, which ends once a stop signal has interrupted a shot (its
     writer has cleaned up by then): the pool hands a worker whose shot raised the next queued shot,
-    and 2-3 more shots ran after a Ctrl-C."""
+    and 2-3 more shots ran after a Ctrl-C. ``slot``: where the shot's state is kept."""
     from usdgaze.errors import Interrupted
 
+    if _states is not None and slot is not None:
+        _states[slot] = 1
     try:
-        return run_shot(shot, force)
+        record = run_shot(shot, force)
     except Interrupted as exc:
         os._exit(128 + exc.signum)
+    if _states is not None and slot is not None:
+        _states[slot] = 2
+    return record
 
 
-def _pool_worker(forked: bool) -> None:
+def _pool_worker(forked: bool, states=None) -> None:
     """A pool worker's start: its threads (``limit_threads``), and between shots SIGTERM ends it at
     once and SIGINT is the parent's to handle (a shot's writer handles both while it runs).
 
     The worker starts with both signals blocked (``_signals_held``): until this runs it has the
     parent's handlers, which would raise the parent's interruption in it."""
+    global _states
+    _states = states
     limit_threads(forked)
     signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
     signal.signal(signal.SIGINT, signal.SIG_IGN)
