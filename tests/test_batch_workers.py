@@ -49,3 +49,37 @@ def test_a_killed_worker_fails_its_shot_and_the_others_run(tmp_path):
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [f"{n}.usdc" for n in names if n != "boom"]
     lines = [line for line in proc.stderr.splitlines() if line.startswith("[")]
     assert len(lines) == len(names) and sum("boom" in line for line in lines) == 1, proc.stderr
+
+
+def test_a_dask_task_whose_worker_dies_fails_its_shot_and_the_others_run(tmp_path, monkeypatch):
+    """A task whose worker died (each time: dask's KilledWorker) ended the command with that exception,
+    exit 1, no summary, the other shots' results dropped."""
+    import dask
+    from distributed import LocalCluster
+
+    from usdgaze.batch import engine
+    from usdgaze.console.main import main
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    names = ["a", "boom", "c"]
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text('[defaults]\ninput = "rig.usda"\nshifts = ["0.2s:30:0"]\n'
+                        + "".join(f'[[job]]\nname = "{n}"\nout = "out/{n}.usdc"\n' for n in names))
+    real = engine.run_shot
+
+    def run_shot(shot, force=False, limit=False):  # sent to the workers by value (a local function)
+        import os
+        import signal
+
+        if shot.name == "boom":  # what the nanny's memory limit or the OOM killer does to a worker
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(shot, force, limit)
+
+    monkeypatch.setattr(engine, "run_shot", run_shot)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert main(["batch", str(manifest), "--dask", cluster.scheduler_address]) == 1
+    summary = json.loads((tmp_path / "jobs.summary.json").read_text())
+    assert {r["name"]: r["status"] for r in summary["shots"]} == {"a": "done", "boom": "internal error", "c": "done"}
+    boom = next(r for r in summary["shots"] if r["name"] == "boom")
+    assert "KilledWorker" in boom["message"] and "\n" not in boom["message"], boom["message"]

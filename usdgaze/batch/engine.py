@@ -215,12 +215,12 @@ def _pool_round(context, forked: bool, shots: list[Shot], todo: list[int], worke
     return [i for i in broken if states[i] == 1], [i for i in broken if states[i] != 1]
 
 
-def _died(shot: Shot, seconds: float) -> dict:
-    """The record of a shot whose worker process died while running it alone."""
+def _died(shot: Shot, seconds: float, why: str = "its worker process ended abruptly (killed, e.g. out of "
+          "memory, or crashed)") -> dict:
+    """The record of a shot whose worker process died while running it alone (or its dask task failed)."""
     return {"index": shot.index, "name": shot.name, "input": shot.values["input"], "out": shot.out,
             "status": INTERNAL, "exit_code": EXIT_CODES[INTERNAL], "seconds": round(seconds, 4),
-            "message": "its worker process ended abruptly (killed, e.g. out of memory, or crashed); "
-                       "nothing of it was written, the other shots ran"}
+            "message": f"{why}; the other shots ran"}
 
 
 _states = None
@@ -345,10 +345,15 @@ def run_dask(shots: list[Shot], address: str, force: bool) -> Iterator[dict]:
         raise UsdGazeError(f"--dask {address}: cannot connect to a dask scheduler there ({type(exc).__name__}: "
                            f"{' '.join(str(exc).split())[:200]})") from None
     with client:
-        futures = [client.submit(run_shot, shot, force, True, key=f"usdgaze-{shot.name}-{uuid.uuid4().hex[:8]}",
-                                 pure=False) for shot in shots]
+        futures = {client.submit(run_shot, shot, force, True, key=f"usdgaze-{shot.name}-{uuid.uuid4().hex[:8]}",
+                                 pure=False): shot for shot in shots}
+        start = time.perf_counter()
         for future in dask_completed(futures):
-            yield future.result()
+            try:
+                yield future.result()
+            except Exception as exc:  # run_shot never raises: the task's worker died (KilledWorker), or it was lost
+                yield _died(futures[future], time.perf_counter() - start,
+                            f"its dask task failed ({type(exc).__name__}: {' '.join(str(exc).split())[:300]})")
 
 
 def run_shots(shots: list[Shot], workers: int = 1, dask: str | None = None, force: bool = False,
