@@ -3,6 +3,9 @@ still cleans up the writer's temporaries; a pool worker whose shot was stopped t
 
 from __future__ import annotations
 
+import errno
+import json
+import os
 import signal
 
 import pytest
@@ -107,3 +110,27 @@ def test_a_shot_composing_another_shots_output_is_refused_before_that_output_exi
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "job 1 'b'" in err, err
     assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.summary.json"))
+
+
+def test_an_output_folder_name_too_long_is_bad_input(tmp_path, capsys):
+    """A folder name over the file system's 255 bytes: pathlib's exists()/is_dir() raise for it (they
+    swallow only 'no such file'), and the shot was an internal error (exit 1: 'OSError: [Errno 36]')."""
+    from usdgaze.console.main import main
+
+    from . import synthetic as syn
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    long = "f" * 300
+    manifest = tmp_path / "m.toml"
+    manifest.write_text(f'[defaults]\ninput = "rig.usda"\nshifts = ["0.2s:30:0"]\n'
+                        f'[[job]]\nname = "long"\nout = "{long}/a.usdc"\n'
+                        '[[job]]\nname = "fine"\nout = "out/b.usdc"\n')
+    assert main(["batch", str(manifest)]) == 2
+    shots = {r["name"]: r for r in json.loads((tmp_path / "m.summary.json").read_text())["shots"]}
+    assert shots["long"]["status"] == "bad input" and shots["fine"]["status"] == "done"
+    assert os.strerror(errno.ENAMETOOLONG) in shots["long"]["message"], shots["long"]["message"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.summary.json", "m.toml", "out", "rig.usda"]  # no temporaries
+    capsys.readouterr()
+    assert main(["apply", str(tmp_path / "rig.usda"), "--out", str(tmp_path / long / "a.usdc"), "--shift", "0.2s:30:0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "internal error" not in err, err

@@ -197,7 +197,7 @@ class Outputs:
         shown = Path(path)
         target = real_path(path) if follow else _unfollowed(path)
         folder = target.parent
-        if not folder.exists():
+        if not os.path.exists(folder):  # os.path: Path.exists() raises for a name over NAME_MAX
             if follow and os.path.islink(shown):  # a dangling link: its target's folder, not the link's
                 raise UsdGazeError(f"{shown}: links to {target}, whose folder {folder} does not exist")
             raise UsdGazeError(f"{shown}: folder {shown.parent} does not exist")
@@ -257,11 +257,13 @@ class Outputs:
     def make_folder(self, path: str | os.PathLike) -> None:
         """Create a missing output folder; it is removed again if the command fails."""
         folder = Path(path)
-        if folder.is_dir():
+        # os.path, not pathlib: Path.is_dir()/exists() raise for a name over NAME_MAX (ENAMETOOLONG);
+        # here it is a folder to make, whose mkdir says why it cannot be.
+        if os.path.isdir(folder):
             return
         missing = []
         probe = folder
-        while not probe.exists() and probe != probe.parent:
+        while not os.path.exists(probe) and probe != probe.parent:
             missing.append(probe)
             probe = probe.parent
         made = []

@@ -27,7 +27,7 @@ def check_output_path(path: str | os.PathLike) -> Path:
     p = Path(path)
     if p.suffix.lower() not in USD_FORMATS:
         raise UsdGazeError(f"{p}: output must end in .usda, .usdc or .usd")
-    if not p.parent.exists():
+    if not os.path.exists(p.parent):  # os.path: Path.exists() raises for a name over NAME_MAX
         raise UsdGazeError(f"{p}: folder {p.parent} does not exist")
     return p
 
