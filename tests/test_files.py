@@ -285,6 +285,26 @@ def test_a_live_runs_temporaries_are_not_swept(tmp_path):
     assert live.exists()
 
 
+def test_another_hosts_temporaries_are_not_swept_when_the_names_share_32_characters(tmp_path, monkeypatch):
+    """Farm nodes writing into one shared output folder: host names were cut to 32 characters, so
+    gke-render-pool-0a1b2c3d-default-node-7 and ...-node-8 were one host to the sweep, which judged the
+    other node's live temporaries by a pid of its own host (not running here: removed mid-write)."""
+    import socket
+
+    def named(host: str) -> str:
+        monkeypatch.setattr(socket, "gethostname", lambda: host)
+        return transaction._host()
+
+    other = tmp_path / f"{transaction.TMP_PREFIX}{named('gke-render-pool-0a1b2c3d-default-node-8')}-999999999-abcd"
+    other.mkdir()  # a run on the other node, writing right now
+    named("gke-render-pool-0a1b2c3d-default-node-7")
+    assert transaction.sweep(tmp_path) == []
+    assert other.exists()
+    dead = tmp_path / f"{transaction.TMP_PREFIX}{transaction._host()}-999999999-abcd"
+    dead.mkdir()  # this node's own dead run is still swept
+    assert transaction.sweep(tmp_path) == [dead.name]
+
+
 # -- build-map and batch --------------------------------------------------------------------------
 
 def test_series_names_stay_inside_the_folder_and_planted_symlinks_are_replaced(tmp_path):

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import os
 import secrets
 import shutil
@@ -61,7 +62,12 @@ def current_umask() -> int:
 
 
 def _host() -> str:
-    return "".join(c if c.isalnum() else "_" for c in socket.gethostname())[:32] or "host"
+    """This host in temporaries' names: at most 32 characters, and a longer name's tail as a digest
+    (cut short, farm nodes named alike up to their number were one host to ``sweep``)."""
+    name = "".join(c if c.isalnum() else "_" for c in socket.gethostname()) or "host"
+    if len(name) <= 32:
+        return name
+    return f"{name[:23]}_{hashlib.sha256(name.encode()).hexdigest()[:8]}"
 
 
 def _alive(pid: int) -> bool:
