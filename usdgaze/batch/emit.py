@@ -135,7 +135,9 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
 
     if kind not in _EMITTERS:
         raise UsdGazeError(f"--emit {kind}: unknown farm (choose from {', '.join(FORMATS)})")
-    manifest = Path(manifest).resolve()
+    # Absolute, links kept: a manifest's paths are relative to its folder as given (a symlinked
+    # manifest's: the link's), and resolving the link sent every task to the real file's folder.
+    manifest = Path(os.path.abspath(manifest))
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
