@@ -29,9 +29,10 @@ def _file_digest(path: str) -> str:
 
 
 def composed_files(root: str) -> tuple[list[str], list[str], list]:
-    """Real paths of the layers ``root`` composes (itself first), its unresolved layer paths, and the
-    opened layers (keep them alive so the stage opened next reuses them)."""
-    from pxr import UsdUtils
+    """Real paths of the layers ``root`` composes (itself first; for the layers in a .usdz, the package
+    file), its unresolved layer paths, and the opened layers (keep them alive so the stage opened next
+    reuses them)."""
+    from pxr import Ar, UsdUtils
 
     from usdgaze.errors import usd_failure
 
@@ -42,7 +43,13 @@ def composed_files(root: str) -> tuple[list[str], list[str], list]:
         raise UsdGazeError(f"{root}: cannot read its layers ({usd_failure(exc)})") from None
     if not layers:
         raise UsdGazeError(f"{root}: cannot open as a USD layer")
-    paths = [layer.realPath for layer in layers if layer.realPath]
+    paths: list[str] = []
+    for layer in layers:
+        path = layer.realPath
+        if path and Ar.IsPackageRelativePath(path):  # 'shot.usdz[notes.usda]': a layer in a package
+            path = Ar.SplitPackageRelativePathOuter(path)[0]  # whose file holds it, hashed once
+        if path and path not in paths:
+            paths.append(path)
     return paths, sorted(str(p) for p in unresolved), layers
 
 

@@ -1,0 +1,35 @@
+"""Resume keys: what a shot's key hashes, for inputs of every kind USD opens."""
+
+from __future__ import annotations
+
+import json
+
+from pxr import Sdf, UsdUtils
+
+from usdgaze.console.main import main
+
+from . import synthetic as syn
+
+
+def _package(folder, note: str) -> None:
+    (folder / "notes.usda").write_text(f'#usda 1.0\ndef "Notes" {{\n    custom string note = "{note}"\n}}\n')
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(str(folder / "shot.usda")), str(folder / "shot.usdz"))
+
+
+def test_a_usdz_input_of_several_layers_runs_and_resumes(tmp_path):
+    """A package's layers are 'shot.usdz[notes.usda]' to USD: hashing that as a file was
+    'internal error: FileNotFoundError', exit 1, for an input usdgaze apply reads."""
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    (tmp_path / "shot.usda").write_text('#usda 1.0\n(\n    metersPerUnit = 1\n    upAxis = "Y"\n'
+                                        '    subLayers = [@./notes.usda@, @./rig.usda@]\n)\n')
+    _package(tmp_path, "take 1")
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text('[[job]]\nname = "z"\ninput = "shot.usdz"\nout = "out/z.usdc"\nshifts = ["0.2s:30:0"]\n')
+
+    def status() -> str:
+        return json.loads((tmp_path / "jobs.summary.json").read_text())["shots"][0]["status"]
+
+    assert main(["batch", str(manifest)]) == 0 and status() == "done"
+    assert main(["batch", str(manifest)]) == 0 and status() == "skipped"
+    _package(tmp_path, "take 2")  # a layer inside the package changed: the package file did
+    assert main(["batch", str(manifest)]) == 0 and status() == "done"
