@@ -40,9 +40,9 @@ def _token(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "usdgaze"
 
 
-def _deadline(manifest: Path, count: int, name: str) -> dict[str, str]:
+def _deadline(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dict[str, str]:
     exe, *pre = usdgaze_command()
-    args = " ".join([*pre, "batch", f"<QUOTE>{manifest}<QUOTE>", "--task-index", "<STARTFRAME>"])
+    args = " ".join([*pre, "batch", f"<QUOTE>{manifest}<QUOTE>", *extra, "--task-index", "<STARTFRAME>"])
     job_info = "\n".join([
         "Plugin=CommandLine",
         f"Name={name}",
@@ -62,8 +62,8 @@ def _deadline(manifest: Path, count: int, name: str) -> dict[str, str]:
     return {"job_info.job": job_info, "plugin_info.job": plugin_info, "submit.sh": submit}
 
 
-def _opencue(manifest: Path, count: int, name: str) -> dict[str, str]:
-    cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), "--task-index"]) + " #IFRAME#"
+def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dict[str, str]:
+    cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), *extra, "--task-index"]) + " #IFRAME#"
     user = _token(os.environ.get("USER") or getpass.getuser())
     spec = f"""<?xml version="1.0"?>
 <!DOCTYPE spec PUBLIC "SPI Cue Specification Language" "http://localhost:8080/spcue/dtd/cjsl-1.14.dtd">
@@ -91,8 +91,8 @@ def _opencue(manifest: Path, count: int, name: str) -> dict[str, str]:
     return {f"{name}.xml": spec}
 
 
-def _slurm(manifest: Path, count: int, name: str) -> dict[str, str]:
-    cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), "--task-index"])
+def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dict[str, str]:
+    cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), *extra, "--task-index"])
     script = f"""#!/usr/bin/env bash
 # usdgaze batch {manifest.name}: one array task per shot ({count} shots). Submit: sbatch usdgaze.sbatch
 #SBATCH --job-name={name}
@@ -129,8 +129,10 @@ def check_inputs(manifest: str | os.PathLike, shots: Sequence["Shot"]) -> None:
                                    "its farm task would fail, so no job files were written")
 
 
-def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike) -> list[Path]:
-    """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths."""
+def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike,
+         force: bool = False) -> list[Path]:
+    """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths.
+    ``force``: every task redoes its shot (``--force``)."""
     from usdgaze.files.transaction import Outputs
 
     if kind not in _EMITTERS:
@@ -141,7 +143,7 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
-    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"))
+    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), ["--force"] if force else [])
     with Outputs() as tx:
         tx.read(manifest, "manifest")
         tx.make_folder(folder)

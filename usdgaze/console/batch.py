@@ -20,7 +20,7 @@ from usdgaze.errors import Interrupted, UsdGazeError
               help="Run every shot as a task on the running dask.distributed scheduler at ADDRESS.")
 @click.option("--task-index", default=None, type=int, metavar="I",
               help="Run only shot I (0-based): one farm array task.")
-@click.option("--force", is_flag=True, help="Redo shots whose outputs are up to date.")
+@click.option("--force", is_flag=True, help="Redo shots whose outputs are up to date (with --emit: every task does).")
 @click.option("--summary", "summary_path", default=None, type=click.Path(), metavar="FILE.json",
               help="Where to write the run's JSON summary [default: MANIFEST.summary.json, or "
                    "MANIFEST.task-I.summary.json with --task-index].")
@@ -40,13 +40,19 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         raise UsdGazeError("--dask and --workers are alternatives: the cluster's workers run the shots")
     if emit and task_index is not None:  # the emitted jobs give each farm task its own index
         raise UsdGazeError("--emit and --task-index are alternatives: the emitted jobs run one task per shot")
+    if emit:  # a flag of the run, not of the job files, was dropped without a word
+        ran = [f for f, on in (("--workers", workers > 1), ("--dask", dask_address), ("--summary", summary_path),
+                               ("--report", report_path)) if on]
+        if ran:
+            raise UsdGazeError(f"--emit writes job files and runs nothing: {ran[0]} is for a run (each emitted "
+                               "task runs one shot and writes its own summary)")
     flag, given = ("--report", report_path) if report_path else ("--summary", summary_path)
     with Outputs() as tx:
         # The summary is checked before any shot runs: it may not be the manifest or any shot's file.
         summary = Path(given) if given else _default_summary(Path(manifest), task_index)
         if summary.suffix.lower() != ".json":
             raise UsdGazeError(f"{summary}: {flag} is written as JSON; name it FILE.json")
-        if given or not emit:
+        if not emit:
             tx.claim(summary, flag)
         shots = load_manifest(manifest)
         register(tx.ids, Path(manifest), shots)
@@ -54,7 +60,7 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
             from usdgaze.batch.emit import check_inputs, emit as write_jobs
 
             check_inputs(manifest, shots)
-            for path in write_jobs(emit[0], manifest, len(shots), emit[1]):
+            for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force):
                 click.echo(f"wrote {path}")
             return
         if task_index is not None:
