@@ -143,6 +143,8 @@ def test_batch_runs_every_shot_keeps_failures_to_their_shot_and_resumes(tmp_path
 
 @pytest.mark.parametrize("body, words", [
     ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\ncolour = "red"\n', ["job 0", "'colour'", "unknown key"]),
+    ('[defaults]\ncolour = "red"\n[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\n',
+     ["[defaults]", "'colour'", "unknown key"]),
     ('[[job]]\nname = "a"\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2"]\n', ["job 0 'a'", "shift", "1:2"]),
     ('[[job]]\ninput = "walk1.usdc"\nout = "y.usdc"\nshifts = ["1:2:3"]\nfixation = -1\n', ["job 0: fixation = -1", "positive"]),
     ('[[job]]\ninput = "walk1.usdc"\nshifts = ["1:2:3"]\n', ["'out'", "missing"]),

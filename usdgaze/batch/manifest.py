@@ -421,6 +421,9 @@ def load_manifest(path: str | os.PathLike) -> list[Shot]:
         raise UsdGazeError(f"{path}: [defaults] must be a table of job keys")
     if "name" in defaults:
         raise UsdGazeError(f"{path}: [defaults]: name: a name belongs to one job")
+    unknown = sorted(set(defaults) - set(KEYS))
+    if unknown:  # said of [defaults], not of the first job that inherits it
+        raise UsdGazeError(f"{path}: [defaults]: unknown key '{unknown[0]}' (keys: {', '.join(sorted(KEYS))})")
     jobs = data.get("job", [])
     if not isinstance(jobs, list):
         raise UsdGazeError(f"{path}: job = {jobs!r}: expected [[job]] tables")
