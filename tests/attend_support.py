@@ -32,6 +32,20 @@ def compose(tmp: Path, inp: Path, out: Path, name: str = "composed.usda") -> Pat
     return tmp / name
 
 
+def over(path: Path, below: Path) -> Sdf.Layer:
+    """A new layer at ``path`` whose one sublayer is ``below``, with its timing and units (a scene's
+    objects go in it)."""
+    src = Sdf.Layer.FindOrOpen(str(below))
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.subLayerPaths[:] = [str(below)]
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(layer, key, getattr(src, key))
+    for key in ("upAxis", "metersPerUnit"):
+        if src.pseudoRoot.HasInfo(key):
+            layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    return layer
+
+
 @dataclass
 class Gaze:
     times: np.ndarray

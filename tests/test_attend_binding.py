@@ -15,7 +15,7 @@ from usdgaze.gaze.defaults import default_definition
 
 from . import measure
 from . import synthetic as syn
-from .attend_support import compose
+from .attend_support import compose, over
 
 
 def _scene(tmp, rig: syn.Rig):
@@ -24,13 +24,7 @@ def _scene(tmp, rig: syn.Rig):
     s2w = p.skel_to_world[:3, :3]
     eyes = 0.5 * (p.position(rig.leaf["eye_l"])[0] + p.position(rig.leaf["eye_r"])[0])
     ball = eyes + 2.0 * (rig.forward @ s2w) + 1.5 * (rig.left @ s2w)
-    layer = Sdf.Layer.CreateNew(str(tmp / "scene.usda"))
-    layer.subLayerPaths[:] = [str(rig.path)]
-    src = Sdf.Layer.FindOrOpen(str(rig.path))
-    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
-        setattr(layer, key, getattr(src, key))
-    for key in ("upAxis", "metersPerUnit"):
-        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    layer = over(tmp / "scene.usda", rig.path)
     Sdf.CreatePrimInLayer(layer, "/Objects").specifier = Sdf.SpecifierDef
     prim = Sdf.CreatePrimInLayer(layer, "/Objects/Ball")
     prim.specifier, prim.typeName = Sdf.SpecifierDef, "Sphere"

@@ -20,12 +20,7 @@ CMU = A.ATTEND.parent / "cmu" / "cmu_131_01.usdc"
 
 def _scene(path, distance: float) -> tuple[Sdf.Layer, np.ndarray]:
     """The standing clip and a still sphere ``distance`` metres from the head, 30 deg to its left."""
-    layer = Sdf.Layer.CreateNew(str(path))
-    src = Sdf.Layer.FindOrOpen(str(CMU))
-    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
-        setattr(layer, key, getattr(src, key))
-    layer.pseudoRoot.SetInfo("upAxis", "Y")
-    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    layer = A.over(path, CMU)
     layer.subLayerPaths[:] = [str(A.ATTEND / "standing.usdc"), str(CMU)]
     layer.Save()
     p = measure.posed(str(path), "/root/Body/BodySkel")

@@ -20,7 +20,7 @@ from usdgaze.console.main import main
 
 from . import measure
 from . import synthetic as syn
-from .attend_support import compose
+from .attend_support import compose, over
 
 SPEED_TOL = 1.02  # frame sampling of linear interpolation between planner steps never adds speed
 
@@ -36,13 +36,7 @@ def _jumping_ball(tmp: Path, tcps: float, start: float, stage_start: float | Non
     s2w = p.skel_to_world[:3, :3]
     eyes = 0.5 * (p.position(rig.leaf["eye_l"])[0] + p.position(rig.leaf["eye_r"])[0])
     fwd, left = (v @ s2w / np.linalg.norm(v @ s2w) for v in (rig.forward, rig.left))
-    layer = Sdf.Layer.CreateNew(str(tmp / "scene.usda"))
-    layer.subLayerPaths[:] = [str(rig.path)]
-    src = Sdf.Layer.FindOrOpen(str(rig.path))
-    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
-        setattr(layer, key, getattr(src, key))
-    for key in ("upAxis", "metersPerUnit"):
-        layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+    layer = over(tmp / "scene.usda", rig.path)
     if stage_start is not None:
         layer.startTimeCode = stage_start
     stage = Usd.Stage.Open(layer)
