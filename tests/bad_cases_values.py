@@ -251,3 +251,18 @@ def b_build_map_start_speed_nan(d):
 
 def b_build_map_min_trials_zero(d):
     return ["build-map", str(sheet(d)), "--out", str(d / "map.usda"), "--min-trials", "0"]
+
+
+def b_batch_unknown_key_in_defaults(d):
+    return manifest(d, f'[defaults]\ncolour = "red"\n[[job]]\n{JOB}')
+
+
+def b_batch_emit_with_workers(d):
+    return manifest(d, f'[[job]]\n{JOB}', "--emit", "slurm", str(d / "farm"), "--workers", "2")
+
+
+def b_batch_input_composes_a_later_out(d):
+    (d / "wrap.usda").write_text('#usda 1.0\n(\n    subLayers = [@./out/a.usdc@, @./in.usda@]\n)\n')
+    (d / "out").mkdir()
+    return manifest(d, '[defaults]\nshifts = ["0.5s:30:0"]\n[[job]]\nname = "a"\ninput = "in.usda"\nout = "out/a.usdc"\n'
+                       '[[job]]\nname = "b"\ninput = "wrap.usda"\nout = "out/b.usdc"\n')
