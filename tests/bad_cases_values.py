@@ -266,3 +266,7 @@ def b_batch_input_composes_a_later_out(d):
     (d / "out").mkdir()
     return manifest(d, '[defaults]\nshifts = ["0.5s:30:0"]\n[[job]]\nname = "a"\ninput = "in.usda"\nout = "out/a.usdc"\n'
                        '[[job]]\nname = "b"\ninput = "wrap.usda"\nout = "out/b.usdc"\n')
+
+
+def b_batch_look_at_empty(d):
+    return manifest(d, '[[job]]\ninput = "in.usda"\nout = "gaze.usdc"\nlook_at = []\n')

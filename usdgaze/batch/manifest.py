@@ -349,10 +349,11 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
             raise UsdGazeError(f"{where}: missing '{key}'")
     base = path.parent.resolve()
     values = {k: KEYS[k].check(v, label, base) for k, v in merged.items()}
-    if command == "apply" and "shifts" in values and not values["shifts"] and not values.get("look_at") \
-            and not values.get("release"):
-        # Left out, the SkelRoots' own GazeScheduleAPI schedules apply; an empty list is a slip.
-        raise UsdGazeError(f"{label('shifts', '[]')}: no shift given; nothing to do")
+    directives = [k for k in ("shifts", "look_at", "release") if k in values]
+    if command == "apply" and directives and not any(values[k] for k in directives):
+        # Left out, the SkelRoots' own GazeScheduleAPI schedules apply; only empty lists are a slip.
+        what = {"shifts": "shift", "look_at": "look-at", "release": "release"}[directives[0]]
+        raise UsdGazeError(f"{label(directives[0], '[]')}: no {what} given; nothing to do")
     name = values.pop("name", None) or Path(values["input"]).stem
     shot = Shot(index=index, name=name, values=values, where=where)
     if command == "attend":
