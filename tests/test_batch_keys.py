@@ -33,3 +33,17 @@ def test_a_usdz_input_of_several_layers_runs_and_resumes(tmp_path):
     assert main(["batch", str(manifest)]) == 0 and status() == "skipped"
     _package(tmp_path, "take 2")  # a layer inside the package changed: the package file did
     assert main(["batch", str(manifest)]) == 0 and status() == "done"
+
+
+def test_a_missing_layer_is_said_once_in_the_shots_line_not_in_a_usd_warning(tmp_path, capfd):
+    """Computing the key of a shot whose input names a missing sublayer printed USD's own multi-line
+    warning into the farm log before the shot's one line said it."""
+    syn.make_rig(tmp_path / "rig.usda", frames=24, mesh=False)
+    (tmp_path / "wrap.usda").write_text("#usda 1.0\n(\n    subLayers = [@./missing.usda@, @./rig.usda@]\n)\n")
+    manifest = tmp_path / "m.toml"
+    manifest.write_text('[[job]]\ninput = "wrap.usda"\nout = "o.usdc"\nshifts = ["0.2s:30:0"]\n')
+    capfd.readouterr()
+    assert main(["batch", str(manifest)]) == 2
+    err = capfd.readouterr().err
+    assert "Warning" not in err and "assetLocalization" not in err, err
+    assert "missing.usda" in err  # the shot's own line

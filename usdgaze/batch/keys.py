@@ -35,10 +35,14 @@ def composed_files(root: str) -> tuple[list[str], list[str], list]:
     from pxr import Ar, UsdUtils
 
     from usdgaze.errors import usd_failure
+    from usdgaze.usd.stage import without_usd_warnings
 
     require_file(root)
     try:
-        layers, _assets, unresolved = UsdUtils.ComputeAllDependencies(root)
+        # An unresolved layer is hashed into the key and said by the shot in one line: USD's own
+        # multi-line warning about it here was noise in a farm log.
+        with without_usd_warnings():
+            layers, _assets, unresolved = UsdUtils.ComputeAllDependencies(root)
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
         raise UsdGazeError(f"{root}: cannot read its layers ({usd_failure(exc)})") from None
     if not layers:
