@@ -289,6 +289,8 @@ def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_
         parts = [foot] + [b for b in m.toes if m.body_parent[b] == foot]
         geoms = np.flatnonzero(np.isin(mj.geom_bodyid - 1, parts))
         leg = [b for b in (m.body_parent[foot], m.body_parent[m.body_parent[foot]]) if b > 0 and m.kind[b] in ("ball", "hinge")]
+        if not leg or not len(geoms):  # a foot hung from the base itself, or with no shape: nothing to lift
+            continue
         cols = np.concatenate([vadr[b] + np.arange(3 if m.kind[b] == "ball" else 1) for b in leg]).astype(int)
         for k in range(len(out)):
             q = out[k].copy()
