@@ -84,3 +84,29 @@ def test_thresholds_in_mm_follow_the_file_units(tmp_path):
 def test_settings_out_of_range_are_user_errors():
     with pytest.raises(SettingsError, match="velocity_k = 0"):
         BuildSettings(velocity_k=0)
+
+
+def test_gaps_written_as_zeros_are_gaps(tmp_path):
+    """Exporters that write an occluded sample as (0, 0, 0) with a residual of 0 (not -1) give the
+    same examples as residual -1 gaps: each trial's P+ within 1 deg of the known motion."""
+    params = np.array([[-36.0, -12.0], [72.0, 12.0], [180.0, 0.0]])
+    motions = syn.known_motions(params)
+    rng = np.random.default_rng(0)
+    rows = ["trial,file,yaw,pitch"]
+    for i, (yaw, pitch) in enumerate(params):
+        points, _ = syn.simulate_trial(motions[i], rng, gaps=8)
+        assert np.isnan(points).any()
+        name = syn.trial_name(yaw, pitch)
+        syn.write_points(tmp_path / f"{name}.c3d", syn.LABELS, np.nan_to_num(points, nan=0.0), syn.RATE)
+        rows.append(f"{name},{name}.c3d,{yaw:g},{pitch:g}")
+    (tmp_path / "sheet.csv").write_text("\n".join(rows) + "\n")
+    (tmp_path / "markers.toml").write_text(syn.MARKERSET_TOML)
+    from usdgaze.core import rotations as rot
+    from usdgaze.ingest.build import build
+
+    result = build(tmp_path / "sheet.csv", tmp_path / "markers.toml")
+    assert [r.error for r in result.reports] == [""] * len(params)
+    for i, report in enumerate(result.reports):
+        error = np.degrees(rot.angle(rot.relative(report.extraction.offsets[:4], motions.offsets[i][:4])))
+        assert error.max() < 1.0, (report.trial, error)
+        assert report.filled_samples > 0

@@ -1,7 +1,8 @@
 """Reading and writing raw optical marker capture in C3D (through ezc3d, the optional ``c3d`` extra).
 
 Points keep the file's units (``POINT:UNITS``); :attr:`MarkerCapture.mm_per_unit` converts thresholds
-given in millimetres. A missing sample (negative residual, or NaN as ezc3d returns it) is NaN.
+given in millimetres. A missing sample (negative residual, NaN as ezc3d returns it, or exactly (0, 0, 0)
+with any residual, as several exporters write gaps) is NaN.
 """
 
 from __future__ import annotations
@@ -99,6 +100,9 @@ def read_c3d(path: str | Path) -> MarkerCapture:
     if residuals is not None and np.size(residuals):
         missing = np.asarray(residuals)[0].T < 0
         points[missing] = np.nan
+    # Some exporters write a gap as (0, 0, 0) with residual 0; a real marker never sits exactly on the
+    # lab origin, and taken as seen it would jump there (a 50 deg error in P+, or a degenerate landmark).
+    points[np.all(points == 0.0, axis=-1)] = np.nan
     return MarkerCapture(
         path=path,
         labels=labels,
