@@ -136,3 +136,17 @@ def test_unreadable_files_are_one_line_errors(tmp_path):
     assert str(bad) in str(err.value) and "\n" not in str(err.value)
     with pytest.raises(c3dio.C3DError, match="no such file"):
         c3dio.read_c3d(tmp_path / "none.c3d")
+
+
+def test_labels_past_255_come_from_labels2(tmp_path):
+    """C3D keeps at most 255 labels in POINT:LABELS; the rest go to LABELS2, LABELS3 (a multi-subject or
+    face capture). A landmark marker stored past 255 is found, with its own trajectory."""
+    from . import ingest_synth as syn
+
+    labels = [f"Prop:M{i}" for i in range(300)] + ["Subject:HLF"]
+    points = np.random.default_rng(2).normal(0.0, 500.0, (20, len(labels), 3))
+    syn.write_points(tmp_path / "many.c3d", labels, points, 120.0)
+    capture = c3dio.read_c3d(tmp_path / "many.c3d")
+    assert capture.labels == tuple(labels)
+    [i] = resolve_labels(["HLF"], capture.labels, None, "many")
+    np.testing.assert_allclose(capture.points[:, i], points[:, -1], atol=1e-3)

@@ -72,6 +72,16 @@ def _units(values, path: str, n_markers: int) -> tuple[str, float, np.ndarray]:
     return main, MM_PER_UNIT[main], factor
 
 
+def _labels(point: dict) -> tuple[str, ...]:
+    """POINT:LABELS, then LABELS2, LABELS3 ...: C3D keeps at most 255 in one parameter."""
+    labels = list(_param(point, "LABELS") or [])
+    k = 2
+    while f"LABELS{k}" in point:
+        labels += list(_param(point, f"LABELS{k}") or [])
+        k += 1
+    return tuple(str(s).strip() for s in labels)
+
+
 def read_c3d(path: str | Path) -> MarkerCapture:
     """Read the points of a C3D file (analogs are ignored)."""
     path = str(path)
@@ -82,7 +92,7 @@ def read_c3d(path: str | Path) -> MarkerCapture:
     except Exception as exc:  # ezc3d raises plain RuntimeError/IOError with its own text
         raise C3DError(f"{path}: not a readable C3D file ({str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__})") from None
     point = c3d["parameters"].get("POINT", {})
-    labels = tuple(str(s).strip() for s in (_param(point, "LABELS") or []))
+    labels = _labels(point)
     data = np.asarray(c3d["data"]["points"], dtype=float)
     if data.ndim != 3 or data.shape[1] == 0 or data.shape[2] == 0:
         raise C3DError(f"{path}: no marker data (POINT:USED is 0 or no frames)")
