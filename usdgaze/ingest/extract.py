@@ -11,7 +11,9 @@ on every frame of the trial, the crop, the canonical character frame, and the kn
 * Overshoot: the head's angular velocity between frames i-k and i+k, signed by projecting it on the
   head's net rotation axis; a frame j is a candidate where the sign flips, and the peak is the first
   candidate whose m frames before move toward the target and whose m frames after move back (the
-  paper says "different signs"; on noisy data that also flags the onset, so we require + then -).
+  paper says "different signs"; on noisy data that also flags the onset, so we require + then -,
+  and only past half the head's net turn: at 240 Hz m frames are 25 ms, and the still head's jitter
+  at the crop's start passes + then - as well).
   t_beta is where the velocity crosses zero between frame j-1 and the flagged frame j.
   beta = peak head angle / final head angle - 1, clipped at 0. No peak: t_beta = 1, beta = 0.
 * Start times: the first frame where the local (parent-relative) angular speed, differenced the same
@@ -129,12 +131,14 @@ def first_above(speed: np.ndarray, threshold: float, hold: int = 1) -> int:
     return int(hits[0]) if len(hits) else -1
 
 
-def overshoot_peak(velocity: np.ndarray, m: int) -> int | None:
-    """First frame j where the signed velocity flips from the m-frame mean before (> 0) to after (< 0)."""
+def overshoot_peak(velocity: np.ndarray, m: int, earliest: int = 0) -> int | None:
+    """First frame j >= ``earliest`` where the signed velocity flips from the m-frame mean before (> 0)
+    to after (< 0)."""
     v = np.asarray(velocity, dtype=float)
     n = len(v)
     sign = np.sign(v)
     candidates = np.flatnonzero(sign[1:] != sign[:-1]) + 1
+    candidates = candidates[candidates >= max(earliest, 1)]
     if not len(candidates):
         return None
     c = np.concatenate([[0.0], np.cumsum(v)])
@@ -299,7 +303,10 @@ def _overshoot(orientations: np.ndarray, first: np.ndarray, last: np.ndarray, st
         warnings.append(f"the head turns {np.degrees(final):.2f} deg: too little to look for an overshoot")
     else:
         velocity = signed_velocity(head, net / final, k, rate)[start : end + 1]
-        j = overshoot_peak(velocity, m)
+        # A peak lies past half the head's net turn (not in the paper): m frames are 25 ms at 240 Hz,
+        # and the still head's jitter at the crop's start passes the + then - test there.
+        turned = rot.angle(rot.multiply(head[start : end + 1], rot.conjugate(first[3]))) >= 0.5 * final
+        j = overshoot_peak(velocity, m, int(np.argmax(turned)))
         if j is not None:
             peak_angle = float(rot.angle(rot.multiply(head[start + j], rot.conjugate(first[3]))))
             beta = max(peak_angle / final - 1.0, 0.0)
