@@ -150,3 +150,17 @@ def test_labels_past_255_come_from_labels2(tmp_path):
     assert capture.labels == tuple(labels)
     [i] = resolve_labels(["HLF"], capture.labels, None, "many")
     np.testing.assert_allclose(capture.points[:, i], points[:, -1], atol=1e-3)
+
+
+@pytest.mark.parametrize("written, same_as", [("  ", "mm"), ("meters", "m"), ("Millimeters", "mm"), ("centimeters", "cm")])
+def test_blank_and_plural_units_read_as_their_unit(tmp_path, written, same_as):
+    """C3D strings are space-padded: an all-blank POINT:UNITS is no unit given (mm, as a file without
+    one); a plural spelling is its unit."""
+    from . import ingest_synth as syn
+
+    points = np.random.default_rng(3).normal(0.0, 1.0, (5, 2, 3))
+    syn.write_points(tmp_path / "a.c3d", ["A", "B"], points, 100.0, written)
+    syn.write_points(tmp_path / "b.c3d", ["A", "B"], points, 100.0, same_as)
+    a, b = c3dio.read_c3d(tmp_path / "a.c3d"), c3dio.read_c3d(tmp_path / "b.c3d")
+    assert a.mm_per_unit == b.mm_per_unit == {"mm": 1.0, "m": 1000.0, "cm": 10.0}[same_as]
+    np.testing.assert_array_equal(a.points, b.points)

@@ -15,8 +15,10 @@ import numpy as np
 from usdgaze.errors import UsdGazeError
 from usdgaze.files.kinds import require_file
 
-MM_PER_UNIT = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "cm": 10.0, "dm": 100.0, "m": 1000.0,
-               "meter": 1000.0, "metre": 1000.0, "in": 25.4, "inch": 25.4, "ft": 304.8}
+MM_PER_UNIT = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "millimeters": 1.0, "millimetres": 1.0,
+               "cm": 10.0, "centimeter": 10.0, "centimetre": 10.0, "centimeters": 10.0, "centimetres": 10.0,
+               "dm": 100.0, "m": 1000.0, "meter": 1000.0, "metre": 1000.0, "meters": 1000.0, "metres": 1000.0,
+               "in": 25.4, "inch": 25.4, "inches": 25.4, "ft": 304.8}
 
 
 class C3DError(UsdGazeError):
@@ -59,7 +61,9 @@ def _param(group: dict, name: str):
 
 def _units(values, path: str, n_markers: int) -> tuple[str, float, np.ndarray]:
     """The file's unit and a per-marker factor to it (Optotrak writes one unit per marker)."""
-    names = [str(u).strip().lower() for u in (values or [])] or ["mm"]
+    # C3D strings are space-padded: an all-blank entry is no unit given, which C3D reads as mm.
+    names = [str(u).strip().lower() for u in (values or [])]
+    names = names if any(names) else ["mm"]
     for name in names:
         if name not in MM_PER_UNIT:
             raise C3DError(f"{path}: unknown POINT:UNITS '{name}' (expected one of mm, cm, m, in)")
