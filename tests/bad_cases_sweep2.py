@@ -1,4 +1,5 @@
-"""Catalogue builders for what a later sweep found (2026-12-06): rigs the physics body cannot stand."""
+"""Catalogue builders for what a later sweep found (2026-12-06): rigs the physics body cannot stand,
+a marker set whose up axis is not the capture's."""
 
 from __future__ import annotations
 
@@ -80,3 +81,18 @@ def b_out_is_a_dangling_link_into_a_missing_folder(d):
     r = rig(d)
     (d / "gaze.usdc").symlink_to(d / "missing" / "x.usdc")
     return ["apply", str(r.path), "--shift", "10:30:0", "--out", str(d / "gaze.usdc")]
+
+
+def b_build_map_marker_set_up_axis_not_the_captures(d):
+    """A Y-up capture read with the default up_axis Z: stored 'ok', exit 0."""
+    import numpy as np
+
+    from . import ingest_synth as syn
+
+    motion = syn.known_motions(np.array([[72.0, 0.0]]))[0]
+    points, _ = syn.simulate_trial(motion, np.random.default_rng(0))
+    syn.write_points(d / "a.c3d", syn.LABELS, points[..., [0, 2, 1]] * np.array([1.0, 1.0, -1.0]), syn.RATE)
+    (d / "markers.toml").write_text(syn.MARKERSET_TOML)
+    (d / "sheet.csv").write_text("file,yaw,pitch\na.c3d,72,0\n")
+    return ["build-map", str(d / "sheet.csv"), "--markers", str(d / "markers.toml"), "--out", str(d / "map.usda"),
+            "--min-trials", "1", "--quiet"]

@@ -75,6 +75,7 @@ def marker_series(capture: MarkerCapture, markerset: MarkerSet, where: str) -> T
     )
     _, forward = square_axes(landmarks[3])
     up = markerset.up
+    _check_up(landmarks[3].mean(axis=1), markerset, where)
     keep = np.setdiff1d(np.arange(stable.shape[1]), [base])
     return TrialSeries(
         source=where,
@@ -87,6 +88,26 @@ def marker_series(capture: MarkerCapture, markerset: MarkerSet, where: str) -> T
         filled=int(mask.sum()),
         longest_fill=_longest_run(mask, [capture.labels[i] for i in idx]),
     )
+
+
+UPRIGHT_DEG = 45.0
+"""The head lies within this of straight above the base of the spine at rest: the subject stands or sits."""
+
+
+def _check_up(head: np.ndarray, markerset: MarkerSet, where: str) -> None:
+    """Refuse a marker set whose up axis is not the capture's (a Y-up export read as the default Z).
+
+    ``head``: the head square's centre relative to the base of the spine ``(F, 3)``. A wrong up axis
+    gives no error further on, only a map of examples whose eyes would turn past their range.
+    """
+    direction = head / np.linalg.norm(head, axis=-1, keepdims=True)
+    mean = np.nanmean(direction, axis=0)
+    angle = float(np.degrees(np.arccos(np.clip(np.dot(mean / np.linalg.norm(mean), markerset.up), -1.0, 1.0))))
+    if angle > UPRIGHT_DEG:
+        i = int(np.argmax(np.abs(mean)))
+        seen = ("+" if mean[i] > 0 else "-") + "XYZ"[i]
+        raise MarkerSetError(f"{where}: the head is {angle:.0f} deg from up_axis {markerset.up_axis} of {markerset.source} "
+                             f"(seen from the base of the spine, the capture's up is {seen}); set up_axis = \"{seen.lstrip('+')}\" there")
 
 
 def _longest_run(mask: np.ndarray, labels: list[str]) -> tuple[str, int, int] | None:

@@ -1,0 +1,46 @@
+"""A marker set whose up_axis is not the capture's (a Y-up export, read with the
+default Z): every trial was stored 'ok' with the eyes past their range and a map written, exit 0.
+The subject stands upright at rest, so the head lies above the base of the spine in the capture's
+true up: a marker set that says otherwise is bad input, refused before anything is written."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdgaze.console.main import main
+
+from . import ingest_synth as syn
+
+PARAMS = np.array([[-72.0, 0.0], [108.0, 0.0], [36.0, 12.0]])
+
+
+def _session(tmp_path, capture_up: str, markerset_up: str):
+    session = syn.write_c3d_session(tmp_path, seed=2, params=PARAMS)
+    if capture_up == "Y":  # the same lab, exported Y-up: (x, y, z) -> (x, z, -y)
+        for tr in session.trials:
+            import ezc3d
+
+            c3d = ezc3d.c3d(str(tr.file))
+            p = np.array(c3d["data"]["points"][:3])
+            residual = np.asarray(c3d["data"]["meta_points"]["residuals"])[0]
+            p[:, residual < 0] = np.nan
+            points = np.transpose(np.stack([p[0], p[2], -p[1]]), (2, 1, 0))
+            syn.write_points(tr.file, syn.LABELS, points, syn.RATE)
+    session.markerset.write_text(syn.MARKERSET_TOML.replace('up_axis = "Z"', f'up_axis = "{markerset_up}"'))
+    return session
+
+
+def test_a_y_up_capture_read_as_z_up_is_refused_naming_up_axis(tmp_path, capsys):
+    session = _session(tmp_path, "Y", "Z")
+    out = tmp_path / "map.usda"
+    code = main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and not out.exists()
+    assert len(err.splitlines()) == 1 and "up_axis" in err and "+Y" in err, err
+
+
+def test_the_same_capture_with_its_up_axis_builds(tmp_path, capsys):
+    session = _session(tmp_path, "Y", "Y")
+    out = tmp_path / "map.usda"
+    assert main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out", str(out), "--quiet"]) == 0
+    assert out.exists()
