@@ -1,5 +1,5 @@
 """Catalogue builders for what a later sweep found (2026-12-06): rigs the physics body cannot stand,
-a marker set whose up axis is not the capture's."""
+a marker set or stage whose up axis is not the capture's."""
 
 from __future__ import annotations
 
@@ -96,3 +96,18 @@ def b_build_map_marker_set_up_axis_not_the_captures(d):
     (d / "sheet.csv").write_text("file,yaw,pitch\na.c3d,72,0\n")
     return ["build-map", str(d / "sheet.csv"), "--markers", str(d / "markers.toml"), "--out", str(d / "map.usda"),
             "--min-trials", "1", "--quiet"]
+
+
+def b_build_map_clip_stage_up_axis_not_the_rigs(d):
+    """A Z-up UsdSkel clip in a stage that says upAxis Y (an export without axis conversion): stored 'ok', exit 0."""
+    import numpy as np
+
+    from . import ingest_synth as syn
+
+    motion = syn.known_motions(np.array([[72.0, 0.0]]))[0]
+    syn.write_skel_clip(d / "a.usda", motion, 30, 120)
+    stage = Usd.Stage.Open(str(d / "a.usda"))
+    stage.SetMetadata("upAxis", "Y")
+    stage.Save()
+    (d / "sheet.toml").write_text('[[trial]]\nfile = "a.usda"\nyaw = 72\npitch = 0\n')
+    return ["build-map", str(d / "sheet.toml"), "--out", str(d / "map.usda"), "--min-trials", "1", "--quiet"]

@@ -44,3 +44,37 @@ def test_the_same_capture_with_its_up_axis_builds(tmp_path, capsys):
     out = tmp_path / "map.usda"
     assert main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out", str(out), "--quiet"]) == 0
     assert out.exists()
+
+
+def _clips(tmp_path, stage_up: str, sheet_extra: str = ""):
+    """Z-up UsdSkel clips (tests/ingest_synth.py) whose stage says ``stage_up``, and a TOML sheet."""
+    from pxr import Usd, UsdGeom
+
+    motions = syn.known_motions(PARAMS)
+    rows = [sheet_extra]
+    for i, (yaw, pitch) in enumerate(PARAMS):
+        path = tmp_path / f"{syn.trial_name(yaw, pitch)}.usda"
+        frames = 40 + int(round((float(motions[i].duration) + 0.8) * syn.RATE)) + 1
+        syn.write_skel_clip(path, motions[i], 40, frames)
+        stage = Usd.Stage.Open(str(path))
+        UsdGeom.SetStageUpAxis(stage, stage_up)
+        stage.Save()
+        rows.append(f'[[trial]]\nfile = "{path.name}"\nyaw = {yaw:g}\npitch = {pitch:g}\n')
+    sheet = tmp_path / "sheet.toml"
+    sheet.write_text("\n".join(rows))
+    return sheet
+
+
+def test_a_clip_whose_stage_up_axis_is_not_its_rigs_is_refused(tmp_path, capsys):
+    """A Z-up rig in a stage that says Y (an export without axis conversion): stored 'ok' before, exit 0."""
+    sheet, out = _clips(tmp_path, "Y"), tmp_path / "map.usda"
+    code = main(["build-map", str(sheet), "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and not out.exists()
+    assert len(err.splitlines()) == 1 and "upAxis Y" in err and "+Z" in err, err
+
+
+def test_the_same_clips_with_up_axis_bound_build(tmp_path, capsys):
+    sheet, out = _clips(tmp_path, "Y", '[skeleton]\nup_axis = "Z"\n'), tmp_path / "map.usda"
+    assert main(["build-map", str(sheet), "--out", str(out), "--quiet"]) == 0
+    assert out.exists()

@@ -91,6 +91,21 @@ def character_frame(forward: np.ndarray, up: np.ndarray, what: str = "character 
     return rot.frame_rotation(np.cross(up, horizontal), up, horizontal)
 
 
+UPRIGHT_DEG = 45.0
+"""At rest the head lies within this of straight above the base of the spine: the subject stands or sits."""
+
+
+def off_upright(head: np.ndarray, up: np.ndarray) -> tuple[float, str]:
+    """Angle (deg) of the mean direction of ``head`` positions ``(F, 3)`` (from the base of the spine)
+    from ``up``, and the signed axis nearest that direction (``"+Y"``)."""
+    direction = head / np.linalg.norm(head, axis=-1, keepdims=True)
+    mean = np.nanmean(direction, axis=0)
+    mean = mean / np.linalg.norm(mean)
+    angle = float(np.degrees(np.arccos(np.clip(np.dot(mean, up), -1.0, 1.0))))
+    i = int(np.argmax(np.abs(mean)))
+    return angle, ("+" if mean[i] > 0 else "-") + "XYZ"[i]
+
+
 def fit_frames(points: np.ndarray, initial: np.ndarray) -> np.ndarray:
     """Least-squares orientations ``(F, 4)`` of rigid marker groups ``(F, n, 3)``.
 

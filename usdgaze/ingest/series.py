@@ -13,7 +13,8 @@ import numpy as np
 
 from usdgaze.ingest.c3dio import MarkerCapture, read_c3d
 from usdgaze.ingest.cleaning import fill_gaps, missing_markers, stabilize
-from usdgaze.ingest.frames import character_frame, fit_frames, landmark_frames, square_axes, square_is_mirrored
+from usdgaze.ingest.frames import (UPRIGHT_DEG, character_frame, fit_frames, landmark_frames, off_upright, square_axes,
+                                   square_is_mirrored)
 from usdgaze.ingest.markers import LANDMARKS, MarkerSet, MarkerSetError, resolve_labels
 
 
@@ -90,22 +91,14 @@ def marker_series(capture: MarkerCapture, markerset: MarkerSet, where: str) -> T
     )
 
 
-UPRIGHT_DEG = 45.0
-"""The head lies within this of straight above the base of the spine at rest: the subject stands or sits."""
-
-
 def _check_up(head: np.ndarray, markerset: MarkerSet, where: str) -> None:
     """Refuse a marker set whose up axis is not the capture's (a Y-up export read as the default Z).
 
     ``head``: the head square's centre relative to the base of the spine ``(F, 3)``. A wrong up axis
     gives no error further on, only a map of examples whose eyes would turn past their range.
     """
-    direction = head / np.linalg.norm(head, axis=-1, keepdims=True)
-    mean = np.nanmean(direction, axis=0)
-    angle = float(np.degrees(np.arccos(np.clip(np.dot(mean / np.linalg.norm(mean), markerset.up), -1.0, 1.0))))
+    angle, seen = off_upright(head, markerset.up)
     if angle > UPRIGHT_DEG:
-        i = int(np.argmax(np.abs(mean)))
-        seen = ("+" if mean[i] > 0 else "-") + "XYZ"[i]
         raise MarkerSetError(f"{where}: the head is {angle:.0f} deg from up_axis {markerset.up_axis} of {markerset.source} "
                              f"(seen from the base of the spine, the capture's up is {seen}); set up_axis = \"{seen.lstrip('+')}\" there")
 

@@ -26,6 +26,7 @@ from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.names import spelled_with_names
 from usdgaze.core.rig import bind_chain, character_frame, leaf
+from usdgaze.ingest.frames import UPRIGHT_DEG, off_upright
 from usdgaze.ingest.markers import SkeletonBinding, parse_axis
 from usdgaze.ingest.series import TrialSeries
 
@@ -146,6 +147,18 @@ def _skeleton_up(stage: Usd.Stage, skel: UsdSkel.Skeleton, binding: SkeletonBind
     return up / np.linalg.norm(up)
 
 
+def _check_up(head: np.ndarray, up: np.ndarray, stage: Usd.Stage, binding: SkeletonBinding, where: str) -> None:
+    """Refuse an up axis the rig does not stand along (a Z-up rig in a stage that says Y): nothing
+    further on fails, the examples only ask the eyes to turn past their range."""
+    angle, seen = off_upright(head, up)
+    if angle > UPRIGHT_DEG:
+        said = (f"[skeleton] up_axis {binding.up_axis}" if binding.up_axis
+                else f"the stage's upAxis {UsdGeom.GetStageUpAxis(stage)}")
+        raise SkeletonClipError(f"{where}: the head joint is {angle:.0f} deg from {said} (seen from the pelvis, the "
+                                f"rig's up is {seen} in skeleton space); set up_axis = \"{seen.lstrip('+')}\" in a "
+                                "[skeleton] table of the sheet or marker set")
+
+
 def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBinding(), skeleton: str | None = None,
                          where: str | None = None) -> TrialSeries:
     """Read a UsdSkel clip into a :class:`TrialSeries` (skeleton space)."""
@@ -167,6 +180,7 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     meters = float(UsdGeom.GetStageMetersPerUnit(stage))
     points = _virtual_markers(world, chain_world, chain.pelvis, meters)
     up = _skeleton_up(stage, skel, binding, times[0], where)
+    _check_up(world[:, chain.head, :3, 3] - world[:, chain.pelvis, :3, 3], up, stage, binding, where)
     forward = None if binding.forward is None else np.asarray(binding.forward, dtype=float)
     return TrialSeries(
         source=where,
