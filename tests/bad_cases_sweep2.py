@@ -111,3 +111,19 @@ def b_build_map_clip_stage_up_axis_not_the_rigs(d):
     stage.Save()
     (d / "sheet.toml").write_text('[[trial]]\nfile = "a.usda"\nyaw = 72\npitch = 0\n')
     return ["build-map", str(d / "sheet.toml"), "--out", str(d / "map.usda"), "--min-trials", "1", "--quiet"]
+
+
+def b_build_map_c3d_label_twice(d):
+    """Two trajectories labelled HLF (the last one was taken without a word)."""
+    import numpy as np
+
+    from . import ingest_synth as syn
+
+    motion = syn.known_motions(np.array([[72.0, 0.0]]))[0]
+    points, _ = syn.simulate_trial(motion, np.random.default_rng(0))
+    labels = list(syn.LABELS) + ["HLF"]
+    syn.write_points(d / "a.c3d", labels, np.concatenate([points, points[:, :1]], axis=1), syn.RATE)
+    (d / "markers.toml").write_text(syn.MARKERSET_TOML)
+    (d / "sheet.csv").write_text("file,yaw,pitch\na.c3d,72,0\n")
+    return ["build-map", str(d / "sheet.csv"), "--markers", str(d / "markers.toml"), "--out", str(d / "map.usda"),
+            "--min-trials", "1", "--quiet"]

@@ -164,3 +164,11 @@ def test_blank_and_plural_units_read_as_their_unit(tmp_path, written, same_as):
     a, b = c3dio.read_c3d(tmp_path / "a.c3d"), c3dio.read_c3d(tmp_path / "b.c3d")
     assert a.mm_per_unit == b.mm_per_unit == {"mm": 1.0, "m": 1000.0, "cm": 10.0}[same_as]
     np.testing.assert_array_equal(a.points, b.points)
+
+
+def test_a_label_the_file_holds_twice_is_ambiguous(tmp_path):
+    """Two trajectories labelled alike (the second took the last one silently): refused as two subjects'
+    alike-named markers are, naming the label."""
+    labels = ("HLF", "HLB", "HLF")
+    with pytest.raises(MarkerSetError, match=r"f: marker 'HLF' is ambiguous \(HLF, HLF\)"):
+        resolve_labels(["HLB", "HLF"], labels, None, "f")

@@ -171,6 +171,10 @@ def resolve_labels(wanted: list[str], labels: tuple[str, ...], subject: str | No
     out = []
     for name in wanted:
         if name in exact:
+            twice = [i for i, label in enumerate(labels) if label == name]
+            if len(twice) > 1:  # exact lookup would take the last one without a word
+                raise MarkerSetError(f"{where}: marker '{name}' is ambiguous ({', '.join(labels[i] for i in twice)}); "
+                                     f"the file labels {len(twice)} trajectories alike")
             out.append(exact[name])
             continue
         hits = by_bare.get(_bare(name), [])
