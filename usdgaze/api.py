@@ -173,9 +173,12 @@ def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, Overrid
             written.add(AnimOverride.of(clip, result, move_roots=bool(chain.leg_roots)))
             report.characters.append(_character_report(clip, chain, frame, map_source, result.reviewed()))
             if req.guides:
+                from usdgaze.usd.guides import line_width
+
                 report.characters[-1].guide = (
                     clip.times, np.stack([to_skel(clip, p) for p in result.eye_positions]),
-                    to_skel(clip, result.point_of_sight), result.point_of_sight, 0.003 / clip.meters_per_unit)
+                    to_skel(clip, result.point_of_sight), result.point_of_sight,
+                    line_width(0.003, clip.meters_per_unit, clip.skel_to_world))
             if req.progress:
                 req.progress(clip)
     return report, written

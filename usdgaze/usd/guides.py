@@ -36,6 +36,14 @@ def guide_path(skeleton: str) -> Sdf.Path:
     return Sdf.Path(skeleton).AppendChild(SCOPE)
 
 
+def line_width(meters: float, meters_per_unit: float, skel_to_world: np.ndarray) -> float:
+    """``meters`` as a curve width in skeleton units. The curves live in skeleton space, so the
+    skeleton's world scale scales their width too: a metre character referenced 100x into a
+    centimetre shot drew 3 mm lines 30 cm wide. The median over frames where the scale is animated."""
+    scale = float(np.median(np.abs(np.linalg.det(np.asarray(skel_to_world)[..., :3, :3])) ** (1.0 / 3.0)))
+    return meters / meters_per_unit / (scale if scale > 0 else 1.0)
+
+
 def author_guides(layer: Sdf.Layer, skeleton: str, times: np.ndarray, eyes_skel: np.ndarray,
                   sight_skel: np.ndarray, sight_world: np.ndarray, width: float) -> None:
     """Author the guides for one skeleton: ``eyes_skel (2, F, 3)`` and ``sight_skel (F, 3)`` in
