@@ -20,6 +20,7 @@ from usdgaze.passes.look import LookOptions, apply_look, to_skel
 from usdgaze.passes.options import PassOptions, PassResult
 from usdgaze.passes.requests import DirectiveRequest, check_directives
 from usdgaze.usd import schema
+from usdgaze.usd.guides import line_width
 from usdgaze.usd.layers import (
     AnimOverride,
     OverrideLayer,
@@ -173,8 +174,6 @@ def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, Overrid
             written.add(AnimOverride.of(clip, result, move_roots=bool(chain.leg_roots)))
             report.characters.append(_character_report(clip, chain, frame, map_source, result.reviewed()))
             if req.guides:
-                from usdgaze.usd.guides import line_width
-
                 report.characters[-1].guide = (
                     clip.times, np.stack([to_skel(clip, p) for p in result.eye_positions]),
                     to_skel(clip, result.point_of_sight), result.point_of_sight,
