@@ -52,10 +52,13 @@ class _Segment:
     canon: np.ndarray
     """The canonical gaze change of the target: the end of this shift and the start of a next one
     that begins after it settles."""
+    leaving: tuple[np.ndarray, np.ndarray] | None = None
+    """With ``inherit``: the interrupted shift's offsets and wanted gaze change at this one's start and
+    :data:`_RATE_DT_S` after it (:func:`_leaving`), from which its coast and this shift's timing come."""
 
     def __post_init__(self) -> None:
         if self.inherit:  # the state and rates the interrupted shift leaves, for its coast
-            d, wanted, _, _ = self.previous.evaluate(self.start_s + np.array([0.0, _RATE_DT_S]))
+            d, wanted = self.leaving
             self.coast = (d[0], rot.to_rotvec(rot.relative(d[0], d[1])) / _RATE_DT_S,
                           wanted[0], (wanted[1] - wanted[0]) / _RATE_DT_S)
             # Per segment: does the interrupted shift's goal lie nearer this one's than where it is now?
@@ -249,10 +252,11 @@ class Scheduler:
         if self.info:  # the previous shift now ends where this one starts
             self.info[-1] = {**self.info[-1], "interrupted": bool(t0 < self.info[-1]["time_s"] + self.info[-1]["duration"])}
         inherit = previous is not None and t0 < previous.start_s + previous.motion.duration
+        leaving = _leaving(previous, t0) if inherit else None
         if previous is None:
             start_delta = np.zeros(2)
         elif inherit:
-            start_delta = _where_it_stops(previous, t0, request)
+            start_delta = _where_it_stops(leaving[1], request)
         else:
             start_delta = previous.request
         change = request - start_delta if shift.timing_change is None else np.asarray(shift.timing_change)
@@ -263,7 +267,7 @@ class Scheduler:
             timing[motion.DURATION] = 0.0 if shift.cut else shift.min_duration_s
         # The target is a row of the map's checked motions (or the identity).
         segment = _Segment(float(t0), request, target, motion.GazeMotions.of_checked(target, timing), previous,
-                           bool(inherit), canon)
+                           bool(inherit), canon, leaving)
         rows = np.flatnonzero((seconds >= t0) & (seconds < until))
         self.info.append({
             "time_s": float(t0), "yaw": float(request[0]), "pitch": float(request[1]),
@@ -275,11 +279,17 @@ class Scheduler:
         return segment, rows
 
 
-def _where_it_stops(previous: _Segment, t0: np.float64, request: np.ndarray) -> np.ndarray:
-    """The wanted gaze change a shift interrupted at ``t0`` leaves: where it is, or, when it is moving
-    away from ``request``, where coasting (:data:`COAST_S`) stops it. The new shift is timed from
-    there: a head turning away at speed has that much further to come back."""
-    wanted = previous.evaluate(t0 + np.array([0.0, _RATE_DT_S]))[1]
+def _leaving(previous: _Segment, t0: np.float64) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets and wanted gaze change of ``previous`` at ``t0`` and :data:`_RATE_DT_S` after it."""
+    d, wanted, _, _ = previous.evaluate(t0 + np.array([0.0, _RATE_DT_S]))
+    return d, wanted
+
+
+def _where_it_stops(wanted: np.ndarray, request: np.ndarray) -> np.ndarray:
+    """The wanted gaze change an interrupted shift leaves (``wanted``: at the interruption and
+    :data:`_RATE_DT_S` after it): where it is, or, when it is moving away from ``request``, where
+    coasting (:data:`COAST_S`) stops it. The new shift is timed from there: a head turning away at
+    speed has that much further to come back."""
     rate = (wanted[1] - wanted[0]) / _RATE_DT_S
     stops = wanted[0] + rate * COAST_S
     return stops if np.linalg.norm(request - stops) > np.linalg.norm(request - wanted[0]) else wanted[0]

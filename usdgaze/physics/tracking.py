@@ -263,9 +263,7 @@ def clear_ground(dyn: MujocoBody, ref_qpos: np.ndarray, step_deg: float = 1.0, r
 
 def _geom_bottom(mj, d, g: int) -> float:
     """Lowest point of a capsule or sphere geom (world z)."""
-    axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
-    half = mj.geom_size[g, 1] if mj.geom_type[g] == 3 else 0.0
-    return float(d.geom_xpos[g, 2] - abs(axis[2]) * half - mj.geom_size[g, 0])
+    return float(_bottom_point(mj, d, g)[2])
 
 
 def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_rad: float = 0.1,
