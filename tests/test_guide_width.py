@@ -39,3 +39,19 @@ def test_lines_of_sight_are_3_mm_wide_in_the_world(tmp_path, meters_per_unit, sc
         world_scale = abs(np.linalg.det(xf[:3, :3])) ** (1 / 3)
         width_m = curve.GetWidthsAttr().Get()[0] * world_scale * meters_per_unit
         assert width_m == pytest.approx(0.003, rel=1e-4)
+
+
+def test_guide_extent_holds_the_drawn_line(tmp_path):
+    """Each frame's authored extent is what UsdGeom computes from that frame's points and widths (a
+    bound that leaves out half the line's width clips it in a viewer's culling)."""
+    shot = _shot(tmp_path, 0.01, 100.0)
+    api.apply(shot, ["0.1s:20:0"], tmp_path / "gaze.usda", preview=tmp_path / "preview.usda")
+    stage = Usd.Stage.Open(str(tmp_path / "preview.usda"))
+    curve = UsdGeom.BasisCurves(stage.GetPrimAtPath("/World/Hero/Skel/gazeGuides/leftEyeSight"))
+    widths = curve.GetWidthsAttr().Get()
+    times = curve.GetPointsAttr().GetTimeSamples()
+    assert len(times) == 24
+    for t in times:
+        want = np.array(UsdGeom.Curves.ComputeExtent(curve.GetPointsAttr().Get(t), widths))
+        got = np.array(curve.GetExtentAttr().Get(t))
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.abs(want).max())

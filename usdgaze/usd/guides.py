@@ -65,7 +65,9 @@ def author_guides(layer: Sdf.Layer, skeleton: str, times: np.ndarray, eyes_skel:
         points = _attr(curve, "points", _T.Point3fArray)
         extent = _attr(curve, "extent", _T.Float3Array)
         lines = np.stack([eye, sight_skel], axis=1).astype(np.float32)  # (F, 2, 3)
-        bounds = np.stack([lines.min(axis=1), lines.max(axis=1)], axis=1)  # (F, 2, 3): lo, hi
+        # The extent holds the whole drawn line, as UsdGeom.Curves.ComputeExtent pads it: half a width.
+        half = np.float32(width) / np.float32(2.0)
+        bounds = np.stack([lines.min(axis=1) - half, lines.max(axis=1) + half], axis=1)  # (F, 2, 3)
         set_rows(layer, points.path, codes, lines, Vt.Vec3fArray)
         set_rows(layer, extent.path, codes, bounds, Vt.Vec3fArray)
     set_sample, path = layer.SetTimeSample, pos_attr.path
