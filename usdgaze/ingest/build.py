@@ -2,7 +2,8 @@
 
 A trial that fails is reported (one line: trial, file, what is wrong) and skipped; the map is built
 from the rest when at least ``BuildSettings.min_trials`` remain. All trials must share one frame rate
-(the session's most common), because k and m count frames.
+(the session's most common, within ``BuildSettings.rate_tolerance``: a 59.94 Hz trial joins a 60 Hz
+session, its windows 0.1% longer in seconds), because k and m count frames.
 """
 
 from __future__ import annotations

@@ -48,8 +48,9 @@ class BuildSettings:
     """That fit runs from the crop's first frame to where the angle first reaches this fraction of A."""
     min_trials: int = 3
     """Fewest good trials a map is built from."""
-    rate_tolerance: float = 1e-3
-    """Relative frame-rate difference still counted as the same rate (USD's 120.0048 vs 120)."""
+    rate_tolerance: float = 2e-3
+    """Relative frame-rate difference still counted as the same rate (USD's 120.0048 vs 120; an NTSC
+    capture's 59.94 or 60000/1001 beside 60, 0.1% apart). Each trial is timed by its own rate."""
 
     def __post_init__(self) -> None:
         checks = (
