@@ -78,3 +78,29 @@ def test_the_same_clips_with_up_axis_bound_build(tmp_path, capsys):
     sheet, out = _clips(tmp_path, "Y", '[skeleton]\nup_axis = "Z"\n'), tmp_path / "map.usda"
     assert main(["build-map", str(sheet), "--out", str(out), "--quiet"]) == 0
     assert out.exists()
+
+
+def _tilt(sheet, degrees: float) -> None:
+    """Stand every clip's character on a slope: its SkelRoot pitched ``degrees`` about X."""
+    from pxr import Usd, UsdGeom
+
+    for path in sheet.parent.glob("*.usda"):
+        stage = Usd.Stage.Open(str(path))
+        UsdGeom.Xformable(stage.GetPrimAtPath("/Rig")).AddRotateXOp().Set(float(degrees))
+        stage.Save()
+
+
+def test_clips_of_a_character_on_a_slope_build_the_level_map(tmp_path):
+    """A rig is modelled upright in its own space: the stage's up carried in through a 10 deg slope is
+    snapped to the skeleton's axis, as apply does, so the examples are the level clips' (the tilted
+    vector turned every example's offsets about a tilted axis)."""
+    from usdgaze.ingest import build
+
+    level = build(_clips(tmp_path / "level", "Z"), None).definition
+    sloped_sheet = _clips(tmp_path / "sloped", "Z")
+    _tilt(sloped_sheet, 10.0)
+    sloped = build(sloped_sheet, None).definition
+    np.testing.assert_array_equal(sloped.params, level.params)
+    for field in ("offsets", "timing"):
+        a, b = getattr(level.motions, field), getattr(sloped.motions, field)
+        np.testing.assert_allclose(b, a, atol=1e-6, err_msg=field)

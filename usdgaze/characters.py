@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.hints import BindHints
+from usdgaze.core.kinematics import snap_up
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.gaze.definition import GazeMapDefinition
@@ -79,24 +79,10 @@ def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
     return gaze_map
 
 
-UP_SNAP_DEG = 30.0
-"""The stage's up carried into skeleton space within this of one of its axes is that axis: a character
-placed on a slope (a parent pitched 10 deg) is modelled upright in its own space, and taking the
-tilted vector made its forward, and the eyes' modelled axis with it, miss every target by the tilt.
-An axis exactly (a Z-up rig turned into a Y-up stage) is kept as it is."""
-
-
 def _skeleton_up(clip: SkelClip) -> np.ndarray:
     """The character's up in skeleton space: the stage's up carried in at the first frame, snapped
-    to the nearest skeleton axis within :data:`UP_SNAP_DEG`."""
-    sw = clip.skel_to_world[0, :3, :3]
-    up_s = rot.normalize(np.linalg.solve(sw, clip.world_up))
-    axis = int(np.argmax(np.abs(up_s)))
-    if np.degrees(np.arccos(min(1.0, abs(float(up_s[axis]))))) < UP_SNAP_DEG:
-        snapped = np.zeros(3)
-        snapped[axis] = np.sign(up_s[axis])
-        return snapped
-    return up_s
+    to the nearest skeleton axis (:func:`usdgaze.core.kinematics.snap_up`)."""
+    return snap_up(np.linalg.solve(clip.skel_to_world[0, :3, :3], clip.world_up))
 
 
 def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> CharacterFrame:

@@ -81,3 +81,22 @@ def _all_one(s: np.ndarray) -> bool:
     if s.ndim and len(s) and s.strides[0] == 0:
         s = s[:1]
     return bool(np.all(s == 1.0))
+
+
+UP_SNAP_DEG = 30.0
+"""The stage's up carried into skeleton space within this of one of its axes is that axis: a character
+placed on a slope (a parent pitched 10 deg) is modelled upright in its own space, and taking the
+tilted vector made its forward, and the eyes' modelled axis with it, miss every target by the tilt.
+An axis exactly (a Z-up rig turned into a Y-up stage) is kept as it is."""
+
+
+def snap_up(up: np.ndarray) -> np.ndarray:
+    """``up`` (skeleton space) as the nearest skeleton axis when within :data:`UP_SNAP_DEG` of it,
+    else ``up`` normalized."""
+    up = rot.normalize(np.asarray(up, dtype=float))
+    axis = int(np.argmax(np.abs(up)))
+    if np.degrees(np.arccos(min(1.0, abs(float(up[axis]))))) < UP_SNAP_DEG:
+        snapped = np.zeros(3)
+        snapped[axis] = np.sign(up[axis])
+        return snapped
+    return up

@@ -24,6 +24,7 @@ from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.usd.stage import open_stage
+from usdgaze.core.kinematics import snap_up
 from usdgaze.core.names import spelled_with_names
 from usdgaze.core.rig import bind_chain, character_frame, leaf
 from usdgaze.ingest.frames import UPRIGHT_DEG, off_upright
@@ -143,8 +144,8 @@ def _skeleton_up(stage: Usd.Stage, skel: UsdSkel.Skeleton, binding: SkeletonBind
     # The stage's up axis carried into skeleton space (a rig may sit under a rotating Xform).
     to_world = rot.matrices_from_usd(np.array(
         UsdGeom.Xformable(skel.GetPrim()).ComputeLocalToWorldTransform(Usd.TimeCode(float(time))), dtype=float))
-    up = np.linalg.solve(to_world[:3, :3], parse_axis(str(UsdGeom.GetStageUpAxis(stage)), where))
-    return up / np.linalg.norm(up)
+    # Snapped to the skeleton's axis, as apply takes it: a rig on a slope is upright in its own space.
+    return snap_up(np.linalg.solve(to_world[:3, :3], parse_axis(str(UsdGeom.GetStageUpAxis(stage)), where)))
 
 
 def _check_up(head: np.ndarray, up: np.ndarray, stage: Usd.Stage, binding: SkeletonBinding, where: str) -> None:
