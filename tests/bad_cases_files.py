@@ -390,6 +390,35 @@ def b_no_clobber_plot_exists(d):
     return apply_argv(d, rig(d).path, "--no-clobber", "--plot", str(d / "plot.png"))
 
 
+def other_shot(d: Path, name: str) -> Path:
+    """Another character's layer at ``d/name`` (a typo for an output name), in the suffix's encoding."""
+    path = d / name
+    Sdf.Layer.FindOrOpen(str(rig(d, "other_rig.usda").path)).Export(str(path))
+    (d / "other_rig.usda").unlink()
+    return path
+
+
+def b_out_is_another_shot(d):
+    other_shot(d, "other.usdc")
+    return apply_argv(d, rig(d).path, out="other.usdc")
+
+
+def b_preview_is_another_shot(d):
+    other_shot(d, "other.usda")
+    return apply_argv(d, rig(d).path, "--preview", str(d / "other.usda"))
+
+
+def b_dump_map_onto_another_shot(d):
+    other_shot(d, "other.usda")
+    return ["dump-map", str(d / "other.usda")]
+
+
+def b_build_map_out_is_another_shot(d):
+    rig(d, "t1.usda")
+    other_shot(d, "other.usda")
+    return ["build-map", str(sheet(d)), "--out", str(d / "other.usda")]
+
+
 def b_dump_map_no_clobber(d):
     (d / "map.usda").write_text("#usda 1.0\n")
     return ["dump-map", str(d / "map.usda"), "--no-clobber"]

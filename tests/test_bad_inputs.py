@@ -422,6 +422,12 @@ def b_attend_physics_out_read_only_folder(d):
     return ["attend", str(_ball(d)), "--physics", "--out", str(d / "ro" / "gaze.usdc")]
 
 
+def b_attend_physics_out_is_another_shot(d):
+    src = _ball(d)
+    bad_cases_files.other_shot(d, "other.usdc")  # refused before the (long) simulation starts
+    return ["attend", str(src), "--physics", "--out", str(d / "other.usdc")]
+
+
 def b_physics_model_quadruped(d):
     return ["physics-model", str(_rig(d, body="quadruped").path), "--out", str(d / "body.xml")]
 

@@ -60,6 +60,7 @@ def run(req: ApplyRequest) -> ApplyReport:
         _claim_outputs(tx, req)
         stage = _open_input(tx, req.source)
         forced = schema.load_map(req.map_spec, tx) if req.map_spec else None
+        tx.check_replaceable()  # every input recorded: before the pass
         roots = select_roots(stage, req.source, req.skel_root)
         report, written = _run_pass(stage, roots, forced, requests, req)
         custom = _provenance(req.source, requests, report, req.options, req.look)

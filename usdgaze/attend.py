@@ -95,6 +95,7 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
             tx.make_folder(Path(out).parent)
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
+        tx.check_replaceable()  # every input recorded: before the work
         report, layer = _attend(stage, source, out_path, objects, settings, skel_root, progress, record)
         tx.stage_layer(out_path, layer)
     return report

@@ -50,7 +50,8 @@ def apply(input_path, shifts, look_at, release, eye_timing, no_guides, out, skel
     Without --shift, --look-at or --release, each SkelRoot's GazeScheduleAPI schedule is applied.
 
     All outputs are written together at the end, or none is. An existing output file is replaced
-    (keeping its mode) unless --no-clobber is given; no output may be a file the command reads.
+    (keeping its mode) unless --no-clobber is given; no output may be a file the command reads, or
+    a USD layer with prims that usdgaze did not write.
     """
     from usdgaze.api import apply as run
     from usdgaze.core.hints import parse_hints

@@ -70,6 +70,7 @@ def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_mer
         _claim(tx, out, report_path, series_dir)
         parsed = load_sheet(sheet)
         _reads(tx, parsed, sheet, markers)
+        tx.check_replaceable()  # before the trials are read
         result = build(parsed, markers, settings, SynthesisSettings())
         if not quiet:
             click.echo(format_table(result.reports))

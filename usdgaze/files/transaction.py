@@ -112,6 +112,9 @@ class _Staged:
         self.flag = flag
         self.keep_mode = keep_mode
         self.temp: Path | None = None
+        self.foreign: str | None = None
+        """The first prim of the USD layer at ``target`` when usdgaze did not write it."""
+        self.shown: Path = target
 
 
 def _text_usd(path: str | os.PathLike) -> bool:
@@ -228,8 +231,20 @@ class Outputs:
             raise UsdGazeError(f"{shown}: no such file for {flag} to edit")
         self.ids.write(path if follow else target, flag, follow=follow)
         self._tmpdir(folder, shown)  # a folder we cannot write into is found now, before any work
-        self._claims[target] = _Staged(target, flag, keep_mode)
+        item = self._claims[target] = _Staged(target, flag, keep_mode)
+        if keep_mode is not None and not edit:
+            item.foreign = _foreign_layer(target)
+            item.shown = shown
         return shown
+
+    def check_replaceable(self) -> None:
+        """Refuse to replace a USD layer usdgaze did not write (a typo for an output name must not cost
+        a shot's source layer). Said once the command has recorded what it reads, so an output that is
+        one of its inputs is said as that; every output is checked again before it is staged."""
+        for item in self._claims.values():
+            if item.foreign:
+                raise UsdGazeError(f"{item.shown}: {item.flag} names a USD layer usdgaze did not write (it holds "
+                                   f"{item.foreign}); refusing to replace it: remove it first or name another file")
 
     # -- staging -----------------------------------------------------------------------------------
     def stage_with(self, path: str | os.PathLike, write: Callable[[str], None]) -> None:
@@ -237,6 +252,7 @@ class Outputs:
         item = self._claims.get(real_path(path)) or self._claims.get(_unfollowed(path))
         if item is None:
             raise RuntimeError(f"{path}: staged without being claimed")  # a bug in a command
+        self.check_replaceable()
         tmpdir = self._tmpdir(item.target.parent, path)
         temp = tmpdir / item.target.name
         try:
@@ -369,6 +385,28 @@ def _special_kind(path: Path) -> str | None:
         return special_kind(path.lstat().st_mode)
     except OSError:
         return None
+
+
+_USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+
+
+def _foreign_layer(path: Path) -> str | None:
+    """The first root prim of an existing USD layer that usdgaze did not write (no ``usdgaze`` or
+    ``usdgaze:...`` entry in its customLayerData), else None: ours, one with no prims (a placeholder), or not readable as USD
+    (replaced as any file is)."""
+    if path.suffix.lower() not in _USD_SUFFIXES:
+        return None
+    from pxr import Sdf
+
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(str(path), metadataOnly=True)
+        if layer is None or any(k == "usdgaze" or k.startswith("usdgaze:") for k in layer.customLayerData):
+            return None
+        layer = Sdf.Layer.OpenAsAnonymous(str(path))
+    except Exception:  # pxr raises Tf.ErrorException for a file that is no layer
+        return None
+    roots = layer.rootPrims if layer is not None else []
+    return str(roots[0].path) if roots else None
 
 
 def _unfollowed(path: str | os.PathLike) -> Path:

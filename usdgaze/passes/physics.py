@@ -334,6 +334,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
             tx.make_folder(Path(out).parent)
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
+        tx.check_replaceable()  # every input recorded: before the work
         shots = _read_shots(stage, source, skel_root, options.h, binding)
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)

@@ -216,8 +216,10 @@ def dump_map(
         f"usdgaze gaze map: {API_NAME} on an abstract SkelRoot class. Bring it into a character's "
         f"SkelRoot with a reference or an inherit."
     )
-    if custom_layer_data:
-        layer.customLayerData = dict(custom_layer_data)
+    from usdgaze import __version__
+
+    # Marked as usdgaze's, so that writing the map again may replace it (files.transaction).
+    layer.customLayerData = {"usdgaze": {"version": __version__}, **dict(custom_layer_data or {})}
     stage = Usd.Stage.Open(layer)
     prim = stage.CreateClassPrim(prim_path)
     prim.SetTypeName("SkelRoot")
