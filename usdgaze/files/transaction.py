@@ -392,8 +392,8 @@ _USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
 def _foreign_layer(path: Path) -> str | None:
     """The first root prim of an existing USD layer that usdgaze did not write (no ``usdgaze`` or
-    ``usdgaze:...`` entry in its customLayerData), else None: ours, one with no prims (a placeholder), or not readable as USD
-    (replaced as any file is)."""
+    ``usdgaze:...`` entry in its customLayerData), else None: ours, one with no prims (a placeholder),
+    or one not readable as USD (replaced as any file is)."""
     if path.suffix.lower() not in _USD_SUFFIXES:
         return None
     from pxr import Sdf
