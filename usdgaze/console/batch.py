@@ -22,8 +22,9 @@ from usdgaze.errors import Interrupted, UsdGazeError
               help="Run only shot I (0-based): one farm array task.")
 @click.option("--force", is_flag=True, help="Redo shots whose outputs are up to date (with --emit: every task does).")
 @click.option("--summary", "summary_path", default=None, type=click.Path(), metavar="FILE.json",
-              help="Where to write the run's JSON summary [default: MANIFEST.summary.json, or "
-                   "MANIFEST.task-I.summary.json with --task-index].")
+              help="Where to write the run's JSON summary [default: beside MANIFEST, its name with "
+                   ".summary.json for its extension (jobs.toml: jobs.summary.json), or "
+                   ".task-I.summary.json with --task-index].")
 @click.option("--report", "report_path", default=None, type=click.Path(), hidden=True,
               help="Old name of --summary.")
 @click.option("--emit", nargs=2, default=None, metavar="FARM DIR",

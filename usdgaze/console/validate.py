@@ -21,7 +21,8 @@ EXIT_PROBLEMS = 3
 @click.option("--json", "as_json", is_flag=True, help="Print the problems as a JSON list.")
 def validate(stage_path, layer, only_usdgaze, as_json) -> None:
     """Check STAGE with OpenUSD's validators and usdgaze's (gaze maps, animation arrays), like a
-    linter: one line per problem, FILE:PRIM[.PROPERTY]: message (validator). Exit 3 if any."""
+    linter: one line per problem, FILE:PRIM[.PROPERTY]: SEVERITY: message (validator.ErrorName).
+    Exit 3 if any, 2 if STAGE cannot be opened."""
     from usdgaze.review.validation import run
 
     problems = run(stage_path, layer, only_usdgaze=only_usdgaze)
