@@ -25,7 +25,8 @@ from usdgaze.console.types import FiniteRange
 @click.option("--realize", default="direct", show_default=True, type=click.Choice(["direct", "map"]),
               help="direct: write the planner's eyes, neck and spine; map: turn its fixations into look-at "
                    "directives realized through the gaze map (cascade, overshoot, saccades).")
-@click.option("--skel-root", default=None, help="SkelRoot prim path (default: the only one).")
+@click.option("--skel-root", default=None,
+              help="SkelRoot prim path (default: every SkelRoot with a GazeMapAPI, else the only one).")
 @click.option("--bind", "bind", multiple=True, metavar="ROLE=JOINT[+JOINT...]",
               help="Bind a gaze role (pelvis, lowerSpine, upperSpine, neck, head, leftEye, rightEye) to joints, "
                    "by path or name, where names do not say it. Repeatable; wins over the map's bindings.")
