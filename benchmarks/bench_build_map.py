@@ -67,4 +67,7 @@ def main_bench() -> None:
 
 
 if __name__ == "__main__":
+    import argparse
+
+    argparse.ArgumentParser(description=__doc__.split("\n")[0]).parse_args()  # --help, no options
     main_bench()

@@ -12,7 +12,8 @@ from usdgaze.console.types import FiniteRange
 @click.option("--out", "out", required=True, type=click.Path(dir_okay=False), help="MJCF file to write (.xml).")
 @click.option("--mass", "mass", default=75.0, show_default=True, type=FiniteRange(1.0, 500.0),
               help="Total body mass, kg.")
-@click.option("--timestep", default=0.02, show_default=True, type=float, help="Simulation step h, seconds.")
+@click.option("--timestep", default=0.02, show_default=True, type=float,
+              help="Simulation step h, seconds: 0.001-0.05 (attend --physics simulates at 0.01-0.05).")
 @click.option("--skel-root", default=None, help="SkelRoot prim path when the stage has several.")
 def physics_model(input_path, out, mass, timestep, skel_root) -> None:
     """Write the MuJoCo body model of INPUT's skeleton: a body per joint, de Leva (1996) segment masses,
