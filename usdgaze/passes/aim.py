@@ -36,7 +36,7 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     Both eyes are computed together, as arrays ``(2, F, ...)``; ``positions`` are the eyes' own, where
     the caller has them."""
     parents = [int(rig.parents[e]) for e in rig.eyes]
-    fwd_h, left_h, up_h, rest_eye, to_head, to_world = _sockets(rig, frame, moved, parents)
+    fwd_h, left_h, up_h, rest_eye, to_head, to_world, shown_at_rest = _sockets(rig, frame, moved, parents)
     pos = positions if positions is not None else np.stack([moved.place(p, rig.local(e)[0]) for p, e in zip(parents, rig.eyes)])
     u_h = to_head(rot.normalize(sight_point - pos))
 
@@ -51,7 +51,9 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
         yaw, pitch = capped_speed(np.stack([yaw, pitch], axis=-1), seconds).transpose(2, 0, 1)
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
     u_h = (np.cos(pc) * np.sin(y)) * left_h[:, None] + (np.cos(pc) * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
-    turned = rot.normalize(rot.multiply(rot.shortest_arc(fwd_h[:, None], u_h), rest_eye[:, None]))
+    turned = rot.multiply(rot.shortest_arc(fwd_h[:, None], u_h), rest_eye[:, None])
+    bent = _own_scale_turn(rig, rest_eye, fwd_h, shown_at_rest)
+    turned = rot.normalize(turned if bent is None else rot.multiply(turned, bent))
     return EyeAim(
         rotations=dict(zip(rig.eyes, turned)),
         angles=np.stack([yaw, pitch], axis=-1).transpose(1, 0, 2),  # (F, eye, yaw|pitch)
@@ -63,7 +65,7 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
 def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
     """Per eye, in its parent's frame: the character's forward, left and up as the eye sees them in the
     neutral pose, the eye's neutral local rotation, and the maps of directions into the parent's frame
-    ``(2, F, 3)`` and back to skeleton space.
+    ``(2, F, 3)`` and back to skeleton space, and the eye-local axis the neutral pose shows as forward.
 
     With scales on the eyes' parents or the eyes (a squashed and stretched head, an eye mirrored by a
     negative scale) the parent's frame is its full linear map, not its rotation: the eye turns in a
@@ -81,7 +83,8 @@ def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
         axes = [rot.rotate(to_parent, v) for v in (frame.forward, frame.left, frame.up)]
         head = np.stack([moved.rotation[p] for p in parents])  # (2, F, 4)
         rest_eye = rot.multiply(to_parent, rig.rest_q[eyes])  # each eye in its parent, looking ahead
-        return (*axes, rest_eye, lambda v: rot.rotate(rot.conjugate(head), v), lambda u: rot.rotate(head, u))
+        return (*axes, rest_eye, lambda v: rot.rotate(rot.conjugate(head), v), lambda u: rot.rotate(head, u),
+                rot.rotate(rot.conjugate(rest_eye), axes[0]))
     fwd = rot.normalize(np.linalg.solve(lin_p, np.broadcast_to(frame.forward, (2, 3))[..., None])[..., 0])
     up = np.linalg.solve(lin_p, np.broadcast_to(frame.up, (2, 3))[..., None])[..., 0]
     up = rot.normalize(up - rot.dot(up, fwd, keepdims=True) * fwd)
@@ -89,7 +92,26 @@ def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
     head = np.stack([moved.linear[p] if p in moved.linear else rot.to_matrix(moved.rotation[p]) for p in parents])
     return (fwd, np.cross(up, fwd), up, rest_eye,
             lambda v: rot.normalize(np.linalg.solve(head, v[..., None])[..., 0]),
-            lambda u: rot.normalize(np.einsum("efij,efj->efi", head, u)))
+            lambda u: rot.normalize(np.einsum("efij,efj->efi", head, u)),
+            np.linalg.solve(np.linalg.solve(lin_p, lin_e), fwd[..., None])[..., 0])
+
+
+def _own_scale_turn(rig: Rig, rest_eye: np.ndarray, fwd_h: np.ndarray, shown_at_rest: np.ndarray
+                    ) -> np.ndarray | None:
+    """Per eye and frame ``(2, F, 4)``, the turn in the eye's own frame that takes the forward its own
+    animated scale shows onto the one its rotation alone aims; None where no eye's scale bends it.
+
+    ``shown_at_rest``: per eye, the local axis the neutral pose shows as forward. UsdSkel scales a
+    joint in its own frame before its rotation, so an eye squashed off its forward axes (a cartoon
+    eye made oval, whose joint orient is not its gaze) points that axis scaled: aimed by the rotation
+    alone it missed a look-at target by 16 deg (scale (1, 1.6, 0.7)), or 20 deg when only the bind
+    pose scaled it."""
+    scale = np.stack([np.asarray(rig.local(e)[2], dtype=float) for e in rig.eyes])  # (2, F, 3)
+    shown = rot.normalize(scale * shown_at_rest[:, None, :])
+    aimed = np.broadcast_to(rot.rotate(rot.conjugate(rest_eye), fwd_h)[:, None, :], shown.shape)
+    if rot.length(np.cross(shown, aimed)).max() <= 1e-9 and rot.dot(shown, aimed).min() > 0.0:
+        return None
+    return rot.shortest_arc(shown, aimed)
 
 
 def capped_speed(angles: np.ndarray, seconds: np.ndarray, max_deg_s: float = saccade.MAX_SACCADE_DEG_S) -> np.ndarray:
