@@ -93,6 +93,12 @@ def b_rotations_not_unit(d):
     return apply_argv(d, edited(d, edit))
 
 
+def b_rotations_blocked_sample(d):
+    """A blocked sample among the rotations (UsdSkel poses the rest pose there): it was said to hold
+    "0 entries", as if an empty array had been authored."""
+    return apply_argv(d, edited(d, lambda layer, r: set_sample(layer, r, "rotations", Sdf.ValueBlock())))
+
+
 def _matrix_edit(name: str, index: int, value):
     def edit(layer, r):
         spec = layer.GetAttributeAtPath(f"{r.skeleton}.{name}")

@@ -29,9 +29,13 @@ def authored_samples(attr: Usd.Attribute) -> tuple[Sdf.Layer, Sdf.Path, Sdf.Laye
     return None
 
 
-def wrong_count(value: np.ndarray, time, where: str, count: int) -> None:
-    """Raise the one-line error for an array sample with the wrong number of entries."""
+def wrong_count(value, time, where: str, count: int) -> None:
+    """Raise the one-line error for an array sample with the wrong number of entries, or none (a
+    blocked sample: UsdSkel poses the rest pose there)."""
     at = "default" if time is None else f"time {time:g}"
+    if value is None or isinstance(value, Sdf.ValueBlock):
+        raise UsdGazeError(f"{where}: has no value at {at} (blocked)")
+    value = np.asarray(value)
     n = value.shape[0] if value.ndim else 0
     raise UsdGazeError(f"{where}: {n} entries at {at}, expected {count} (one per joint)")
 
@@ -54,7 +58,7 @@ class _Rows:
             self.out[rows] = value  # a Vt array: numpy copies it through the buffer protocol
         except (TypeError, ValueError):
             at = rows if np.ndim(rows) == 0 else rows[0]
-            wrong_count(np.asarray(value), self.times[at], self.where, self.count)
+            wrong_count(value, self.times[at], self.where, self.count)
 
     def put_all(self, values) -> None:
         """Every row in order from an iterator of samples, one numpy conversion per chunk: a chunk
