@@ -172,13 +172,13 @@ def run_stones_fk(opts: mpc.Options, turn_deg: float) -> dict:
 
 
 def run_stones_gaze(opts: mpc.Options, span: tuple[float, float], until_lift: bool, task: bool,
-                    shift: dict | None = None, seed: int = 0) -> dict:
+                    shift: dict | None = None, seed: int = 0, after_s: float = 0.0) -> dict:
     """The coupled loop (eyes, belief, body) on a crop of sample_stages/attend/stepping_stones.usda
     (stones as GazeObjectAPI objects; ``until_lift``: each important until its foot lifts, else until
     its landing as authored; ``task``: also physics stones), measured on the written layer by UsdSkel
     FK: per stone stepped on, when the written foot that steps on it lifts and whether the line of
     sight reached the stone before then (tests/stone_stages.py); ``shift``: stones displaced (stage
-    units), ``seed``: the observation seed."""
+    units), ``seed``: the observation seed; ``after_s``: the take goes on past the shot's range."""
     import tempfile
     from dataclasses import asdict
 
@@ -187,14 +187,16 @@ def run_stones_gaze(opts: mpc.Options, span: tuple[float, float], until_lift: bo
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        src = stone_stages.walk_stage(tmp / "walk.usda", *span, until_lift=until_lift, task=task, shift=shift)
+        src = stone_stages.walk_stage(tmp / "walk.usda", *span, until_lift=until_lift, task=task, shift=shift,
+                                      after_s=after_s)
         cpu0, t0 = time.process_time(), time.perf_counter()
         report = physics_pass.run(src, tmp / "out.usda", opts, seed=seed)[0]
         cpu, wall = time.process_time() - cpu0, time.perf_counter() - t0
         rows = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(r).items()}
                 for r in stone_stages.gaze_before_lift(tmp, src, tmp / "out.usda", shift)]
     checked = [r for r in rows if r["lift_s"] >= 0.4]  # the planner's first 0.4 s left out, as attend's test
-    return {"task": "stones-gaze", "span_s": list(span), "until_lift": until_lift, "stone_task": task,
+    return {"task": "stones-gaze", "span_s": list(span), "take_after_s": after_s, "until_lift": until_lift,
+            "stone_task": task,
             "shift": {k: np.round(v, 3).tolist() for k, v in (shift or {}).items()}, "seed": seed,
             "fell_at_s": report.fell_at_s, "problems": report.problems,
             "cpu_s": round(cpu, 1), "fps_at_30_per_cpu_s": round(30 * report.simulated_s / cpu, 2),

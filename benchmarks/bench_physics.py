@@ -170,6 +170,8 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.02)
     ap.add_argument("--horizon", type=float, default=0.6)
     ap.add_argument("--iterations", type=int, default=1)
+    ap.add_argument("--take-after", type=float, default=0.0,
+                    help="stones-bar: the walk's take goes on this many seconds past the shot's range")
     ap.add_argument("--seeds", default=None, help="obstacles: 0,1,2,3,4; obstacles-coupled: 0,2,4,7,8 (--toward: 0,2,5,6,7)")
     ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--reuse", type=int, default=1, help="finite differences kept up to REUSE solves (mpc.Options.fd_reuse)")
@@ -219,7 +221,8 @@ def main() -> None:
             for seed in [int(s_) for s_ in (a.seeds or "0").split(",")]:
                 for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):  # the stage's +X, +Z, -X, -Z
                     shift = {"Stone10": 0.15 * np.array([np.cos(turn), 0.0, np.sin(turn)])}
-                    print(json.dumps(run_stones_gaze(opts, (4.0, 5.5), True, True, shift, seed)), flush=True)
+                    print(json.dumps(run_stones_gaze(opts, (4.0, 5.5), True, True, shift, seed, a.take_after)),
+                          flush=True)
             continue
         if task == "stones-walk":  # the walk itself, 4.0-5.5 s: the left foot's 0.67 s landing displaced
             opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)

@@ -59,8 +59,8 @@ class Gaze:
     stage: Usd.Stage
 
 
-def gaze(path: Path, skeleton: str = "/root/Body/BodySkel") -> Gaze:
-    p = measure.posed(str(path), skeleton)
+def gaze(path: Path, skeleton: str = "/root/Body/BodySkel", times=None) -> Gaze:
+    p = measure.posed(str(path), skeleton, times=times)
     fwd = measure.character_forward_skel(p, "LeftHip", "RightHip")
     up_s = np.linalg.solve(p.skel_to_world[:3, :3].T, p.up)
     up_s /= np.linalg.norm(up_s)

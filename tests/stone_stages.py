@@ -39,8 +39,9 @@ def copy_animation(layer: Sdf.Layer, src: Sdf.Layer, anim: str, codes) -> None:
 
 
 def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = False, task: bool = True,
-               shift: dict[str, np.ndarray] | None = None) -> Path:
-    """stepping_stones.usda with the walk cropped to ``[start_s, end_s]`` (30 fps samples).
+               shift: dict[str, np.ndarray] | None = None, after_s: float = 0.0) -> Path:
+    """stepping_stones.usda with the walk cropped to ``[start_s, end_s]`` (30 fps samples; ``after_s``:
+    the take's samples go on that much past the playback range's end, as a shot's over its take).
 
     ``until_lift``: each stone's importance is 1 from the previous swing start until its own foot
     lifts (its ``swingStart``), 0.05 otherwise: the paper's "looked at the selected stone before
@@ -52,13 +53,14 @@ def walk_stage(path: Path, start_s: float, end_s: float, until_lift: bool = Fals
     tcps = src.timeCodesPerSecond
     a = src.startTimeCode + 4.0 * round(start_s * tcps / 4.0)
     codes = np.arange(a, a + (end_s - start_s) * tcps + 1e-6, 4.0)
+    take = np.arange(a, a + (end_s + after_s - start_s) * tcps + 1e-6, 4.0)
     layer = Sdf.Layer.CreateNew(str(path))
     layer.subLayerPaths[:] = [str(ATTEND / "stepping_stones.usda")]
     layer.startTimeCode, layer.endTimeCode = float(codes[0]), float(codes[-1])
     layer.timeCodesPerSecond = layer.framesPerSecond = tcps
     layer.pseudoRoot.SetInfo("upAxis", "Y")
     layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
-    copy_animation(layer, src, ANIM, codes)
+    copy_animation(layer, src, ANIM, take)
     _stone_overs(layer, codes, until_lift, task, shift or {})
     layer.Save()
     return path
@@ -114,6 +116,15 @@ def _flat(posed: measure.Posed, v: np.ndarray) -> np.ndarray:
     return v - np.outer(v @ posed.up, posed.up)
 
 
+def _shot_times(src: Path) -> np.ndarray:
+    """The walk's sample times inside the stage's playback range (the take may go on past it)."""
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(src))
+    codes = np.array(stage.GetPrimAtPath(ANIM).GetAttribute("rotations").GetTimeSamples())
+    return codes[(codes >= stage.GetStartTimeCode() - 1e-9) & (codes <= stage.GetEndTimeCode() + 1e-9)]
+
+
 def gaze_before_lift(tmp: Path, src: Path, out: Path, shift: dict[str, np.ndarray] | None = None) -> list[StoneGaze]:
     """Per stone stepped on in the reference (a reference contact within 5 cm of it, less its
     ``shift``), the written contact of the same foot nearest in time and the lift before it; stones
@@ -121,8 +132,8 @@ def gaze_before_lift(tmp: Path, src: Path, out: Path, shift: dict[str, np.ndarra
     the reference toe's lowest (a written toe that dips into the ground on one frame does not make
     every stance of that foot too high to count)."""
     composed = compose(tmp, src, out, "stones_composed.usda")
-    g = gaze(composed)
-    ref, sim = measure.posed(str(src), SKEL), measure.posed(str(composed), SKEL)
+    g = gaze(composed, times=_shot_times(src))
+    ref, sim = measure.posed(str(src), SKEL, times=g.times), measure.posed(str(composed), SKEL, times=g.times)
     rows = []
     for prim in g.stage.Traverse():
         if not prim.GetAttribute("userProperties:landing"):

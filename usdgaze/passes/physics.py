@@ -180,9 +180,11 @@ def _frames_from_steps(result: mpc.Result, seconds: np.ndarray, dyn_quats: list[
     return q, int(inside.sum())
 
 
-def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, progress=None, chain_frame=None):
+def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, progress=None, chain_frame=None,
+                  ahead=None):
     """Simulate one clip; its :class:`ShotReport`, the override and the per-frame measures
-    (``chain_frame``: the gaze binding, for rigs whose joint names do not tell the body's segments)."""
+    (``chain_frame``: the gaze binding, for rigs whose joint names do not tell the body's segments;
+    ``ahead``: the take's clip after the shot, which only the planner sees)."""
     from usdgaze.physics import build, retarget
 
     model, ref = build.body_model(clip, total_mass, chain_frame=chain_frame)
@@ -190,7 +192,8 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     ref_qpos = retarget.to_qpos(model, ref)
     tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos)
     start = time.perf_counter()
-    result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress, tasks=tasks)
+    result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress, tasks=tasks,
+                          ahead=take_after(model, ahead))
     wall = time.perf_counter() - start
     qadr, _ = model.layout()
     quats = [3] + [int(qadr[b]) for b, k in enumerate(model.kind) if k == "ball"]
@@ -198,6 +201,15 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     rotations, translations = retarget.from_qpos(model, qpos, _head(ref, n))
     report, terms = shot_summary(clip, result, n, len(pushes), wall)
     return report, _body_override(clip, n, rotations, translations), terms
+
+
+def take_after(model, ahead) -> tuple[np.ndarray, np.ndarray] | None:
+    """The take's clip after the shot as the model's ``qpos`` per frame and its seconds (None: none)."""
+    from usdgaze.physics import retarget
+
+    if ahead is None:
+        return None
+    return retarget.to_qpos(model, retarget.Reference.from_clip(ahead)), ahead.seconds
 
 
 def _body_override(clip, n: int, rotations: np.ndarray, translations: np.ndarray):
@@ -283,11 +295,11 @@ def _attempt(shot: tuple, options: mpc.Options, total_mass: float, progress, see
     loop's inspection (None for the body alone)."""
     from usdgaze.passes import visuomotor
 
-    root, clip, (prims, paths, catches), chain_frame = shot
+    root, clip, (prims, paths, catches), chain_frame, ahead = shot
     if prims:  # something to look at: eyes, belief and body in one loop
         return visuomotor.simulate_clip(clip, root, options, prims, paths, catches, total_mass, progress, seed,
-                                        chain_frame)
-    return (*simulate_clip(clip, root, options, total_mass, progress, chain_frame), None)
+                                        chain_frame, ahead)
+    return (*simulate_clip(clip, root, options, total_mass, progress, chain_frame, ahead), None)
 
 
 def _planner_record(options: mpc.Options) -> dict:
@@ -335,15 +347,16 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
         tx.check_replaceable()  # every input recorded: before the work
-        shots = _read_shots(stage, source, skel_root, options.h, binding)
+        shots = _read_shots(stage, source, skel_root, options, binding)
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)
         tx.stage_layer(out_path, layer)
     return reports
 
 
-def _read_shots(stage, source: str, skel_root: str | None, h: float, binding) -> list[tuple]:
-    """(root, clip, scene, chain and frame) of every skeleton: all read and bound before any work."""
+def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding) -> list[tuple]:
+    """(root, clip, scene, chain and frame, the take after the shot) of every skeleton: all read and
+    bound before any work."""
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes import visuomotor
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
@@ -353,28 +366,32 @@ def _read_shots(stage, source: str, skel_root: str | None, h: float, binding) ->
     others = animations_elsewhere(stage, roots)
     for root in roots:
         for skel in skeletons_under(root):
-            clip = _in_shot_range(read_clip(stage, skel, root, source), stage)
+            clip, ahead = _in_shot_range(read_clip(stage, skel, root, source), stage, options.horizon_s + 2 * options.h)
             check_not_shared(others, clip.animation, source)
-            scene = visuomotor.read_scene(root, clip, source, h)
-            shots.append((root, clip, scene, bind_root(clip, root, binding)))
+            scene = visuomotor.read_scene(root, clip, source, options.h)
+            shots.append((root, clip, scene, bind_root(clip, root, binding), ahead))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots
 
 
-def _in_shot_range(clip, stage):
+def _in_shot_range(clip, stage, ahead_s: float):
     """The clip cut to the stage's playback range where the stage authors one inside the animation
     (a shot's root layer over a longer take): the rest is not played, and simulating it cost time
-    for nothing (five times the shot's on a 49-frame shot over 241)."""
+    for nothing (five times the shot's on a 49-frame shot over 241). With it, the take's frames up to
+    ``ahead_s`` after the shot's end, for the planner's windows there (else None)."""
     if not stage.HasAuthoredTimeCodeRange():
-        return clip
+        return clip, None
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
     lo, hi = np.searchsorted(clip.times, [start - 1e-9, end + 1e-9])
     if hi - lo < 2:  # nothing, or one pose, to simulate: the whole take was simulated and written before
         raise UsdGazeError(f"{clip.where()}: the stage's playback range {start:g} to {end:g} holds {hi - lo} of the "
                            f"animation's samples (time codes {clip.times[0]:g}-{clip.times[-1]:g}); a simulated "
                            "shot needs two or more: set the range to the frames to simulate")
-    return clip.frames(int(lo), int(hi)) if lo > 0 or hi < len(clip.times) else clip
+    if lo == 0 and hi == len(clip.times):
+        return clip, None
+    last = np.searchsorted(clip.seconds, clip.seconds[hi - 1] + ahead_s + 1e-9)
+    return clip.frames(int(lo), int(hi)), (clip.frames(int(hi), int(last)) if last > hi else None)
 
 
 def _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed, record):

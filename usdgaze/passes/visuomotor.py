@@ -63,11 +63,11 @@ def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop
 
 
 def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,
-                  progress=None, seed: int = 0, chain_frame=None):
+                  progress=None, seed: int = 0, chain_frame=None, ahead=None):
     """Simulate one clip with its eyes; (ShotReport, AnimOverride, per-frame terms, inspection).
 
     ``chain_frame``: the clip's (Chain, CharacterFrame) from :func:`usdgaze.characters.bind_root`
-    (default: bound by names and the SkelRoot's map)."""
+    (default: bound by names and the SkelRoot's map); ``ahead``: the take's clip after the shot."""
     from usdgaze.characters import bind_root
     from usdgaze.passes import physics as body_pass
     from usdgaze.passes.attend import AttendResult, eyes_on
@@ -91,7 +91,8 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     opts = visuomotor.Options(options)
     opts.vision.seed = seed
     start = time.perf_counter()
-    res = visuomotor.simulate(model, ref_qpos, clip.seconds, things, opts, pushes, tasks, progress)
+    res = visuomotor.simulate(model, ref_qpos, clip.seconds, things, opts, pushes, tasks, progress,
+                              ahead=body_pass.take_after(model, ahead))
     wall = time.perf_counter() - start
     result = res.body
     qadr, _ = model.layout()

@@ -215,15 +215,14 @@ class Shot:
     tasks: list
     tail: np.ndarray
     n: int  # steps of a window
-
-    @property
-    def steps(self) -> int:
-        return len(self.ref_q) - 1
+    steps: int
+    """Steps simulated; the reference (``ref_q``, ``target``) may run on past them, for the planner's
+    windows near the shot's end (a shot cut from a longer take)."""
 
     def pad(self, k: int, lead: int = 0) -> np.ndarray:
         """The control a window ending at step ``k`` appends: ``lead`` zeros (the eye's, in the coupled
-        loop), then the target's inverse-dynamics torques (held past the end)."""
-        return np.r_[np.zeros(lead), self.tail[min(k, self.steps)]]
+        loop), then the target's inverse-dynamics torques (held past the reference's end)."""
+        return np.r_[np.zeros(lead), self.tail[min(k, len(self.tail) - 1)]]
 
     def horizon(self, options: Options, lead: int = 0, carry_max: float | None = None):
         """The receding-horizon solver: ``first_iterations`` on the cold first window, ``iterations``
@@ -238,15 +237,26 @@ class Shot:
 
 
 def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options,
-            pushes: tuple[Push, ...] = (), tasks: Sequence[TaskFactory] = (), lead: Sequence = ()) -> Shot:
+            pushes: tuple[Push, ...] = (), tasks: Sequence[TaskFactory] = (), lead: Sequence = (),
+            ahead: tuple[np.ndarray, np.ndarray] | None = None) -> Shot:
     """The :class:`Shot` of a reference (``qpos`` per frame at ``ref_seconds``), pushes and tasks;
     ``lead``: parts ahead of the body in the planner's state (the coupled loop's eye), stacked with it
-    before the costs and tasks are made, so these see the body's slices of that state."""
+    before the costs and tasks are made, so these see the body's slices of that state; ``ahead``:
+    the take's frames after the shot (``qpos``, seconds), which only the planner's windows see.
+
+    Without ``ahead`` a window reaching past the shot's end tracks its last pose held, with its
+    velocity: mid-stride, a walk asked to stop dead in 0.6 s. Its stones shot (4.0-5.5 s of CMU
+    131_01, Stone10 15 cm toward -X, seed 1) fell at 1.48 s of 1.5; tracking the take on, it stands."""
     import mujoco
 
     from usdgaze.planning.compose import Stacked
 
     h = options.h
+    steps = int(np.ceil((ref_seconds[-1] - ref_seconds[0]) / h - 1e-6))  # as resample covers the shot
+    if ahead is not None and len(ahead[1]):
+        keep = ahead[1] <= ref_seconds[-1] + options.horizon_s + 2 * h
+        ref_qpos_frames = np.concatenate([ref_qpos_frames, ahead[0][keep]])
+        ref_seconds = np.concatenate([ref_seconds, ahead[1][keep]])
     plan = MujocoBody(model, h=h, workers=options.workers, stride=options.fd_stride, reuse=options.fd_reuse)
     sim = MujocoBody(model, h=h, forces=_schedule(model, pushes, h, plan.mj.nbody))
     if lead:
@@ -261,7 +271,7 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
     tracking = BodyTracking(plan, target, ref_v, _head_body(model), options.weights)
     made = [factory(plan, target) for factory in tasks]
     return Shot(model, ref_seconds, h, plan, sim, ref_q, target, ref_v, tracking, made,
-                _inverse_dynamics(plan, target, ref_v, h), max(2, int(round(options.horizon_s / h))))
+                _inverse_dynamics(plan, target, ref_v, h), max(2, int(round(options.horizon_s / h))), steps)
 
 
 class Controller(Protocol):
@@ -300,11 +310,13 @@ class BodyController:
 
 
 def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, options: Options = Options(),
-             pushes: tuple[Push, ...] = (), progress=None, tasks: Sequence[TaskFactory] = ()) -> Result:
-    """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length, plus tasks."""
+             pushes: tuple[Push, ...] = (), progress=None, tasks: Sequence[TaskFactory] = (),
+             ahead: tuple[np.ndarray, np.ndarray] | None = None) -> Result:
+    """Track the reference (``qpos`` per frame at ``ref_seconds``) for its whole length, plus tasks
+    (``ahead``: see :func:`prepare`)."""
     from usdgaze.planning import ddp  # noqa: F401  (loads the solver's LAPACK before run's thread limit)
 
-    shot = prepare(model, ref_qpos_frames, ref_seconds, options, pushes, tasks)
+    shot = prepare(model, ref_qpos_frames, ref_seconds, options, pushes, tasks, ahead=ahead)
     return run(shot, options, BodyController(shot, options), progress)
 
 
@@ -361,7 +373,8 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
                 break
     result = shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
     result.task_problems = judge_tasks(shot.tasks, result)
-    result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q), h)] if n]
+    result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q[:steps + 1]), h)]
+                              if n]
     return result
 
 

@@ -97,11 +97,12 @@ class _Problem:
 
 def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, things: list[loop.Thing],
              options: Options = Options(), pushes: tuple[mpc.Push, ...] = (), tasks: Sequence[mpc.TaskFactory] = (),
-             progress=None) -> Result:
-    """Simulate body, eyes and belief over the reference's length; ``things``' positions per step of h."""
+             progress=None, ahead: tuple[np.ndarray, np.ndarray] | None = None) -> Result:
+    """Simulate body, eyes and belief over the reference's length; ``things``' positions per step of h
+    (``ahead``: see :func:`usdgaze.physics.mpc.prepare`)."""
     bo = options.body
     eye = eyemod.Eye(bo.h)
-    shot = mpc.prepare(model, ref_qpos_frames, ref_seconds, bo, pushes, tasks, lead=[eye])
+    shot = mpc.prepare(model, ref_qpos_frames, ref_seconds, bo, pushes, tasks, lead=[eye], ahead=ahead)
     vo = loop.LoopOptions(**{**options.vision.__dict__, "h": bo.h, "window_s": bo.horizon_s})
     controller = _Coupled(shot, eye, things, bo, vo)
     body = mpc.run(shot, bo, controller, progress)
