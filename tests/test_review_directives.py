@@ -9,6 +9,8 @@ time codes late was flagged by ``validate`` and crashed ``plot``.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from pxr import Sdf
 
@@ -96,3 +98,96 @@ def test_a_character_the_layer_does_not_touch_is_not_read(tmp_path, capsys):
     assert sorted(p.name for p in (tmp_path / "p").iterdir())[0].startswith("A_")
     assert main(["plot", str(tmp_path / "two.usda"), "--layer", str(gaze), "--skel-root", "/World/D",
                  "--out", str(tmp_path / "q")]) == 2  # named, it is read and refused
+
+
+MAP = Path(__file__).resolve().parents[1] / "sample_stages" / "shared_map" / "gaze_map.usda"
+
+
+def _scheduled_pair(tmp_path: Path, schedules: dict) -> Path:
+    """/A and /B side by side (24 per second, 60 frames), each with the shared map and its own
+    GazeScheduleAPI of shifts ``schedules[name] = (time code, yaw, pitch)``, authored with pxr alone."""
+    from pxr import Gf, Usd, Vt
+
+    import usdgaze  # noqa: F401  (registers the schemas)
+
+    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    for k, name in enumerate(schedules):
+        rig = syn.make_rig(tmp_path / f"{name}.usda", frames=60, time_codes_per_second=24.0, mesh=False,
+                           walk_speed=0.0, root_path=f"/{name}", seed=k)
+        Sdf.CopySpec(Sdf.Layer.FindOrOpen(str(rig.path)), f"/{name}", shot, f"/{name}")
+        spec = shot.GetPrimAtPath(f"/{name}")
+        Sdf.AttributeSpec(spec, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(2.0 * k, 0, 0)
+        Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:translate"])
+        spec.inheritPathList.Prepend("/Map")
+    shot.timeCodesPerSecond = shot.framesPerSecond = 24.0
+    shot.startTimeCode, shot.endTimeCode = 0.0, 59.0
+    shot.pseudoRoot.SetInfo("upAxis", "Y")
+    shot.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    shot.defaultPrim = "A"
+    Sdf.PrimSpec(shot.pseudoRoot, "Map", Sdf.SpecifierClass).referenceList.Prepend(Sdf.Reference(str(MAP), "/GazeMap"))
+    shot.Save()
+    stage = Usd.Stage.Open(shot)
+    for name, (time, yaw, pitch) in schedules.items():
+        prim = stage.GetPrimAtPath(f"/{name}")
+        prim.ApplyAPI("GazeScheduleAPI")
+        for attr, type_name, value in (("time", Sdf.ValueTypeNames.DoubleArray, [time]),
+                                       ("kind", Sdf.ValueTypeNames.TokenArray, ["shift"]),
+                                       ("yaw", Sdf.ValueTypeNames.FloatArray, [yaw]),
+                                       ("pitch", Sdf.ValueTypeNames.FloatArray, [pitch])):
+            prim.CreateAttribute(f"gaze:schedule:{attr}", type_name, False, Sdf.VariabilityUniform).Set(value)
+    stage.Save()
+    return tmp_path / "shot.usda"
+
+
+def test_each_character_is_plotted_against_its_own_schedule(tmp_path):
+    """Two characters of one layer, each with its own schedule: every character's plots drew the first
+    character's requests (B's gaze panel asked for A's 40 deg at 0.5 s while B turned -50 at 1.25 s)."""
+    from usdgaze.review import plotting
+
+    from . import measure
+
+    schedules = {"A": (12.0, 40.0, 0.0), "B": (30.0, -50.0, 10.0)}
+    shot = _scheduled_pair(tmp_path, schedules)
+    layer = tmp_path / "g.usdc"
+    assert main(["apply", str(shot), "--out", str(layer)]) == 0
+    composed = Sdf.Layer.CreateNew(str(tmp_path / "composed.usda"))
+    composed.timeCodesPerSecond = composed.framesPerSecond = 24.0
+    composed.startTimeCode, composed.endTimeCode = 0.0, 59.0
+    composed.pseudoRoot.SetInfo("upAxis", "Y")
+    composed.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    composed.subLayerPaths[:] = [str(layer), str(shot)]
+    composed.Save()
+
+    review = read_review(str(shot), str(layer))
+    drawn = plotting.figures(review)
+    for name, (time, yaw, pitch) in schedules.items():
+        # What the composed result reaches, by UsdSkel's FK: the request this character was given.
+        skeleton = f"/{name}/Skel"
+        base, new = measure.posed(str(shot), skeleton), measure.posed(composed.realPath, skeleton)
+        fwd = measure.character_forward_skel(base, "mixamorig_LeftUpLeg", "mixamorig_RightUpLeg")
+        change, _, _ = measure.gaze_change(base, new, fwd, "mixamorig_Head", ("mixamorig_LeftEye", "mixamorig_RightEye"))
+        assert np.abs(change[-1] - (yaw, pitch)).max() < 0.5, (name, change[-1])
+        ax = drawn[f"{name}_gaze"].axes[0]
+        lines = {line.get_label(): line for line in ax.get_lines()}
+        for label, want in (("yaw requested", yaw), ("pitch requested", pitch)):
+            x, y = lines[label].get_xdata(), lines[label].get_ydata()
+            assert y[-1] == want, (name, label, y[-1])
+            assert np.all(y[x < time / 24.0] == 0.0) and np.all(y[x >= time / 24.0] == want), (name, label)
+        assert f"to yaw {yaw:g}, pitch {pitch:g}" in drawn[f"{name}_cascade"].axes[0].get_title(), name
+    for fig in drawn.values():
+        plotting.pyplot().close(fig)
+
+
+def test_a_skel_root_the_layer_does_not_animate_is_named_in_one_line(tmp_path, capsys):
+    """``plot --skel-root /B`` of a layer made for /A said the layer overrode nothing of the input and
+    asked whether it was a usdgaze layer at all."""
+    shot = _scheduled_pair(tmp_path, {"A": (12.0, 40.0, 0.0), "B": (30.0, -50.0, 10.0)})
+    layer = tmp_path / "a.usdc"
+    assert main(["apply", str(shot), "--skel-root", "/A", "--shift", "10:30:0", "--out", str(layer)]) == 0
+    capsys.readouterr()
+    for command in (["plot", "--out", str(tmp_path / "p")], ["preview", "--out", str(tmp_path / "p.png")]):
+        assert main([command[0], str(shot), "--layer", str(layer), "--skel-root", "/B", *command[1:]]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--skel-root /B" in err[0] and "it animates /A" in err[0], err
+    assert not (tmp_path / "p").exists() and not (tmp_path / "p.png").exists()

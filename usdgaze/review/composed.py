@@ -17,6 +17,8 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.review import recorded
+from usdgaze.review.recorded import Look
 from usdgaze.usd.stage import open_root
 from usdgaze.files.kinds import not_a_file
 
@@ -62,23 +64,15 @@ class CharacterReview:
     up: np.ndarray
     meters_per_unit: float
 
-    looks: list["Look"] = field(default_factory=list)
-    """The look-at directives of the SkelRoot's GazeScheduleAPI, with their targets sampled."""
+    looks: list[Look] = field(default_factory=list)
+    """The look-at directives the pass was given (or the SkelRoot's GazeScheduleAPI), targets sampled."""
+    shifts: list[tuple[float, float, float]] = field(default_factory=list)
+    """What this character was asked: (seconds from the stage start, yaw, pitch), time-ordered; a
+    look's yaw and pitch are NaN (see :func:`usdgaze.review.recorded.requests`)."""
 
     @property
     def eyes(self) -> tuple[int, int] | None:
         return self.chain.eyes
-
-
-@dataclass
-class Look:
-    """One look-at directive: what, from when to when (seconds), where it is on every frame."""
-
-    label: str
-    start_s: float
-    end_s: float
-    positions: np.ndarray
-    """Target world positions ``(F, 3)`` at the clip's samples."""
 
 
 @dataclass
@@ -102,13 +96,16 @@ class Review:
     input: str
     layer: str
     characters: list[CharacterReview] = field(default_factory=list)
-    shifts: list[tuple[float, float, float]] = field(default_factory=list)
-    """(seconds from the stage start, yaw, pitch) as recorded in the layer."""
     eye_range: dict[str, float] = field(default_factory=dict)
     eye_range_recorded: bool = False
     """False for layers written before the limits were recorded (the defaults are shown then)."""
     fixation_m: float | None = None
     attention: list[Attention] = field(default_factory=list)
+
+    @property
+    def shifts(self) -> list[tuple[float, float, float]]:
+        """The first character's requests (each character's own are ``CharacterReview.shifts``)."""
+        return self.characters[0].shifts if self.characters else []
 
 
 def _may_touch(skel, touched: set[str]) -> bool:
@@ -225,12 +222,9 @@ def _pose(clip, joints: list[str], rest_local: np.ndarray, parents: np.ndarray, 
 def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                 skel_root: str | None = None) -> Review:
     """Every skeleton the layer animates, base (layer muted) and gaze (composed), posed for every frame."""
-    from pxr import UsdGeom
-
     from usdgaze import api
-    from usdgaze.characters import own_map
     from usdgaze.core.hints import from_record
-    from usdgaze.usd.skelio import read_clip, skel_roots, skeletons_under
+    from usdgaze.usd.skelio import skel_roots, skeletons_under
 
     stage, gaze_layer = composed_stage(input_path, layer_path)
     source, layer_file = str(input_path), gaze_layer.identifier if gaze_layer.anonymous else str(layer_path)
@@ -241,42 +235,72 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     # Every SkelRoot whose animation the layer overrides (or the one named).
     roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
     touched = {str(p.path) for p in _prim_specs(gaze_layer)}
-    hints = from_record(record, layer_file)  # the --bind/--forward the pass was given
-    offset = _layer_offset(stage, gaze_layer)
+    read = _Reader(stage, gaze_layer, source, layer_file, record, from_record(record, layer_file))
     for root in roots:
-        own = own_map(root, source)
         for skel in skeletons_under(root):
             if not skel_root and not _may_touch(skel, touched):  # another character: its problems are not this review's
                 continue
-            gaze_clip = read_clip(stage, skel, root, source)
-            if gaze_clip.animation not in touched:
-                continue
-            stage.MuteLayer(gaze_layer.identifier)
-            try:
-                base_clip = read_clip(stage, stage.GetPrimAtPath(skel.GetPath()), stage.GetPrimAtPath(root.GetPath()), source)
-            finally:
-                stage.UnmuteLayer(gaze_layer.identifier)
-            _check_same_frames(base_clip, gaze_clip, layer_file)
-            chain, frame = api.bind(gaze_clip, own, hints)
-            parents = gaze_clip.parents
-            review.characters.append(CharacterReview(
-                skel_root=gaze_clip.skel_root, skeleton=gaze_clip.skeleton, joints=list(gaze_clip.joints),
-                parents=parents, seconds=gaze_clip.seconds,
-                base=_pose(base_clip, gaze_clip.joints, gaze_clip.rest_local, parents, chain),
-                gaze=_pose(gaze_clip, gaze_clip.joints, gaze_clip.rest_local, parents, chain),
-                chain=chain, frame=frame, neutral_world=gaze_clip.neutral(),
-                skel_to_world=gaze_clip.skel_to_world,
-                up=np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0]),
-                meters_per_unit=gaze_clip.meters_per_unit,
-            ))
-            clock = _recorded_clock(gaze_layer, offset, gaze_clip)
-            review.characters[-1].looks = _looks(stage, root, gaze_clip, source, record, layer_file, clock)
-            if not review.shifts:
-                review.shifts = _requests(record, str(root.GetPath()), layer_file, clock)
+            character = read.character(skel, root, touched)
+            if character is not None:
+                review.characters.append(character)
     review.attention = read_attention(stage, source)
     if not review.characters:
+        if skel_root:
+            animated = sorted({str(r.GetPath()) for r in skel_roots(stage)
+                               for s in skeletons_under(r) if _may_touch(s, touched)})
+            raise UsdGazeError(f"{layer_file}: --skel-root {skel_root}: the layer animates no skeleton of it"
+                               + (f" (it animates {', '.join(animated)})" if animated else ""))
         raise UsdGazeError(f"{layer_file}: overrides no SkelAnimation of {source}; is it a usdgaze layer for this input?")
     return review
+
+
+class _Reader:
+    """One character of the composed stage at a time: its base and gaze clips posed, with what the
+    layer records it was asked."""
+
+    def __init__(self, stage, gaze_layer, source: str, layer_file: str, record: dict, hints) -> None:
+        from pxr import UsdGeom
+
+        self.stage, self.layer, self.source, self.layer_file = stage, gaze_layer, source, layer_file
+        self.record, self.hints = record, hints  # hints: the --bind/--forward the pass was given
+        self.offset = recorded.layer_offset(stage, gaze_layer)
+        self.up = np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0])
+
+    def _base_clip(self, skel, root):
+        from usdgaze.usd.skelio import read_clip
+
+        stage = self.stage
+        stage.MuteLayer(self.layer.identifier)
+        try:
+            return read_clip(stage, stage.GetPrimAtPath(skel.GetPath()), stage.GetPrimAtPath(root.GetPath()), self.source)
+        finally:
+            stage.UnmuteLayer(self.layer.identifier)
+
+    def character(self, skel, root, touched: set[str]) -> CharacterReview | None:
+        """``skel`` reviewed, or None where the layer does not override its animation."""
+        from usdgaze import api
+        from usdgaze.characters import own_map
+        from usdgaze.usd.skelio import read_clip
+
+        gaze_clip = read_clip(self.stage, skel, root, self.source)
+        if gaze_clip.animation not in touched:
+            return None
+        base_clip = self._base_clip(skel, root)
+        _check_same_frames(base_clip, gaze_clip, self.layer_file)
+        chain, frame = api.bind(gaze_clip, own_map(root, self.source), self.hints)
+        parents, joints = gaze_clip.parents, gaze_clip.joints
+        clock = recorded.recorded_clock(self.layer, self.offset, gaze_clip)
+        path = str(root.GetPath())
+        return CharacterReview(
+            skel_root=gaze_clip.skel_root, skeleton=gaze_clip.skeleton, joints=list(joints),
+            parents=parents, seconds=gaze_clip.seconds,
+            base=_pose(base_clip, joints, gaze_clip.rest_local, parents, chain),
+            gaze=_pose(gaze_clip, joints, gaze_clip.rest_local, parents, chain),
+            chain=chain, frame=frame, neutral_world=gaze_clip.neutral(),
+            skel_to_world=gaze_clip.skel_to_world, up=self.up, meters_per_unit=gaze_clip.meters_per_unit,
+            looks=recorded.looks(self.stage, root, gaze_clip, self.source, self.record, self.layer_file, clock),
+            shifts=recorded.requests(self.record, path, self.layer_file, clock),
+        )
 
 
 ATTEND_ROOT = "/UsdGazeAttend"
@@ -323,103 +347,10 @@ def read_attention(stage, source: str) -> list[Attention]:
     return out
 
 
-def _layer_offset(stage, layer):
-    """The time offset at which the stage's root layer stack brings ``layer`` in (identity if not)."""
-    from pxr import Sdf
-
-    from usdgaze.usd.stage import layer_stack
-
-    return next((o for name, _, o in layer_stack(stage.GetRootLayer()) if name == layer.identifier), Sdf.LayerOffset())
-
-
-def _recorded_clock(layer, offset, clip):
-    """Seconds on ``clip`` of a directive the layer records: in the input's time codes (or seconds
-    from its start; the layer carries the input's timing), brought to the stage through the layer's
-    ``offset`` (a shot that sublayers it later than the input's own time)."""
-    start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
-
-    def seconds(d) -> float:
-        code = offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
-        return (code - clip.start_time) / clip.time_codes_per_second
-    return seconds
-
-
-def _looks(stage, root, clip, source: str, record: dict, layer_file: str, clock) -> list[Look]:
-    """Look directives the pass was given (the layer's record, timed by ``clock``), else the SkelRoot's
-    schedule; each holds until the next directive (or the clip's end)."""
-    from usdgaze.usd import schedule
-    from usdgaze.usd.targets import sample_target
-
-    directives = _recorded_directives(record, str(root.GetPath()), layer_file)
-    tc = clock
-    if directives is None:
-        if not schedule.has_schedule(root):
-            return []
-        directives = schedule.read_schedule(root, source)
-        tc = lambda d: d.time_s(clip.start_time, clip.time_codes_per_second)  # noqa: E731
-    directives = sorted(directives, key=tc)
-    out = []
-    for k, d in enumerate(directives):
-        if d.kind != "look":
-            continue
-        end = tc(directives[k + 1]) if k + 1 < len(directives) else float(clip.seconds[-1])
-        if d.target is not None:
-            positions, label = sample_target(stage, d.target, clip.times, source), d.target
-        else:
-            positions = np.broadcast_to(np.asarray(d.point, dtype=float), (len(clip.times), 3)).copy()
-            label = "point (" + ", ".join(f"{v:g}" for v in d.point) + ")"
-        out.append(Look(f"{label} from {tc(d):.2f} s", tc(d), end, positions))
-    return out
-
-
-def _recorded_directives(record: dict, root: str, layer_file: str):
-    """The directive flags ``apply`` recorded for ``root`` (customLayerData usdgaze.directives), parsed;
-    None where the layer records none for it."""
-    from usdgaze.passes.requests import parse_look, parse_release, parse_shift
-
-    texts = (record.get("directives") or {}).get(root)
-    if not texts:
-        return None
-    parsers = {"--shift": parse_shift, "--look-at": parse_look, "--release": parse_release}
-    out = []
-    for text in texts:
-        flag, _, value = str(text).partition(" ")
-        if flag not in parsers:
-            raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.directives: '{text}' is no directive")
-        try:
-            out.append(parsers[flag](value))
-        except UsdGazeError as exc:
-            raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.directives: {exc}") from None
-    return out
-
-
 def _prim_specs(layer):
     out = []
     layer.Traverse(layer.pseudoRoot.path, lambda p: out.append(layer.GetPrimAtPath(p)) if p.IsPrimPath() else None)
     return [p for p in out if p is not None]
-
-
-def _requests(record: dict, root: str, layer_file: str, clock) -> list[tuple[float, float, float]]:
-    """(seconds, yaw, pitch) of what the pass was asked, in time order: a shift's change (times its
-    weight, the share of the way it turns), a release's return to 0, and a look as NaN (a target,
-    not a change; the target panel measures it). From the directives recorded for ``root``, else the
-    layer's shifts (a layer without directives)."""
-    from usdgaze.passes.requests import parse_shift
-
-    directives = _recorded_directives(record, root, layer_file)
-    if directives is None:
-        directives = []
-        for text in record.get("shifts") or []:
-            try:
-                directives.append(parse_shift(str(text)))
-            except UsdGazeError as exc:
-                raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.shifts: {exc}") from None
-    out = []
-    for d in directives:
-        t = clock(d)
-        change = {"shift": (d.weight * d.yaw, d.weight * d.pitch), "release": (0.0, 0.0)}.get(d.kind, (np.nan, np.nan))
-        out.append((t, *change))
-    return sorted(out)
 
 
 def _eye_range(record: dict) -> tuple[dict[str, float], bool]:

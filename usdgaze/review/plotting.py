@@ -185,9 +185,9 @@ def figures(review) -> dict[str, object]:
     """Every review figure, by file stem (``<character>_<kind>``), as matplotlib Figures."""
     plt = pyplot()
     out = {}
-    times = [t for t, _, _ in review.shifts]
     for c, name in zip(review.characters, names(review)):
-        cascades = analysis.shift_cascade(c, review.shifts)
+        times = [t for t, _, _ in c.shifts]
+        cascades = analysis.shift_cascade(c, c.shifts)
         if cascades:
             fig, axes = plt.subplots(len(cascades), 1, figsize=(10, 3.2 * len(cascades)), squeeze=False)
             for ax, s in zip(axes[:, 0], cascades):
@@ -195,7 +195,7 @@ def figures(review) -> dict[str, object]:
                               f"{name}: shift {s.index + 1} at {s.time_s:g} s to yaw {s.yaw:g}, pitch {s.pitch:g}")
             out[f"{name}_cascade"] = fig
         fig, ax = plt.subplots(figsize=(9, 3.6))
-        panel_gaze(ax, c.seconds, analysis.requested_steps(c.seconds, review.shifts), analysis.achieved_change(c),
+        panel_gaze(ax, c.seconds, analysis.requested_steps(c.seconds, c.shifts), analysis.achieved_change(c),
                    times, f"{name}: requested vs achieved change of the line of sight")
         out[f"{name}_gaze"] = fig
         fig, ax = plt.subplots(figsize=(10, 3.6))
@@ -205,7 +205,7 @@ def figures(review) -> dict[str, object]:
         change = analysis.change_speed(c)
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": (2, 1)})
         panel_speed(a1, c.seconds, analysis.sight_speed(c), change, times, f"{name}: line-of-sight speed")
-        panel_main_sequence(a2, analysis.peak_speeds(c, review.shifts, change), "peak per shift vs the main sequence")
+        panel_main_sequence(a2, analysis.peak_speeds(c, c.shifts, change), "peak per shift vs the main sequence")
         out[f"{name}_speed"] = fig
         errors = analysis.target_errors(c)
         if errors:
@@ -265,11 +265,10 @@ def summary_figure(review):
     plt = pyplot()
     chars = review.characters
     fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 9.5 * len(chars)), squeeze=False)
-    times = [t for t, _, _ in review.shifts]
     for n, (c, name) in enumerate(zip(chars, names(review))):
-        panel_gaze(axes[3 * n, 0], c.seconds, analysis.requested_steps(c.seconds, review.shifts),
-                   analysis.achieved_change(c), times, f"{name}: requested vs achieved change of the line of sight")
-        cascades = analysis.shift_cascade(c, review.shifts)
+        panel_gaze(axes[3 * n, 0], c.seconds, analysis.requested_steps(c.seconds, c.shifts), analysis.achieved_change(c),
+                   [t for t, _, _ in c.shifts], f"{name}: requested vs achieved change of the line of sight")
+        cascades = analysis.shift_cascade(c, c.shifts)
         if cascades:
             s = cascades[0]
             panel_cascade(axes[3 * n + 1, 0], s.elapsed, s.angles, s.labels,

@@ -228,7 +228,6 @@ class Scene:
         f = len(seconds)
         self.grid = cam.project(np.broadcast_to(grid.reshape(1, -1, 3), (f, grid.shape[0] * 2, 3))).reshape(f, -1, 2, 3)
         self.palette = Palette()
-        self.shifts = review.shifts
         self.width = size * len(self.panels)
         self.height = size + render.LABEL_H
 

@@ -1,0 +1,119 @@
+"""What a gaze layer records it was asked, read back on the composed stage's clock: the directive
+flags ``apply`` recorded per SkelRoot (``customLayerData["usdgaze"]["directives"]``, else its
+``shifts``), each character's look-at targets sampled, and each character's requests as steps.
+
+Per character: a layer that animates several SkelRoots records each one's own directives (their
+GazeScheduleAPI schedules may differ), and each character is drawn against its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdgaze.errors import UsdGazeError
+
+
+@dataclass
+class Look:
+    """One look-at directive: what, from when to when (seconds), where it is on every frame."""
+
+    label: str
+    start_s: float
+    end_s: float
+    positions: np.ndarray
+    """Target world positions ``(F, 3)`` at the clip's samples."""
+
+
+def layer_offset(stage, layer):
+    """The time offset at which the stage's root layer stack brings ``layer`` in (identity if not)."""
+    from pxr import Sdf
+
+    from usdgaze.usd.stage import layer_stack
+
+    return next((o for name, _, o in layer_stack(stage.GetRootLayer()) if name == layer.identifier), Sdf.LayerOffset())
+
+
+def recorded_clock(layer, offset, clip):
+    """Seconds on ``clip`` of a directive the layer records: in the input's time codes (or seconds
+    from its start; the layer carries the input's timing), brought to the stage through the layer's
+    ``offset`` (a shot that sublayers it later than the input's own time)."""
+    start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
+
+    def seconds(d) -> float:
+        code = offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
+        return (code - clip.start_time) / clip.time_codes_per_second
+    return seconds
+
+
+def looks(stage, root, clip, source: str, record: dict, layer_file: str, clock) -> list[Look]:
+    """Look directives the pass was given (the layer's record, timed by ``clock``), else the SkelRoot's
+    schedule; each holds until the next directive (or the clip's end)."""
+    from usdgaze.usd import schedule
+    from usdgaze.usd.targets import sample_target
+
+    directives = _recorded_directives(record, str(root.GetPath()), layer_file)
+    tc = clock
+    if directives is None:
+        if not schedule.has_schedule(root):
+            return []
+        directives = schedule.read_schedule(root, source)
+        tc = lambda d: d.time_s(clip.start_time, clip.time_codes_per_second)  # noqa: E731
+    directives = sorted(directives, key=tc)
+    out = []
+    for k, d in enumerate(directives):
+        if d.kind != "look":
+            continue
+        end = tc(directives[k + 1]) if k + 1 < len(directives) else float(clip.seconds[-1])
+        if d.target is not None:
+            positions, label = sample_target(stage, d.target, clip.times, source), d.target
+        else:
+            positions = np.broadcast_to(np.asarray(d.point, dtype=float), (len(clip.times), 3)).copy()
+            label = "point (" + ", ".join(f"{v:g}" for v in d.point) + ")"
+        out.append(Look(f"{label} from {tc(d):.2f} s", tc(d), end, positions))
+    return out
+
+
+def _recorded_directives(record: dict, root: str, layer_file: str):
+    """The directive flags ``apply`` recorded for ``root`` (customLayerData usdgaze.directives), parsed;
+    None where the layer records none for it."""
+    from usdgaze.passes.requests import parse_look, parse_release, parse_shift
+
+    texts = (record.get("directives") or {}).get(root)
+    if not texts:
+        return None
+    parsers = {"--shift": parse_shift, "--look-at": parse_look, "--release": parse_release}
+    out = []
+    for text in texts:
+        flag, _, value = str(text).partition(" ")
+        if flag not in parsers:
+            raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.directives: '{text}' is no directive")
+        try:
+            out.append(parsers[flag](value))
+        except UsdGazeError as exc:
+            raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.directives: {exc}") from None
+    return out
+
+
+def requests(record: dict, root: str, layer_file: str, clock) -> list[tuple[float, float, float]]:
+    """(seconds, yaw, pitch) of what the pass was asked, in time order: a shift's change (times its
+    weight, the share of the way it turns), a release's return to 0, and a look as NaN (a target,
+    not a change; the target panel measures it). From the directives recorded for ``root``, else the
+    layer's shifts (a layer without directives)."""
+    from usdgaze.passes.requests import parse_shift
+
+    directives = _recorded_directives(record, root, layer_file)
+    if directives is None:
+        directives = []
+        for text in record.get("shifts") or []:
+            try:
+                directives.append(parse_shift(str(text)))
+            except UsdGazeError as exc:
+                raise UsdGazeError(f"{layer_file}: customLayerData usdgaze.shifts: {exc}") from None
+    out = []
+    for d in directives:
+        t = clock(d)
+        change = {"shift": (d.weight * d.yaw, d.weight * d.pitch), "release": (0.0, 0.0)}.get(d.kind, (np.nan, np.nan))
+        out.append((t, *change))
+    return sorted(out)
