@@ -123,3 +123,45 @@ def test_validate_reads_the_skeleton_arrays_a_layer_adding_eyes_writes(tmp_path,
     n = len(layer.GetAttributeAtPath("/root/Body/BodySkel.joints").default)
     assert f"bindTransforms: {n - 1} entries, expected {n} (one per joint)" in said, said
     assert "restTransforms: NaN or infinite values" in said, said
+
+
+def test_preview_of_a_character_lying_down(tmp_path, capsys):
+    """A rig laid on its back by its parent's transform (a character in bed): ``apply`` and ``plot``
+    took it, ``preview`` stopped with exit 1 (an internal error: it sized the figure by the head's
+    height above the floor, ~0, so no bone was short enough to draw and the camera framed nothing)."""
+    from usdgaze.review import render
+
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=24, time_codes_per_second=24.0, mesh=False, walk_speed=0.0,
+                       root_path="/Bed/Character")
+
+    def lay_down(layer):
+        spec = layer.GetPrimAtPath("/Bed")
+        Sdf.AttributeSpec(spec, "xformOp:rotateX", Sdf.ValueTypeNames.Float).default = -90.0
+        Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:rotateX"])
+        layer.defaultPrim = "Bed"
+    syn.edit(rig.path, lay_down)
+    base = measure.posed(str(rig.path), rig.skeleton)
+    spine = base.position(rig.leaf["head"]) - base.position(rig.leaf["pelvis"])
+    assert np.abs(spine[:, 1]).max() < 0.1 * np.linalg.norm(spine, axis=1).min()  # lying: the spine is level
+
+    layer = tmp_path / "g.usda"
+    assert main(["apply", str(rig.path), "--shift", "0.2s:30:0", "--out", str(layer)]) == 0
+    size, count = 120, 4
+    sheet = tmp_path / "s.png"
+    capsys.readouterr()
+    assert main(["preview", str(rig.path), "--layer", str(layer), "--out", str(sheet), "--size", str(size),
+                 "--sheet-count", str(count)]) == 0, capsys.readouterr().err
+    rgb = np.asarray(Image.open(sheet).convert("RGB")).astype(int)
+
+    def near(colours):
+        return np.any([np.abs(rgb - np.array(c)).sum(-1) <= 6 for c in colours], axis=0)
+
+    bodies = near([render.shade(b, k / render.SHADES) for b in (render.BASE_BODY, render.GAZE_BODY)
+                   for k in range(render.SHADES + 1)])
+    h = size + render.LABEL_H
+    for i in range(count):
+        for panel in range(2):  # base and gaze, side by side; four tiles in a row
+            x0 = i * 2 * size + panel * size
+            tile = bodies[render.LABEL_H:h, x0 + 2:x0 + size - 2]
+            assert tile.sum() > 300, (i, panel, tile.sum())  # a figure is drawn in every panel

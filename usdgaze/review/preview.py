@@ -110,10 +110,16 @@ def _bones(c, posed, units_per_m: float) -> list[tuple[int, int]]:
 
 
 def _units_per_m(c) -> float:
-    """Stage units per metre as the figure stands: the head joint's rest height is ~1.5 m on an adult."""
+    """Stage units per metre as the figure stands: the head joint's rest height is ~1.5 m on an adult.
+
+    A figure that does not stand (laid down or tilted by its parent's transform) has no height above
+    the floor to go by (~0: no bone was drawn and preview failed): the head's reach to the farthest
+    joint stands for it where the height is under half of that."""
     s2w = c.skel_to_world[0]
-    rest = np.einsum("ij,kjl->kil", s2w, c.neutral_world)[:, :3, 3] @ c.up
-    return max(float(rest[c.chain.head] - rest.min()), 1e-9) / 1.5
+    rest = np.einsum("ij,kjl->kil", s2w, c.neutral_world)[:, :3, 3]
+    offsets = rest[c.chain.head] - rest
+    height, reach = float((offsets @ c.up).max()), float(np.linalg.norm(offsets, axis=1).max())
+    return max(height if height >= 0.5 * reach else reach, 1e-9) / 1.5
 
 
 def _camera(review, opts: PreviewOptions, stage, figs, seconds: np.ndarray, width: int, height: int):

@@ -105,7 +105,8 @@ def named_camera(kind: str, figures: list[Figure], up: np.ndarray, width: int, h
     forward = figures[0].head_forward[0]
     r, u, d = _basis(kind, forward, up)
     root = np.mean([fig.positions[:, fig.focus] for fig in figures], axis=0)
-    drawn = [fig.positions[:, sorted({j for bone in fig.bones for j in bone})] for fig in figures]
+    # A figure with no bone drawn (none short enough) is framed by its joints.
+    drawn = [fig.positions[:, sorted({j for bone in fig.bones for j in bone}) or slice(None)] for fig in figures]
     heights = np.concatenate([d.reshape(-1, 3) @ up for d in drawn])
     mid = 0.5 * (heights.min() + heights.max())
     centre = root - np.outer(root @ up, up) + mid * up
