@@ -91,7 +91,7 @@ def test_lines_of_sight_follow_the_eyes_and_toggle_off(shot):
 def test_summary_prints_the_map_and_the_schedule(shot, capsys):
     stage, view = _open(shot)
     text = usdview.summary(view)
-    assert "schedule: 2s:60:0" in text
+    assert "schedule /root/Body: --shift 2s:60:0" in text
     assert "eyeRange: yaw 44.2, up 27.7, down 47.1" in text
     assert "/root/Body: no GazeMapAPI (the built-in map is used)" in text
     assert "head=Head" in text and "leftEye=LeftEye" in text
@@ -133,3 +133,45 @@ def test_plugin_container_builds_the_gaze_menu_from_plug_info(shot):
     menu.items[0].run(view)
     assert stage.IsLayerMuted(usdview.gaze_layers(stage)[0].identifier)
     sys.modules.pop("usdgaze.review.usdview_plugin", None)
+
+
+def test_an_attend_layer_and_looks_are_toggled_and_listed(tmp_path):
+    """A shot holding an ``attend`` layer: Toggle said there was no usdgaze layer (it looked for
+    recorded shifts, which attend does not write) and the summary never named it; an ``apply`` layer's
+    look-ats and releases were left out of the summary (it listed the shifts alone)."""
+    from pxr import Sdf
+
+    from usdgaze.console.main import main
+
+    stage_path = CMU.parents[1] / "attend" / "two_balls.usda"
+    attend, looks = tmp_path / "attend.usdc", tmp_path / "looks.usdc"
+    assert main(["attend", str(stage_path), "--out", str(attend)]) == 0
+    assert main(["apply", str(stage_path), "--look-at", "/Objects/BallLeft@0.5s", "--release", "1.5s",
+                 "--out", str(looks)]) == 0
+    for layer, said in ((attend, "objects: /Objects/BallLeft, /Objects/BallRight"),
+                        (looks, "--look-at /Objects/BallLeft@0.5s --release 1.5s")):
+        src = Sdf.Layer.FindOrOpen(str(stage_path))
+        root = Sdf.Layer.CreateNew(str(tmp_path / f"shot_{layer.stem}.usda"))
+        for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+            setattr(root, key, getattr(src, key))
+        for key in ("upAxis", "metersPerUnit"):
+            root.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
+        root.subLayerPaths[:] = [str(layer), str(stage_path)]
+        root.Save()
+        stage = Usd.Stage.Open(root)
+        view = UsdviewApiStandIn(stage)
+        skel = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
+        anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
+        times = anim.GetAttribute("rotations").GetTimeSamples()
+        input_stage = Usd.Stage.Open(str(stage_path))
+        base = input_stage.GetPrimAtPath(anim.GetPath())
+
+        def input_joints(prim):  # the input's joints' rotations, as the stage composes them
+            joints = [str(j) for j in prim.GetAttribute("joints").Get()]
+            cols = [joints.index(str(j)) for j in base.GetAttribute("joints").Get()]
+            return np.array([np.asarray(prim.GetAttribute("rotations").Get(t))[cols] for t in times])
+        assert not np.allclose(input_joints(anim), input_joints(base))  # the override shows
+        usdview.toggle_gaze_layer(view)
+        assert stage.IsLayerMuted(Sdf.Layer.FindOrOpen(str(layer)).identifier)
+        assert np.array_equal(input_joints(anim), input_joints(base))  # the base shows
+        assert said in usdview.summary(view), usdview.summary(view)

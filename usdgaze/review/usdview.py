@@ -17,16 +17,21 @@ LINES = f"{HELPERS}/LinesOfSight"
 JOINTS = f"{HELPERS}/ChainJoints"
 
 
+def is_gaze_override(record) -> bool:
+    """Whether ``customLayerData["usdgaze"]`` is that of an override usdgaze wrote: ``apply``'s (its
+    shifts) or ``attend``'s (its command; it records no shifts, and Toggle had said a shot with one
+    held no usdgaze layer). A map file is marked usdgaze's too, and is no override."""
+    return isinstance(record, dict) and ("shifts" in record or str(record.get("command", "")).startswith("attend"))
+
+
 def gaze_layers(stage) -> list:
-    """The layers of the stage's layer stack that usdgaze wrote (``customLayerData["usdgaze"]`` with shifts),
-    muted ones included."""
+    """The root layer's sublayers that are usdgaze overrides (:func:`is_gaze_override`), muted ones included."""
     from pxr import Sdf
 
     out = []
     for identifier in stage.GetRootLayer().subLayerPaths:
         layer = Sdf.Layer.FindOrOpenRelativeToLayer(stage.GetRootLayer(), identifier)
-        record = (layer.customLayerData or {}).get("usdgaze") if layer else None
-        if isinstance(record, dict) and "shifts" in record:
+        if layer and is_gaze_override((layer.customLayerData or {}).get("usdgaze")):
             out.append(layer)
     return out
 
@@ -200,7 +205,7 @@ def summary(api) -> str:
         muted = " (muted)" if stage.IsLayerMuted(layer.identifier) else ""
         lines.append(f"gaze layer {layer.GetDisplayName()}{muted}: usdgaze {record.get('version', '?')}, "
                      f"input {record.get('input', '?')}")
-        lines.append("  schedule: " + (", ".join(str(s) for s in record.get("shifts", [])) or "-"))
+        lines += _asked(record)
         for key in ("maps", "eyeRange", "fixation"):
             if key in record:
                 lines.append(f"  {key}: {_shown(record[key])}")
@@ -231,6 +236,18 @@ def summary(api) -> str:
     print(text)
     api.PrintStatus(lines[0] if lines else text)
     return text
+
+
+def _asked(record: dict) -> list[str]:
+    """What a gaze layer records it was asked: each character's directives as ``apply`` recorded them
+    (looks and releases too; a layer older than that record, its shifts), or an attend run's settings."""
+    if str(record.get("command", "")).startswith("attend"):
+        settings = ", ".join(f"{k} {record[k]}" for k in ("cost", "alpha", "window_s", "seed") if k in record)
+        return [f"  {record['command']}: {settings}", "  objects: " + (", ".join(map(str, record.get("objects", []))) or "-")]
+    directives = record.get("directives") or {}
+    if directives:
+        return [f"  schedule {root}: " + (" ".join(map(str, texts)) or "-") for root, texts in sorted(directives.items())]
+    return ["  schedule: " + (", ".join(str(s) for s in record.get("shifts", [])) or "-")]
 
 
 def _shown(value) -> str:
