@@ -165,3 +165,23 @@ def test_preview_of_a_character_lying_down(tmp_path, capsys):
             x0 = i * 2 * size + panel * size
             tile = bodies[render.LABEL_H:h, x0 + 2:x0 + size - 2]
             assert tile.sum() > 300, (i, panel, tile.sum())  # a figure is drawn in every panel
+
+
+def test_plot_of_a_one_frame_clip_shows_its_values(tmp_path):
+    """A still (one frame): ``plot`` wrote its panels empty, every curve a line of one point, which
+    matplotlib does not draw; the requested 30 deg and the eye angles at that frame were not seen."""
+    from usdgaze.review import plotting
+
+    rig = syn.make_rig(tmp_path / "still.usda", frames=1, time_codes_per_second=24.0, mesh=False, walk_speed=0.0)
+    layer = tmp_path / "g.usda"
+    assert main(["apply", str(rig.path), "--shift", "0:30:0", "--out", str(layer)]) == 0
+    assert main(["plot", str(rig.path), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    png = tmp_path / "p" / "Character_gaze.png"
+    fig = plotting.figures(read_review(str(rig.path), str(layer)))["Character_gaze"]
+    fig.canvas.draw()
+    ax, height = fig.axes[0], fig.canvas.get_width_height()[1]
+    rgb = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    yaw = np.abs(rgb - np.array([int(plotting.YAW_COLOUR[i:i + 2], 16) for i in (1, 3, 5)])).sum(-1) <= 40
+    x, y = ax.transData.transform((0.0, 30.0))  # the yaw asked for, at the one frame
+    x, y = int(round(x)), int(round(height - y))
+    assert yaw[y - 2:y + 3, x - 2:x + 3].any()

@@ -224,8 +224,19 @@ def figures(review) -> dict[str, object]:
         panel_attention(top, bottom, a.seconds, a.point_of_sight, a.objects, a.uncertainty, name)
         out[f"{name}_attention"] = fig
     for fig in out.values():
+        _mark_lone_points(fig)
         fig.tight_layout()
     return out
+
+
+def _mark_lone_points(fig) -> None:
+    """A curve of one sample (a one-frame clip) is a line of no length, which matplotlib does not
+    draw: it gets a dot, so a still pose's gaze and eye angles show."""
+    for ax in fig.axes:
+        for line in ax.get_lines():
+            if len(line.get_xdata()) == 1 and line.get_marker() in ("None", "", None):
+                line.set_marker("o")
+                line.set_markersize(5)
 
 
 _NO_DATE = {"pdf": {"CreationDate": None}, "svg": {"Date": None}}
@@ -275,6 +286,7 @@ def summary_figure(review):
                           f"shift 1 at {s.time_s:g} s: per-joint rotation (cascade, overshoot, settle)")
         panel_eyes(axes[3 * n + 2, 0], c.seconds, analysis.eye_in_head(c), review.eye_range,
                    review.eye_range_recorded, "eye in head")
+    _mark_lone_points(fig)
     fig.tight_layout()
     return fig
 
