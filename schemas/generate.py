@@ -48,7 +48,7 @@ VALIDATORS = {
                       "joint of its joints array.",
     "GazeSchedule": "A GazeScheduleAPI reads as a schedule (arrays one per directive, known kinds, times in order, "
                     "weights and blends in range), each target is an Xformable or Boundable prim of the stage, "
-                    "and each directive lies in the stage's time range.",
+                    "and each directive lies in the stage's time range or its SkelRoot's animation samples.",
     "GazeObject": "A GazeObjectAPI sits on an Xformable, its importance is > 0 at every sample, its radius >= 0 "
                   "and its kind one of the allowed tokens.",
     "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift parses and "

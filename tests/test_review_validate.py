@@ -268,6 +268,34 @@ def test_a_shift_past_the_playback_range_but_inside_the_animation_passes_both(tm
     assert _ours(Usd.Stage.Open(str(tmp_path / "preview.usda"))) == []
 
 
+
+def test_a_schedule_past_the_playback_range_but_inside_the_animation_passes(tmp_path):
+    """The same for a GazeScheduleAPI on the SkelRoot: ``apply`` played its directive at 90 (the
+    animation runs to 119, the playback range to 59) while ``validate`` called it out of range (exit 3)."""
+    from . import synthetic as syn
+
+    rig = syn.make_rig(tmp_path / "in.usda", frames=120, time_codes_per_second=24.0, mesh=False, walk_speed=0.0)
+    syn.edit(rig.path, lambda layer: setattr(layer, "endTimeCode", 59.0))  # handles kept past the cut
+    stage = Usd.Stage.Open(str(rig.path))
+    prim = stage.GetPrimAtPath(rig.skel_root)
+    prim.ApplyAPI("GazeScheduleAPI")
+    for name, type_name, value in (("time", Sdf.ValueTypeNames.DoubleArray, [30.0, 90.0]),
+                                   ("kind", Sdf.ValueTypeNames.TokenArray, ["shift", "shift"]),
+                                   ("yaw", Sdf.ValueTypeNames.FloatArray, [30.0, -30.0])):
+        prim.CreateAttribute(f"gaze:schedule:{name}", type_name, False, Sdf.VariabilityUniform).Set(value)
+    stage.Save()
+    layer = tmp_path / "g.usdc"
+    assert main(["apply", str(rig.path), "--out", str(layer)]) == 0
+    record = Sdf.Layer.FindOrOpen(str(layer)).customLayerData["usdgaze"]
+    assert list(record["directives"][rig.skel_root]) == ["--shift 30:30:0", "--shift 90:-30:0"]  # both played
+    assert main(["validate", str(rig.path)]) == 0
+    assert main(["validate", str(rig.path), "--layer", str(layer)]) == 0
+    # Past the animation too, it is out of range.
+    prim.GetAttribute("gaze:schedule:time").Set(Vt.DoubleArray([30.0, 130.0]))
+    found = [(v, e) for v, e, _, _ in _ours(stage)]
+    assert found == [("GazeSchedule", "OutOfRange")], found
+
+
 def _scheduled(tmp_path):
     from usdgaze.passes.requests import DirectiveRequest
     from usdgaze.usd.schedule import write_schedule

@@ -255,12 +255,13 @@ def gaze_schedule(prim: Usd.Prim, time_range=None) -> list:
                                  f"{sch.TARGETS_REL}: {target} is {'not an Xformable or Boundable prim' if t else 'no prim'} "
                                  "on this stage"))
     if stage.HasAuthoredTimeCodeRange():
-        start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+        # apply plays a directive anywhere the animation has samples (handles past the playback range).
+        start, end = _sampled_range(stage, [prim.GetPath()], stage.GetStartTimeCode(), stage.GetEndTimeCode())
         late = [d.time for d in directives if not start <= d.time <= end]
         if late:
             errors.append(_error(prim, prim.GetPath().AppendProperty(sch.TIME), "OutOfRange",
                                  f"{sch.TIME}: {', '.join(f'{t:g}' for t in late[:3])} outside the stage's time range "
-                                 f"[{start:g}, {end:g}]"))
+                                 f"and its animation [{start:g}, {end:g}]"))
     return errors
 
 
