@@ -53,6 +53,21 @@ def test_a_layer_for_another_take_is_refused_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "p").exists() and not (tmp_path / "p.png").exists()
 
 
+
+def test_validate_calls_a_layer_for_another_take_what_plot_calls_it(tmp_path, capsys):
+    """``plot`` and ``preview`` refuse a layer made for a longer take; ``validate --layer`` of the same
+    pair printed nothing and exited 0."""
+    long = syn.make_rig(tmp_path / "long.usda", frames=120, mesh=False)
+    short = syn.make_rig(tmp_path / "short.usda", frames=60, mesh=False)
+    layer = tmp_path / "g.usdc"
+    assert main(["apply", str(long.path), "--shift", "10:30:0", "--out", str(layer)]) == 0
+    assert main(["validate", str(long.path), "--layer", str(layer)]) == 0  # over its own take: clean
+    capsys.readouterr()
+    assert main(["validate", str(short.path), "--layer", str(layer)]) == 3
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1 and "OtherTake" in out[0] and "0..119, the input below it 0..59" in out[0], out
+
+
 def test_a_shot_that_sublayers_the_input_late_is_reviewed_on_its_own_time(tmp_path, capsys):
     rig = syn.make_rig(tmp_path / "in.usda", frames=120, mesh=False, time_codes_per_second=60)
     shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))

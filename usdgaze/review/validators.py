@@ -28,6 +28,7 @@ from usdgaze.gaze.definition import (
     _range_text,
 )
 from usdgaze.gaze.motion import TIMING_FIELDS
+from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
 from usdgaze.review.sample_checks import first_bad
 
 PLUGIN = "usdgaze.review.validators"
@@ -256,7 +257,7 @@ def gaze_schedule(prim: Usd.Prim, time_range=None) -> list:
                                  "on this stage"))
     if stage.HasAuthoredTimeCodeRange():
         # apply plays a directive anywhere the animation has samples (handles past the playback range).
-        start, end = _sampled_range(stage, [prim.GetPath()], stage.GetStartTimeCode(), stage.GetEndTimeCode())
+        start, end = sampled_range(stage, [prim.GetPath()], stage.GetStartTimeCode(), stage.GetEndTimeCode())
         late = [d.time for d in directives if not start <= d.time <= end]
         if late:
             errors.append(_error(prim, prim.GetPath().AppendProperty(sch.TIME), "OutOfRange",
@@ -296,73 +297,6 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
         errors.append(_error(prim, kind.GetPath(), "UnknownKind",
                              f"gaze:object:kind: '{kind.Get()}', expected one of {', '.join(repr(a) for a in allowed)}"))
     return errors
-
-
-def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
-    """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
-    range, and every character it names is a SkelRoot on the stage."""
-    from usdgaze.errors import UsdGazeError
-    from usdgaze.passes.requests import parse_shift
-    from usdgaze.usd.stage import layer_stack
-
-    errors = []
-    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
-    offsets = {name: o for name, _, o in layer_stack(stage.GetRootLayer())}
-    for layer in stage.GetLayerStack(includeSessionLayers=False):
-        record = (layer.customLayerData or {}).get("usdgaze")
-        if not isinstance(record, dict) or "shifts" not in record:
-            continue
-        name = layer.GetDisplayName()
-        lo, hi = _sampled_range(stage, record.get("characters", []), start, end)
-        # The recorded times are the input's: its time codes, or seconds from its start (the layer
-        # carries the input's timing), brought to the stage through the layer's own offset.
-        offset = offsets.get(layer.identifier, Sdf.LayerOffset())
-        layer_start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
-        for text in record.get("shifts", []):
-            try:
-                shift = parse_shift(str(text))
-            except UsdGazeError as exc:
-                errors.append(_stage_error(stage, "BadShift", f"{name}: customLayerData usdgaze.shifts: {exc}"))
-                continue
-            local = layer_start + shift.time * layer.timeCodesPerSecond if shift.seconds else shift.time
-            code = offset * local
-            if (stage.HasAuthoredTimeCodeRange() or lo < hi) and not lo <= code <= hi:
-                errors.append(_stage_error(stage, "ShiftOutOfRange",
-                                           f"{name}: shift {text} starts at time code {code:g}, outside the stage's "
-                                           f"range and its characters' animation [{lo:g}, {hi:g}]"))
-        for path in record.get("characters", []):
-            prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
-            if prim and not prim.IsDefined():  # the override layer on its own: overs, no defs
-                errors.append(_stage_error(stage, "MissingCharacter",
-                                           f"{name}: customLayerData usdgaze.characters names {path}, which this stage "
-                                           f"only overrides (no def); validate the layer over its input: "
-                                           f"usdgaze validate INPUT --layer {name}"))
-            elif not prim or not prim.IsA(UsdSkel.Root):
-                errors.append(_stage_error(stage, "MissingCharacter",
-                                           f"{name}: customLayerData usdgaze.characters names {path}, which is not a "
-                                           f"SkelRoot on this stage"))
-    return errors
-
-
-def _sampled_range(stage, characters, start: float, end: float) -> tuple[float, float]:
-    """The stage's time range widened to its characters' animation samples: ``apply`` takes a shift
-    anywhere the animation has samples, the stage's playback range or not."""
-    lo, hi = (start, end) if stage.HasAuthoredTimeCodeRange() else (np.inf, -np.inf)
-    for path in characters:
-        prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
-        if not prim or not prim.IsA(UsdSkel.Root):
-            continue
-        for skel in (p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)):
-            anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
-            times = UsdSkel.Animation(anim).GetRotationsAttr().GetTimeSamples() if anim else []
-            if times:
-                lo, hi = min(lo, times[0]), max(hi, times[-1])
-    return float(lo), float(hi)
-
-
-def _stage_error(stage, name: str, message: str):
-    site = UsdValidation.ValidationErrorSite(stage, Sdf.Path.absoluteRootPath)
-    return UsdValidation.ValidationError(name, UsdValidation.ValidationErrorType.Error, [site], message)
 
 
 STAGE_TASKS = {"GazeLayerSchedule": gaze_layer_schedule}

@@ -1,0 +1,110 @@
+"""The stage-level validator over the usdgaze layers of a stage's layer stack (``GazeLayerSchedule``):
+what a layer records it was asked fits the stage, and the layer animates the frames of the input below
+it. Registered with the prim validators in :mod:`usdgaze.review.validators`."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Sdf, Usd, UsdSkel, UsdValidation
+
+
+def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
+    """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
+    range, every character it names is a SkelRoot on the stage whose animation the layer samples over
+    the span the layers below it do."""
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.passes.requests import parse_shift
+    from usdgaze.usd.stage import layer_stack
+
+    errors = []
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    offsets = {name: o for name, _, o in layer_stack(stage.GetRootLayer())}
+    for layer in stage.GetLayerStack(includeSessionLayers=False):
+        record = (layer.customLayerData or {}).get("usdgaze")
+        if not isinstance(record, dict) or "shifts" not in record:
+            continue
+        name = layer.GetDisplayName()
+        lo, hi = sampled_range(stage, record.get("characters", []), start, end)
+        # The recorded times are the input's: its time codes, or seconds from its start (the layer
+        # carries the input's timing), brought to the stage through the layer's own offset.
+        offset = offsets.get(layer.identifier, Sdf.LayerOffset())
+        layer_start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
+        for text in record.get("shifts", []):
+            try:
+                shift = parse_shift(str(text))
+            except UsdGazeError as exc:
+                errors.append(_stage_error(stage, "BadShift", f"{name}: customLayerData usdgaze.shifts: {exc}"))
+                continue
+            local = layer_start + shift.time * layer.timeCodesPerSecond if shift.seconds else shift.time
+            code = offset * local
+            if (stage.HasAuthoredTimeCodeRange() or lo < hi) and not lo <= code <= hi:
+                errors.append(_stage_error(stage, "ShiftOutOfRange",
+                                           f"{name}: shift {text} starts at time code {code:g}, outside the stage's "
+                                           f"range and its characters' animation [{lo:g}, {hi:g}]"))
+        for path in record.get("characters", []):
+            prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
+            if prim and not prim.IsDefined():  # the override layer on its own: overs, no defs
+                errors.append(_stage_error(stage, "MissingCharacter",
+                                           f"{name}: customLayerData usdgaze.characters names {path}, which this stage "
+                                           f"only overrides (no def); validate the layer over its input: "
+                                           f"usdgaze validate INPUT --layer {name}"))
+            elif not prim or not prim.IsA(UsdSkel.Root):
+                errors.append(_stage_error(stage, "MissingCharacter",
+                                           f"{name}: customLayerData usdgaze.characters names {path}, which is not a "
+                                           f"SkelRoot on this stage"))
+        errors += _other_take(stage, layer, record.get("characters", []))
+    return errors
+
+
+def _other_take(stage, layer, characters) -> list:
+    """Each named character's animation as ``layer`` samples it against the strongest layer below it
+    that samples it: ``apply`` writes every frame from the input's first key to its last, so another
+    span is a layer made for another take (plot and preview refuse it; validate had called it clean)."""
+    errors = []
+    for path in characters:
+        prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
+        if not prim or not prim.IsA(UsdSkel.Root):
+            continue
+        for skel in (p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)):
+            anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
+            attr = UsdSkel.Animation(anim).GetRotationsAttr() if anim else None
+            stack = attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []
+            spans = [(spec.layer.identifier, _span(spec, offset)) for spec, offset in stack
+                     if spec.layer.GetNumTimeSamplesForPath(spec.path)]
+            ours = next((k for k, (name, _) in enumerate(spans) if name == layer.identifier), None)
+            if ours is None or ours + 1 >= len(spans):  # not sampled here, or nothing below samples it
+                continue
+            (a, b), (c, d) = spans[ours][1], spans[ours + 1][1]
+            if not np.allclose([a, b], [c, d], rtol=1e-9, atol=1e-6):
+                errors.append(_stage_error(stage, "OtherTake",
+                                           f"{layer.GetDisplayName()}: {anim.GetPath()} samples time codes {a:g}..{b:g}, "
+                                           f"the input below it {c:g}..{d:g}: the layer was made for another take; "
+                                           f"validate it over the input it was made for"))
+    return errors
+
+
+def _span(spec, offset) -> tuple[float, float]:
+    """First and last time sample of a spec, in stage time (through the layer's offset)."""
+    times = spec.layer.ListTimeSamplesForPath(spec.path)
+    return float(offset * times[0]), float(offset * times[-1])
+
+
+def sampled_range(stage, characters, start: float, end: float) -> tuple[float, float]:
+    """The stage's time range widened to its characters' animation samples: ``apply`` takes a shift
+    anywhere the animation has samples, the stage's playback range or not."""
+    lo, hi = (start, end) if stage.HasAuthoredTimeCodeRange() else (np.inf, -np.inf)
+    for path in characters:
+        prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
+        if not prim or not prim.IsA(UsdSkel.Root):
+            continue
+        for skel in (p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)):
+            anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
+            times = UsdSkel.Animation(anim).GetRotationsAttr().GetTimeSamples() if anim else []
+            if times:
+                lo, hi = min(lo, times[0]), max(hi, times[-1])
+    return float(lo), float(hi)
+
+
+def _stage_error(stage, name: str, message: str):
+    site = UsdValidation.ValidationErrorSite(stage, Sdf.Path.absoluteRootPath)
+    return UsdValidation.ValidationError(name, UsdValidation.ValidationErrorType.Error, [site], message)
