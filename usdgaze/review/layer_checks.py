@@ -61,26 +61,33 @@ def _other_take(stage, layer, characters) -> list:
     that samples it: ``apply`` writes every frame from the input's first key to its last, so another
     span is a layer made for another take (plot and preview refuse it; validate had called it clean)."""
     errors = []
+    for anim in _animations(stage, characters):
+        attr = anim.GetRotationsAttr()
+        stack = attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []
+        spans = [(spec.layer.identifier, _span(spec, offset)) for spec, offset in stack
+                 if spec.layer.GetNumTimeSamplesForPath(spec.path)]
+        ours = next((k for k, (name, _) in enumerate(spans) if name == layer.identifier), None)
+        if ours is None or ours + 1 >= len(spans):  # not sampled here, or nothing below samples it
+            continue
+        (a, b), (c, d) = spans[ours][1], spans[ours + 1][1]
+        if not np.allclose([a, b], [c, d], rtol=1e-9, atol=1e-6):
+            errors.append(_stage_error(stage, "OtherTake",
+                                       f"{layer.GetDisplayName()}: {anim.GetPath()} samples time codes {a:g}..{b:g}, "
+                                       f"the input below it {c:g}..{d:g}: the layer was made for another take; "
+                                       f"validate it over the input it was made for"))
+    return errors
+
+
+def _animations(stage, characters):
+    """The SkelAnimation bound to each Skeleton under each named character that is a SkelRoot."""
     for path in characters:
         prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
         if not prim or not prim.IsA(UsdSkel.Root):
             continue
         for skel in (p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)):
             anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
-            attr = UsdSkel.Animation(anim).GetRotationsAttr() if anim else None
-            stack = attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []
-            spans = [(spec.layer.identifier, _span(spec, offset)) for spec, offset in stack
-                     if spec.layer.GetNumTimeSamplesForPath(spec.path)]
-            ours = next((k for k, (name, _) in enumerate(spans) if name == layer.identifier), None)
-            if ours is None or ours + 1 >= len(spans):  # not sampled here, or nothing below samples it
-                continue
-            (a, b), (c, d) = spans[ours][1], spans[ours + 1][1]
-            if not np.allclose([a, b], [c, d], rtol=1e-9, atol=1e-6):
-                errors.append(_stage_error(stage, "OtherTake",
-                                           f"{layer.GetDisplayName()}: {anim.GetPath()} samples time codes {a:g}..{b:g}, "
-                                           f"the input below it {c:g}..{d:g}: the layer was made for another take; "
-                                           f"validate it over the input it was made for"))
-    return errors
+            if anim:
+                yield UsdSkel.Animation(anim)
 
 
 def _span(spec, offset) -> tuple[float, float]:
@@ -93,15 +100,11 @@ def sampled_range(stage, characters, start: float, end: float) -> tuple[float, f
     """The stage's time range widened to its characters' animation samples: ``apply`` takes a shift
     anywhere the animation has samples, the stage's playback range or not."""
     lo, hi = (start, end) if stage.HasAuthoredTimeCodeRange() else (np.inf, -np.inf)
-    for path in characters:
-        prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
-        if not prim or not prim.IsA(UsdSkel.Root):
-            continue
-        for skel in (p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)):
-            anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
-            times = UsdSkel.Animation(anim).GetRotationsAttr().GetTimeSamples() if anim else []
-            if times:
-                lo, hi = min(lo, times[0]), max(hi, times[-1])
+    for anim in _animations(stage, characters):
+        attr = anim.GetRotationsAttr()
+        times = attr.GetTimeSamples() if attr else []
+        if times:
+            lo, hi = min(lo, times[0]), max(hi, times[-1])
     return float(lo), float(hi)
 
 
