@@ -51,7 +51,7 @@ VALIDATORS = {
                     "and each directive lies in the stage's time range or its SkelRoot's animation samples.",
     "GazeObject": "A GazeObjectAPI sits on an Xformable, its importance is > 0 at every sample, its radius >= 0 "
                   "and its kind one of the allowed tokens.",
-    "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift parses and "
+    "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift, look-at and release parses and "
                          "starts inside the stage's time range, every character it names is a SkelRoot there, and the layer "
                          "samples its animation over the span the input below it does (not another take's).",
 }

@@ -253,6 +253,25 @@ def test_schedule_validator_catches_late_shifts_and_missing_characters(tmp_path)
     assert found == [("GazeLayerSchedule", "MissingCharacter"), ("GazeLayerSchedule", "ShiftOutOfRange")]
 
 
+def test_schedule_validator_catches_late_look_ats_and_releases(tmp_path):
+    """Look-ats and releases are recorded per character (``directives``), not in ``shifts``: one made
+    for a longer take starts past this one's range as a late shift does (it was not looked at)."""
+    layer = tmp_path / "g.usda"
+    api.apply(SAMPLES[0], [], layer, preview=tmp_path / "preview.usda", look_at=["1,1.3,-0.5@0.5s"],
+              release=["6.5s"])
+    stage = Usd.Stage.Open(str(tmp_path / "preview.usda"))
+    assert _ours(stage) == []
+    edit = Sdf.Layer.FindOrOpen(str(layer))
+    record = dict(edit.customLayerData["usdgaze"])
+    (root, flags), = dict(record["directives"]).items()
+    record["directives"] = {root: [*flags, "--look-at 1,1.3,-0.5@100s", "--release 20000", "--release soon"]}
+    edit.customLayerData = {"usdgaze": record}
+    found = sorted((v, e, m.split(": ", 1)[1][:40]) for v, e, _, m in _ours(stage))
+    assert [f[:2] for f in found] == [("GazeLayerSchedule", "BadDirective"), ("GazeLayerSchedule", "DirectiveOutOfRange"),
+                                      ("GazeLayerSchedule", "DirectiveOutOfRange")], found
+    assert "100s" in found[1][2] + found[2][2] and "20000" in found[1][2] + found[2][2]
+
+
 def test_a_shift_past_the_playback_range_but_inside_the_animation_passes_both(tmp_path):
     """``apply`` takes a shift anywhere the animation has samples; the schedule validator agrees, even
     where the stage's playback range ends earlier (handles kept beyond it)."""

@@ -9,9 +9,9 @@ from pxr import Sdf, Usd, UsdSkel, UsdValidation
 
 
 def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
-    """A usdgaze layer's recorded schedule: every shift parses, starts inside the stage's time
-    range, every character it names is a SkelRoot on the stage whose animation the layer samples over
-    the span the layers below it do."""
+    """A usdgaze layer's recorded schedule: every shift, look-at and release parses and starts inside
+    the stage's time range, every character it names is a SkelRoot on the stage whose animation the
+    layer samples over the span the layers below it do."""
     from usdgaze.errors import UsdGazeError
     from usdgaze.passes.requests import parse_shift
     from usdgaze.usd.stage import layer_stack
@@ -27,20 +27,20 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
         lo, hi = sampled_range(stage, record.get("characters", []), start, end)
         # The recorded times are the input's: its time codes, or seconds from its start (the layer
         # carries the input's timing), brought to the stage through the layer's own offset.
-        offset = offsets.get(layer.identifier, Sdf.LayerOffset())
-        layer_start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
+        clock = _clock(layer, offsets.get(layer.identifier, Sdf.LayerOffset()))
+        checked = stage.HasAuthoredTimeCodeRange() or lo < hi
         for text in record.get("shifts", []):
             try:
                 shift = parse_shift(str(text))
             except UsdGazeError as exc:
                 errors.append(_stage_error(stage, "BadShift", f"{name}: customLayerData usdgaze.shifts: {exc}"))
                 continue
-            local = layer_start + shift.time * layer.timeCodesPerSecond if shift.seconds else shift.time
-            code = offset * local
-            if (stage.HasAuthoredTimeCodeRange() or lo < hi) and not lo <= code <= hi:
+            code = clock(shift)
+            if checked and not lo <= code <= hi:
                 errors.append(_stage_error(stage, "ShiftOutOfRange",
                                            f"{name}: shift {text} starts at time code {code:g}, outside the stage's "
                                            f"range and its characters' animation [{lo:g}, {hi:g}]"))
+        errors += _looks_and_releases(stage, record, name, clock, (lo, hi) if checked else None)
         for path in record.get("characters", []):
             prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
             if prim and not prim.IsDefined():  # the override layer on its own: overs, no defs
@@ -75,6 +75,40 @@ def _other_take(stage, layer, characters) -> list:
                                        f"{layer.GetDisplayName()}: {anim.GetPath()} samples time codes {a:g}..{b:g}, "
                                        f"the input below it {c:g}..{d:g}: the layer was made for another take; "
                                        f"validate it over the input it was made for"))
+    return errors
+
+
+def _clock(layer, offset):
+    """A recorded directive's stage time code: its time in the input's time codes (or seconds from
+    the input's start), through the layer's offset."""
+    start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
+    return lambda d: offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
+
+
+def _looks_and_releases(stage, record: dict, name: str, clock, span) -> list:
+    """The look-ats and releases ``apply`` recorded per character (``directives``; its shifts are the
+    layer's ``shifts``, checked above): each parses and, where ``span`` is given, starts inside it."""
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.passes.requests import parse_look, parse_release
+
+    errors = []
+    parsers = {"--look-at": parse_look, "--release": parse_release}
+    directives = record.get("directives") or {}
+    for root in directives:
+        for text in directives[root]:
+            flag, _, value = str(text).partition(" ")
+            if flag not in parsers:
+                continue
+            try:
+                d = parsers[flag](value)
+            except UsdGazeError as exc:
+                errors.append(_stage_error(stage, "BadDirective", f"{name}: customLayerData usdgaze.directives: {exc}"))
+                continue
+            code = clock(d)
+            if span is not None and not span[0] <= code <= span[1]:
+                errors.append(_stage_error(stage, "DirectiveOutOfRange",
+                                           f"{name}: {root}'s {text} starts at time code {code:g}, outside the stage's "
+                                           f"range and its characters' animation [{span[0]:g}, {span[1]:g}]"))
     return errors
 
 
