@@ -360,14 +360,15 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
     cannot mend is not simulated again."""
     from usdgaze.passes.physics import ShotReport, _simulate_shot
 
-    def attempts(outcomes: dict[int, list[str]]):
+    def attempts(outcomes: dict[int, list[str]], depths=(0.0, 0.0)):
         calls = []
 
         def attempt(opts):
             calls.append(opts.iterations)
             problems = outcomes[opts.iterations]
             report = ShotReport("s", "a", 10, 1.0, any(p.startswith("fell") for p in problems), None, 1.0, 1.0,
-                                0.0, 0, 1.0, list(problems), unmendable=[p for p in problems if "never" in p])
+                                depths[opts.iterations - 1], 0, 1.0, list(problems),
+                                unmendable=[p for p in problems if "never" in p])
             return report, f"override {opts.iterations}", {}, None
         return attempt, calls
 
@@ -384,6 +385,11 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
     assert report.other_attempt == ["with 2 iteration(s) a step: fell at 0.9 s"]
     attempt, calls = attempts({1: ["fell at 1.5 s"], 2: []})
     assert _simulate_shot(attempt, mpc.Options(retry_iterations=0))[1] == "override 1" and calls == [1]
+    # As many problems: the shallower foot is kept (the walk's retry sank 3.6 cm where the first 2.2).
+    attempt, calls = attempts({1: ["a foot 2.2 cm below"], 2: ["a foot 3.6 cm below"]}, (0.022, 0.036))
+    assert _simulate_shot(attempt, opts)[1] == "override 1" and calls == [1, 2]
+    attempt, calls = attempts({1: ["a foot 3.6 cm below"], 2: ["a foot 2.2 cm below"]}, (0.036, 0.022))
+    assert _simulate_shot(attempt, opts)[1] == "override 2"
     # A problem another simulation cannot mend (a ball never reached for) is not simulated again,
     # unless a mendable one comes with it.
     attempt, calls = attempts({1: ["ball never reached for"], 2: []})
