@@ -145,6 +145,8 @@ def sdf_copy(src: Path, out: Path, attrs: dict[str, set[str]], rest_from: Path |
     source = Sdf.Layer.OpenAsAnonymous(str(src))
     rest = Sdf.Layer.OpenAsAnonymous(str(rest_from)) if rest_from else None
     layer = Sdf.Layer.CreateAnonymous("floor.usdc")
+    # marked as usdgaze's, as the pass's output is: the one writer replaces only layers usdgaze wrote
+    layer.customLayerData = {"usdgaze": "floor"}
     with Sdf.ChangeBlock():
         for prim_path, names in attrs.items():
             prim = Sdf.CreatePrimInLayer(layer, prim_path)
