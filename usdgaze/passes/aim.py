@@ -106,12 +106,18 @@ def _own_scale_turn(rig: Rig, rest_eye: np.ndarray, fwd_h: np.ndarray, shown_at_
     eye made oval, whose joint orient is not its gaze) points that axis scaled: aimed by the rotation
     alone it missed a look-at target by 16 deg (scale (1, 1.6, 0.7)), or 20 deg when only the bind
     pose scaled it."""
-    scale = np.stack([np.asarray(rig.local(e)[2], dtype=float) for e in rig.eyes])  # (2, F, 3)
+    scales = [np.asarray(rig.local(e)[2], dtype=float) for e in rig.eyes]
+    frames = len(scales[0])
+    # An eye's scale held on every frame (a broadcast row: an added eye's, most rigs') bends it alike on
+    # every frame: the turn is measured on one and broadcast.
+    still = frames > 0 and all(s.ndim == 2 and s.strides[0] == 0 for s in scales)
+    scale = np.stack([s[:1] if still else s for s in scales])  # (2, F or 1, 3)
     shown = rot.normalize(scale * shown_at_rest[:, None, :])
     aimed = np.broadcast_to(rot.rotate(rot.conjugate(rest_eye), fwd_h)[:, None, :], shown.shape)
     if rot.length(np.cross(shown, aimed)).max() <= 1e-9 and rot.dot(shown, aimed).min() > 0.0:
         return None
-    return rot.shortest_arc(shown, aimed)
+    turn = rot.shortest_arc(shown, aimed)
+    return np.broadcast_to(turn, (len(scales), frames, 4)) if still else turn
 
 
 def capped_speed(angles: np.ndarray, seconds: np.ndarray, max_deg_s: float = saccade.MAX_SACCADE_DEG_S) -> np.ndarray:

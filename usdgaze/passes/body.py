@@ -47,6 +47,14 @@ class CachedMap:
             self._full[key] = self.map.query_full(yaw_deg, pitch_deg, correct=correct)
         return self._full[key]
 
+    def prefetch_timing(self, changes: np.ndarray) -> None:
+        """Answer the timing of several changes ``(N, 2)`` in one batch of the map, so that the
+        :meth:`timing` calls that follow find them (a scheduler asks one shift at a time)."""
+        keys = [k for k in dict.fromkeys(map(tuple, np.asarray(changes, float).tolist())) if k not in self._timing]
+        if keys:
+            answer = self.map.timing(np.array([k[0] for k in keys]), np.array([k[1] for k in keys]))
+            self._timing.update(zip(keys, answer))
+
     def timing(self, yaw_deg, pitch_deg) -> np.ndarray:
         """The uncorrected answer's timing floats ``(7,)`` for one change (see ``ParametricGazeMap.timing``)."""
         key = (float(yaw_deg), float(pitch_deg))

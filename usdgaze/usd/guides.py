@@ -48,7 +48,7 @@ def author_guides(layer: Sdf.Layer, skeleton: str, times: np.ndarray, eyes_skel:
                   sight_skel: np.ndarray, sight_world: np.ndarray, width: float) -> None:
     """Author the guides for one skeleton: ``eyes_skel (2, F, 3)`` and ``sight_skel (F, 3)`` in
     skeleton space, ``sight_world (F, 3)`` in world space, lines ``width`` stage units wide."""
-    codes = [float(t) for t in times]
+    codes = np.asarray(times, dtype=float).tolist()  # the same floats as float(t), without a numpy scalar per frame
     scope = _define(layer, guide_path(skeleton), "Scope")
     pos_attr = _attr(scope, POINT_OF_SIGHT, _T.Point3d)
     pos_attr.SetInfo("documentation", "World point both eyes fixate, per frame (stage units); written by usdgaze for review.")
