@@ -272,8 +272,9 @@ def _simulate_shot(attempt, options: mpc.Options) -> tuple:
     a problem (a fall, a foot sunk over 2 cm, a stone missed, an obstacle touched, a ball not reached;
     not one that another simulation cannot mend, ``ShotReport.unmendable``) is simulated again with
     ``options.retry_iterations`` solver iterations a step, and that kept unless it is worse (it fell
-    where the first stood, or it has more problems, or as many with a deeper foot). With one iteration 3 of 12 stepping-stone shots
-    fell; with two none did (docs/physics.md), at twice the cost, spent only where the first failed."""
+    where the first stood, or it has more problems, or as many with a deeper foot). With one
+    iteration 3 of 12 stepping-stone shots fell; with two none did (docs/physics.md), at twice the
+    cost, spent only where the first failed."""
     import dataclasses
 
     first = attempt(options)
@@ -368,7 +369,8 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
     others = animations_elsewhere(stage, roots)
     for root in roots:
         for skel in skeletons_under(root):
-            clip, ahead = _in_shot_range(read_clip(stage, skel, root, source), stage, options.horizon_s + 2 * options.h)
+            ahead_s = options.horizon_s + 2 * options.h  # the planner's last window, past the shot
+            clip, ahead = _in_shot_range(read_clip(stage, skel, root, source), stage, ahead_s)
             check_not_shared(others, clip.animation, source)
             scene = visuomotor.read_scene(root, clip, source, options.h)
             shots.append((root, clip, scene, bind_root(clip, root, binding), ahead))
