@@ -47,3 +47,22 @@ def test_a_missing_layer_is_said_once_in_the_shots_line_not_in_a_usd_warning(tmp
     err = capfd.readouterr().err
     assert "Warning" not in err and "assetLocalization" not in err, err
     assert "missing.usda" in err  # the shot's own line
+
+
+def test_a_binding_spelled_another_way_is_the_same_shot(tmp_path):
+    """forward as a list or a string, bind as a list or a table, in any order: the same binding, so
+    a respelled manifest skips the shots it already did (it redid them); another binding redoes."""
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=24, mesh=False)
+    manifest = tmp_path / "jobs.toml"
+    job = '[[job]]\nname = "g"\ninput = "rig.usda"\nout = "out/g.usdc"\nshifts = ["0.2s:30:0"]\n'
+
+    def run(binding: str) -> str:
+        manifest.write_text(job + binding)
+        assert main(["batch", str(manifest)]) == 0
+        return json.loads((tmp_path / "jobs.summary.json").read_text())["shots"][0]["status"]
+
+    head, neck = rig.leaf["head"], rig.leaf["neck"]  # joints by their own names
+    assert run(f'forward = [0, 0, 1]\nbind = ["head={head}", "neck={neck}"]\n') == "done"
+    assert run(f'forward = "0,0,1"\nbind = ["neck={neck}", "head={head}"]\n') == "skipped"
+    assert run(f'forward = "0, 0, 1.0"\nbind = {{ head = "{head}", neck = ["{neck}"] }}\n') == "skipped"
+    assert run(f'forward = "0,0,1"\nbind = ["head={head}"]\n') == "done"

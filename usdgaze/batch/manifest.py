@@ -263,6 +263,14 @@ class Shot:
         """What the result depends on besides file contents: every non-path, non-output value."""
         keyed = {k: v for k, v in sorted(self.values.items())
                  if KEYS[k].to is not None and not KEYS[k].output and KEYS[k].keyed}
+        if "bind" in keyed or "forward" in keyed:
+            # As parsed, not as spelled: forward [0, 0, 1] or "0,0,1", bind as a list or a table, in
+            # any order, is one binding (a respelled manifest redid its shots).
+            hints = _binding(self.values, self.where)
+            keyed.pop("bind", None)
+            keyed.pop("forward", None)
+            keyed["binding"] = {"bind": sorted([role, list(joints)] for role, joints in hints.bindings),
+                                "forward": None if hints.forward is None else list(hints.forward)}
         return keyed if self.command == "apply" else {"command": self.command, **keyed}
 
 
