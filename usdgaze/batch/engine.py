@@ -198,8 +198,14 @@ def _pool_round(context, forked: bool, shots: list[Shot], todo: list[int], worke
     broken = []
     with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=context,
                              initializer=_pool_worker, initargs=(forked, states)) as pool:
+        futures = {}
         with _signals_held():  # the workers start (fork) in submit: see _pool_worker
-            futures = {pool.submit(_pool_shot, shots[i], force, i): i for i in todo}
+            for n, i in enumerate(todo):
+                try:
+                    futures[pool.submit(_pool_shot, shots[i], force, i)] = i
+                except BrokenProcessPool:  # a worker died as the pool started: the rest never started
+                    broken.extend(todo[n:])
+                    break
         try:
             for future in as_completed(futures):
                 try:
