@@ -99,3 +99,16 @@ def test_a_non_usd_output_is_replaced_as_any_file(tmp_path):
         pytest.fail("the test extra installs mujoco")
     assert code == 0, err
     assert (tmp_path / "model.xml").read_text() != "<mujoco/>"
+
+
+def test_a_gaze_map_the_shot_composes_is_no_override_to_replace(tmp_path):
+    """``--sublayer-into`` lets ``--out`` replace an earlier override in ROOT's stack (a rerun); a gaze
+    map there is usdgaze's file too, but no override: it was replaced by the override, its map lost."""
+    src = rig(tmp_path, "in.usda").path
+    assert run_inprocess(["dump-map", "map.usda"], tmp_path)[0] == 0
+    (tmp_path / "shot.usda").write_text("#usda 1.0\n(\n    subLayers = [@./map.usda@, @./in.usda@]\n)\n")
+    before = snapshot(tmp_path)
+    code, _, err = run_inprocess(["apply", str(src), *SHIFT, "--out", "map.usda", "--sublayer-into", "shot.usda"],
+                                 tmp_path)
+    assert code == 2 and "map.usda" in err and "--sublayer-into" in err, err
+    assert snapshot(tmp_path) == before

@@ -17,21 +17,17 @@ LINES = f"{HELPERS}/LinesOfSight"
 JOINTS = f"{HELPERS}/ChainJoints"
 
 
-def is_gaze_override(record) -> bool:
-    """Whether ``customLayerData["usdgaze"]`` is that of an override usdgaze wrote: ``apply``'s (its
-    shifts) or ``attend``'s (its command; it records no shifts, and Toggle had said a shot with one
-    held no usdgaze layer). A map file is marked usdgaze's too, and is no override."""
-    return isinstance(record, dict) and ("shifts" in record or str(record.get("command", "")).startswith("attend"))
-
-
 def gaze_layers(stage) -> list:
-    """The root layer's sublayers that are usdgaze overrides (:func:`is_gaze_override`), muted ones included."""
+    """The root layer's sublayers that are usdgaze overrides (``layers.is_override_record``), muted ones
+    included."""
     from pxr import Sdf
+
+    from usdgaze.usd.layers import is_override_record
 
     out = []
     for identifier in stage.GetRootLayer().subLayerPaths:
         layer = Sdf.Layer.FindOrOpenRelativeToLayer(stage.GetRootLayer(), identifier)
-        if layer and is_gaze_override((layer.customLayerData or {}).get("usdgaze")):
+        if layer and is_override_record((layer.customLayerData or {}).get("usdgaze")):
             out.append(layer)
     return out
 

@@ -283,13 +283,20 @@ def _bind_animation(layer: Sdf.Layer, skeleton: str, animation: str) -> None:
     rel.targetPathList.explicitItems = [Sdf.Path(animation)]
 
 
+def is_override_record(record) -> bool:
+    """Whether ``customLayerData["usdgaze"]`` is that of an override usdgaze wrote: ``apply``'s (its
+    shifts) or ``attend``'s (its command; it records no shifts). A gaze map file is marked usdgaze's
+    too, and is no override."""
+    return isinstance(record, dict) and ("shifts" in record or str(record.get("command", "")).startswith("attend"))
+
+
 def is_override(path: str | os.PathLike) -> bool:
-    """Whether the layer file at ``path`` is one usdgaze wrote (its ``usdgaze`` custom layer data)."""
+    """Whether the layer file at ``path`` is an override usdgaze wrote (:func:`is_override_record`)."""
     try:
         layer = Sdf.Layer.OpenAsAnonymous(os.fspath(path), metadataOnly=True)
     except Exception:  # unreadable: not ours
         return False
-    return layer is not None and "usdgaze" in dict(layer.customLayerData)
+    return layer is not None and is_override_record(dict(layer.customLayerData).get("usdgaze"))
 
 
 def relative_asset_path(target: str | os.PathLike, from_layer: str | os.PathLike) -> str:
