@@ -14,20 +14,17 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
     layer samples over the span the layers below it do."""
     from usdgaze.errors import UsdGazeError
     from usdgaze.passes.requests import parse_shift
-    from usdgaze.usd.stage import layer_stack
+    from usdgaze.review.recorded import layer_offset, recorded_code
 
     errors = []
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
-    offsets = {name: o for name, _, o in layer_stack(stage.GetRootLayer())}
     for layer in stage.GetLayerStack(includeSessionLayers=False):
         record = (layer.customLayerData or {}).get("usdgaze")
         if not isinstance(record, dict) or "shifts" not in record:
             continue
         name = layer.GetDisplayName()
         lo, hi = sampled_range(stage, record.get("characters", []), start, end)
-        # The recorded times are the input's: its time codes, or seconds from its start (the layer
-        # carries the input's timing), brought to the stage through the layer's own offset.
-        clock = _clock(layer, offsets.get(layer.identifier, Sdf.LayerOffset()))
+        clock = recorded_code(layer, layer_offset(stage, layer))
         checked = stage.HasAuthoredTimeCodeRange() or lo < hi
         for text in record.get("shifts", []):
             try:
@@ -76,13 +73,6 @@ def _other_take(stage, layer, characters) -> list:
                                        f"the input below it {c:g}..{d:g}: the layer was made for another take; "
                                        f"validate it over the input it was made for"))
     return errors
-
-
-def _clock(layer, offset):
-    """A recorded directive's stage time code: its time in the input's time codes (or seconds from
-    the input's start), through the layer's offset."""
-    start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
-    return lambda d: offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
 
 
 def _looks_and_releases(stage, record: dict, name: str, clock, span) -> list:

@@ -35,16 +35,18 @@ def layer_offset(stage, layer):
     return next((o for name, _, o in layer_stack(stage.GetRootLayer()) if name == layer.identifier), Sdf.LayerOffset())
 
 
-def recorded_clock(layer, offset, clip):
-    """Seconds on ``clip`` of a directive the layer records: in the input's time codes (or seconds
+def recorded_code(layer, offset):
+    """The stage time code of a directive the layer records: in the input's time codes (or seconds
     from its start; the layer carries the input's timing), brought to the stage through the layer's
     ``offset`` (a shot that sublayers it later than the input's own time)."""
     start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
+    return lambda d: offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
 
-    def seconds(d) -> float:
-        code = offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
-        return (code - clip.start_time) / clip.time_codes_per_second
-    return seconds
+
+def recorded_clock(layer, offset, clip):
+    """Seconds on ``clip`` of a directive the layer records (:func:`recorded_code`)."""
+    code = recorded_code(layer, offset)
+    return lambda d: (code(d) - clip.start_time) / clip.time_codes_per_second
 
 
 def looks(stage, root, clip, source: str, record: dict, layer_file: str, clock) -> list[Look]:
