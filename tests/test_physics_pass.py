@@ -226,7 +226,7 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert len(steps) >= 5 and np.allclose(steps, 0.03)
     assert dict(data["usdgaze"]["planner"]) == {"mujoco": importlib.metadata.version("mujoco"), "timestep": 0.03,
                                                 "window": 0.6, "iterations": 1, "retryIterations": 2,
-                                                "firstIterations": 5, "fdStride": 1, "fdReuse": 1}
+                                                "firstIterations": 5, "fdStride": 1, "fdReuse": 1, "groundFeet": True}
     # The fall was simulated again with two iterations a step (it fell again, as early: that one is
     # kept), and the report says so; --retry-iterations 0 simulates once, --iterations sets the first.
     shot = layer.customLayerData["usdgaze:physics"][SKEL]
@@ -414,3 +414,40 @@ def test_the_simulated_steps_are_a_bar_on_a_terminal_and_nothing_in_a_log(tmp_pa
         assert report.fell and report.other_attempt and bar.runs == (2 if on else 0)
     assert "simulation 1" in term.getvalue() and "simulation 2" in term.getvalue() and "step" in term.getvalue()
     assert log.getvalue() == ""
+
+
+def test_feet_the_soft_ground_let_sink_are_written_lifted_out_by_their_legs(tmp_path):
+    """MuJoCo's soft contacts let a loaded foot sink (docs/physics.md); the pass writes each such foot
+    lifted out by its leg. The lunge excerpt simulated twice, with the lift and with ``ground_feet``
+    off (``--raw-contacts``), measured by UsdSkel FK of the written layers: the raw feet sink, the
+    lifted ones are on the ground (within what nlerp between steps gives); the two layers differ only
+    in the thighs and shanks (every other joint, the root's motion included, bit-identical: the same
+    simulation); the report's sink is the raw run's depth."""
+    from .test_physics_tasks import cut
+
+    src = cut(tmp_path / "lunge.usda", 2.6, 3.2)
+    reports, lows, rotations = [], [], []
+    for ground in (True, False):
+        out = tmp_path / f"ground_{ground}.usda"
+        reports.append(physics_pass.run(src, out, mpc.Options(h=0.02, horizon_s=0.6, retry_iterations=0,
+                                                               ground_feet=ground))[0])
+        composed = tmp_path / f"composed_{ground}.usda"
+        root = Sdf.Layer.CreateNew(str(composed))
+        src_layer = Sdf.Layer.FindOrOpen(str(src))
+        root.timeCodesPerSecond, root.framesPerSecond = src_layer.timeCodesPerSecond, src_layer.framesPerSecond
+        root.startTimeCode, root.endTimeCode = src_layer.startTimeCode, src_layer.endTimeCode
+        root.subLayerPaths[:] = [str(out), str(src)]
+        root.Save()
+        lows.append(lowest_foot_point(src, measure.posed(str(composed), SKEL)))
+        joints, rot = _locals(composed)
+        rotations.append(rot)
+        assert Sdf.Layer.FindOrOpen(str(out)).customLayerData["usdgaze"]["planner"]["groundFeet"] is ground
+    lifted, raw = lows
+    print(f"raw {-raw.min():.4f} lifted {-lifted.min():.4f} report {reports[0].contact_depth_m:.4f}")
+    assert raw.min() < -0.005  # the soft ground let a foot sink (0.9 cm when written)
+    assert lifted.min() > -0.002
+    assert reports[0].contact_depth_m == pytest.approx(reports[1].max_foot_below_ground_m, abs=1e-9)
+    assert reports[0].max_foot_below_ground_m < 1e-6
+    changed = {joints[j].rsplit("/", 1)[-1] for j in np.flatnonzero((rotations[0] != rotations[1]).any(axis=(0, 2)))}
+    legs = {"LeftHip", "LeftKnee", "RightHip", "RightKnee"}  # each foot's parent and grandparent
+    assert changed and changed <= legs, changed

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 # in the other mode they would be ignored, so the CLI and ``usdgaze batch`` refuse them.
 KINEMATIC_ONLY = ("objects", "alpha", "cost", "realize")
 PHYSICS_ONLY = ("discard_failed", "threads", "fd_stride", "fd_reuse", "iterations", "retry_iterations",
-                "timestep", "mass")
+                "timestep", "raw_contacts", "mass")
 
 
 @dataclass

@@ -225,6 +225,7 @@ KEYS: dict[str, Key] = {
     "iterations": Key(_integer("iterations", 1, 10), "iterations", commands=_ATTEND),
     "retry_iterations": Key(_integer("retry_iterations", 0, 10), "retry_iterations", commands=_ATTEND),
     "timestep": Key(_number("timestep", 0.01, 0.05), "timestep", commands=_ATTEND),
+    "raw_contacts": Key(_flag("raw_contacts"), "raw_contacts", commands=_ATTEND),
     "mass": Key(_number("mass", 1.0, 500.0), "mass", commands=_ATTEND),
 }
 
@@ -325,7 +326,8 @@ def attend_kwargs(shot: Shot) -> dict:
     options = Options(h=v.get("timestep", Options.h), horizon_s=settings.get("window_s", Options.horizon_s),
                       workers=v.get("threads", 1), fd_stride=v.get("fd_stride", 1), fd_reuse=v.get("fd_reuse", 1),
                       iterations=v.get("iterations", Options.iterations),
-                      retry_iterations=v.get("retry_iterations", Options.retry_iterations))
+                      retry_iterations=v.get("retry_iterations", Options.retry_iterations),
+                      ground_feet=not v.get("raw_contacts", False))
     check_window(options, f"{shot.where}: window = {options.horizon_s:g}")
     return {**common, "physics": True, "options": options, "seed": settings.get("seed", 0), "binding": binding,
             "keep_failed": not v.get("discard_failed", False), "total_mass": v.get("mass", 75.0)}

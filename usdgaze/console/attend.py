@@ -56,12 +56,15 @@ from usdgaze.console.types import FiniteRange
               help="With --physics: simulate a shot that fell, sank a foot over 2 cm or missed a task again "
                    "with this many iterations per step, and keep that unless it is worse (never where it is not more than "
                    "--iterations, e.g. 0; one iteration let 3 of 12 stepping-stone shots fall, docs/physics.md).")
+@click.option("--raw-contacts", is_flag=True,
+              help="With --physics: write the simulated feet as MuJoCo's soft ground left them (a loaded foot sinks "
+                   "1-3 cm into it), not lifted out of it by their legs (docs/physics.md).")
 @click.option("--mass", default=75.0, show_default=True, type=FiniteRange(1.0, 500.0),
               help="With --physics: the body's total mass, kg (de Leva's segment shares of it; as physics-model).")
 @click.pass_context
 def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, skel_root, bind, forward, as_json,
            physics, discard_failed, threads, fd_stride, timestep, fd_reuse, iterations, retry_iterations,
-           mass) -> None:
+           raw_contacts, mass) -> None:
     """Let the character in INPUT look at the moving objects of the stage; write eyes, neck and spine to --out."""
     from usdgaze.core.hints import parse_hints
 
@@ -71,7 +74,7 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
 
         options = Options(h=timestep, horizon_s=Options.horizon_s if window_s is None else window_s,
                           workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse, iterations=iterations,
-                          retry_iterations=retry_iterations)
+                          retry_iterations=retry_iterations, ground_feet=not raw_contacts)
         return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                         parse_hints(bind, forward), mass)
     from usdgaze.attend import AttendSettings, attend as run
@@ -103,6 +106,12 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
     click.echo(f"planner: {p['steps']} steps of {p['h']} s, window {p['window_s']} s, "
                f"{p['mean_iterations']} iterations/step, {p['frames_per_second']} frames/s")
     click.echo(f"wrote {report.output}")
+
+
+def _sank(r) -> str:
+    """How deep the simulation's soft ground let a foot sink, where the written feet were lifted out of it."""
+    lifted = r.contact_depth_m - r.max_foot_below_ground_m
+    return f" (sank {100 * r.contact_depth_m:.1f} cm into the soft ground, lifted by the legs)" if lifted > 5e-4 else ""
 
 
 def _check_combination(ctx, physics: bool) -> None:
@@ -147,7 +156,7 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
         if r.reference_notes:  # the reference's own fault, whatever the simulation did
             state += f"; {'; '.join(r.reference_notes)}"
         click.echo(f"{r.skeleton}: {state}; pelvis >= {r.min_pelvis_ratio:.0%} of the reference, mean joint error "
-                   f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground, "
+                   f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground{_sank(r)}, "
                    f"root <= {100 * r.max_root_drift_m:.1f} cm from the reference's across the ground, "
                    f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s")
     click.echo(f"wrote {out}")

@@ -70,6 +70,9 @@ class ShotReport:
     # How far the root strayed from the reference's across the ground (a push, a step to a stone or
     # round an obstacle moves it on purpose; a body sliding on its toes, by accident).
     max_root_drift_m: float = 0.0
+    # How deep the simulation's soft ground let a foot sink; the written feet (``max_foot_below_ground_m``)
+    # were lifted out of it by their legs unless ``--raw-contacts`` (``mpc.Options.ground_feet``).
+    contact_depth_m: float = 0.0
 
 
 def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
@@ -252,9 +255,11 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
                         wall_s=wall, problems=problems, diverged=result.diverged,
                         max_root_drift_m=float(result.root_drift_m.max()),
+                        contact_depth_m=float(result.sank_m.max()),
                         reference_notes=result.reference_notes + feasible.scale_notes(clip.scales, clip.anim_joints))
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),
+             "contactDepthM": result.sank_m.tolist(),
              "headingErrorDeg": result.heading_error_deg.tolist(), "rootDriftM": result.root_drift_m.tolist()}
     terms.update({key: [float(v) for v in values] for key, values in result.task_terms.items()})  # NaN: no value
     return report, terms
@@ -313,7 +318,7 @@ def _planner_record(options: mpc.Options) -> dict:
     return {"mujoco": mujoco.__version__,
             "timestep": options.h, "window": options.horizon_s, "iterations": options.iterations,
             "retryIterations": options.retry_iterations, "firstIterations": options.first_iterations,
-            "fdStride": options.fd_stride, "fdReuse": options.fd_reuse}
+            "fdStride": options.fd_stride, "fdReuse": options.fd_reuse, "groundFeet": options.ground_feet}
 
 
 def check_window(options: mpc.Options, label: str) -> None:

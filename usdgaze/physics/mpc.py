@@ -80,6 +80,10 @@ class Options:
     # window's first reuse.FD_FRESH steps, which are taken anew each solve); 1: every step anew
     fd_reuse: int = 1
     stop_after_fall_s: float = 0.2  # simulation ends this long after the pelvis first stays below the bar
+    # The states kept (and written) with each foot MuJoCo's soft ground let sink lifted out of it by its
+    # leg (``tracking.lift_feet``, as the reference is); ``Result.contact_depth_m`` keeps how deep the
+    # simulation sank it. False: the simulated states as they are.
+    ground_feet: bool = True
     weights: Weights = field(default_factory=Weights)
 
 
@@ -93,13 +97,21 @@ class Result:
     ctrl: np.ndarray  # (K - 1, nu)
     pelvis_ratio: np.ndarray  # (K,) simulated / reference base height
     joint_error_deg: np.ndarray  # (K,) mean over simulated joints
-    foot_below_ground_m: np.ndarray  # (K,) deepest foot point below z = 0 (0 if none)
+    foot_below_ground_m: np.ndarray  # (K,) deepest foot point of ``qpos`` below z = 0 (0 if none)
     solve_costs: list[list[float]]
     fell_at: float | None  # seconds of the first frame below FALL_RATIO, or of the last one a diverged run reached
     task_terms: dict[str, np.ndarray] = field(default_factory=dict)  # "task.measure" -> (K,), NaN at k = 0
     diverged: bool = False  # MuJoCo's step blew up (the run stopped early without a fall)
     task_problems: list[str] = field(default_factory=list)  # what the tasks judged on the whole run, in words
     reference_notes: list[str] = field(default_factory=list)  # what in the reference no body can follow
+    # (K,) the simulated feet's depth in the soft ground before ``Options.ground_feet`` lifted them
+    # (None: not lifted, ``foot_below_ground_m``; see ``sank_m``)
+    contact_depth_m: np.ndarray | None = None
+
+    @property
+    def sank_m(self) -> np.ndarray:
+        """(K,) how deep the simulation's soft ground let the feet sink, before any lift."""
+        return self.foot_below_ground_m if self.contact_depth_m is None else self.contact_depth_m
 
     @property
     def fell(self) -> bool:
@@ -181,6 +193,19 @@ def _foot_depth(mj, d, geoms: np.ndarray) -> float:
         half = mj.geom_size[g, 1] if mj.geom_type[g] == 3 else 0.0
         low = min(low, d.geom_xpos[g, 2] - abs(axis[2]) * half - mj.geom_size[g, 0])
     return max(0.0, -low)
+
+
+def _foot_depths(mj, qpos: np.ndarray, geoms: np.ndarray) -> np.ndarray:
+    """(K,) :func:`_foot_depth` at each state of ``qpos``."""
+    import mujoco
+
+    d = mujoco.MjData(mj)
+    out = np.zeros(len(qpos))
+    for k, q in enumerate(qpos):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(mj, d)
+        out[k] = _foot_depth(mj, d, geoms)
+    return out
 
 
 def _start_lift(mj, d, qpos0: np.ndarray) -> float:
@@ -371,7 +396,13 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
                 kk = k + 2
                 controller.sense(k + 1, plan.to_state(qpos[k + 1], qvel), d)
                 break
+    sank = depth[:kk].copy()
+    if options.ground_feet:
+        qpos[:kk] = lift_feet(plan, qpos[:kk])
+        depth = _foot_depths(plan.mj, qpos[:kk], feet)
     result = shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
+    if options.ground_feet:
+        result.contact_depth_m = sank
     result.task_problems = judge_tasks(shot.tasks, result)
     result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q[:steps + 1]), h)]
                               if n]
