@@ -81,3 +81,47 @@ def test_a_stop_landing_in_an_import_is_raised_once_the_import_is_done(tmp_path,
             import stopped_midway  # noqa: F401
             time.sleep(5.0)  # the signal comes again here
     assert sys.modules["stopped_midway"].DONE  # the import ran to its end
+
+
+_STOP_AT_IMPORT = '''
+import os, signal, sys
+
+class _Stop:
+    """Sends this process SIGINT when the module named in STOP_AT_IMPORT is first looked for."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name == os.environ["STOP_AT_IMPORT"]:
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, _Stop())
+'''
+
+
+@pytest.mark.parametrize("module", ["pxr.Usd", "click"])
+@pytest.mark.parametrize("form", ["python -m usdgaze", "console script"])
+def test_ctrl_c_while_the_command_imports_is_one_line(tmp_path, module, form):
+    """A Ctrl-C while the command is still importing (OpenUSD inside ``import usdgaze``, click after it,
+    before the CLI sets its handlers) ends it as one arriving later does: 130 and one line, nothing
+    written. It was Python's KeyboardInterrupt traceback (11-14 lines). The signal is sent from an
+    import hook (a sitecustomize), so it lands inside that import on every run."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    hooks = tmp_path / "hooks"
+    hooks.mkdir()
+    (hooks / "sitecustomize.py").write_text(_STOP_AT_IMPORT)
+    (hooks / "usdgaze").write_text("import sys\nfrom usdgaze.console.main import entry\nsys.exit(entry())\n")
+    repo = str(Path(__file__).resolve().parents[1])
+    env = dict(os.environ, STOP_AT_IMPORT=module,
+               PYTHONPATH=os.pathsep.join([str(hooks), repo, os.environ.get("PYTHONPATH", "")]))
+    work = tmp_path / "work"
+    work.mkdir()
+    command = ["-m", "usdgaze"] if form.startswith("python") else [str(hooks / "usdgaze")]
+    p = subprocess.run([sys.executable, *command, "build-map", "sheet.csv", "--out", "map.usda"], cwd=work,
+                       env=env, capture_output=True, text=True, timeout=120)
+    assert (p.returncode, p.stderr.splitlines()) == (130, ["usdgaze: error: interrupted by SIGINT; nothing was written"])
+    assert list(work.iterdir()) == []
+

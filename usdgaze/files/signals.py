@@ -29,3 +29,38 @@ def later_if_importing(signum: int, frame) -> bool:
     timer.daemon = True
     timer.start()
     return True
+
+
+CLI_MODULES = ("usdgaze", "usdgaze.__main__", "usdgaze.console.main")
+"""What ``python -m`` runs as the usdgaze command."""
+
+
+def is_cli_process() -> bool:
+    """Whether this process is the usdgaze command: the console script, or ``python -m usdgaze``
+    while runpy imports the package (``sys.argv[0]`` is ``-m`` until the module is found)."""
+    import sys
+
+    argv = sys.argv or [""]
+    if os.path.basename(argv[0]) in ("usdgaze", "usdgaze.exe", "usdgaze-script.py"):
+        return True
+    orig = getattr(sys, "orig_argv", [])
+    if argv[0] != "-m" or len(orig) < len(argv):
+        return False
+    module = orig[-len(argv)]  # orig_argv ends with -m MODULE ARGS..., argv with -m ARGS...
+    return module.removeprefix("-m") in CLI_MODULES
+
+
+def quiet_stops_while_starting() -> None:
+    """In the usdgaze command, a Ctrl-C before the CLI's own handlers are set (while Python imports
+    OpenUSD, ~0.2 s) ends it as one after does: one line and 130, not a KeyboardInterrupt traceback.
+    Nothing is written yet. A library import (no command) keeps Python's handler."""
+    import signal
+
+    if not is_cli_process() or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        return  # a host that ignores SIGINT (a background job) keeps ignoring it
+
+    def stop(signum, frame) -> None:
+        os.write(2, f"usdgaze: error: interrupted by {signal.Signals(signum).name}; nothing was written\n".encode())
+        os._exit(128 + signum)
+
+    signal.signal(signal.SIGINT, stop)
