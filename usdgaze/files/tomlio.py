@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.files.kinds import special_kind
 
 try:
     import tomllib as _toml
@@ -21,6 +22,11 @@ def load_toml(path: str | Path, error: type[UsdGazeError] = UsdGazeError) -> dic
     if _toml is None:
         raise error(f"{path}: reading TOML on Python 3.10 needs tomli: pip install tomli")
     try:
+        # A pipe would block the open until a writer comes (the command hung); a device reads as an
+        # empty table (/dev/null: "lacks" every key). Both are refused as the other inputs are.
+        kind = special_kind(path.stat().st_mode)
+        if kind:
+            raise error(f"{path}: is {kind}, not a regular file")
         with path.open("rb") as f:
             return _toml.load(f)
     except FileNotFoundError:

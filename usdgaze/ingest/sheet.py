@@ -19,6 +19,7 @@ from pathlib import Path
 
 from usdgaze.errors import UsdGazeError
 from usdgaze.ingest.markers import SkeletonBinding, skeleton_binding
+from usdgaze.files.kinds import not_a_file
 from usdgaze.files.tomlio import load_toml
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
@@ -171,8 +172,9 @@ def _csv_trials(path: Path, base: Path, seen: set[str]) -> list[Trial]:
 def load_sheet(path: str | Path) -> Sheet:
     """Read a CSV or TOML trial sheet."""
     path = Path(path)
-    if not path.is_file():
-        raise SheetError(f"{path}: no such trial sheet")
+    problem = not_a_file(path)
+    if problem:  # a pipe or a device is no trial sheet, but it exists: say what it is
+        raise SheetError(f"{path}: {'no such trial sheet' if problem == 'no such file' else problem}")
     base = path.parent
     seen: set[str] = set()
     markers = None

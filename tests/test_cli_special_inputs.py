@@ -1,0 +1,74 @@
+"""Inputs that are not regular files (a named pipe, /dev/null) and outputs of one command that name
+one file: exit 2, one line naming the path and what it is, the folder as it was.
+
+Before: a marker set or batch manifest that is a named pipe hung the command (the open waits for a
+writer); /dev/null read as an empty TOML table ("[markers] lacks ..."); a trial sheet that is a pipe
+was "no such trial sheet".
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import threading
+from pathlib import Path
+
+import pytest
+
+from usdgaze.console.main import main
+
+from .bad_common import JOB, manifest, sheet, snapshot
+
+
+@contextlib.contextmanager
+def _unblocked(fifo: Path):
+    """Whoever opens ``fifo`` to read gets end-of-file at once instead of waiting for a writer, so a
+    command that opens it finishes (and fails its test) rather than hanging the suite."""
+    stop = threading.Event()
+
+    def writer() -> None:
+        while not stop.wait(0.01):
+            try:
+                fd = os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)  # succeeds only once a reader waits
+            except OSError as exc:
+                if exc.errno != errno.ENXIO:
+                    raise
+                continue
+            os.close(fd)
+
+    thread = threading.Thread(target=writer, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+
+
+def _argv(d: Path, special: Path, where: str) -> list[str]:
+    """A command that reads ``special`` as its ``where`` (a marker set, a manifest, a trial sheet)."""
+    if where == "marker set":
+        return ["build-map", str(sheet(d)), "--markers", str(special), "--out", str(d / "map.usda")]
+    if where == "manifest":
+        manifest(d, f"[[job]]\n{JOB}")
+        return ["batch", str(special)]
+    return ["build-map", str(special), "--out", str(d / "map.usda")]
+
+
+@pytest.mark.parametrize("where", ["marker set", "manifest", "trial sheet"])
+@pytest.mark.parametrize("kind", ["a named pipe", "a character device"])
+def test_an_input_that_is_not_a_regular_file_is_one_line(tmp_path, capsys, where, kind):
+    if kind == "a named pipe":
+        special = tmp_path / "input.toml"
+        os.mkfifo(special)
+    else:
+        special = Path(os.devnull)
+    argv = _argv(tmp_path, special, where)
+    before = snapshot(tmp_path)
+    with _unblocked(special) if kind == "a named pipe" else contextlib.nullcontext():
+        code = main(argv)
+    err = capsys.readouterr().err.splitlines()
+    assert (code, err) == (2, [f"usdgaze: error: {special}: is {kind}, not a regular file"])
+    assert snapshot(tmp_path) == before
+
