@@ -3,7 +3,8 @@ one file: exit 2, one line naming the path and what it is, the folder as it was.
 
 Before: a marker set or batch manifest that is a named pipe hung the command (the open waits for a
 writer); /dev/null read as an empty TOML table ("[markers] lacks ..."); a trial sheet that is a pipe
-was "no such trial sheet".
+was "no such trial sheet"; ``build-map --report DIR/TRIAL.csv --series DIR`` wrote the trial's
+series over the report, exit 0.
 """
 
 from __future__ import annotations
@@ -14,10 +15,12 @@ import os
 import threading
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from usdgaze.console.main import main
 
+from . import ingest_synth as syn
 from .bad_common import JOB, manifest, sheet, snapshot
 
 
@@ -72,3 +75,27 @@ def test_an_input_that_is_not_a_regular_file_is_one_line(tmp_path, capsys, where
     assert (code, err) == (2, [f"usdgaze: error: {special}: is {kind}, not a regular file"])
     assert snapshot(tmp_path) == before
 
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    params = np.array([[0.0, 0.0], [36.0, 0.0], [-36.0, 0.0]])
+    return syn.write_c3d_session(tmp_path_factory.mktemp("special"), seed=5, params=params)
+
+
+@pytest.mark.parametrize("spelled", ["plain", "symlink"])
+def test_a_report_that_is_a_series_file_is_refused(session, tmp_path, capsys, spelled):
+    """--report DIR/TRIAL.csv (or a symlink to it) with --series DIR: both outputs are one file."""
+    series = tmp_path / "series"
+    series.mkdir()
+    trial = session.trials[1].name
+    report = series / f"{trial}.csv"
+    if spelled == "symlink":
+        report = tmp_path / "report.csv"
+        report.symlink_to(series / f"{trial}.csv")
+    before = snapshot(tmp_path)
+    code = main(["build-map", str(session.sheet), "--markers", str(session.markerset), "--out",
+                 str(tmp_path / "map.usda"), "--report", str(report), "--series", str(series), "--quiet"])
+    err = capsys.readouterr().err.splitlines()
+    assert code == 2 and err == [f"usdgaze: error: {series / (trial + '.csv')}: --series file of trial '{trial}' "
+                                 "and --report name the same file; give each output its own path"]
+    assert snapshot(tmp_path) == before

@@ -194,7 +194,12 @@ class Outputs:
         self.ids.read(path, what)
 
     def claimed(self, path: str | os.PathLike) -> bool:
-        return real_path(path) in self._claims or _unfollowed(path) in self._claims
+        return self.claimed_by(path) is not None
+
+    def claimed_by(self, path: str | os.PathLike) -> str | None:
+        """The flag of the output claimed at ``path`` (through a symlink or not), ``None`` where none is."""
+        item = self._claims.get(real_path(path)) or self._claims.get(_unfollowed(path))
+        return item.flag if item else None
 
     def claim(self, path: str | os.PathLike, flag: str, edit: bool = False, follow: bool = True) -> Path:
         """Check that ``path`` can be written and reserve it; returns the path to report.

@@ -145,8 +145,12 @@ def write_series(directory: str | Path, result: BuildResult, outputs: Outputs | 
     with outputs_of(outputs) as tx:
         tx.make_folder(directory)
         for report, path in zip(result.good, paths):
-            if not tx.claimed(path):
+            flag = tx.claimed_by(path)
+            if flag is None:
                 tx.claim(path, "--series file", follow=False)
+            elif flag != "--series file":  # --report named DIR/TRIAL.csv: the series replaced the report
+                raise UsdGazeError(f"{path}: --series file of trial '{report.trial}' and {flag} name the same "
+                                   "file; give each output its own path")
             header, rows = series_rows(result, report.trial)
             text = io.StringIO()
             writer = csv.writer(text, lineterminator="\n")
