@@ -59,7 +59,8 @@ def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_mer
     """Build a gaze map from the example trials listed in SHEET (CSV or TOML) and write it to --out.
 
     Each trial is a C3D marker capture (with --markers) or a UsdSkel clip, with its known target
-    (yaw, pitch) and an optional manual crop. A trial that fails is reported and skipped.
+    (yaw, pitch) and an optional manual crop: crop_start and crop_end count the trial's samples from
+    0, end inclusive (a C3D file's frame 1 is 0). A trial that fails is reported and skipped.
     """
     settings = BuildSettings(
         rest_speed_mm_s=rest_speed, rest_merge_s=rest_merge, min_rest_s=min_rest, speed_span_s=speed_span,

@@ -143,7 +143,11 @@ def find_crop(trial: Trial, series: TrialSeries, settings: BuildSettings, where:
     if trial.crop is not None:
         start, end = trial.crop
         if end > last:
-            raise TrialError(f"{where}: crop_end {end} is past the last frame {last}")
+            # Frame numbers from the capture software or the DCC (C3D's 1-based, a shot's 1001) are a
+            # likely cause: say how the crop counts and how the file numbers its frames.
+            how = f" ({series.numbering})" if series.numbering else ""
+            raise TrialError(f"{where}: crop_end {end} is past the last frame {last}; crop frames count the "
+                             f"trial's samples from 0{how}")
         return (start, end), "manual"
     span = max(int(round(settings.speed_span_s * series.rate)), 1)
     speed = mean_marker_speed(series.points, series.rate, span)

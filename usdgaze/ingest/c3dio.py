@@ -39,6 +39,7 @@ class MarkerCapture:
     units: str
     mm_per_unit: float
     first_frame: int = 0
+    """The header's first frame number minus 1 (ezc3d's count): C3D numbers the first frame 1 or more."""
 
     @property
     def frames(self) -> int:
@@ -86,20 +87,44 @@ def _labels(point: dict) -> tuple[str, ...]:
     return tuple(str(s).strip() for s in labels)
 
 
-def read_c3d(path: str | Path) -> MarkerCapture:
-    """Read the points of a C3D file (analogs are ignored)."""
+PROCESSORS = {84: "Intel", 85: "DEC", 86: "MIPS"}
+"""C3D's processor types (the parameter section's fourth byte): byte order and float format."""
+
+
+def _processor(path: str) -> int | None:
+    """The processor type a C3D file was written for, None where its header is not C3D's (or it cannot
+    be read: ezc3d then says why)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(2)
+            if len(head) < 2 or head[1] != 0x50 or head[0] < 1:  # 0x50: C3D's key byte
+                return None
+            f.seek((head[0] - 1) * 512 + 3)
+            byte = f.read(1)
+    except OSError:
+        return None
+    return byte[0] if byte else None
+
+
+def read_c3d(path: str | Path, where: str | None = None) -> MarkerCapture:
+    """Read the points of a C3D file (analogs are ignored); ``where`` names it in errors (the path)."""
     path = str(path)
-    require_file(path, C3DError)
+    where = where or path
+    require_file(path, C3DError, where)
     ezc3d = _ezc3d()
+    if _processor(path) == 86:
+        # ezc3d refuses it asking for an issue on its own tracker: say what the file is and what reads.
+        raise C3DError(f"{where}: written for a MIPS processor (C3D processor type 86, big-endian), which the C3D "
+                       "reader (ezc3d) cannot read; save it again for Intel or DEC (types 84, 85)")
     try:
         c3d = ezc3d.c3d(path)
     except Exception as exc:  # ezc3d raises plain RuntimeError/IOError with its own text
-        raise C3DError(f"{path}: not a readable C3D file ({str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__})") from None
+        raise C3DError(f"{where}: not a readable C3D file ({str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__})") from None
     point = c3d["parameters"].get("POINT", {})
     labels = _labels(point)
     data = np.asarray(c3d["data"]["points"], dtype=float)
     if data.ndim != 3 or data.shape[1] == 0 or data.shape[2] == 0:
-        raise C3DError(f"{path}: no marker data (POINT:USED is 0 or no frames)")
+        raise C3DError(f"{where}: no marker data (POINT:USED is 0 or no frames)")
     n_markers = data.shape[1]
     if len(labels) < n_markers:
         labels = labels + tuple(f"unlabeled{i + 1}" for i in range(len(labels), n_markers))
@@ -107,8 +132,8 @@ def read_c3d(path: str | Path) -> MarkerCapture:
     rate_value = _param(point, "RATE")
     rate = float(rate_value[0]) if rate_value is not None and len(rate_value) else float(c3d["header"]["points"]["frame_rate"])
     if not rate > 0:
-        raise C3DError(f"{path}: POINT:RATE is {rate}, not a frame rate")
-    units, mm_per_unit, factor = _units(_param(point, "UNITS"), path, n_markers)
+        raise C3DError(f"{where}: POINT:RATE is {rate}, not a frame rate")
+    units, mm_per_unit, factor = _units(_param(point, "UNITS"), where, n_markers)
     points = np.transpose(data[:3], (2, 1, 0)) * factor[None, :, None]
     residuals = c3d["data"].get("meta_points", {}).get("residuals")
     if residuals is not None and np.size(residuals):

@@ -39,6 +39,9 @@ class TrialSeries:
     """Occluded samples filled by :func:`.cleaning.fill_gaps`."""
     longest_fill: tuple[str, int, int] | None = None
     """The longest run of filled frames: (marker, first frame, last frame), None where none was filled."""
+    numbering: str = ""
+    """How the file itself numbers these frames, in words ("the file numbers them 705-1044"), where that
+    is not 0 to frames - 1: a crop counts samples from 0, whatever the capture software shows."""
 
     @property
     def frames(self) -> int:
@@ -88,6 +91,8 @@ def marker_series(capture: MarkerCapture, markerset: MarkerSet, where: str) -> T
         mm_per_unit=capture.mm_per_unit,
         filled=int(mask.sum()),
         longest_fill=_longest_run(mask, [capture.labels[i] for i in idx]),
+        # C3D numbers frames from the header's first frame (1 in most files; ezc3d counts it from 0).
+        numbering=f"the file numbers them {capture.first_frame + 1}-{capture.first_frame + capture.frames}",
     )
 
 
@@ -117,4 +122,4 @@ def _longest_run(mask: np.ndarray, labels: list[str]) -> tuple[str, int, int] | 
 
 def read_marker_series(path: str, markerset: MarkerSet, where: str) -> TrialSeries:
     """:func:`marker_series` of a C3D file."""
-    return marker_series(read_c3d(path), markerset, where)
+    return marker_series(read_c3d(path, where), markerset, where)

@@ -1,7 +1,8 @@
 """The trial sheet: one row per example trial with its file, known target and optional manual crop.
 
 CSV: a header row with ``file``, ``yaw``, ``pitch`` and optionally ``trial``, ``crop_start``,
-``crop_end`` (frames: 0-based sample indices into the file, end inclusive) and ``skeleton`` (the
+``crop_end`` (frames: 0-based sample indices into the file, end inclusive, whatever numbers the capture
+software shows: C3D's frame 1, or a clip's first time sample, is 0) and ``skeleton`` (the
 Skeleton prim of a UsdSkel clip); ``#`` comment and blank lines are skipped, a row with more cells
 than the header is refused, and messages name a row by its line in the file. TOML: ``[[trial]]``
 tables with the same keys (``crop = [start, end]`` also works), an optional top-level ``markers =

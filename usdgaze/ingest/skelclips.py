@@ -191,4 +191,12 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
         rate=rate,
         units=f"{meters:g} m",
         mm_per_unit=meters * 1000.0,
+        numbering=_numbering(times),
     )
+
+
+def _numbering(times: list[float]) -> str:
+    """The clip's time codes in words where they are not 0, 1, 2 ... (a shot starting at 1001)."""
+    if times[0] == 0.0 and times[-1] == len(times) - 1:
+        return ""
+    return f"their time codes run {times[0]:g}-{times[-1]:g}"
