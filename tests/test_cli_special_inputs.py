@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import os
 import threading
 from pathlib import Path
@@ -27,23 +28,26 @@ from .bad_common import JOB, manifest, sheet, snapshot
 @contextlib.contextmanager
 def _unblocked(fifo: Path):
     """Whoever opens ``fifo`` to read gets end-of-file at once instead of waiting for a writer, so a
-    command that opens it finishes (and fails its test) rather than hanging the suite."""
+    command that opens it finishes (and fails its test) rather than hanging the suite. Yields a list
+    that holds one entry per such open: a command that hung on the pipe is one that opened it."""
     stop = threading.Event()
+    opened: list[int] = []
 
     def writer() -> None:
-        while not stop.wait(0.01):
+        while not stop.wait(0.002):
             try:
                 fd = os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)  # succeeds only once a reader waits
             except OSError as exc:
                 if exc.errno != errno.ENXIO:
                     raise
                 continue
+            opened.append(fd)
             os.close(fd)
 
     thread = threading.Thread(target=writer, daemon=True)
     thread.start()
     try:
-        yield
+        yield opened
     finally:
         stop.set()
         thread.join()
@@ -69,10 +73,10 @@ def test_an_input_that_is_not_a_regular_file_is_one_line(tmp_path, capsys, where
         special = Path(os.devnull)
     argv = _argv(tmp_path, special, where)
     before = snapshot(tmp_path)
-    with _unblocked(special) if kind == "a named pipe" else contextlib.nullcontext():
+    with _unblocked(special) if kind == "a named pipe" else contextlib.nullcontext([]) as opened:
         code = main(argv)
     err = capsys.readouterr().err.splitlines()
-    assert (code, err) == (2, [f"usdgaze: error: {special}: is {kind}, not a regular file"])
+    assert (code, err, opened) == (2, [f"usdgaze: error: {special}: is {kind}, not a regular file"], [])
     assert snapshot(tmp_path) == before
 
 
@@ -99,3 +103,24 @@ def test_a_report_that_is_a_series_file_is_refused(session, tmp_path, capsys, sp
     assert code == 2 and err == [f"usdgaze: error: {series / (trial + '.csv')}: --series file of trial '{trial}' "
                                  "and --report name the same file; give each output its own path"]
     assert snapshot(tmp_path) == before
+
+
+def test_a_clip_trial_or_a_batch_input_that_is_a_named_pipe_is_one_line(tmp_path, capsys):
+    """The files a UsdSkel trial or a batch shot composes were listed by opening it with USD, which waits
+    on a pipe for a writer (build-map and batch hung); now the trial fails, and the shot, saying what it is."""
+    pipe = tmp_path / "in.usda"
+    os.mkfifo(pipe)
+    (tmp_path / "sheet.toml").write_text('[[trial]]\nname = "t"\nfile = "in.usda"\nyaw = 72\npitch = 12\n')
+    (tmp_path / "jobs.toml").write_text(f"[[job]]\n{JOB}")
+    before = snapshot(tmp_path)
+    with _unblocked(pipe) as opened:
+        code = main(["build-map", str(tmp_path / "sheet.toml"), "--out", str(tmp_path / "map.usda"), "--min-trials", "1"])
+        err = capsys.readouterr().err.splitlines()
+        assert (code, err) == (2, ["usdgaze: error: only 0 of 1 trials gave an example, a map needs at least 1; first "
+                                   f"failure: trial t (in.usda): is a named pipe, not a regular file"])
+        assert snapshot(tmp_path) == before
+        code = main(["batch", str(tmp_path / "jobs.toml")])
+    [shot] = json.loads((tmp_path / "jobs.summary.json").read_text())["shots"]
+    assert code == 2 and (shot["status"], shot["message"]) == ("bad input", f"{pipe}: is a named pipe, not a regular file")
+    assert opened == []  # neither command opened the pipe (it waited there for a writer)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.usda", "jobs.summary.json", "jobs.toml", "sheet.toml"]

@@ -11,7 +11,7 @@ import threading
 from pxr import Sdf, Usd
 
 from usdgaze.errors import UsdGazeError, usd_failure
-from usdgaze.files.kinds import require_file
+from usdgaze.files.kinds import not_a_file, require_file
 
 
 def open_stage(path: str | os.PathLike, where: str | None = None,
@@ -146,6 +146,11 @@ def layer_dependencies(path: str | os.PathLike, strict: bool = False, missing: b
     there (yet): another command's output, say."""
     from pxr import UsdUtils
 
+    problem = not_a_file(path)
+    if problem and os.path.exists(path):  # USD's open of a named pipe waits for a writer: the command hung
+        if strict:
+            raise UsdGazeError(f"{path}: {problem}")
+        return []
     try:
         layers, assets, unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(os.fspath(path)))
     except Exception as exc:
