@@ -77,3 +77,16 @@ def test_positions_equal_usds_own_answer(tmp_path, case):
     want = np.array([attr.Get(Usd.TimeCode(float(t))) for t in CODES])
     assert np.abs(got[0].importance - want).max() < 1e-12
     assert np.ptp(got[0].positions, 0).min() > 0.005 # the ball moves on every axis: the check can fail
+
+
+def test_a_blocked_translate_sample_reads_as_usd_does(tmp_path):
+    """A blocked time sample (``Sdf.ValueBlock``) leaves the op out at its times, as USD says; the Sdf
+    read took it for a number and attend stopped with an internal error (exit 1)."""
+    stage = _stage(tmp_path)
+    inner = Sdf.Layer.FindOrOpen(str(tmp_path / "inner.usda"))
+    inner.SetTimeSample(Sdf.Path("/World/Ball.xformOp:translate"), 3.0, Sdf.ValueBlock())
+    prim = stage.GetPrimAtPath("/World/Ball")
+    got = objects.read_objects(stage, "x.usda", [prim], CODES, 1.0)[0].positions
+    want = _usd_positions(stage, "/World/Ball", CODES)
+    assert np.abs(got - want).max() < 1e-6
+    assert np.ptp(want, 0).max() > 1.0  # the ball moves: the comparison can fail

@@ -138,7 +138,10 @@ def sampled(attr: Usd.Attribute, time_codes: np.ndarray) -> np.ndarray | None:
     if spec is None:
         return None
     layer_times = spec.layer.ListTimeSamplesForPath(spec.path)
-    values = np.array([np.asarray(spec.layer.QueryTimeSample(spec.path, t), float) for t in layer_times])
+    raw = [spec.layer.QueryTimeSample(spec.path, t) for t in layer_times]
+    if any(isinstance(v, Sdf.ValueBlock) for v in raw):
+        return None  # a blocked sample has no value there: USD says what the transform is (its op left out)
+    values = np.array([np.asarray(v, float) for v in raw])
     times = np.array([offset * t for t in layer_times], float)
     order = np.argsort(times)  # a negative scale reverses them
     times, values = times[order], values[order].reshape(len(times), -1)
