@@ -46,6 +46,26 @@ def test_a_pivot_attribute_left_out_of_the_op_order_is_not_the_pivot(tmp_path):
     assert np.abs(got - [-1.0, 1.4, 2.0]).max() < 1e-9, got[0]
 
 
+
+def test_a_blocked_pivot_sample_is_the_origin_as_usd_leaves_the_pivot_out(tmp_path):
+    """Where the pivot op's sample is blocked USD leaves both pivot ops out (the prim turns about its
+    origin), so the point is the origin; the pivot's missing value stopped apply with an internal error."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    lamp = UsdGeom.Xform.Define(stage, "/World/Lamp")
+    lamp.AddTranslateOp().Set(Gf.Vec3d(1.0, 0.0, 2.0))
+    pivot = lamp.AddTranslateOp(opSuffix="pivot")
+    for t, v in ((0.0, (0.0, 1.5, 0.0)), (20.0, (0.0, 1.6, 0.0))):
+        pivot.Set(Gf.Vec3d(*v), t)
+    pivot.GetAttr().Set(Sdf.ValueBlock(), 10.0)
+    lamp.AddRotateYOp().Set(90.0)
+    lamp.AddTranslateOp(opSuffix="pivot", isInverseOp=True)
+    times = np.arange(0.0, 25.0)
+    got = sample_target(stage, "/World/Lamp", times, "s.usda")
+    # Expected from the authored numbers: held up to the block, the origin from it to the next sample.
+    want = np.array([[1.0, 1.5, 2.0] if t < 10 else [1.0, 0.0, 2.0] if t < 20 else [1.0, 1.6, 2.0] for t in times])
+    assert np.abs(got - want).max() < 1e-9, got
+
+
 def test_a_maya_rotate_pivot_is_the_targets_point(tmp_path):
     """mayaUSD writes a transform whose pivot was moved as translate, rotatePivot, rotate, and the
     rotatePivot's inverse: the point an artist placed is the rotate pivot (the origin was looked at,

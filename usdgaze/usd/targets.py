@@ -115,8 +115,9 @@ def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str) -
         for i, t in enumerate(sample_times):
             cache.SetTime(Usd.TimeCode(float(t)))
             m = np.array(cache.GetLocalToWorldTransform(prim), dtype=float)  # row vectors
-            pivot = np.array(pivot_attr.Get(Usd.TimeCode(float(t))) if pivot_attr is not None
-                             else (0.0, 0.0, 0.0), dtype=float)
+            value = pivot_attr.Get(Usd.TimeCode(float(t))) if pivot_attr is not None else None
+            # No value (a blocked sample): USD leaves the pivot ops out there, so the point is the origin.
+            pivot = np.zeros(3) if value is None else np.array(value, dtype=float)
             out[i] = np.append(pivot, 1.0) @ m[:, :3]
     if not np.all(np.isfinite(out)):
         raise UsdGazeError(f"{source}:{path}: world position is not finite")
