@@ -161,7 +161,7 @@ def _typeless(layer):
     spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
 
 
-@pytest.mark.parametrize("case", ["no objects", "no transform", "alpha", "window", "missing prim"])
+@pytest.mark.parametrize("case", ["no objects", "no transform", "alpha", "window", "window inf", "missing prim"])
 def test_bad_inputs_one_line_exit_2_nothing_written(tmp_path, capsys, case):
     stage, extra = ATTEND / "ball_throw.usda", []
     if case == "no objects":
@@ -174,6 +174,8 @@ def test_bad_inputs_one_line_exit_2_nothing_written(tmp_path, capsys, case):
         extra, want = ["--alpha", "-0.1"], "--alpha -0.1: the process noise must be >= 0"
     elif case == "window":
         extra, want = ["--window", "0.03"], "--window 0.03 s: shorter than two planner steps"
+    elif case == "window inf":  # was called shorter than two planner steps
+        extra, want = ["--window", "inf"], "--window inf s: expected 0.05 to 5 s"
     else:
         extra, want = ["--objects", "/Objects/Nope"], "/Objects/Nope: no such prim"
     out = tmp_path / "out.usda"

@@ -50,7 +50,9 @@ class AttendSettings:
             raise UsdGazeError(f"--cost {self.cost}: expected one of {', '.join(loop.MODES)}")
         if not np.isfinite(self.h) or not 0.005 <= self.h <= 0.1:
             raise UsdGazeError(f"planner step {self.h:g} s: expected 0.005-0.1 s (the paper uses 0.02-0.03)")
-        if not np.isfinite(self.window_s) or self.window_s < 2 * self.h - 1e-9:
+        if not np.isfinite(self.window_s):  # inf was called shorter than two steps
+            raise UsdGazeError(f"--window {self.window_s:g} s: expected {2 * self.h:g} to 5 s (the paper uses 0.6-1.2 s)")
+        if self.window_s < 2 * self.h - 1e-9:
             raise UsdGazeError(f"--window {self.window_s:g} s: shorter than two planner steps (2 x {self.h:g} s)")
         if self.realize not in ("direct", "map"):
             raise UsdGazeError(f"--realize {self.realize}: expected direct or map")
