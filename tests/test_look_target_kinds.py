@@ -66,6 +66,33 @@ def test_a_blocked_pivot_sample_is_the_origin_as_usd_leaves_the_pivot_out(tmp_pa
     assert np.abs(got - want).max() < 1e-9, got
 
 
+
+@pytest.mark.parametrize("target", ["skeleton", "skel_root"])
+def test_a_walking_skeletons_bounds_follow_its_animation(tmp_path, target):
+    """A Skeleton's bounds are its posed joints, which move with the SkelAnimation it binds; that
+    animation need not lie below the target (here it is moved out to /Anims). The target was read at
+    the first frame only: another character walking 3 m away was looked at where it started."""
+    rig = syn.make_rig(tmp_path / "b.usda", frames=49, time_codes_per_second=24.0, mesh=False, walk_speed=1.5)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    Sdf.CreatePrimInLayer(layer, "/Anims").specifier = Sdf.SpecifierDef
+    assert Sdf.CopySpec(layer, rig.animation, layer, "/Anims/Walk")
+    del layer.GetPrimAtPath(rig.skel_root).nameChildren[Sdf.Path(rig.animation).name]
+    rel = layer.GetPrimAtPath(rig.skeleton).relationships["skel:animationSource"]
+    rel.targetPathList.explicitItems = [Sdf.Path("/Anims/Walk")]
+    layer.Save()
+    stage = Usd.Stage.Open(str(rig.path))
+    times = np.arange(0.0, 49.0, 6.0)
+    got = sample_target(stage, rig.skeleton if target == "skeleton" else rig.skel_root, times, "b.usda")
+    # Expected: the centre of the box round the joints as UsdSkel poses them.
+    cache = UsdSkel.Cache()
+    cache.Populate(UsdSkel.Root(stage.GetPrimAtPath(rig.skel_root)), Usd.PrimDefaultPredicate)
+    query = cache.GetSkelQuery(UsdSkel.Skeleton(stage.GetPrimAtPath(rig.skeleton)))
+    joints = [np.array(query.ComputeJointSkelTransforms(Usd.TimeCode(float(t))))[:, 3, :3] for t in times]
+    want = np.array([0.5 * (j.min(0) + j.max(0)) for j in joints])
+    assert np.ptp(want[:, 2], 0) > 2.5  # it walks 3 m: a target read once is that far off
+    assert np.abs(got - want).max() < 0.02, np.abs(got - want).max()
+
+
 def test_a_maya_rotate_pivot_is_the_targets_point(tmp_path):
     """mayaUSD writes a transform whose pivot was moved as translate, rotatePivot, rotate, and the
     rotatePivot's inverse: the point an artist placed is the rotate pivot (the origin was looked at,

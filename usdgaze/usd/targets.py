@@ -9,7 +9,7 @@ each of the clip's time codes (USD's own interpolation between authored samples)
 from __future__ import annotations
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
 from usdgaze.errors import UsdGazeError
 
@@ -66,7 +66,10 @@ def _varying(prim: Usd.Prim, boundable: bool) -> bool:
         p = p.GetParent()
     if boundable:
         for q in Usd.PrimRange(prim):
-            for attr in q.GetAttributes():
+            # A Skeleton's bounds are its posed joints: they move with the animation it binds, which
+            # need not lie below it (another character's Skeleton was looked at where it was at the start).
+            anim = UsdSkel.BindingAPI(q).GetInheritedAnimationSource() if q.IsA(UsdSkel.Skeleton) else None
+            for attr in q.GetAttributes() + (anim.GetAttributes() if anim else []):
                 if attr.GetNumTimeSamples() > 1 or attr.ValueMightBeTimeVarying():
                     return True
     else:
