@@ -139,3 +139,17 @@ def test_an_obstacle_radius_is_a_body_a_person_walks_round(tmp_path, task, radiu
     with pytest.raises(UsdGazeError) as err:
         read()
     assert str(err.value).startswith("scene.usda:/Obj/Ball.gaze:object:radius: ") and "\n" not in str(err.value)
+
+
+def test_a_skinned_mesh_is_not_an_object(tmp_path, capsys):
+    """A mesh a Skeleton skins keeps its transform and its rest-pose bounds while the body moves: attend
+    took it for an object standing still (apply --look-at refuses it the same way)."""
+    r = rig(tmp_path, frames=24, mesh=True)
+    stage = Usd.Stage.Open(str(r.path))
+    assert stage.GetPrimAtPath(r.mesh).AddAppliedSchema("GazeObjectAPI")  # beside its SkelBindingAPI
+    stage.GetRootLayer().Save()
+    out = tmp_path / "a.usda"
+    assert main(["attend", str(r.path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{r.mesh}: is (or holds) a skinned mesh" in err[0], err
+    assert not out.exists()

@@ -150,7 +150,7 @@ def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list
     return schedule.read_schedule(root, source)
 
 
-def _skinned_by(stage, skel_root) -> list:
+def skinned_by(stage, skel_root) -> list:
     """(path, Skeleton path) of each prim UsdSkel deforms under the SkelRoot ``skel_root``."""
     from pxr import Usd, UsdSkel
 
@@ -181,7 +181,7 @@ def _check_target_prim(stage, target: str, clip: SkelClip) -> None:
     root = UsdSkel.Root.Find(prim) if prim else None
     if not root or root.GetPrim().GetPath() == path:
         return
-    held = [skel for p, skel in _skinned_by(stage, root.GetPrim()) if p.HasPrefix(path)]
+    held = [skel for p, skel in skinned_by(stage, root.GetPrim()) if p.HasPrefix(path)]
     if not held:
         return
     if str(root.GetPrim().GetPath()) == clip.skel_root and clip.skeleton in held:

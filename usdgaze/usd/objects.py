@@ -219,7 +219,25 @@ def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list
         raise UsdGazeError(f"{source}: no objects to look at: apply {API_NAME} to some prims or pass --objects PATH,...")
     for prim in prims:
         require_xformable(prim, source, "an object")
+        _require_not_skinned(prim, source)
     return prims
+
+
+def _require_not_skinned(prim: Usd.Prim, source: str) -> None:
+    """One line for a skinned mesh, or a prim holding one below its SkelRoot: its transform stays and its
+    bounds are the rest pose, so a walking character's body was an object standing where it started
+    (``apply --look-at`` refuses it too)."""
+    from pxr import UsdSkel
+
+    from usdgaze.characters import skinned_by
+
+    root = UsdSkel.Root.Find(prim)
+    if not root or root.GetPrim() == prim:
+        return
+    if any(path.HasPrefix(prim.GetPath()) for path, _ in skinned_by(prim.GetStage(), root.GetPrim())):
+        raise UsdGazeError(f"{source}:{prim.GetPath()}: is (or holds) a skinned mesh, whose bounds are its rest pose, "
+                           f"not where the body is; make the SkelRoot {root.GetPrim().GetPath()} the object (its "
+                           "bounds follow the body)")
 
 
 def scene_prims(stage: Usd.Stage):
