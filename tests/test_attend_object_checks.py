@@ -153,3 +153,23 @@ def test_a_skinned_mesh_is_not_an_object(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{r.mesh}: is (or holds) a skinned mesh" in err[0], err
     assert not out.exists()
+
+
+def test_a_point_instancer_prototype_is_not_an_object(tmp_path, capsys):
+    """A prototype is drawn only where the PointInstancer puts its instances: attend took one for an
+    object at its own place, where nothing is drawn (apply --look-at refuses it the same way)."""
+    r = rig(tmp_path, frames=24)
+    stage = Usd.Stage.Open(str(r.path))
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Props")
+    ball = UsdGeom.Sphere.Define(stage, "/Props/Prototypes/Ball")
+    ball.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 0.0))
+    assert ball.GetPrim().AddAppliedSchema("GazeObjectAPI")
+    instancer.CreatePrototypesRel().SetTargets([ball.GetPath()])
+    instancer.CreateProtoIndicesAttr([0])
+    instancer.CreatePositionsAttr([Gf.Vec3f(0.5, 1.6, 2.0)])
+    stage.GetRootLayer().Save()
+    out = tmp_path / "a.usda"
+    assert main(["attend", str(r.path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "/Props/Prototypes/Ball: is a prototype of the PointInstancer /Props" in err[0], err
+    assert not out.exists()

@@ -22,7 +22,7 @@ from pxr import Sdf, Usd, UsdGeom
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd.checks import authored_type
 from usdgaze.usd.plugin import has_api
-from usdgaze.usd.targets import PURPOSES, sample_target
+from usdgaze.usd.targets import PURPOSES, prototype_instancer, sample_target
 from usdgaze.values import MAX_OBSTACLE_RADIUS_M, MAX_TARGET_DISTANCE_M
 
 API_NAME = "GazeObjectAPI"
@@ -220,6 +220,10 @@ def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list
     for prim in prims:
         require_xformable(prim, source, "an object")
         _require_not_skinned(prim, source)
+        instancer = prototype_instancer(prim)
+        if instancer is not None:  # it was an object where no instance is drawn
+            raise UsdGazeError(f"{source}:{prim.GetPath()}: is a prototype of the PointInstancer {instancer.GetPath()}, "
+                               "drawn only where its instances are; make the PointInstancer the object")
     return prims
 
 

@@ -35,14 +35,14 @@ def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
     if not (prim.IsA(UsdGeom.Xformable) or prim.IsA(UsdGeom.Boundable)):
         raise UsdGazeError(f"{source}:{path}: is a {prim.GetTypeName() or 'typeless prim'}; "
                            "a look-at target must be Xformable or Boundable")
-    instancer = _instancing(prim)
+    instancer = prototype_instancer(prim)
     if instancer is not None:
         raise UsdGazeError(f"{source}:{path}: is a prototype of the PointInstancer {instancer.GetPath()}, drawn only "
                            "where its instances are; look at the PointInstancer or at a point X,Y,Z")
     return prim
 
 
-def _instancing(prim: Usd.Prim) -> Usd.Prim | None:
+def prototype_instancer(prim: Usd.Prim) -> Usd.Prim | None:
     """The PointInstancer above ``prim`` whose prototype holds it: such a prototype is not drawn at its
     own place (a target there was looked at where no instance is)."""
     parent = prim.GetParent()
