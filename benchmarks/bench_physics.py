@@ -98,6 +98,7 @@ def run_task(task: str, seconds: float, opts: mpc.Options, fk: bool = False) -> 
                 "fell": report.fell, "min_pelvis_ratio": round(report.min_pelvis_ratio, 3),
                 "mean_joint_error_deg": round(report.mean_joint_error_deg, 2),
                 "max_foot_below_ground_m": round(report.max_foot_below_ground_m, 4),
+                "contact_depth_m": round(report.contact_depth_m, 4),
                 "fk_max_foot_below_ground_m": round(float(-low.min()), 4), "fk_frames": len(low),
                 "fk_frames_below_2cm": int((low < -0.02).sum()), "fk_deepest_at_s": round(float(fk_s[low.argmin()]), 3)}
     r = mpc.simulate(model, qpos[keep], clip.seconds[keep], opts, pushes)
@@ -114,6 +115,7 @@ def run_task(task: str, seconds: float, opts: mpc.Options, fk: bool = False) -> 
             "mean_joint_error_deg": round(float(r.joint_error_deg[upto].mean()), 2),
             "max_joint_error_deg": round(float(r.joint_error_deg[upto].max()), 2),
             "max_foot_below_ground_m": round(float(r.foot_below_ground_m[upto].max()), 4),
+            "contact_depth_m": round(float(r.sank_m[upto].max()), 4),
             "costs_monotone": all(all(b <= a for a, b in zip(c, c[1:])) for c in r.solve_costs)}
 
 

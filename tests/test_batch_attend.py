@@ -42,6 +42,7 @@ fd_stride = 2
 fd_reuse = 2
 iterations = 2
 mass = 60
+raw_contacts = true
 """
 
 
@@ -61,7 +62,7 @@ def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path, m
     out = tmp_path / "out"
     assert main(["attend", str(scene), "--out", str(tmp_path / "cli_look.usdc"), "--window", "0.3", "--seed", "3"]) == 0
     assert main(["attend", str(still.path), "--physics", "--out", str(tmp_path / "cli_body.usdc"), "--window", "0.3",
-                 "--fd-stride", "2", "--fd-reuse", "2", "--iterations", "2", "--mass", "60"]) == 0
+                 "--fd-stride", "2", "--fd-reuse", "2", "--iterations", "2", "--mass", "60", "--raw-contacts"]) == 0
     assert _samples(out / "look.usdc") == _samples(tmp_path / "cli_look.usdc")
     assert _samples(out / "body.usdc") == _samples(tmp_path / "cli_body.usdc")
     for name in ("look", "body"):
@@ -71,8 +72,9 @@ def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path, m
     # The mass reaches the simulation: recorded, and the default's 75 kg body moves otherwise.
     assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["massKg"] == 60.0
     assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["planner"]["iterations"] == 2
+    assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["planner"]["groundFeet"] is False
     assert main(["attend", str(still.path), "--physics", "--out", str(tmp_path / "cli_75.usdc"), "--window", "0.3",
-                 "--fd-stride", "2", "--fd-reuse", "2", "--iterations", "2"]) == 0
+                 "--fd-stride", "2", "--fd-reuse", "2", "--iterations", "2", "--raw-contacts"]) == 0
     assert _samples(tmp_path / "cli_75.usdc") != _samples(tmp_path / "cli_body.usdc")
     angle = _angle_to_ball(compose(tmp_path, scene, out / "look.usdc", "composed.usda"), rig, ball)
     assert angle[-8:].max() < 5.0, angle  # the eyes on the ball by the last third of a second
@@ -94,6 +96,7 @@ def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path, m
 @pytest.mark.parametrize("job, words", [
     ('command = "attend"\nshifts = ["1s:30:0"]', ["job 0 'x'", "shifts: not a key of attend jobs"]),
     ('command = "attend"\nfd_stride = 2', ["job 0 'x'", "fd_stride: a key of physics jobs"]),
+    ('command = "attend"\nraw_contacts = true', ["job 0 'x'", "raw_contacts: a key of physics jobs"]),
     ('command = "attend"\nphysics = true\nfd_reuse = 0', ["job 0 'x'", "fd_reuse"]),
     ('command = "attend"\nphysics = true\niterations = 0', ["job 0 'x'", "iterations"]),
     ('command = "attend"\nphysics = true\nretry_iterations = 11', ["job 0 'x'", "retry_iterations"]),
