@@ -22,6 +22,8 @@ import numpy as np
 
 from usdgaze.physics import feasible
 from usdgaze.physics.dynamics import MujocoBody
+from usdgaze.physics.measures import (blown_up, foot_depth, foot_depths, heading_errors_deg, joint_errors_deg,
+                                      start_lift)
 from usdgaze.physics.model import BodyModel
 from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, lift_feet, resample, velocities
 
@@ -151,75 +153,6 @@ def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: f
     return np.clip(out, -1.0, 1.0)
 
 
-def joint_errors_deg(model: BodyModel, qpos: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """Mean joint-angle error per frame over the ball and hinge joints, degrees."""
-    from usdgaze.physics.retarget import _xyzw
-    from usdgaze.core import rotations as rot
-
-    qadr, _ = model.layout()
-    errs = []
-    for b, kind in enumerate(model.kind):
-        a = qadr[b]
-        if kind == "ball":
-            errs.append(rot.angle(rot.relative(_xyzw(qpos[:, a:a + 4]), _xyzw(ref[:, a:a + 4]))))
-        elif kind == "hinge":
-            errs.append(np.abs((qpos[:, a] - ref[:, a] + np.pi) % (2 * np.pi) - np.pi))
-    return np.degrees(np.mean(errs, axis=0))
-
-
-def heading_errors_deg(qpos: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """How far the simulated base has turned about the vertical from the reference's, per frame, in
-    degrees (the twist about model Z of ``q_sim q_ref^-1``; the joint errors do not see the base)."""
-    w1, v1 = qpos[:, 3], qpos[:, 4:7]  # MuJoCo's w, x, y, z
-    w2, v2 = ref[:, 3], -ref[:, 4:7]  # the reference's inverse
-    w = w1 * w2 - np.sum(v1 * v2, axis=1)
-    z = w1 * v2[:, 2] + w2 * v1[:, 2] + v1[:, 0] * v2[:, 1] - v1[:, 1] * v2[:, 0]
-    twist = 2.0 * np.arctan2(z, w)
-    return np.degrees(np.abs((twist + np.pi) % (2 * np.pi) - np.pi))
-
-
-def blown_up(qpos: np.ndarray, qvel: np.ndarray, ref: np.ndarray, height: float) -> bool:
-    """A finite state no body reaches (MuJoCo's step can run away without a NaN): the base more than
-    three heights from the reference's, or faster than 50 m/s, or a joint spinning at 500 rad/s."""
-    return bool(np.linalg.norm(qpos[:3] - ref[:3]) > 3.0 * height or np.linalg.norm(qvel[:3]) > 50.0
-                or np.abs(qvel[3:]).max(initial=0.0) > 500.0)
-
-
-def _foot_depth(mj, d, geoms: np.ndarray) -> float:
-    """How far the lowest point of the given capsule geoms is below the ground (0 if above)."""
-    low = np.inf
-    for g in geoms:
-        axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
-        half = mj.geom_size[g, 1] if mj.geom_type[g] == 3 else 0.0
-        low = min(low, d.geom_xpos[g, 2] - abs(axis[2]) * half - mj.geom_size[g, 0])
-    return max(0.0, -low)
-
-
-def _foot_depths(mj, qpos: np.ndarray, geoms: np.ndarray) -> np.ndarray:
-    """(K,) :func:`_foot_depth` at each state of ``qpos``."""
-    import mujoco
-
-    d = mujoco.MjData(mj)
-    out = np.zeros(len(qpos))
-    for k, q in enumerate(qpos):
-        d.qpos[:] = q
-        mujoco.mj_kinematics(mj, d)
-        out[k] = _foot_depth(mj, d, geoms)
-    return out
-
-
-def _start_lift(mj, d, qpos0: np.ndarray) -> float:
-    """How far to raise the first state so that no geom starts in the ground: a reference whose first
-    frame puts a foot (with the model's sole) below the floor would otherwise start with MuJoCo's soft
-    contact pushing it out at once, and the shot's report would open with that depth."""
-    import mujoco
-
-    d.qpos[:] = qpos0
-    mujoco.mj_kinematics(mj, d)
-    geoms = np.flatnonzero(mj.geom_bodyid > 0)
-    return _foot_depth(mj, d, geoms)
-
-
 @dataclass
 class Shot:
     """What a receding-horizon loop runs on, made once from the reference (``prepare``): the planner's
@@ -290,7 +223,7 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
     target = clear_ground(plan, ref_q)  # what the planner tracks; the measures use the reference as is
     # A reference whose first frame is in the floor is tracked raised as it starts: tracked as it is,
     # a body started on one toe 5 cm up pushed itself off the ground (a 0.4 s flight at h 0.03).
-    target[:, 2] += _start_lift(plan.mj, mujoco.MjData(plan.mj), target[0])
+    target[:, 2] += start_lift(plan.mj, mujoco.MjData(plan.mj), target[0])
     target = lift_feet(plan, target)  # then a foot still in the ground is lifted by its leg
     ref_v = velocities(target, h, plan.mj)
     tracking = BodyTracking(plan, target, ref_v, _head_body(model), options.weights)
@@ -388,7 +321,7 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
             down = down + 1 if qpos[k + 1, 2] < FALL_RATIO * ref_q[k + 1, 2] else 0
             d.qpos[:] = qpos[k + 1]
             mujoco.mj_kinematics(plan.mj, d)
-            depth[k + 1] = _foot_depth(plan.mj, d, feet)
+            depth[k + 1] = foot_depth(plan.mj, d, feet)
             measure_tasks(shot.tasks, k + 1, d, measured)
             if progress:
                 progress(k + 1, steps)
@@ -399,7 +332,7 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
     sank = depth[:kk].copy()
     if options.ground_feet:
         qpos[:kk] = lift_feet(plan, qpos[:kk])
-        depth = _foot_depths(plan.mj, qpos[:kk], feet)
+        depth = foot_depths(plan.mj, qpos[:kk], feet)
     result = shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
     if options.ground_feet:
         result.contact_depth_m = sank
