@@ -70,12 +70,8 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     (default: bound by names and the SkelRoot's map); ``ahead``: the take's clip after the shot."""
     from usdgaze.characters import bind_root
     from usdgaze.passes import physics as body_pass
-    from usdgaze.passes.attend import AttendResult, eyes_on
-    from usdgaze.passes.chain import with_eyes
-    from usdgaze.passes.options import PassOptions
     from usdgaze.physics import build, retarget, visuomotor
     from usdgaze.physics.catch import CatchTask
-    from usdgaze.usd.layers import AnimOverride
 
     source = clip.source
     chain_frame = chain_frame or bind_root(clip, root)
@@ -99,6 +95,25 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     quats = [3] + [int(qadr[b]) for b, k in enumerate(model.kind) if k == "ball"]
     qpos, n = body_pass._frames_from_steps(result, clip.seconds, quats)
     qpos = np.concatenate([qpos, np.repeat(qpos[-1:], len(clip.seconds) - n, 0)])  # a fall: hold the last
+    override, sight, eye_deg, est, uncertainty = _written(clip, chain_frame, model, ref, res, qpos)
+    report, terms = body_pass.shot_summary(clip, result, n, len(pushes), wall)  # stones, obstacles said there
+    _catch_problems(report, result.task_terms, [paths[j] for j in catches])  # the catch tasks come first
+    inspection = (clip.skel_root, clip.times, sight, eye_deg, paths, est, uncertainty)
+    return report, override, terms, inspection
+
+
+def _written(clip, chain_frame, model, ref, res, qpos: np.ndarray):
+    """The simulated body at the clip's frames (``qpos``) with its eyes aimed as simulated: the override,
+    and per frame the point of sight, the eye pose (degrees, degrees, metres), the belief's estimates
+    in stage units and their uncertainty."""
+    from usdgaze.passes.assemble import assemble
+    from usdgaze.passes.attend import AttendResult, eyes_on
+    from usdgaze.passes.chain import with_eyes
+    from usdgaze.passes.options import PassOptions
+    from usdgaze.physics import retarget
+    from usdgaze.usd.layers import AnimOverride
+
+    result = res.body
     rotations, translations = retarget.from_qpos(model, qpos, ref)
     chain, frame = chain_frame
     rig = with_eyes(clip, chain, frame, PassOptions())
@@ -113,8 +128,6 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     new_rot = {j: rotations[:, j] for j in range(len(clip.joints))}
     new_rot.update(eye_rot)
     new_trans = {j: translations[:, j] for j in range(len(clip.joints))}
-    from usdgaze.passes.assemble import assemble
-
     anim_joints, rot_a, trans_a, scales_a = assemble(rig, new_rot, new_trans)
     back = np.linalg.inv(model.to_model)  # model -> stage units
     est = np.einsum("ij,foj->foi", back, _at(t_rel, t_sim, res.vision.estimate))
@@ -124,11 +137,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     if rig.added:
         written.added_rest_local = rig.rest_local[-2:]
         written.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
-    override = AnimOverride.of(clip, written, move_roots=True)
-    report, terms = body_pass.shot_summary(clip, result, n, len(pushes), wall)  # stones, obstacles said there
-    _catch_problems(report, result.task_terms, [paths[j] for j in catches])  # the catch tasks come first
-    inspection = (clip.skel_root, clip.times, sight, eye_deg, paths, est, written.uncertainty)
-    return report, override, terms, inspection
+    return AnimOverride.of(clip, written, move_roots=True), sight, eye_deg, est, written.uncertainty
 
 
 def _catch_problems(report, task_terms: dict, balls: list[str]) -> None:
