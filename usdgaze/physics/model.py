@@ -31,6 +31,7 @@ from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import character_frame, leaf
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.physics import segments as seg
+from usdgaze.physics import shapes
 
 Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 _BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
@@ -163,18 +164,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     parents = np.asarray(parents, dtype=int)
     if total_mass <= 0:
         raise UsdGazeError(f"{where}: total mass must be positive, got {total_mass}")
-    to_model = stage_to_model(up_axis, meters_per_unit)
-    skel_to_world0 = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
-    if np.linalg.det(skel_to_world0[:3, :3]) < 0.0:
-        to_model = np.diag([-1.0, 1.0, 1.0]) @ to_model  # the mirror image: right-handed bodies
-    world = skel_to_world0 @ world_matrices(rest_local[None], parents)[0]
-    base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2])
-    idx = _subtree(base, parents)
-    if len(idx) < 2:
-        raise UsdGazeError(f"{where}: the skeleton below '{joints[base]}' has no joints to simulate")
-    body_of = {int(j): b for b, j in enumerate(idx)}
-    bparent = np.array([body_of.get(int(parents[j]), -1) for j in idx])
-    bparent[0] = -1
+    to_model, skel_to_world0, world, idx, body_of, bparent = _body_tree(
+        joints, parents, rest_local, skel_to_world, up_axis, meters_per_unit, where)
 
     pos, orient, rmat, offset, rel = _rest_frames(world[idx], bparent, to_model)
     n = len(idx)
@@ -213,11 +204,9 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still))
 
     com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
-    radius = np.clip(np.sqrt(mass / (1000.0 * np.pi * np.maximum(lengths, 0.05))), 0.015, 0.14) * (
-        np.array([0.6 if r in ("trunk", "other") else 1.0 for r in roles]))
-    radius[[b for b in range(n) if roles[b] == "foot"]] = 0.025 * height / 1.75
-    geoms = _geoms(offset, children, seg_vec, roles, rmat, feet, attached)
-    lowest = min(_lowest(pos, rmat, geoms, radius, b) for b in range(n))
+    radius = shapes.radii(mass, lengths, roles, height)
+    geoms = shapes.geoms(offset, children, seg_vec, roles, rmat, feet, attached)
+    lowest = min(shapes.lowest(pos, rmat, geoms, radius, b) for b in range(n))
     strength = _strengths(roles, bparent) * total_mass / 75.0
     return BodyModel(
         joints=list(joints), parents=parents, bodies=idx, body_parent=bparent, kind=kind, role=roles,
@@ -225,6 +214,26 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         axis=axis, range_deg=range_deg, mass=mass, com=com, inertia=inertia, inertia_quat=iquat,
         radius=radius, geoms=geoms, strength=strength, to_model=to_model, total_mass=float(total_mass),
         height=height, lift=-lowest, feet=feet, forward=forward, eyes=sorted(eyes), rest_pos=pos, rest_rot=rmat)
+
+
+def _body_tree(joints, parents: np.ndarray, rest_local: np.ndarray, skel_to_world, up_axis: str,
+               meters_per_unit: float, where: str):
+    """The stage-to-model map (mirrored for a left-handed skeleton), the first frame's skeleton-to-world
+    matrix, the rest pose's world matrices, the simulated joints (the base joint's subtree), their body
+    indices by joint and each body's parent body (-1 for the base)."""
+    to_model = stage_to_model(up_axis, meters_per_unit)
+    skel_to_world0 = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
+    if np.linalg.det(skel_to_world0[:3, :3]) < 0.0:
+        to_model = np.diag([-1.0, 1.0, 1.0]) @ to_model  # the mirror image: right-handed bodies
+    world = skel_to_world0 @ world_matrices(rest_local[None], parents)[0]
+    base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2])
+    idx = _subtree(base, parents)
+    if len(idx) < 2:
+        raise UsdGazeError(f"{where}: the skeleton below '{joints[base]}' has no joints to simulate")
+    body_of = {int(j): b for b, j in enumerate(idx)}
+    bparent = np.array([body_of.get(int(parents[j]), -1) for j in idx])
+    bparent[0] = -1
+    return to_model, skel_to_world0, world, idx, body_of, bparent
 
 
 def _check_mirrored(joints, idx, bparent, kind, lin: np.ndarray, where: str) -> None:
@@ -399,33 +408,3 @@ def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: n
             axis[b] = a / np.linalg.norm(a)
         theta = np.degrees(rv @ axis[b])
         rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))
-
-
-def _geoms(offset, children, seg_vec, roles, rmat, feet, attached=frozenset()):
-    geoms = []
-    for b in range(len(roles)):
-        if b in attached:
-            geoms.append([])
-            continue
-        g = [("capsule", np.concatenate([np.zeros(3), offset[c]])) for c in children[b]
-             if np.linalg.norm(offset[c]) > 0.01 and c not in attached]
-        if not g and np.linalg.norm(seg_vec[b]) > 0:  # an end site (zero) has no shape
-            g = [("capsule", np.concatenate([np.zeros(3), seg_vec[b]]))] if roles[b] != "head" else \
-                [("sphere", 0.5 * seg_vec[b])]
-        if b in feet and children[b]:  # a sole from below the heel to the toes
-            toe = offset[children[b][0]]
-            down = rmat[b].T @ np.array([0, 0, -1.0])
-            drop = max(float(toe @ down), 0.0)
-            forward = toe - (toe @ down) * down
-            heel = down * drop - 0.25 * forward
-            g.append(("capsule", np.concatenate([heel, heel + 0.9 * forward])))
-        geoms.append(g)
-    return geoms
-
-
-def _lowest(pos, rmat, geoms, radius, b) -> float:
-    z = [pos[b, 2]]
-    for kind, v in geoms[b]:
-        pts = v.reshape(-1, 3) if kind == "capsule" else v[None]
-        z.extend((pos[b] + pts @ rmat[b].T)[:, 2] - radius[b])
-    return float(min(z))
