@@ -137,10 +137,12 @@ def _open_input(tx: Outputs, source: str):
 def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, OverrideLayer]:
     """Read every skeleton under ``roots`` and run the gaze pass on it; each character's result goes
     into the override layer as it is done (the report keeps what the summary and guides need)."""
+    from usdgaze.usd.layers import composed_override_notes
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     source = req.source
     report = ApplyReport(output=str(req.out), input=req.source)
+    report.warnings.extend(composed_override_notes(stage, source))
     written = OverrideLayer(layer_info(stage), fmt=Path(req.out).suffix.lstrip("."), custom_later=True)
     seen_anims: dict[str, str] = {}
     others = animations_elsewhere(stage, roots)

@@ -107,7 +107,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes.attend import apply_attend, planner_times
     from usdgaze.usd.attendio import add_inspection
-    from usdgaze.usd.layers import AnimOverride, build_override, layer_info
+    from usdgaze.usd.layers import AnimOverride, build_override, composed_override_notes, layer_info
     from usdgaze.usd.objects import check_apart, object_prims, read_objects
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
@@ -116,6 +116,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     others = animations_elsewhere(stage, roots)
     check_apart(prims, roots, source)  # the character's own SkelRoot, or a prim holding it, moves with it
     report = AttendReport(output=str(out_path))
+    report.warnings.extend(composed_override_notes(stage, source))
     overrides, inspections, info = [], [], None
     t_start, cpu_start = time.perf_counter(), time.process_time()
     steps = frames = 0

@@ -133,7 +133,8 @@ def _run(shot: Shot, key: dict) -> dict:
         # A fall or a missed task is the shot's result, written and said (discard_failed: bad input).
         return {"characters": [r.skeleton for r in shots], "frames": sum(r.frames for r in shots),
                 "warnings": [f"{r.skeleton}: {p}" for r in shots for p in r.problems]
-                + [f"{r.skeleton}: simulated again, {p}" for r in shots for p in r.other_attempt]}
+                + [f"{r.skeleton}: simulated again, {p}" for r in shots for p in r.other_attempt]
+                + list(dict.fromkeys(w for r in shots for w in r.warnings))}
     from usdgaze.attend import attend
 
     report = attend(**kwargs, record=key, make_folders=True)

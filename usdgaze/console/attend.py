@@ -146,6 +146,8 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                       binding=binding, total_mass=mass, progress=bar)
     finally:
         bar.close()
+    for w in dict.fromkeys(w for r in reports for w in r.warnings):  # on stderr, as apply says them
+        click.echo(f"usdgaze: warning: {w}", err=True)
     if as_json:
         click.echo(json.dumps({"output": str(out), "shots": [asdict(r) for r in reports]}, indent=2))
         return

@@ -73,6 +73,7 @@ class ShotReport:
     # How deep the simulation's soft ground let a foot sink; the written feet (``max_foot_below_ground_m``)
     # were lifted out of it by their legs unless ``--raw-contacts`` (``mpc.Options.ground_feet``).
     contact_depth_m: float = 0.0
+    warnings: list[str] = field(default_factory=list)  # of the input stage (``layers.composed_override_notes``)
 
 
 def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
@@ -342,7 +343,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     from usdgaze.api import _open_input
     from usdgaze.files.transaction import Outputs
     from usdgaze.physics.dynamics import require_mujoco
-    from usdgaze.usd.layers import check_output_path
+    from usdgaze.usd.layers import check_output_path, composed_override_notes
 
     require_mujoco()  # before any work: a missing extra is one line, exit 2
     source = str(input_path)
@@ -358,6 +359,8 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         shots = _read_shots(stage, source, skel_root, options, binding)
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)
+        for r in reports:
+            r.warnings = composed_override_notes(stage, source)
         tx.stage_layer(out_path, layer)
     return reports
 

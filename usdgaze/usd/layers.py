@@ -290,6 +290,21 @@ def is_override_record(record) -> bool:
     return isinstance(record, dict) and ("shifts" in record or str(record.get("command", "")).startswith("attend"))
 
 
+def composed_override_notes(stage, source: str) -> list[str]:
+    """A warning for each usdgaze override the input stage composes: a pass on that stage starts from
+    the motion with that layer's gaze in it, so its offsets add to the old ones (a rerun meant to
+    replace the layer reads the stage without it)."""
+    notes = []
+    for layer in stage.GetUsedLayers():
+        if layer is None or layer.anonymous or not layer.realPath:
+            continue
+        record = dict(layer.customLayerData).get("usdgaze")
+        if is_override_record(record):
+            notes.append(f"{source}: composes {layer.realPath}, a layer usdgaze wrote ({record.get('command', 'apply')}): "
+                         "this pass adds to the gaze in it; to redo that pass instead, run on the stage without it")
+    return notes
+
+
 def is_override(path: str | os.PathLike) -> bool:
     """Whether the layer file at ``path`` is an override usdgaze wrote (:func:`is_override_record`)."""
     try:
