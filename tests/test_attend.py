@@ -170,12 +170,15 @@ def test_the_ball_to_catch_first_holds_the_eyes_before_it_arrives(catch_balls, t
 
 def test_the_literal_per_step_process_noise_holds_one_ball(two_balls):
     """The paper's alpha read as a variance added every step (not per second): the unwatched ball's
-    noise saturates in ~4 steps, so coming back buys little and the planner holds one ball, switching
-    at most once (measured: 0 and 1 switches, seeds 0 and 1) where the per-second reading switches
-    three or four times (docs/attend.md)."""
+    noise saturates in ~4 steps, so coming back buys little and the planner holds one ball, where the
+    per-second reading switches three or four times and watches each ball 20-60 % (docs/attend.md).
+    Measured, seeds 0-3: 2, 0, 1, 1 switches, the held ball 88, 88, 60, 60 %, the other 7, 3, 12, 7 %
+    (seed 0's second switch is one 0.1 s glance at the other ball and back). With the head's turn
+    priced 20 times the paper's w_trk it was 0, 1, 0, 1 switches, the other ball up to 35 %."""
     g, b1, b2 = two_balls["per step"]
     on = _on_ball(g, b1, b2)[g.seconds <= ARRIVAL_S[0]]
-    assert _switches(on) <= 1 and max(np.mean(on == 0), np.mean(on == 1)) > 0.55  # measured 0.78
+    shares = sorted([np.mean(on == 0), np.mean(on == 1)])
+    assert _switches(on) <= 2 and shares[1] > 0.55 and shares[0] < 0.15, (_switches(on), shares)  # 2, 0.88, 0.07
 
 
 def test_sequential_tracks_one_ball_then_the_other(two_balls):

@@ -37,8 +37,11 @@ class Weights:
     bnd: float = 0.1
     dist: float = 1.0
     head_pos: float = 10.0  # relative weight of the head-displacement part of c_trk (metres vs radians)
-    offsets: float = 20.0  # relative weight of the chain offsets (radians) in c_trk: the kinematic body
-    # has no mass, so its deviation from the base motion is what its tracking term must price
+    offsets: float = 1.0  # relative weight of the chain offsets (radians) in c_trk: 1 is the paper's
+    # w_trk on joint angles. Its body prices a held head turn the same way (the torques to turn a head,
+    # at w_eng 1e-5, add little). 20 (tried) priced a 10 deg head turn (0.03-0.06 a step) at or above
+    # all that a fixation saves (c_uct of a still object 0.041 fixated, 0.081 looked 2 m past): a sphere
+    # 50 deg aside was held on 61 % of the frames of an idle clip (tests/test_attend_side.py).
     rate: float = 1.0  # relative weight of offset rates in c_trk
     gamma: float = 1.0
     u_scale: np.ndarray = field(default_factory=lambda: np.ones(0))
