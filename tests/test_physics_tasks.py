@@ -276,6 +276,27 @@ def test_a_foot_held_over_its_stone_is_not_down_though_its_ground_distance_is_a_
     assert measured(raised[k], k) == pytest.approx(measured(ref_q[k], k), abs=1e-9)
 
 
+def test_a_toe_that_only_brushes_the_ground_for_a_step_is_not_down(body):
+    """A footfall lasts: the motion raised 15 cm but dipped to the reference's height for one step at
+    a contact's start is said to miss that stone (a swing's toe passing through the contact band, or
+    skidding across the ground, is no footfall); dipped for two steps (0.06 s at h 0.03), it comes
+    down on it. Each contact on its own."""
+    dyn, ref_q, frames = body
+    spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
+    task = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
+    seconds = 10.0 + dyn.h * np.arange(len(ref_q))
+    starts = [(f, a) for f in range(len(task.feet)) for a in np.flatnonzero(np.diff(np.r_[-1, task.stone[f]]) != 0)
+              if task.stone[f, a] >= 0 and a + 2 < len(ref_q)]
+    assert len(starts) >= 3 and dyn.h == pytest.approx(0.03)
+    for f, a in starts:
+        line = f"{task.feet[f][0]} not down on /{'ABC'[task.stone[f, a]]} within 0.3 s of {seconds[a]:.2f} s"
+        for steps, said in ((1, True), (2, False)):
+            dipped = ref_q.copy()
+            dipped[:, 2] += 0.15
+            dipped[a:a + steps, 2] = ref_q[a:a + steps, 2]
+            assert any(p.startswith(line) for p in task.problems(dipped, seconds)) is said, (f, a, steps)
+
+
 @pytest.mark.parametrize("form", ["body", "root"])
 def test_obstacle_cost_derivatives_match_central_differences(body, form):
     """Both forms (ours on every capsule, the paper's on the root), six obstacles (the four nearest

@@ -214,7 +214,8 @@ class StoneTask:
         for f, (name, _, _) in enumerate(self.feet):
             p = toes[:, f]
             speed = np.r_[np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) / h, np.inf]
-            down = (p[:, 2] < self.ref_low[f] + CONTACT_HEIGHT_M) & (speed < CONTACT_SPEED)
+            down = _lasting((p[:, 2] < self.ref_low[f] + CONTACT_HEIGHT_M) & (speed < CONTACT_SPEED),
+                            int(np.ceil(CONTACT_MIN_S / h - 1e-9)))
             ref = self.stone[f, :n]
             for a in np.flatnonzero(np.diff(np.r_[-1, ref]) != 0):
                 if ref[a] < 0 or seconds[a] + CONTACT_MIN_S > seconds[-1] + 1e-9:
@@ -223,6 +224,16 @@ class StoneTask:
                     out.append(f"{name} not down on {self.names[ref[a]]} within {LANDING_S:.1f} s of "
                                f"{seconds[a]:.2f} s (the reference's contact)")
         return out
+
+
+def _lasting(low: np.ndarray, steps: int) -> np.ndarray:
+    """``low`` where it holds for at least ``steps`` steps in a row: a toe passing slowly through the
+    contact band at the top of a swing (or skidding across the ground) is not a footfall."""
+    edges = np.flatnonzero(np.diff(np.r_[0, low.astype(int), 0]))
+    out = np.zeros(len(low), bool)
+    for a, b in zip(edges[::2], edges[1::2]):
+        out[a:b] = b - a >= steps or b == len(low)  # one cut by the shot's end may have gone on
+    return out
 
 
 def factory(stones: np.ndarray, frames: tuple[np.ndarray, np.ndarray] | None = None, weight: float = W_TSK,
