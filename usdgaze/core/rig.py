@@ -141,9 +141,17 @@ def _check_bound_places(path: list[int], head: int, joints, parents, found, bind
 
 
 def _below(j: int, parents: np.ndarray) -> list[int]:
-    """Joints under j (not j itself), shallow first."""
-    return sorted((i for i in range(len(parents)) if j in _path_to_root(i, parents)[:-1]),
-                  key=lambda i: len(_path_to_root(i, parents)))
+    """Joints under j (not j itself), shallow first (in joint order at one depth)."""
+    up = [int(p) for p in parents]  # Python ints: each joint's walk to the root reads them
+    under, depth = [], {}
+    for i in range(len(up)):
+        k, d, inside = up[i], 1, False
+        while k >= 0:
+            inside, d, k = inside or k == j, d + 1, up[k]
+        if inside:
+            under.append(i)
+            depth[i] = d
+    return sorted(under, key=depth.get)
 
 
 def _eyes_under(head: int, joints, parents) -> dict[str, list[int]]:
