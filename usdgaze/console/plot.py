@@ -13,7 +13,9 @@ import click
 @click.option("--skel-root", default=None, help="Only this SkelRoot (default: every one the layer animates).")
 def plot(input_path, layer, out_dir, skel_root) -> None:
     """Plot what LAYER does to INPUT: per-joint cascade per shift, requested vs achieved gaze, eye
-    angles against the pass's limits, line-of-sight speed against the saccade main sequence.
+    angles against the pass's limits, line-of-sight speed against the saccade main sequence; for an
+    `attend --physics` layer, each simulated character's per-step measures (pelvis height, joint
+    error, foot depth, heading, root drift, task distances) against their bars, problems in red.
 
     INPUT is opened with LAYER as its strongest sublayer in memory; neither file is changed.
     """

@@ -27,6 +27,7 @@ from usdgaze.physics import mpc
 from usdgaze.vision import loop
 
 CATCH = "usdgaze:physics:catch"
+CATCH_TOLERANCE_M = 0.1  # a ball the hand came no nearer than this to is a problem of the shot
 
 
 def read_scene(root, clip, source: str, h: float):
@@ -149,7 +150,7 @@ def _catch_problems(report, task_terms: dict, balls: list[str]) -> None:
     for i, path in enumerate(balls):
         prefix = mpc.task_prefix(["catch"] * len(balls), i)
         miss = task_terms.get(f"{prefix}.handToBallM")
-        if miss is None or not np.all(np.isnan(miss) | (miss > 0.1)):
+        if miss is None or not np.all(np.isnan(miss) | (miss > CATCH_TOLERANCE_M)):
             continue
         near = np.nanmin(miss) if np.any(~np.isnan(miss)) else np.nan
         said = f"catch {path}: the hand came no nearer than {100 * near:.0f} cm to the ball"

@@ -18,6 +18,7 @@ from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.errors import UsdGazeError, usd_failure
 from usdgaze.review import recorded
+from usdgaze.review.physics_record import PhysicsMeasures, read_physics
 from usdgaze.review.recorded import Look
 from usdgaze.usd.stage import open_root
 from usdgaze.files.kinds import not_a_file
@@ -69,6 +70,8 @@ class CharacterReview:
     shifts: list[tuple[float, float, float]] = field(default_factory=list)
     """What this character was asked: (seconds from the stage start, yaw, pitch), time-ordered; a
     look's yaw and pitch are NaN (see :func:`usdgaze.review.recorded.requests`)."""
+    physics: PhysicsMeasures | None = None
+    """What ``attend --physics`` recorded for this skeleton (its per-step measures), if it did."""
 
     @property
     def eyes(self) -> tuple[int, int] | None:
@@ -300,6 +303,8 @@ class _Reader:
             skel_to_world=gaze_clip.skel_to_world, up=self.up, meters_per_unit=gaze_clip.meters_per_unit,
             looks=recorded.looks(self.stage, root, gaze_clip, self.source, self.record, self.layer_file, clock),
             shifts=recorded.requests(self.record, path, self.layer_file, clock),
+            physics=read_physics(dict(self.layer.customLayerData or {}), [gaze_clip.skeleton], self.layer_file,
+                                 recorded.recorded_seconds(self.layer, self.offset, gaze_clip)).get(gaze_clip.skeleton),
         )
 
 

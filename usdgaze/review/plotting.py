@@ -181,19 +181,20 @@ def names(review) -> list[str]:
     return [unique(n, taken) for n in full]
 
 
-def figures(review) -> dict[str, object]:
-    """Every review figure, by file stem (``<character>_<kind>``), as matplotlib Figures."""
-    plt = pyplot()
+def _character_figures(plt, review, c, name: str) -> dict[str, object]:
+    """One character's figures by file stem: its cascades, gaze, eyes, speed and targets (where it has
+    eyes: a physics pass writes none for a rig without them), and its physics measures (where the
+    layer records them)."""
     out = {}
-    for c, name in zip(review.characters, names(review)):
-        times = [t for t, _, _ in c.shifts]
-        cascades = analysis.shift_cascade(c, c.shifts)
-        if cascades:
-            fig, axes = plt.subplots(len(cascades), 1, figsize=(10, 3.2 * len(cascades)), squeeze=False)
-            for ax, s in zip(axes[:, 0], cascades):
-                panel_cascade(ax, s.elapsed, s.angles, s.labels,
-                              f"{name}: shift {s.index + 1} at {s.time_s:g} s to yaw {s.yaw:g}, pitch {s.pitch:g}")
-            out[f"{name}_cascade"] = fig
+    times = [t for t, _, _ in c.shifts]
+    cascades = analysis.shift_cascade(c, c.shifts)
+    if cascades:
+        fig, axes = plt.subplots(len(cascades), 1, figsize=(10, 3.2 * len(cascades)), squeeze=False)
+        for ax, s in zip(axes[:, 0], cascades):
+            panel_cascade(ax, s.elapsed, s.angles, s.labels,
+                          f"{name}: shift {s.index + 1} at {s.time_s:g} s to yaw {s.yaw:g}, pitch {s.pitch:g}")
+        out[f"{name}_cascade"] = fig
+    if c.eyes is not None:
         fig, ax = plt.subplots(figsize=(9, 3.6))
         panel_gaze(ax, c.seconds, analysis.requested_steps(c.seconds, c.shifts), analysis.achieved_change(c),
                    times, f"{name}: requested vs achieved change of the line of sight")
@@ -212,6 +213,21 @@ def figures(review) -> dict[str, object]:
             fig, ax = plt.subplots(figsize=(10, 3.6))
             panel_target_error(ax, c.seconds, errors, f"{name}: look-at target error")
             out[f"{name}_targets"] = fig
+    if c.physics is not None:
+        from usdgaze.review.physics_plots import physics_figure
+
+        fig = physics_figure(plt, c.physics, name)
+        if fig is not None:
+            out[f"{name}_physics"] = fig
+    return out
+
+
+def figures(review) -> dict[str, object]:
+    """Every review figure, by file stem (``<character>_<kind>``), as matplotlib Figures."""
+    plt = pyplot()
+    out = {}
+    for c, name in zip(review.characters, names(review)):
+        out.update(_character_figures(plt, review, c, name))
     # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body).
     # attend plans a SkelRoot's first skeleton: its name, not a later one's, labels the attention.
     by_path = {}

@@ -49,6 +49,18 @@ def recorded_clock(layer, offset, clip):
     return lambda d: (code(d) - clip.start_time) / clip.time_codes_per_second
 
 
+def recorded_seconds(layer, offset, clip):
+    """Seconds on ``clip`` of an array of seconds the layer records from the input's start (the
+    physics pass's per-step times): :func:`recorded_code`'s mapping, vectorized."""
+    start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
+    tcps = layer.timeCodesPerSecond
+
+    def clock(seconds: np.ndarray) -> np.ndarray:
+        code = offset.scale * (start + np.asarray(seconds, dtype=float) * tcps) + offset.offset
+        return (code - clip.start_time) / clip.time_codes_per_second
+    return clock
+
+
 def looks(stage, root, clip, source: str, record: dict, layer_file: str, clock) -> list[Look]:
     """Look directives the pass was given (the layer's record, timed by ``clock``), else the SkelRoot's
     schedule; each holds until the next directive (or the clip's end)."""
