@@ -185,3 +185,13 @@ def test_problem_times_are_the_times_the_pass_names():
             "catch /Ball: the hand came no nearer than 12 cm to the ball"]
     assert problem_times(said) == [(0.42, 0.42), (1.37, 1.50), (1.50, 1.50), (1.20, 1.20)]
     assert physics_figure(plotting.pyplot(), PhysicsMeasures(SKEL, np.arange(3) * 0.03, {}), "x") is None
+
+
+def test_a_preview_of_an_eyeless_physics_layer_draws_the_heads_line(shot, tmp_path):
+    """CMU has no eyes and the physics pass adds none: the preview draws where the head looks
+    (it stopped with an internal error, exit 1, before)."""
+    folder, src, layer, record = shot
+    gif = tmp_path / "p.gif"
+    assert main(["preview", str(src), "--layer", str(layer), "--out", str(gif)]) == 0
+    frames = Sdf.Layer.FindOrOpen(str(src))
+    assert Image.open(gif).n_frames == int(frames.endTimeCode - frames.startTimeCode) // 5 + 1 or Image.open(gif).n_frames >= 2

@@ -48,6 +48,14 @@ def sight(c, posed) -> tuple[np.ndarray, np.ndarray]:
     return line_of_sight(p[:, el], _apply(posed.axes(el), al), p[:, er], _apply(posed.axes(er), ar))
 
 
+def sight_or_head(c, posed) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sight`, or for a character without eyes (a physics pass on a rig that has none writes
+    none) the head joint and where the head looks."""
+    if c.eyes is None:
+        return posed.positions[:, c.chain.head], head_direction(c, posed)
+    return sight(c, posed)
+
+
 def head_direction(c, posed) -> np.ndarray:
     """Where the head looks ``(F, 3)``: its neutral-pose forward axis, carried by its pose."""
     h = c.chain.head

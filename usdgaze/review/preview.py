@@ -76,7 +76,7 @@ def _figures(review, which: str, times: np.ndarray, rows: list[np.ndarray]) -> l
     for c, own in zip(review.characters, rows):
         posed = c.base if which == "base" else c.gaze
         units_per_m = _units_per_m(c)
-        origin, direction = analysis.sight(c, posed)
+        origin, direction = analysis.sight_or_head(c, posed)
         reach = (review.fixation_m or 2.0) * units_per_m
         pos = posed.positions[own]
         bones = _bones(c, posed, units_per_m)
