@@ -58,6 +58,16 @@ class KinematicBody(SecondOrder):
     n_dof = 4
     LO = np.radians([-35.0, -25.0, -60.0, -40.0])
     HI = np.radians([35.0, 25.0, 60.0, 40.0])
+    # The head's speed from the offsets (spine and neck turn about the same axes, so their rates add),
+    # bounded as the eye's: a soft cost for the planner, clipped in simulation (vision.loop). Eom et al.
+    # bound only the eyes; their body's inertia keeps its head slow, and a double integrator priced at
+    # w_eng 1e-5 is not: a sphere coming into view 60 deg aside during the eye's 100 deg/s recharge was
+    # taken by the head at 1145 deg/s (51 deg out in 50 ms, most of it back once the eyes could
+    # saccade), as a new track's velocity variance (sigma_v^2 ~ 1e4 in c_uct) outbids any soft bound at
+    # w_bnd 0.1. Head peak velocity grows with the gaze shift's amplitude, to a few hundred deg/s at
+    # most in the largest shifts (Freedman & Sparks 1997 in monkeys; lower in humans). REFERENCES.md has
+    # no figure for it (only LEAP's 75 deg/s base speed): 300 is assumed, the top of that range.
+    HEAD_SPEED = np.radians(300.0)
 
     def __init__(self, base: BaseChain, h: float, name: str = "body") -> None:
         super().__init__(self.n_dof, h, name)

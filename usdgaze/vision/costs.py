@@ -133,7 +133,27 @@ class AttendCost:
                     lx[:, bx.start:bx.start + nq] += w.bnd * d1 * sign * DEG
                     ii = np.arange(bx.start, bx.start + nq)
                     lxx[:, ii, ii] += w.bnd * d2 * DEG**2
+        if hasattr(self.body, "HEAD_SPEED"):
+            c = c + self._head_speed(qb[:, nq:], derivs, lx, lxx)
         return c, J, pps
+
+    def _head_speed(self, qd, derivs, lx, lxx):
+        """w_bnd smax(|head rate| - B_head) in deg/s, as the eye's speed bound: the head turns at the
+        spine's and the neck's yaw rates added, and pitch likewise (columns spine y/p, neck y/p)."""
+        w = self.w
+        rate = (qd[:, :2] + qd[:, 2:4]) * DEG
+        speed = np.sqrt(np.sum(rate * rate, 1) + 1e-9)
+        v, d1, d2 = smax(speed - self.body.HEAD_SPEED * DEG, w.gamma)
+        if derivs:
+            n_ = rate / speed[:, None]
+            hess = (d2[:, None, None] * n_[:, :, None] * n_[:, None, :]
+                    + d1[:, None, None] * (np.eye(2) - n_[:, :, None] * n_[:, None, :]) / speed[:, None, None])
+            i0 = self.body.xs.start + self.body.n  # the rates' columns
+            for a in (0, 2):  # d rate / d qd is [I I]: spine and neck columns alike
+                lx[:, i0 + a:i0 + a + 2] += (w.bnd * d1)[:, None] * n_ * DEG
+                for b in (0, 2):
+                    lxx[:, i0 + a:i0 + a + 2, i0 + b:i0 + b + 2] += w.bnd * hess * DEG**2
+        return w.bnd * v
 
     def _attention(self, X, derivs, lx, lxx, J, pps, k0):
         w, n = self.w, self.belief.n
