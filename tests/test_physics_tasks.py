@@ -376,3 +376,21 @@ def test_an_unknown_task_is_one_line_exit_2_nothing_written(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "/Stones/Stone0.usdgaze:physics:task: 'stepping' is not one of" in err[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.usda"]
+
+
+def test_a_foot_down_for_the_shots_last_steps_is_down(body):
+    """The last step has no next one to give the toe's speed: it takes the step before's, so a foot
+    that comes down on its stone for the shot's last two steps (0.06 s) is down."""
+    dyn, ref_q, frames = body
+    spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
+    task = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
+    seconds = 10.0 + dyn.h * np.arange(len(ref_q))
+    f, a = max(((f, a) for f in range(len(task.feet)) for a in np.flatnonzero(np.diff(np.r_[-1, task.stone[f]]) != 0)
+                if task.stone[f, a] >= 0), key=lambda fa: fa[1])
+    assert a + round(0.3 / dyn.h) >= len(ref_q) - 1  # the shot's end is within its landing window
+    line = f"{task.feet[f][0]} not down on /{'ABC'[task.stone[f, a]]} within 0.3 s of {seconds[a]:.2f} s"
+    dipped = ref_q.copy()
+    dipped[:-2, 2] += 0.15
+    assert not any(p.startswith(line) for p in task.problems(dipped, seconds))
+    dipped[-2:, 2] += 0.15
+    assert any(p.startswith(line) for p in task.problems(dipped, seconds))

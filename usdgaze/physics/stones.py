@@ -213,7 +213,8 @@ class StoneTask:
         out = []
         for f, (name, _, _) in enumerate(self.feet):
             p = toes[:, f]
-            speed = np.r_[np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) / h, np.inf]
+            step = np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) / h
+            speed = np.r_[step, step[-1:]] if len(step) else np.full(len(p), np.inf)  # the last: from the one before
             down = _lasting((p[:, 2] < self.ref_low[f] + CONTACT_HEIGHT_M) & (speed < CONTACT_SPEED),
                             int(np.ceil(CONTACT_MIN_S / h - 1e-9)))
             ref = self.stone[f, :n]
@@ -232,7 +233,7 @@ def _lasting(low: np.ndarray, steps: int) -> np.ndarray:
     edges = np.flatnonzero(np.diff(np.r_[0, low.astype(int), 0]))
     out = np.zeros(len(low), bool)
     for a, b in zip(edges[::2], edges[1::2]):
-        out[a:b] = b - a >= steps or b == len(low)  # one cut by the shot's end may have gone on
+        out[a:b] = b - a >= steps
     return out
 
 
