@@ -359,8 +359,9 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         shots = _read_shots(stage, source, skel_root, options, binding)
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)
+        notes = composed_override_notes(stage, source)
         for r in reports:
-            r.warnings = composed_override_notes(stage, source)
+            r.warnings = list(notes)
         tx.stage_layer(out_path, layer)
     return reports
 

@@ -295,9 +295,8 @@ def composed_override_notes(stage, source: str) -> list[str]:
     the motion with that layer's gaze in it, so its offsets add to the old ones (a rerun meant to
     replace the layer reads the stage without it)."""
     notes = []
-    for layer in stage.GetUsedLayers():
-        if layer is None or layer.anonymous or not layer.realPath:
-            continue
+    used = [layer for layer in stage.GetUsedLayers() if layer is not None and not layer.anonymous and layer.realPath]
+    for layer in sorted(used, key=lambda layer: layer.realPath):  # USD lists them in no set order
         record = dict(layer.customLayerData).get("usdgaze")
         if is_override_record(record):
             notes.append(f"{source}: composes {layer.realPath}, a layer usdgaze wrote ({record.get('command', 'apply')}): "
