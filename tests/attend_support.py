@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Gf, Sdf, Usd, UsdGeom
 
 from tests import measure
 
@@ -44,6 +44,18 @@ def over(path: Path, below: Path) -> Sdf.Layer:
         if src.pseudoRoot.HasInfo(key):
             layer.pseudoRoot.SetInfo(key, src.pseudoRoot.GetInfo(key))
     return layer
+
+
+def still_ball(layer: Sdf.Layer, path: str, where, radius: float) -> None:
+    """A still GazeObjectAPI sphere of ``radius`` at ``where`` (its parent made a def), in ``layer``."""
+    ball = Sdf.CreatePrimInLayer(layer, path)
+    layer.GetPrimAtPath(ball.path.GetParentPath()).specifier = Sdf.SpecifierDef
+    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
+    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = radius
+    Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(*where)
+    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
 
 
 @dataclass

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf
+from pxr import Sdf
 
 import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
 from usdgaze.console.main import main
@@ -29,14 +29,7 @@ def _scene(path, distance: float) -> tuple[Sdf.Layer, np.ndarray]:
     forward /= np.linalg.norm(forward)
     left = np.cross([0.0, 1.0, 0.0], forward)
     where = p.position("Head")[0] + distance * (np.cos(np.radians(30)) * forward + np.sin(np.radians(30)) * left)
-    ball = Sdf.CreatePrimInLayer(layer, "/Objects/Far")
-    layer.GetPrimAtPath("/Objects").specifier = Sdf.SpecifierDef
-    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
-    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
-    Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.3
-    Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(*where)
-    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    A.still_ball(layer, "/Objects/Far", where, 0.3)
     layer.Save()
     return layer, where
 

@@ -8,7 +8,6 @@ the composed output; the base motion's head is measured the same way on the inpu
 from __future__ import annotations
 
 import numpy as np
-from pxr import Gf, Sdf
 
 import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
 from usdgaze.console.main import main
@@ -33,14 +32,7 @@ def _scene(tmp, angle_deg: float, distance: float, frames: int):
     left = np.cross([0.0, 1.0, 0.0], forward)
     a = np.radians(angle_deg)
     where = p.position("Head")[0] + distance * (np.cos(a) * forward + np.sin(a) * left)
-    ball = Sdf.CreatePrimInLayer(layer, "/Objects/Ball")
-    layer.GetPrimAtPath("/Objects").specifier = Sdf.SpecifierDef
-    ball.specifier, ball.typeName = Sdf.SpecifierDef, "Sphere"
-    ball.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
-    Sdf.AttributeSpec(ball, "radius", Sdf.ValueTypeNames.Double).default = 0.1
-    Sdf.AttributeSpec(ball, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(*where)
-    Sdf.AttributeSpec(ball, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                      variability=Sdf.VariabilityUniform).default = ["xformOp:translate"]
+    A.still_ball(layer, "/Objects/Ball", where, 0.1)
     layer.Save()
     return shot, where
 

@@ -19,6 +19,7 @@ from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import build, mpc
 
 from . import measure
+from .attend_support import compose
 
 ROOT = Path(__file__).resolve().parents[1]
 CMU = ROOT / "sample_stages" / "cmu" / "cmu_131_01.usdc"
@@ -67,14 +68,7 @@ def shot(tmp_path_factory):
     before = measure.sha256(src)
     out = tmp / "sim.usda"
     reports = physics_pass.run(src, out, mpc.Options(h=0.02, horizon_s=0.6))
-    composed = tmp / "composed.usda"
-    root = Sdf.Layer.CreateNew(str(composed))
-    src_layer = Sdf.Layer.FindOrOpen(str(src))
-    root.timeCodesPerSecond, root.framesPerSecond = src_layer.timeCodesPerSecond, src_layer.framesPerSecond
-    root.startTimeCode, root.endTimeCode = src_layer.startTimeCode, src_layer.endTimeCode
-    root.subLayerPaths.append(str(out))
-    root.subLayerPaths.append(str(src))
-    root.Save()
+    composed = compose(tmp, src, out)
     return dict(src=src, out=out, composed=composed, reports=reports, before=before)
 
 
@@ -271,13 +265,8 @@ def test_the_lunge_lands_with_no_foot_in_the_floor_where_the_reference_puts_one(
     src = cut(tmp_path / "lunge.usda", 2.6, 3.2)
     out = tmp_path / "landed.usda"
     report = physics_pass.run(src, out, mpc.Options(h=0.02, horizon_s=0.6))[0]
-    composed = tmp_path / "composed.usda"
-    root = Sdf.Layer.CreateNew(str(composed))
+    composed = compose(tmp_path, src, out)
     src_layer = Sdf.Layer.FindOrOpen(str(src))
-    root.timeCodesPerSecond, root.framesPerSecond = src_layer.timeCodesPerSecond, src_layer.framesPerSecond
-    root.startTimeCode, root.endTimeCode = src_layer.startTimeCode, src_layer.endTimeCode
-    root.subLayerPaths[:] = [str(out), str(src)]
-    root.Save()
     sim, ref = measure.posed(str(composed), SKEL), measure.posed(str(src), SKEL)
     assert not report.fell and ((sim.position("Hips") @ sim.up) / (ref.position("Hips") @ ref.up)).min() >= 0.8
     low, ref_low = lowest_foot_point(src, sim), lowest_foot_point(src, ref)
@@ -431,13 +420,7 @@ def test_feet_the_soft_ground_let_sink_are_written_lifted_out_by_their_legs(tmp_
         out = tmp_path / f"ground_{ground}.usda"
         reports.append(physics_pass.run(src, out, mpc.Options(h=0.02, horizon_s=0.6, retry_iterations=0,
                                                                ground_feet=ground))[0])
-        composed = tmp_path / f"composed_{ground}.usda"
-        root = Sdf.Layer.CreateNew(str(composed))
-        src_layer = Sdf.Layer.FindOrOpen(str(src))
-        root.timeCodesPerSecond, root.framesPerSecond = src_layer.timeCodesPerSecond, src_layer.framesPerSecond
-        root.startTimeCode, root.endTimeCode = src_layer.startTimeCode, src_layer.endTimeCode
-        root.subLayerPaths[:] = [str(out), str(src)]
-        root.Save()
+        composed = compose(tmp_path, src, out, f"composed_{ground}.usda")
         lows.append(lowest_foot_point(src, measure.posed(str(composed), SKEL)))
         joints, rot = _locals(composed)
         rotations.append(rot)
