@@ -329,17 +329,21 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
                 kk = k + 2
                 controller.sense(k + 1, plan.to_state(qpos[k + 1], qvel), d)
                 break
-    sank = depth[:kk].copy()
-    if options.ground_feet:
-        qpos[:kk] = lift_feet(plan, qpos[:kk])
-        depth = foot_depths(plan.mj, qpos[:kk], feet)
-    result = shot_result(shot.model, qpos[:kk], ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
-    if options.ground_feet:
-        result.contact_depth_m = sank
+    grounded = _grounded(plan, qpos[:kk], depth[:kk], feet) if options.ground_feet else None
+    written, depth, sank = grounded or (qpos[:kk], depth, None)
+    result = shot_result(shot.model, written, ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
+    result.contact_depth_m = sank
     result.task_problems = judge_tasks(shot.tasks, result)
     result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q[:steps + 1]), h)]
                               if n]
     return result
+
+
+def _grounded(plan: MujocoBody, qpos: np.ndarray, depth: np.ndarray, feet: np.ndarray):
+    """The simulated states with each foot the soft ground let sink lifted out by its leg
+    (``Options.ground_feet``), their feet's depths, and the simulation's own."""
+    lifted = lift_feet(plan, qpos)
+    return lifted, foot_depths(plan.mj, lifted, feet), depth.copy()
 
 
 def judge_tasks(tasks, result: Result) -> list[str]:
