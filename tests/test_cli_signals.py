@@ -120,8 +120,11 @@ def test_ctrl_c_while_the_command_imports_is_one_line(tmp_path, module, form):
     work = tmp_path / "work"
     work.mkdir()
     command = ["-m", "usdgaze"] if form.startswith("python") else [str(hooks / "usdgaze")]
+    # Ctrl-C as a terminal delivers it: a suite run in a background job inherits SIGINT ignored, and a
+    # command that starts with it ignored keeps ignoring it (quiet_stops_while_starting).
     p = subprocess.run([sys.executable, *command, "build-map", "sheet.csv", "--out", "map.usda"], cwd=work,
-                       env=env, capture_output=True, text=True, timeout=120)
+                       env=env, capture_output=True, text=True, timeout=120,
+                       preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert (p.returncode, p.stderr.splitlines()) == (130, ["usdgaze: error: interrupted by SIGINT; nothing was written"])
     assert list(work.iterdir()) == []
 
