@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 from pxr import Sdf, UsdUtils
 
@@ -66,3 +67,36 @@ def test_a_binding_spelled_another_way_is_the_same_shot(tmp_path):
     assert run(f'forward = "0,0,1"\nbind = ["neck={neck}", "head={head}"]\n') == "skipped"
     assert run(f'forward = "0, 0, 1.0"\nbind = {{ head = "{head}", neck = ["{neck}"] }}\n') == "skipped"
     assert run(f'forward = "0,0,1"\nbind = ["head={head}"]\n') == "done"
+
+
+def test_another_build_of_usdgaze_redoes_a_shot_its_version_string_would_skip(tmp_path, monkeypatch):
+    """The key hashes the package's own files beside its version: a build that writes otherwise under
+    the same version string (a patched install, a development tree) redoes the shot."""
+    import shutil
+
+    import usdgaze
+    from usdgaze.batch import keys
+
+    syn.make_rig(tmp_path / "rig.usda", frames=24, mesh=False)
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text('[[job]]\nname = "g"\ninput = "rig.usda"\nout = "out/g.usdc"\nshifts = ["0.2s:30:0"]\n')
+
+    def status() -> str:
+        return json.loads((tmp_path / "jobs.summary.json").read_text())["shots"][0]["status"]
+
+    assert main(["batch", str(manifest)]) == 0 and status() == "done"
+    assert main(["batch", str(manifest)]) == 0 and status() == "skipped"
+    # The digest follows the files: a copy of the package with one byte more in a module.
+    copy = tmp_path / "pkg" / "usdgaze"
+    shutil.copytree(Path(usdgaze.__file__).parent, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    digests = []
+    for _ in range(2):
+        keys.tool_digest.cache_clear()
+        monkeypatch.setattr(usdgaze, "__file__", str(copy / "__init__.py"))
+        digests.append(keys.tool_digest())
+        (copy / "values.py").write_text((copy / "values.py").read_text() + "\n")
+    keys.tool_digest.cache_clear()
+    monkeypatch.undo()
+    assert digests[0] == keys.tool_digest() and digests[1] != digests[0]
+    monkeypatch.setattr(keys, "tool_digest", lambda: digests[1])
+    assert main(["batch", str(manifest)]) == 0 and status() == "done"

@@ -1,6 +1,8 @@
 """Resume keys: a shot is redone only when something its result depends on changed.
 
-The key hashes the tool version (and for a physics shot MuJoCo's), the shot's parameters, and the
+The key hashes the tool version and a digest of the installed package's own files (a build that
+changes what it writes without a new version string still redoes the shots; and for a physics shot
+MuJoCo's version), the shot's parameters, and the
 *contents* of every layer the input composes (root layer, sublayers, references, payloads, value
 clips: what ``UsdUtils.ComputeAllDependencies`` finds) and of the map file and its layers. It is
 recorded in the override layer's ``customLayerData`` (``usdgaze.batchKey``); a shot whose outputs
@@ -9,9 +11,11 @@ exist and whose recorded key matches is skipped.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
+from pathlib import Path
 
 from usdgaze.batch.manifest import Shot
 from usdgaze.errors import UsdGazeError
@@ -62,7 +66,7 @@ def shot_key(shot: Shot) -> tuple[str, list]:
     from usdgaze import __version__
 
     h = hashlib.sha256()
-    h.update(f"usdgaze {__version__}\n".encode())
+    h.update(f"usdgaze {__version__} {tool_digest()}\n".encode())
     h.update(json.dumps(shot.parameters(), sort_keys=True).encode() + b"\n")
     if shot.values.get("physics"):  # another MuJoCo release simulates other bits
         h.update(f"mujoco {_mujoco_version()}\n".encode())
@@ -81,6 +85,20 @@ def shot_key(shot: Shot) -> tuple[str, list]:
         for u in unresolved:
             h.update(f"{role} unresolved {u}\n".encode())
     return h.hexdigest(), opened
+
+
+@functools.lru_cache(maxsize=1)
+def tool_digest() -> str:
+    """SHA-256 of the usdgaze package's files as installed (paths and contents; no bytecode): the
+    code that writes a shot, once per process."""
+    import usdgaze
+
+    root = Path(usdgaze.__file__).resolve().parent
+    h = hashlib.sha256()
+    files = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc")
+    for path in files:
+        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
 
 
 def _mujoco_version() -> str:
