@@ -17,6 +17,11 @@ def _package(folder, note: str) -> None:
     assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(str(folder / "shot.usda")), str(folder / "shot.usdz"))
 
 
+def _status(folder) -> str:
+    """The first shot's status in the last batch run's summary (``jobs.summary.json`` in ``folder``)."""
+    return json.loads((folder / "jobs.summary.json").read_text())["shots"][0]["status"]
+
+
 def test_a_usdz_input_of_several_layers_runs_and_resumes(tmp_path):
     """A package's layers are 'shot.usdz[notes.usda]' to USD: hashing that as a file was
     'internal error: FileNotFoundError', exit 1, for an input usdgaze apply reads."""
@@ -26,14 +31,10 @@ def test_a_usdz_input_of_several_layers_runs_and_resumes(tmp_path):
     _package(tmp_path, "take 1")
     manifest = tmp_path / "jobs.toml"
     manifest.write_text('[[job]]\nname = "z"\ninput = "shot.usdz"\nout = "out/z.usdc"\nshifts = ["0.2s:30:0"]\n')
-
-    def status() -> str:
-        return json.loads((tmp_path / "jobs.summary.json").read_text())["shots"][0]["status"]
-
-    assert main(["batch", str(manifest)]) == 0 and status() == "done"
-    assert main(["batch", str(manifest)]) == 0 and status() == "skipped"
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "done"
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "skipped"
     _package(tmp_path, "take 2")  # a layer inside the package changed: the package file did
-    assert main(["batch", str(manifest)]) == 0 and status() == "done"
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "done"
 
 
 def test_a_missing_layer_is_said_once_in_the_shots_line_not_in_a_usd_warning(tmp_path, capfd):
@@ -80,12 +81,8 @@ def test_another_build_of_usdgaze_redoes_a_shot_its_version_string_would_skip(tm
     syn.make_rig(tmp_path / "rig.usda", frames=24, mesh=False)
     manifest = tmp_path / "jobs.toml"
     manifest.write_text('[[job]]\nname = "g"\ninput = "rig.usda"\nout = "out/g.usdc"\nshifts = ["0.2s:30:0"]\n')
-
-    def status() -> str:
-        return json.loads((tmp_path / "jobs.summary.json").read_text())["shots"][0]["status"]
-
-    assert main(["batch", str(manifest)]) == 0 and status() == "done"
-    assert main(["batch", str(manifest)]) == 0 and status() == "skipped"
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "done"
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "skipped"
     # The digest follows the files: a copy of the package with one byte more in a module.
     copy = tmp_path / "pkg" / "usdgaze"
     shutil.copytree(Path(usdgaze.__file__).parent, copy, ignore=shutil.ignore_patterns("__pycache__"))
@@ -99,4 +96,4 @@ def test_another_build_of_usdgaze_redoes_a_shot_its_version_string_would_skip(tm
     monkeypatch.undo()
     assert digests[0] == keys.tool_digest() and digests[1] != digests[0]
     monkeypatch.setattr(keys, "tool_digest", lambda: digests[1])
-    assert main(["batch", str(manifest)]) == 0 and status() == "done"
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "done"
