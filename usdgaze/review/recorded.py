@@ -35,12 +35,20 @@ def layer_offset(stage, layer):
     return next((o for name, _, o in layer_stack(stage.GetRootLayer()) if name == layer.identifier), Sdf.LayerOffset())
 
 
-def recorded_code(layer, offset):
-    """The stage time code of a directive the layer records: in the input's time codes (or seconds
-    from its start; the layer carries the input's timing), brought to the stage through the layer's
-    ``offset`` (a shot that sublayers it later than the input's own time)."""
+def _stage_code(layer, offset):
+    """The stage time code of a time the layer records: an input time code, or (``seconds``) seconds
+    from the input's start (the layer carries the input's timing), a float or an array, brought to
+    the stage through the layer's ``offset`` (a shot that sublayers it later than the input's own
+    time). ``scale * t + offset`` is ``Sdf.LayerOffset * t``, for arrays too."""
     start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
-    return lambda d: offset * (start + d.time * layer.timeCodesPerSecond if d.seconds else d.time)
+    tcps = layer.timeCodesPerSecond
+    return lambda t, seconds: offset.scale * (start + t * tcps if seconds else t) + offset.offset
+
+
+def recorded_code(layer, offset):
+    """The stage time code of a directive the layer records (:func:`_stage_code`)."""
+    code = _stage_code(layer, offset)
+    return lambda d: code(d.time, d.seconds)
 
 
 def recorded_clock(layer, offset, clip):
@@ -51,14 +59,9 @@ def recorded_clock(layer, offset, clip):
 
 def recorded_seconds(layer, offset, clip):
     """Seconds on ``clip`` of an array of seconds the layer records from the input's start (the
-    physics pass's per-step times): :func:`recorded_code`'s mapping, vectorized."""
-    start = layer.startTimeCode if layer.HasStartTimeCode() else 0.0
-    tcps = layer.timeCodesPerSecond
-
-    def clock(seconds: np.ndarray) -> np.ndarray:
-        code = offset.scale * (start + np.asarray(seconds, dtype=float) * tcps) + offset.offset
-        return (code - clip.start_time) / clip.time_codes_per_second
-    return clock
+    physics pass's per-step times)."""
+    code = _stage_code(layer, offset)
+    return lambda seconds: (code(np.asarray(seconds, dtype=float), True) - clip.start_time) / clip.time_codes_per_second
 
 
 def looks(stage, root, clip, source: str, record: dict, layer_file: str, clock) -> list[Look]:
