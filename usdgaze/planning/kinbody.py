@@ -69,6 +69,12 @@ class KinematicBody(SecondOrder):
     # no figure for it (only LEAP's 75 deg/s base speed): 300 is assumed, the top of that range.
     HEAD_SPEED = np.radians(300.0)
 
+    @staticmethod
+    def head_rate(qd: np.ndarray) -> np.ndarray:
+        """The head's (yaw, pitch) rate ``(..., 2)`` from the offsets' rates ``(..., 4)`` (spine yaw and
+        pitch, neck yaw and pitch): the two turn about the same axes, so their rates add."""
+        return qd[..., :2] + qd[..., 2:4]
+
     def __init__(self, base: BaseChain, h: float, name: str = "body") -> None:
         super().__init__(self.n_dof, h, name)
         self.base = base

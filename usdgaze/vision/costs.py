@@ -141,7 +141,7 @@ class AttendCost:
         """w_bnd smax(|head rate| - B_head) in deg/s, as the eye's speed bound: the head turns at the
         spine's and the neck's yaw rates added, and pitch likewise (columns spine y/p, neck y/p)."""
         w = self.w
-        rate = (qd[:, :2] + qd[:, 2:4]) * DEG
+        rate = self.body.head_rate(qd) * DEG
         speed = np.sqrt(np.sum(rate * rate, 1) + 1e-9)
         v, d1, d2 = smax(speed - self.body.HEAD_SPEED * DEG, w.gamma)
         if derivs:
@@ -149,7 +149,7 @@ class AttendCost:
             hess = (d2[:, None, None] * n_[:, :, None] * n_[:, None, :]
                     + d1[:, None, None] * (np.eye(2) - n_[:, :, None] * n_[:, None, :]) / speed[:, None, None])
             i0 = self.body.xs.start + self.body.n  # the rates' columns
-            for a in (0, 2):  # d rate / d qd is [I I]: spine and neck columns alike
+            for a in (0, 2):  # d head_rate / d qd is [I I]: spine and neck columns alike
                 lx[:, i0 + a:i0 + a + 2] += (w.bnd * d1)[:, None] * n_ * DEG
                 for b in (0, 2):
                     lxx[:, i0 + a:i0 + a + 2, i0 + b:i0 + b + 2] += w.bnd * hess * DEG**2

@@ -255,7 +255,7 @@ def run(base: BaseChain, things: list[Thing], opts: LoopOptions, n_steps: int, p
         out.eye[k], out.offsets[k], out.sight[k] = e, qb[:4], pps
         de = eyemod.limit(e, u[eye.us], float(eyemod.speed_bound(k * h)), h)
         e = e + h * de
-        qb = _body_step(qb, u[eye.nu:], h, body.LO, body.HI, body.HEAD_SPEED)
+        qb = _body_step(qb, u[eye.nu:], h, body)
         if progress:
             progress(k + 1, n_steps)
     return out
@@ -287,16 +287,16 @@ def fixations(res: LoopResult, h: float, within_deg: float = 5.0, min_s: float =
     return changes
 
 
-def _body_step(qb: np.ndarray, acc: np.ndarray, h: float, lo: np.ndarray, hi: np.ndarray,
-               head_speed: float = np.inf) -> np.ndarray:
-    """The simulated chain: the model's step, its head speed clipped to ``head_speed`` (as the eye's is
-    to its bound: the planner sees both as soft costs), stopped at the offsets' range."""
+def _body_step(qb: np.ndarray, acc: np.ndarray, h: float, body) -> np.ndarray:
+    """The simulated chain (a ``KinematicBody``): the model's step, its head speed clipped to
+    ``HEAD_SPEED`` (as the eye's is to its bound: the planner sees both as soft costs), stopped at the
+    offsets' range."""
     n = len(acc)
     qd = qb[n:] + h * acc
-    speed = np.hypot(*(qd[:2] + qd[2:4]))  # spine and neck rates add up at the head
-    if speed > head_speed:
-        qd = qd * (head_speed / speed)
+    speed = np.hypot(*body.head_rate(qd))
+    if speed > body.HEAD_SPEED:
+        qd = qd * (body.HEAD_SPEED / speed)
     q = qb[:n] + h * qd
-    clipped = np.clip(q, lo, hi)
+    clipped = np.clip(q, body.LO, body.HI)
     qd = np.where(clipped != q, 0.0, qd)
     return np.concatenate([clipped, qd])
