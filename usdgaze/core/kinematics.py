@@ -46,18 +46,21 @@ class Pose:
 
 
 def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, np.ndarray] | None = None,
-            positions: bool = True) -> Pose:
+            positions: bool = True, scaled_by: list[int] | None = None) -> Pose:
     """FK of ``joints`` (closed under ancestors, parents first); ``local(j)`` gives (t, q, s) per frame.
 
     With all scales exactly 1 (mocap, most rigs) positions come from quaternions alone; otherwise
     full 3x3 linear parts carry the scales down the chain. ``rotations`` are world rotations the
     caller already composed the same way from the same locals, taken as they are. ``positions=False``
     leaves out the joints' positions but the roots' (a later call with these rotations adds them).
+    ``scaled_by`` (default ``joints``) are the joints whose scales decide whether the pose carries
+    linear parts, so that a pose of fewer joints has those a later call over all of them has.
     """
     rotations = rotations or {}
     pose = Pose({}, {}, {})
     trs = {j: local(j) for j in joints}
-    unit = all(_all_one(s) for _, _, s in trs.values())
+    scales = [trs[j][2] for j in joints] if scaled_by is None else [local(j)[2] for j in scaled_by]
+    unit = all(_all_one(s) for s in scales)
     for j in joints:
         t, q, s = trs[j]
         p = int(parents[j])

@@ -395,7 +395,7 @@ def character_frame(joints: list[str], neutral_world: np.ndarray, up: np.ndarray
         if np.linalg.norm(fwd) < 1e-9 * np.linalg.norm(forward):
             raise RigError(f"{where}: {forward_label} is parallel to the stage up axis")
         fwd = rot.normalize(fwd)
-        return CharacterFrame(left=np.cross(up, fwd), up=up, forward=fwd, source=forward_label)
+        return CharacterFrame(left=rot.cross(up, fwd), up=up, forward=fwd, source=forward_label)
     pairs = mirrored_pairs(joints)
     if not pairs:
         raise RigError(f"{where}: cannot tell the character's forward: no left/right joint pairs by name; "
@@ -414,6 +414,6 @@ def character_frame(joints: list[str], neutral_world: np.ndarray, up: np.ndarray
             left = rot.normalize(np.mean([spread[k] for k in keep], axis=0))
             l, r = at[keep[0]]
             source = f"left/right pair {names.leaf(joints[l])}/{names.leaf(joints[r])}"
-            return CharacterFrame(left=left, up=up, forward=np.cross(left, up), source=source)
+            return CharacterFrame(left=left, up=up, forward=rot.cross(left, up), source=source)
     raise RigError(f"{where}: left and right joints coincide in the neutral pose; give the forward with "
                    f"--forward X,Y,Z (skeleton space) or {forward_label}")

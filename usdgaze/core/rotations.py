@@ -83,8 +83,13 @@ def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _shape(a: np.ndarray, b: np.ndarray) -> tuple[int, ...]:
-    # np.broadcast_shapes is Python code, and these products are called by the thousand.
-    return a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape)
+    # np.broadcast_shapes is Python code, and these products are called by the thousand: the same
+    # shapes, or one vector against a batch of them (a constant axis), are told without it.
+    if a.shape == b.shape or (b.ndim == 1 and a.shape[-1:] == b.shape):
+        return a.shape
+    if a.ndim == 1 and b.shape[-1:] == a.shape:
+        return b.shape
+    return np.broadcast_shapes(a.shape, b.shape)
 
 
 def mirror_left_right(q: np.ndarray) -> np.ndarray:
@@ -219,6 +224,10 @@ def _orthogonal_to_quat(m: np.ndarray) -> np.ndarray:
     return q / _norm4(q)[:, None]
 
 
+_EYE3 = np.eye(3)
+_EYE3_CLOSE = 1e-12 + 1e-05 * np.abs(_EYE3)  # np.isclose's atol + rtol * |b|, its default rtol
+
+
 def from_matrix(m: np.ndarray) -> np.ndarray:
     """Quaternions from (column-vector) rotation matrices ``(..., 3, 3)``; scale is removed first.
 
@@ -232,7 +241,8 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
     if np.any(np.linalg.det(cols) <= 0):
         raise ValueError("non-positive determinant (left-handed or null coordinate frame) in a rotation matrix")
     gram = cols @ np.swapaxes(cols, -1, -2)
-    skewed = ~np.all(np.isclose(gram, np.eye(3), atol=1e-12), axis=(-2, -1))
+    # np.isclose(gram, I, atol=1e-12) for a finite identity, without its wrapper's two dozen calls
+    skewed = ~(np.abs(gram - _EYE3) <= _EYE3_CLOSE).all(axis=(-2, -1))
     if np.any(skewed):
         u, _, vt = np.linalg.svd(cols[skewed], full_matrices=False)
         cols[skewed] = u @ vt

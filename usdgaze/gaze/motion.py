@@ -234,7 +234,9 @@ def achieved_gaze(offsets: np.ndarray, yaw_hint_deg: np.ndarray | float = 0.0) -
     """
     direction = rot.rotate(chain_rotation(offsets), rot.FORWARD)
     yaw, pitch = rot.direction_to_yaw_pitch(direction, yaw_hint_deg)
-    return np.stack([yaw, pitch], axis=-1)
+    out = np.empty(np.shape(yaw) + (2,))  # np.stack's bits, without its wrapper (the map measures often)
+    out[..., 0], out[..., 1] = yaw, pitch
+    return out
 
 
 def aim_eyes(body_offsets: np.ndarray, yaw_deg: np.ndarray, pitch_deg: np.ndarray) -> np.ndarray:

@@ -114,7 +114,7 @@ def _own_scale_turn(rig: Rig, rest_eye: np.ndarray, fwd_h: np.ndarray, shown_at_
     scale = np.stack([s[:1] if still else s for s in scales])  # (2, F or 1, 3)
     shown = rot.normalize(scale * shown_at_rest[:, None, :])
     aimed = np.broadcast_to(rot.rotate(rot.conjugate(rest_eye), fwd_h)[:, None, :], shown.shape)
-    if rot.length(np.cross(shown, aimed)).max() <= 1e-9 and rot.dot(shown, aimed).min() > 0.0:
+    if rot.length(rot.cross(shown, aimed)).max() <= 1e-9 and rot.dot(shown, aimed).min() > 0.0:
         return None
     turn = rot.shortest_arc(shown, aimed)
     return np.broadcast_to(turn, (len(scales), frames, 4)) if still else turn

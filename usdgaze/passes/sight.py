@@ -31,8 +31,9 @@ def azimuth_elevation(direction: np.ndarray, up: np.ndarray) -> np.ndarray:
     e1, e2 = _horizontal_basis(up)
     d = rot.normalize(direction)
     az = np.degrees(np.arctan2(d @ e2, d @ e1))
-    el = np.degrees(np.arcsin(np.clip(d @ up, -1.0, 1.0)))
-    return np.stack([az, el], axis=-1)
+    out = np.empty(az.shape + (2,))  # np.stack's bits, without its wrapper
+    out[..., 0], out[..., 1] = az, np.degrees(np.arcsin(np.clip(d @ up, -1.0, 1.0)))
+    return out
 
 
 def direction_from(az_el: np.ndarray, up: np.ndarray) -> np.ndarray:
