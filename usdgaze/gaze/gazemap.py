@@ -79,6 +79,7 @@ def _random_blends(params: np.ndarray, count: int, blend_size: int, rng: np.rand
 _CHUNK = 1024  # queries corrected together: bounds the (Q, C, E) probe arrays
 _CANDIDATES = 8  # examples a correction may reweight
 _BACKTRACK = np.array([1.0, 0.5, 0.25])  # step scales a correction tries, largest first
+_RIDGE = 1e-9 * np.eye(2)  # keeps a correction's 2x2 normal equations solvable
 _LEAST_AMPLITUDE_DEG = 10.0
 """A clamped request's duration grows with its amplitude over the clamped one's, this at the least: a map
 whose examples lie on a line clamps (0, 10) to (0, 0), and the ratio was 1e10 (a 2.5e9 s shift)."""
@@ -146,22 +147,23 @@ class ParametricGazeMap:
         dist_by_example = np.sqrt(squared_distances(self.params, target))  # (Q, E), example order
         score = np.where(weights > 1e-9, -1.0, dist_by_example)
         cand = np.argsort(score, axis=1, kind="stable")[:, :c]  # (Q, C) example indices
-        rows = np.arange(q)[:, None]
+        rows, probed = np.arange(q)[:, None], (np.arange(q)[:, None], np.arange(c)[None, :], cand)
         achieved = self._measure(weights)
         for _ in range(iterations):
             err = target - achieved
             probe = np.repeat(weights[:, None, :], c, axis=1)
-            probe[rows, np.arange(c)[None, :], cand] += eps
+            probe[probed] += eps
             moved = self._measure(probe.reshape(-1, n)).reshape(q, c, 2)
             jac = np.swapaxes(moved - achieved[:, None, :], 1, 2) / eps  # (Q, 2, C)
             # Projected step: a candidate at zero weight that the step would push negative is
             # held at zero and the step recomputed without it, instead of clipping the step
             # afterwards (which spoils it and stalls the correction at ~0.5 deg).
-            at_zero = weights[rows, cand] <= 1e-12
+            w_cand = weights[rows, cand]
+            at_zero = w_cand <= 1e-12
             free = np.ones((q, c), dtype=bool)
             for _ in range(c):
                 jac_free = jac * free[:, None, :]
-                normal = jac_free @ np.swapaxes(jac_free, 1, 2) + 1e-9 * np.eye(2)
+                normal = jac_free @ np.swapaxes(jac_free, 1, 2) + _RIDGE
                 step = np.einsum("qcm,qc->qm", jac_free, np.linalg.solve(normal, err[..., None])[..., 0])
                 blocked = free & at_zero & (step < 0.0)
                 if not blocked.any():
@@ -170,7 +172,7 @@ class ParametricGazeMap:
             # Backtracking from the same start (the non-negativity clip can spoil a full step): the
             # candidates are measured in one batch, then taken in order wherever each is closer.
             candidates = np.repeat(weights[None], len(_BACKTRACK), axis=0)  # (S, Q, E)
-            candidates[:, rows, cand] = np.maximum(weights[rows, cand] + _BACKTRACK[:, None, None] * step, 0.0)
+            candidates[:, rows, cand] = np.maximum(w_cand + _BACKTRACK[:, None, None] * step, 0.0)
             total = candidates.sum(axis=2, keepdims=True)
             candidates = np.where(total > 0, candidates / np.where(total > 0, total, 1.0), weights)
             measured = self._measure(candidates.reshape(-1, n)).reshape(len(_BACKTRACK), q, 2)
@@ -188,7 +190,7 @@ class ParametricGazeMap:
         yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
         request = np.stack([yaw.ravel(), pitch.ravel()], axis=-1)
         inside = np.clip(request, self.low, self.high)
-        return yaw.shape, request, inside, np.any(np.abs(inside - request) > 1e-9, axis=1)
+        return yaw.shape, request, inside, (np.abs(inside - request) > 1e-9).any(axis=1)
 
     @staticmethod
     def _stretched(timing: np.ndarray, request: np.ndarray, inside: np.ndarray) -> np.ndarray:
@@ -212,7 +214,7 @@ class ParametricGazeMap:
 
         blended = motion.blend(self.examples, weights, self._table)
         offsets, timing = blended.offsets, blended.timing
-        if np.any(extrapolated):
+        if extrapolated.any():
             offsets, timing = offsets.copy(), timing.copy()
             offsets[extrapolated] = self._extend(offsets[extrapolated], request[extrapolated])
             achieved[extrapolated] = motion.achieved_gaze(offsets[extrapolated], request[extrapolated, 0])
@@ -230,7 +232,7 @@ class ParametricGazeMap:
         bit for bit), for callers that need only when a shift's segments move: no offsets are built."""
         shape, request, inside, extrapolated = self._clamped(yaw_deg, pitch_deg)
         timing = motion.blend_timing(self._table, self._interpolate(inside))
-        if np.any(extrapolated):
+        if extrapolated.any():
             timing[extrapolated] = self._stretched(timing[extrapolated], request[extrapolated], inside[extrapolated])
         return timing.reshape(shape + (7,))
 

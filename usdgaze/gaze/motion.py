@@ -200,10 +200,10 @@ def blended_offsets(table: np.ndarray, weights: np.ndarray) -> np.ndarray:
 def blend_shares(weights: np.ndarray) -> np.ndarray:
     """Blend weights ``(..., E)`` checked and normalized per blend, as :func:`blend` mixes with them."""
     w = np.asarray(weights, dtype=float)
-    if np.any(w < 0):
+    if (w < 0).any():  # array methods: np.any's, less a wrapper (the map measures often)
         raise ValueError("blend weights must be non-negative")
     total = w.sum(axis=-1, keepdims=True)
-    if np.any(total <= 0):
+    if (total <= 0).any():
         raise ValueError("each blend needs at least one positive weight")
     return w / total
 

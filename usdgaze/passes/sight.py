@@ -32,7 +32,7 @@ def azimuth_elevation(direction: np.ndarray, up: np.ndarray) -> np.ndarray:
     d = rot.normalize(direction)
     az = np.degrees(np.arctan2(d @ e2, d @ e1))
     out = np.empty(az.shape + (2,))  # np.stack's bits, without its wrapper
-    out[..., 0], out[..., 1] = az, np.degrees(np.arcsin(np.clip(d @ up, -1.0, 1.0)))
+    out[..., 0], out[..., 1] = az, np.degrees(np.arcsin((d @ up).clip(-1.0, 1.0)))
     return out
 
 
