@@ -343,13 +343,12 @@ def mirrored_pairs(joints: list[str]) -> list[tuple[int, int]]:
     without them).
     """
     pairs = []
+    sided = [(i, j, s) for i, j in enumerate(joints) if (s := names.side(j))]  # read once for both passes
     for numbers in (True, False):
         lefts: dict[str, list[int]] = {}
         rights: dict[str, list[int]] = {}
-        for i, j in enumerate(joints):
-            s = names.side(j)
-            if s:
-                (lefts if s > 0 else rights).setdefault(names.mirror_key(j, numbers), []).append(i)
+        for i, j, s in sided:
+            (lefts if s > 0 else rights).setdefault(names.mirror_key(j, numbers), []).append(i)
         taken = {i for p in pairs for i in p}
         for key, ls in lefts.items():
             rs = rights.get(key, [])

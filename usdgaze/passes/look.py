@@ -210,12 +210,19 @@ def _goals(epochs: list[Epoch], targets, scene: eyes_mod.Scene, base_ae: np.ndar
             # asking less is behind it only past the head's pole.
             side = 0.0 if kind != "direction" else float(np.sign(d.yaw)) if abs(d.yaw) > 90.0 else OVER_THE_POLE
             events.append((frame, eyes_mod.Goal(kind, points, cut, turn, side)))
-    for k, yaw, pitch in asked:  # the frames the eyes read each direction goal on (see point_of_sight)
+    # The frames the eyes read each direction goal on (see point_of_sight): from its event to the
+    # next, so no two overlap; the directions of all of them at once (each frame's are its own).
+    if not asked:
+        return events
+    asked_ae, rows = np.zeros((len(base_ae), 2)), np.zeros(len(base_ae), dtype=bool)
+    for k, yaw, pitch in asked:
         i0 = events[k][0]
         i1 = events[k + 1][0] if k + 1 < len(events) else len(base_ae)
-        ae = base_ae[i0:i1] + [yaw, pitch]
-        ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
-        directions[i0:i1] = scene.eye[i0:i1] + fixation * direction_from(ae, up)
+        asked_ae[i0:i1], rows[i0:i1] = (yaw, pitch), True
+    rows = np.flatnonzero(rows)
+    ae = base_ae[rows] + asked_ae[rows]
+    ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
+    directions[rows] = scene.eye[rows] + fixation * direction_from(ae, up)
     return events
 
 
