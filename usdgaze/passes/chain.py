@@ -36,7 +36,9 @@ class Rig:
     parents: np.ndarray
     rest_local: np.ndarray
     rest_q: np.ndarray
-    """Neutral-pose (bind pose) skeleton-space rotations per joint: where each joint looks ahead."""
+    """Neutral-pose (bind pose) skeleton-space rotations per joint: where each joint looks ahead. Only
+    the joints a pass turns or aims from have one (the chain, the eyes and their ancestors); NaN
+    elsewhere."""
     eyes: tuple[int, int]
     added: list[str]
     added_t: dict[int, np.ndarray]
@@ -70,7 +72,10 @@ def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: Pass
     """The rig with its eye joints: existing ones, or a left and a right added under the head."""
     rest_world = clip.neutral()
     _check_unmirrored(clip, chain, rest_world)
-    rest_q, _ = rot.rotation_part(rest_world[:, :3, :3])
+    # Each matrix's rotation is its own (an SVD apiece): only those of the joints read are taken.
+    read = with_ancestors(list(chain.path) + list(chain.eyes or ()), clip.parents)
+    rest_q = np.full((len(rest_world), 4), np.nan)
+    rest_q[read] = rot.rotation_part(rest_world[read, :3, :3])[0]
     if chain.eyes is not None:
         return Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {})
     head = chain.head
