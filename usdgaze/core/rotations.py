@@ -297,7 +297,8 @@ def yaw_pitch_to_direction(yaw_deg: np.ndarray, pitch_deg: np.ndarray) -> np.nda
     """Unit direction in the canonical frame for azimuth ``yaw`` (toward +X) and elevation ``pitch``."""
     y = np.radians(yaw_deg)
     p = np.radians(pitch_deg)
-    return np.stack([np.sin(y) * np.cos(p), np.sin(p), np.cos(y) * np.cos(p)], axis=-1)
+    cos_p = np.cos(p)
+    return np.stack([np.sin(y) * cos_p, np.sin(p), np.cos(y) * cos_p], axis=-1)
 
 
 def direction_to_yaw_pitch(d: np.ndarray, yaw_hint_deg: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:

@@ -50,7 +50,8 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     if seconds is not None:
         yaw, pitch = capped_speed(np.stack([yaw, pitch], axis=-1), seconds).transpose(2, 0, 1)
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
-    u_h = (np.cos(pc) * np.sin(y)) * left_h[:, None] + (np.cos(pc) * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
+    cos_pc = np.cos(pc)
+    u_h = (cos_pc * np.sin(y)) * left_h[:, None] + (cos_pc * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
     turned = rot.multiply(rot.shortest_arc(fwd_h[:, None], u_h), rest_eye[:, None])
     bent = _own_scale_turn(rig, rest_eye, fwd_h, shown_at_rest)
     turned = rot.normalize(turned if bent is None else rot.multiply(turned, bent))

@@ -40,7 +40,8 @@ def direction_from(az_el: np.ndarray, up: np.ndarray) -> np.ndarray:
     """World directions from (azimuth, elevation) degrees."""
     e1, e2 = _horizontal_basis(up)
     az, el = np.radians(az_el[..., 0]), np.radians(az_el[..., 1])
-    return (np.cos(el) * np.cos(az))[..., None] * e1 + (np.cos(el) * np.sin(az))[..., None] * e2 + np.sin(el)[..., None] * up
+    cos_el = np.cos(el)
+    return (cos_el * np.cos(az))[..., None] * e1 + (cos_el * np.sin(az))[..., None] * e2 + np.sin(el)[..., None] * up
 
 
 def line_of_sight(left_pos, left_dir, right_pos, right_dir) -> tuple[np.ndarray, np.ndarray]:
