@@ -71,7 +71,7 @@ def forward(joints: list[int], parents: np.ndarray, local, rotations: dict[int, 
             continue
         if positions:
             pose.position[j] = pose.place(p, t)
-        pose.rotation[j] = rotations[j] if j in rotations else rot.normalize(rot.multiply(pose.rotation[p], q))
+        pose.rotation[j] = rotations[j] if j in rotations else rot.normalized_product(pose.rotation[p], q)
         if not unit:
             pose.linear[j] = pose.linear[p] @ (rot.to_matrix(q) * s[..., None, :])
     return pose

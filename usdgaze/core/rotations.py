@@ -87,14 +87,39 @@ def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         out += terms[..., 1, :]
         out += terms[..., 2, :]
         return out
+    out = np.empty(_shape(a, b))
+    for i, component in enumerate(_product(a, b)):  # one at a time: a long clip's temporaries stay few
+        out[..., i] = component
+    return out
+
+
+def _product(a: np.ndarray, b: np.ndarray):
+    """The x, y, z and w components of the Hamilton product ``a * b``, one after the other."""
     ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    yield aw * bx + ax * bw + ay * bz - az * by
+    yield aw * by - ax * bz + ay * bw + az * bx
+    yield aw * bz + ax * by - ay * bx + az * bw
+    yield aw * bw - ax * bx - ay * by - az * bz
+
+
+def normalized_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``normalize(multiply(a, b))`` bit for bit, without storing the product and reading it back.
+
+    The norm is summed as :func:`normalize`'s einsum sums a fresh product's contiguous axis of four:
+    pairwise, (x^2 + z^2) + (y^2 + w^2) (tests hold the two to the same bits)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    if a.size <= _FEW and b.size <= _FEW:
+        return normalize(multiply(a, b))
+    x, y, z, w = _product(a, b)
+    n = np.sqrt((x * x + z * z) + (y * y + w * w))
     out = np.empty(_shape(a, b))
-    out[..., 0] = aw * bx + ax * bw + ay * bz - az * by
-    out[..., 1] = aw * by - ax * bz + ay * bw + az * bx
-    out[..., 2] = aw * bz + ax * by - ay * bx + az * bw
-    out[..., 3] = aw * bw - ax * bx - ay * by - az * bz
-    return out
+    if (n > 0).all():
+        out[..., 0], out[..., 1], out[..., 2], out[..., 3] = x / n, y / n, z / n, w / n
+        return out
+    out[..., 0], out[..., 1], out[..., 2], out[..., 3] = x, y, z, w
+    return normalize(out)  # zero-length rows stay zero, as there
 
 
 def _shape(a: np.ndarray, b: np.ndarray) -> tuple[int, ...]:

@@ -52,9 +52,10 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
     cos_pc = np.cos(pc)
     u_h = (cos_pc * np.sin(y)) * left_h[:, None] + (cos_pc * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
-    turned = rot.multiply(rot.shortest_arc(fwd_h[:, None], u_h), rest_eye[:, None])
+    arc = rot.shortest_arc(fwd_h[:, None], u_h)
     bent = _own_scale_turn(rig, rest_eye, fwd_h, shown_at_rest)
-    turned = rot.normalize(turned if bent is None else rot.multiply(turned, bent))
+    turned = (rot.normalized_product(arc, rest_eye[:, None]) if bent is None
+              else rot.normalized_product(rot.multiply(arc, rest_eye[:, None]), bent))
     return EyeAim(
         rotations=dict(zip(rig.eyes, turned)),
         angles=np.stack([yaw, pitch], axis=-1).transpose(1, 0, 2),  # (F, eye, yaw|pitch)

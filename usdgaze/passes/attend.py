@@ -175,10 +175,10 @@ def _drive(clip: SkelClip, rig, base: Pose, spine: int, neck: int, q: np.ndarray
     out = {}
     p_s = int(rig.parents[spine])
     pw = base.rotation[p_s] if p_s >= 0 else ident
-    out[spine] = rot.normalize(rot.multiply(rot.conjugate_into(rot.conjugate(pw), gs), rig.local(spine)[1]))
+    out[spine] = rot.normalized_product(rot.conjugate_into(rot.conjugate(pw), gs), rig.local(spine)[1])
     p_n = int(rig.parents[neck])
     pw_n = rot.multiply(gs, base.rotation[p_n]) if p_n >= 0 else ident
     if neck == spine:
         return out
-    out[neck] = rot.normalize(rot.multiply(rot.conjugate_into(rot.conjugate(pw_n), gn), rig.local(neck)[1]))
+    out[neck] = rot.normalized_product(rot.conjugate_into(rot.conjugate(pw_n), gn), rig.local(neck)[1])
     return out

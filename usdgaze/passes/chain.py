@@ -137,8 +137,8 @@ def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray
             flat = facing - np.outer(facing @ frame.up, frame.up)
             heading = np.arctan2(rot.cross(frame.forward, flat) @ frame.up, flat @ frame.forward)
             q_world = rot.conjugate_into(rot.multiply(rot.from_axis_angle(frame.up, heading), canon), spread[run, 0])
-            new_rot[j] = rot.normalize(rot.multiply(rot.conjugate_into(rot.conjugate(parent_world), q_world), q_j))
-        new_world[j] = rot.normalize(rot.multiply(parent_world, new_rot[j]))
+            new_rot[j] = rot.normalized_product(rot.conjugate_into(rot.conjugate(parent_world), q_world), q_j)
+        new_world[j] = rot.normalized_product(parent_world, new_rot[j])
     return new_rot, new_world
 
 
@@ -166,7 +166,7 @@ def _turn_in_rest_frames(rig: Rig, joints: list[int], segments: list[int], canon
     k = np.where((parents >= 0)[:, None], rot.multiply(rot.conjugate(rig.rest_q[parents]), canon), canon)
     local = np.stack([rig.local(j)[1] for j in joints])
     share = np.swapaxes(spread[:, segments], 0, 1)
-    turned = rot.normalize(rot.multiply(rot.conjugate_into(k[:, None], share)[:, run], local))
+    turned = rot.normalized_product(rot.conjugate_into(k[:, None], share)[:, run], local)
     return dict(zip(joints, turned))
 
 
@@ -180,7 +180,7 @@ def _counter_rotate_legs(rig: Rig, chain: Chain, base: Pose, new_world: dict[int
         return {}, {}
     # All leg roots at once, as arrays (legs, F, ...).
     t, q = (np.stack([rig.local(j)[k] for j in legs]) for k in (0, 1))
-    turned, moved = rot.normalize(rot.multiply(undo, q)), rot.rotate(undo, t)
+    turned, moved = rot.normalized_product(undo, q), rot.rotate(undo, t)
     return dict(zip(legs, turned)), dict(zip(legs, moved))
 
 
