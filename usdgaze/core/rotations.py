@@ -156,13 +156,20 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)``."""
+    """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)``: ``v + w t + u x t`` with
+    ``t = 2 u x v``, ``u`` the vector part. Component by component: the same products and sums
+    as the two cross products and the sums of whole vectors, without storing and reading back
+    ``t`` and the cross products (rotations are the pass's commonest step)."""
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
-    u = q[..., :3]
-    w = q[..., 3:4]
-    t = 2.0 * cross(u, v)
-    return v + w * t + cross(u, t)
+    ux, uy, uz, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
+    tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
+    out = np.empty(_shape(q[..., :3], v))
+    out[..., 0] = vx + w * tx + (uy * tz - uz * ty)
+    out[..., 1] = vy + w * ty + (uz * tx - ux * tz)
+    out[..., 2] = vz + w * tz + (ux * ty - uy * tx)
+    return out
 
 
 def to_rotvec(q: np.ndarray) -> np.ndarray:
