@@ -59,3 +59,17 @@ def test_runs_of_held_displacements_are_told_by_their_bits():
     assert first.tolist() == [0, 1, 3, 5] and run.tolist() == [0, 1, 1, 2, 2, 3]
     first, run = _runs(np.empty((0, 5, 4)))
     assert len(first) == 0 and len(run) == 0
+
+
+@pytest.mark.parametrize("shapes", [((4,), (3,)), ((1247, 4), (3,)), ((1247, 4), (1247, 3)), ((2, 1247, 4), (2, 1247, 3)),
+                                    ((2, 1, 4), (2, 50, 3)), ((1, 4), (5, 3))])
+def test_rotate_is_its_vector_form_bit_for_bit(shapes):
+    rng = np.random.default_rng(9)
+    for trial in range(30):
+        q, v = (rng.normal(size=s) for s in shapes)
+        if trial % 3 == 0:
+            q, v = (rng.choice(SPECIAL, size=s) for s in shapes)
+        u, w = q[..., :3], q[..., 3:4]
+        t = 2.0 * rot.cross(u, v)
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            assert _same_bits(rot.rotate(q, v), v + w * t + rot.cross(u, t))
