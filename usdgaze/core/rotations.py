@@ -229,14 +229,13 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """The minimal rotation taking direction ``u`` to direction ``v`` (Listing's law for eyes)."""
     u = normalize(u)
     v = normalize(v)
-    u, v = np.broadcast_arrays(u, v)
-    d = dot(u, v, keepdims=True)
+    d = dot(u, v, keepdims=True)  # both broadcast as they go: u is often one direction per batch
     axis = cross(u, v)
     q = np.concatenate([axis, 1.0 + d], axis=-1)
     # Antiparallel: rotate 180 deg about any axis perpendicular to u.
     anti = (1.0 + d[..., 0]) < 1e-12
     if anti.any():
-        ua = u[anti]
+        ua = np.broadcast_to(u, axis.shape)[anti]
         helper = np.where(np.abs(ua[:, :1]) < 0.9, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
         perp = normalize(np.cross(ua, helper))
         q[anti] = np.concatenate([perp, np.zeros((len(ua), 1))], axis=-1)

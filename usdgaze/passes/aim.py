@@ -82,7 +82,8 @@ def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
     unscaled = float(np.abs(col - 1.0).max()) <= 1e-5 and bool(np.all(np.linalg.det(lin_e) > 0.0))
     if unscaled and not any(p in moved.linear for p in parents):
         to_parent = rot.conjugate(rig.rest_q[parents])  # (2, 4)
-        axes = [rot.rotate(to_parent, v) for v in (frame.forward, frame.left, frame.up)]
+        turned = rot.rotate(to_parent[:, None], np.stack([frame.forward, frame.left, frame.up]))  # (2, 3, 3)
+        axes = [np.ascontiguousarray(turned[:, k]) for k in range(3)]  # laid out as one rotate's each
         head = np.stack([moved.rotation[p] for p in parents])  # (2, F, 4)
         rest_eye = rot.multiply(to_parent, rig.rest_q[eyes])  # each eye in its parent, looking ahead
         return (*axes, rest_eye, lambda v: rot.rotate(rot.conjugate(head), v), lambda u: rot.rotate(head, u),
