@@ -423,4 +423,4 @@ def align_hemisphere(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
     interpolation between time samples never takes the long way round.
     """
     q = np.asarray(q, dtype=float)
-    return np.where(dot(q, np.asarray(ref, dtype=float), keepdims=True) < 0.0, -q, q)
+    return np.where(dot(q, np.asarray(ref), keepdims=True) < 0.0, -q, q)  # float32 refs widen exactly

@@ -40,7 +40,9 @@ def assemble(rig: Rig, rotations_new: dict[int, np.ndarray], translations_new: d
         translations = translations.copy() if translations_new else translations
     for j, q in rotations_new.items():  # a joint at a time: all at once costs 80 MB more at 100k frames
         column = anim_index[j]
-        rotations[:, column] = rot.align_hemisphere(q, rotations[:, column].astype(float)).astype(np.float32)
+        # Compared with the float32 samples as they are (each product widens them exactly); stored
+        # as float32 by the assignment, as astype(np.float32) rounds.
+        rotations[:, column] = rot.align_hemisphere(q, rotations[:, column])
     for j, t in translations_new.items():
         translations[:, anim_index[j]] = t.astype(np.float32)
     return anim_joints, rotations, translations, scales
