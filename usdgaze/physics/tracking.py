@@ -263,7 +263,7 @@ def clear_ground(dyn: MujocoBody, ref_qpos: np.ndarray, step_deg: float = 1.0, r
 
 def _geom_bottom(mj, d, g: int) -> float:
     """Lowest point of a capsule or sphere geom (world z)."""
-    return float(_bottom_point(mj, d, g)[2])
+    return float(bottom_point(mj, d, g)[2])
 
 
 def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_rad: float = 0.1,
@@ -303,7 +303,7 @@ def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_
                     out[k] = q
                     break
                 mujoco.mj_comPos(mj, d)
-                point = _bottom_point(mj, d, g)
+                point = bottom_point(mj, d, g)
                 mujoco.mj_jac(mj, d, jacp, None, point, int(mj.geom_bodyid[g]))
                 j = jacp[2, cols]
                 dv = j * (depth + 1e-4) / (j @ j + 1e-4)
@@ -319,7 +319,7 @@ def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_
     return out
 
 
-def _bottom_point(mj, d, g: int) -> np.ndarray:
+def bottom_point(mj, d, g: int) -> np.ndarray:
     """The lowest point of a capsule or sphere geom (world)."""
     axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
     half = mj.geom_size[g, 1] if mj.geom_type[g] == 3 else 0.0
