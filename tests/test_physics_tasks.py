@@ -144,10 +144,10 @@ def test_one_coupled_shot_stands_on_a_displaced_stone_after_looking_at_it(tmp_pa
     Stone10 2.3 cm, Stone09 1.0 cm simulated once on one machine; 2.5 and 1.1 cm simulated again on
     another; that the foot is on the ground there is the report's verdict, not asserted here: the
     loop is chaotic and the landing falls 0.2 s before the shot's end, docs/physics-log.md,
-    "Floating feet", where this shot is down on Stone10); for each stone whose written foot lifts at least 0.4 s in (the planner's start, as
-    attend's test) the line of sight comes within 5 deg of it (or the point of sight within 0.3 m)
-    before that lift (Stone10: 1.1 and 0.7 deg). h 0.02: at 0.03 the walk falls with the stones'
-    task, body-only too."""
+    "Floating feet", where this shot is down on Stone10); for each stone whose written foot lifts
+    at least 0.4 s in (the planner's start, as attend's test) the line of sight comes within 5 deg
+    of it (or the point of sight within 0.3 m) before that lift (Stone10: 1.1 and 0.7 deg). h 0.02:
+    at 0.03 the walk falls with the stones' task, body-only too."""
     src = stone_stages.walk_stage(tmp_path / "walk.usda", *BAR_SPAN, until_lift=True, task=True, shift=MOVED)
     out = tmp_path / "stepped.usda"
     report = physics_pass.run(src, out, BAR_OPTIONS)[0]
