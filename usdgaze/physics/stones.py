@@ -64,8 +64,8 @@ LANDING_S = 0.3  # a simulated foot must come down this close in time to the ref
 DOWN_M = 0.02  # a simulated foot is down with the lowest point of its capsules this near the ground
 
 
-def feet(dyn: MujocoBody) -> list[tuple[str, int, int]]:
-    """(name, ankle MuJoCo body, toe MuJoCo body) per leg: the foot chain's first and last bodies."""
+def foot_chains(dyn: MujocoBody) -> list[list[int]]:
+    """Per leg, the MuJoCo bodies of its foot from the ankle (the topmost foot body) down to the toe."""
     model = dyn.model
     out = []
     for top in model.feet:
@@ -75,16 +75,13 @@ def feet(dyn: MujocoBody) -> list[tuple[str, int, int]]:
             if not kids:
                 break
             chain.append(kids[0])
-        out.append((model.names[top], top + 1, chain[-1] + 1))
+        out.append([b + 1 for b in chain])
     return out
 
 
-def _chain(dyn: MujocoBody, ankle: int, toe: int) -> list[int]:
-    """MuJoCo bodies from ``toe`` up to ``ankle``, both included."""
-    out = [toe]
-    while out[-1] != ankle and out[-1] > 0:
-        out.append(int(dyn.mj.body_parentid[out[-1]]))
-    return out
+def feet(dyn: MujocoBody) -> list[tuple[str, int, int]]:
+    """(name, ankle MuJoCo body, toe MuJoCo body) per leg: the foot chain's first and last bodies."""
+    return [(dyn.model.names[chain[0] - 1], chain[0], chain[-1]) for chain in foot_chains(dyn)]
 
 
 def contact_mask(heights: np.ndarray, speeds: np.ndarray, h: float) -> np.ndarray:
@@ -113,8 +110,8 @@ class StoneTask:
         self.stones = np.asarray(stones, dtype=float).reshape(-1, 3)
         self.points = Points(dyn)
         self.feet = feet(dyn)
-        # each foot's capsules: its bodies' from the ankle to the toe (MuJoCo body ids)
-        self._foot_geoms = [np.flatnonzero(np.isin(dyn.mj.geom_bodyid, _chain(dyn, a, t))) for _, a, t in self.feet]
+        # each foot's capsules: its bodies' from the ankle to the toe
+        self._foot_geoms = [np.flatnonzero(np.isin(dyn.mj.geom_bodyid, chain)) for chain in foot_chains(dyn)]
         xpos, xmat = self._poses(ref_qpos)
         fq, fs = frames if frames is not None else (ref_qpos, dyn.h * np.arange(len(ref_qpos)))
         fpos = xpos if frames is None else self._poses(fq)[0]
