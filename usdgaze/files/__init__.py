@@ -1,1 +1,2 @@
-"""Files a command reads and writes: identity checks (:mod:`.identity`) and the one writer (:mod:`.transaction`)."""
+"""Files a command reads and writes: identity checks (:mod:`.identity`) and the one writer
+(:mod:`.transaction`; the paths it works with in :mod:`.paths`)."""

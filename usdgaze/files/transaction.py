@@ -14,30 +14,28 @@ folder is removed by the next run that writes into that folder.
 New files get mode ``0666 & ~umask``; a replaced file keeps its mode. Symlinks are written through
 (the target changes, the link stays). OS failures are one-line :class:`UsdGazeError` naming the path
 and the OS's reason, exit 2: they are the user's to fix.
+
+The temporaries' names, the sweep and the checks of a claimed path are in :mod:`.paths`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
-import hashlib
 import os
 import secrets
 import shutil
 import signal
-import socket
 import threading
-import time
 from pathlib import Path
 from typing import Callable
 
 from usdgaze.errors import Interrupted, UsdGazeError, usd_failure
 from usdgaze.files.signals import later_if_importing
 from usdgaze.files.identity import Identities, real_path
-from usdgaze.files.kinds import special_kind
+from usdgaze.files.paths import (TMP_PREFIX, _foreign_layer, _host, _name_max, _special_kind, _text_usd, _unfollowed,
+                                 sweep)
 
-TMP_PREFIX = ".usdgaze-tmp-"
-_STALE_FOREIGN_S = 24 * 3600.0  # another host's leftovers: we cannot ask whether its process lives
 _REASONS = (errno.ENOSPC, errno.EROFS, errno.EACCES, errno.EPERM, errno.EDQUOT, errno.EFBIG, errno.EIO,
             errno.ENAMETOOLONG, errno.ENOENT, errno.ENOTDIR, errno.EISDIR)
 
@@ -61,51 +59,6 @@ def current_umask() -> int:
     return mask
 
 
-def _host() -> str:
-    """This host in temporaries' names: at most 32 characters, and a longer name's tail as a digest
-    (cut short, farm nodes named alike up to their number were one host to ``sweep``)."""
-    name = "".join(c if c.isalnum() else "_" for c in socket.gethostname()) or "host"
-    if len(name) <= 32:
-        return name
-    return f"{name[:23]}_{hashlib.sha256(name.encode()).hexdigest()[:8]}"
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:
-        return True
-    return True
-
-
-def sweep(folder: str | os.PathLike) -> list[str]:
-    """Remove leftovers of dead usdgaze runs from ``folder``; returns their names."""
-    removed = []
-    host = _host()
-    with contextlib.suppress(OSError), os.scandir(folder) as entries:
-        for entry in entries:
-            if not entry.name.startswith(TMP_PREFIX):
-                continue
-            owner, _, rest = entry.name[len(TMP_PREFIX):].rpartition("-")  # host-pid, token
-            owner_host, _, pid = owner.rpartition("-")
-            try:
-                if owner_host == host and pid.isdigit():
-                    stale = not _alive(int(pid))
-                else:
-                    stale = time.time() - entry.stat(follow_symlinks=False).st_mtime > _STALE_FOREIGN_S
-                if stale:
-                    if entry.is_dir(follow_symlinks=False):
-                        shutil.rmtree(entry.path)
-                    else:
-                        os.unlink(entry.path)
-                    removed.append(entry.name)
-            except OSError:
-                continue
-    return removed
-
-
 class _Staged:
     def __init__(self, target: Path, flag: str, keep_mode: int | None) -> None:
         self.target = target
@@ -115,17 +68,6 @@ class _Staged:
         self.foreign: str | None = None
         """The first prim of the USD layer at ``target`` when usdgaze did not write it."""
         self.shown: Path = target
-
-
-def _text_usd(path: str | os.PathLike) -> bool:
-    """Whether ``path`` is an existing ``.usd`` file in the text encoding (``.usd`` holds either)."""
-    if Path(path).suffix.lower() != ".usd":
-        return False
-    try:
-        with open(path, "rb") as f:
-            return f.read(8) != b"PXR-USDC"
-    except OSError:  # a new file: USD's default encoding
-        return False
 
 
 class Outputs:
@@ -384,42 +326,6 @@ class Outputs:
         self._made.clear()
 
 
-def _special_kind(path: Path) -> str | None:
-    """What ``path`` is when it exists and is a device, pipe or socket (not followed)."""
-    try:
-        return special_kind(path.lstat().st_mode)
-    except OSError:
-        return None
-
-
-_USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
-
-
-def _foreign_layer(path: Path) -> str | None:
-    """The first root prim of an existing USD layer that usdgaze did not write (no ``usdgaze`` or
-    ``usdgaze:...`` entry in its customLayerData), else None: ours, one with no prims (a placeholder),
-    or one not readable as USD (replaced as any file is)."""
-    if path.suffix.lower() not in _USD_SUFFIXES:
-        return None
-    from pxr import Sdf
-
-    try:
-        layer = Sdf.Layer.OpenAsAnonymous(str(path), metadataOnly=True)
-        if layer is None or any(k == "usdgaze" or k.startswith("usdgaze:") for k in layer.customLayerData):
-            return None
-        layer = Sdf.Layer.OpenAsAnonymous(str(path))
-    except Exception:  # pxr raises Tf.ErrorException for a file that is no layer
-        return None
-    roots = layer.rootPrims if layer is not None else []
-    return str(roots[0].path) if roots else None
-
-
-def _unfollowed(path: str | os.PathLike) -> Path:
-    """The real folder and the name as given: a symlink there is the file itself."""
-    parent, name = os.path.split(os.path.abspath(os.fspath(path)))
-    return Path(os.path.realpath(parent)) / name
-
-
 @contextlib.contextmanager
 def outputs_of(outputs: "Outputs | None"):
     """``outputs`` when a command passes its own, else a new one committed when the block ends."""
@@ -428,10 +334,3 @@ def outputs_of(outputs: "Outputs | None"):
     else:
         with Outputs() as own:
             yield own
-
-
-def _name_max(folder: Path) -> int:
-    try:
-        return os.pathconf(folder, "PC_NAME_MAX")
-    except (OSError, ValueError):
-        return 255
