@@ -53,7 +53,7 @@ class PhysicsPanel:
 
 def _bars() -> dict[str, float]:
     """The pass's own bars (imported here: the review does not need the physics modules to load)."""
-    from usdgaze.passes.physics import FOOT_TOLERANCE_M, HEADING_TOLERANCE_DEG, STONE_TOLERANCE_M
+    from usdgaze.passes.physics_report import FOOT_TOLERANCE_M, HEADING_TOLERANCE_DEG, STONE_TOLERANCE_M
     from usdgaze.passes.visuomotor import CATCH_TOLERANCE_M
     from usdgaze.physics.mpc import FALL_RATIO
 
