@@ -8,7 +8,7 @@ stone 10 cm: four runs each), printing each reference contact's mean toe distanc
 toe landing's; ``stones-fk`` runs the stones test's own scene (the displacement turned 0/90/180/270
 deg about up) through the physics pass and measures by UsdSkel FK on the written layer; ``stones-walk``
 runs the walk itself (4.0-5.5 s, at ``--h``), the left foot's landing displaced 15 cm in four directions;
-``stones-bar`` the whole bar in one coupled shot (the test's: 4.0-5.5 s at ``--h``, eyes, belief, body and
+``stones-bar`` the whole bar in one coupled shot (the test's: 4.0-5.5 s, ``--stones-end``, at ``--h``, eyes, belief, body and
 the stones' task, Stone10 displaced 15 cm toward the stage's +X/+Z/-X/-Z, ``--seeds`` observation seeds);
 ``stones-gaze`` runs the coupled loop (eyes, belief, body) on 4.0-6.0 s of the walk
 with stepping_stones.usda's stones as objects (each important until its foot lifts, or until it
@@ -174,6 +174,9 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=1)
     ap.add_argument("--take-after", type=float, default=0.0,
                     help="stones-bar: the walk's take goes on this many seconds past the shot's range")
+    ap.add_argument("--stones-end", type=float, default=5.5,
+                    help="stones-bar: the shot's last second of the walk (5.5: the test's, 0.2 s after the "
+                    "reference lands on Stone10; 5.8 leaves the landing 0.5 s)")
     ap.add_argument("--seeds", default=None, help="obstacles: 0,1,2,3,4; obstacles-coupled: 0,2,4,7,8 (--toward: 0,2,5,6,7)")
     ap.add_argument("--stride", type=int, default=1, help="finite differences every STRIDE steps, interpolated")
     ap.add_argument("--reuse", type=int, default=1, help="finite differences kept up to REUSE solves (mpc.Options.fd_reuse)")
@@ -223,7 +226,7 @@ def main() -> None:
             for seed in [int(s_) for s_ in (a.seeds or "0").split(",")]:
                 for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):  # the stage's +X, +Z, -X, -Z
                     shift = {"Stone10": 0.15 * np.array([np.cos(turn), 0.0, np.sin(turn)])}
-                    print(json.dumps(run_stones_gaze(opts, (4.0, 5.5), True, True, shift, seed, a.take_after)),
+                    print(json.dumps(run_stones_gaze(opts, (4.0, a.stones_end), True, True, shift, seed, a.take_after)),
                           flush=True)
             continue
         if task == "stones-walk":  # the walk itself, 4.0-5.5 s: the left foot's 0.67 s landing displaced

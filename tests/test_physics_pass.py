@@ -221,11 +221,15 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert dict(data["usdgaze"]["planner"]) == {"mujoco": importlib.metadata.version("mujoco"), "timestep": 0.03,
                                                 "window": 0.6, "iterations": 1, "retryIterations": 2,
                                                 "firstIterations": 5, "fdStride": 1, "fdReuse": 1, "groundFeet": True}
-    # The fall was simulated again with two iterations a step (it fell again, as early: that one is
-    # kept), and the report says so; --retry-iterations 0 simulates once, --iterations sets the first.
+    # The fall was simulated again with two iterations a step and, falling again, with four (each fell
+    # as early: the last is kept), and the report says so; --retry-iterations 0 simulates once,
+    # --iterations sets the first.
     shot = layer.customLayerData["usdgaze:physics"][SKEL]
-    assert shot["report"]["iterations"] == 2 and shot["problems"][0].startswith("fell at")
-    assert list(shot["otherAttempt"])[0].startswith("with 1 iteration(s) a step: fell at")
+    assert shot["report"]["iterations"] == 4 and shot["problems"][0].startswith("fell at")
+    others = list(shot["otherAttempt"])
+    tried = ("with 1 iteration(s) a step", "with 2 iteration(s) a step")
+    assert {a.split(":")[0] for a in others} == set(tried)
+    assert all(any(a.startswith(f"{t}: fell at") for a in others) for t in tried)
     assert "simulated again" in printed
     assert main(["attend", str(src), "--out", str(coarse), "--physics", "--timestep", "0.03", "--iterations", "3",
                  "--retry-iterations", "0"]) == 0
@@ -341,44 +345,56 @@ def test_a_rigs_helper_and_secondary_joints_are_written_as_the_reference_has_the
                                   np.array(src.QueryTimeSample(path, t))[moved]) for t in times)
 
 
-def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
-    """The choice between two attempts (``_simulate_shot``), on reports made here: a shot without a
-    problem is simulated once; a fall is simulated again with ``retry_iterations`` and the retry kept
-    when it stands, or when it fails no worse; a retry that falls where the first only missed a
-    stone is dropped. The kept report names the other attempt's problems. A problem another simulation
-    cannot mend is not simulated again."""
-    from usdgaze.passes.physics import ShotReport, _simulate_shot
+def test_a_shot_with_a_problem_is_simulated_again_and_the_best_attempt_kept():
+    """The choice between attempts (``_simulate_shot``), on reports made here: a shot without a
+    problem is simulated once; a fall is simulated again with ``retry_iterations``, and while the
+    attempt kept still has a problem, once more with twice that; an attempt is kept when it stands,
+    or when it fails no worse; a retry that falls where the kept one only missed a stone is dropped.
+    The kept report names the other attempts' problems. A problem another simulation cannot mend is
+    not simulated again."""
+    from usdgaze.passes.physics import ShotReport, _simulate_shot, retry_ladder
 
-    def attempts(outcomes: dict[int, list[str]], depths=(0.0, 0.0)):
+    def attempts(outcomes: dict[int, list[str]], depths: dict[int, float] | None = None):
         calls = []
 
         def attempt(opts):
             calls.append(opts.iterations)
             problems = outcomes[opts.iterations]
             report = ShotReport("s", "a", 10, 1.0, any(p.startswith("fell") for p in problems), None, 1.0, 1.0,
-                                depths[opts.iterations - 1], 0, 1.0, list(problems),
+                                (depths or {}).get(opts.iterations, 0.0), 0, 1.0, list(problems),
                                 unmendable=[p for p in problems if "never" in p])
             return report, f"override {opts.iterations}", {}, None
         return attempt, calls
 
     opts = mpc.Options()
+    assert retry_ladder(opts) == [2, 4] and retry_ladder(mpc.Options(retry_iterations=6)) == [6, 10]
+    assert retry_ladder(mpc.Options(retry_iterations=0)) == [] == retry_ladder(mpc.Options(iterations=2))
     attempt, calls = attempts({1: [], 2: ["fell at 0.5 s"]})
     assert _simulate_shot(attempt, opts)[1] == "override 1" and calls == [1]
     attempt, calls = attempts({1: ["fell at 1.5 s"], 2: []})
     report, override, _, _ = _simulate_shot(attempt, opts)
     assert (override, calls, report.iterations) == ("override 2", [1, 2], 2)
     assert report.other_attempt == ["with 1 iteration(s) a step: fell at 1.5 s"] and report.wall_s == 2.0
-    attempt, calls = attempts({1: ["toe 6 cm from its stone"], 2: ["fell at 0.9 s"]})
+    # The second fails too: a third, with twice its iterations, rescues the shot.
+    attempt, calls = attempts({1: ["fell at 1.5 s"], 2: ["fell at 1.3 s"], 4: []})
     report, override, _, _ = _simulate_shot(attempt, opts)
-    assert (override, report.iterations, report.problems) == ("override 1", 1, ["toe 6 cm from its stone"])
-    assert report.other_attempt == ["with 2 iteration(s) a step: fell at 0.9 s"]
+    assert (override, calls, report.iterations, report.wall_s) == ("override 4", [1, 2, 4], 4, 3.0)
+    assert report.other_attempt == ["with 1 iteration(s) a step: fell at 1.5 s",
+                                    "with 2 iteration(s) a step: fell at 1.3 s"]
+    attempt, calls = attempts({1: ["toe 6 cm from its stone"], 2: ["fell at 0.9 s"], 4: ["fell at 1.0 s"]})
+    report, override, _, _ = _simulate_shot(attempt, opts)
+    assert (override, report.iterations, report.problems, calls) == ("override 1", 1, ["toe 6 cm from its stone"],
+                                                                     [1, 2, 4])
+    assert report.other_attempt == ["with 2 iteration(s) a step: fell at 0.9 s",
+                                    "with 4 iteration(s) a step: fell at 1.0 s"]
     attempt, calls = attempts({1: ["fell at 1.5 s"], 2: []})
     assert _simulate_shot(attempt, mpc.Options(retry_iterations=0))[1] == "override 1" and calls == [1]
     # As many problems: the shallower foot is kept (the walk's retry sank 3.6 cm where the first 2.2).
-    attempt, calls = attempts({1: ["a foot 2.2 cm below"], 2: ["a foot 3.6 cm below"]}, (0.022, 0.036))
-    assert _simulate_shot(attempt, opts)[1] == "override 1" and calls == [1, 2]
-    attempt, calls = attempts({1: ["a foot 3.6 cm below"], 2: ["a foot 2.2 cm below"]}, (0.036, 0.022))
-    assert _simulate_shot(attempt, opts)[1] == "override 2"
+    below = {1: ["a foot 2.2 cm below"], 2: ["a foot 3.6 cm below"], 4: ["a foot 3.0 cm below"]}
+    attempt, calls = attempts(below, {1: 0.022, 2: 0.036, 4: 0.030})
+    assert _simulate_shot(attempt, opts)[1] == "override 1" and calls == [1, 2, 4]
+    attempt, calls = attempts(below, {1: 0.036, 2: 0.030, 4: 0.022})
+    assert _simulate_shot(attempt, opts)[1] == "override 4"
     # A problem another simulation cannot mend (a ball never reached for) is not simulated again,
     # unless a mendable one comes with it.
     attempt, calls = attempts({1: ["ball never reached for"], 2: []})
@@ -389,7 +405,7 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_better_attempt_kept():
 
 def test_the_simulated_steps_are_a_bar_on_a_terminal_and_nothing_in_a_log(tmp_path):
     """``attend --physics``'s step bar (``StepBar``) through the pass: a crushed shot falls, is
-    simulated again, and the bar shows both simulations; off a terminal nothing is written."""
+    simulated again twice, and the bar shows the three simulations; off a terminal nothing is written."""
     import io
 
     from usdgaze.batch.progress import StepBar
@@ -400,8 +416,8 @@ def test_the_simulated_steps_are_a_bar_on_a_terminal_and_nothing_in_a_log(tmp_pa
         bar = StepBar(stream, bar=on)
         report = physics_pass.run(src, tmp_path / f"out{on}.usda", mpc.Options(horizon_s=0.3), progress=bar)[0]
         bar.close()
-        assert report.fell and report.other_attempt and bar.runs == (2 if on else 0)
-    assert "simulation 1" in term.getvalue() and "simulation 2" in term.getvalue() and "step" in term.getvalue()
+        assert report.fell and report.other_attempt and bar.runs == (3 if on else 0)
+    assert all(f"simulation {n}" in term.getvalue() for n in (1, 2, 3)) and "step" in term.getvalue()
     assert log.getvalue() == ""
 
 

@@ -127,10 +127,10 @@ def test_stone_terms_are_in_the_layer_and_the_input_is_untouched(stepped):
 
 BAR_SPAN = (4.0, 5.5)  # seconds of the walk: the right foot lifts 0.7 s in and lands on Stone10 at 1.3 s
 # At h 0.03 this walk falls with the stones' task (docs/physics.md). The command's defaults otherwise:
-# the first simulation sinks a foot 2.5 cm, so the shot is simulated again with two iterations a step,
-# and that is what it writes. Simulated once, the right foot stood on Stone10 on one machine and
-# slid over it without standing on another (the same packages): the bar is the command's, and the
-# command writes the second simulation.
+# the first simulation sinks a foot 2.5 cm, so the shot is simulated again with two iterations a step
+# (and four where that fails too), and the best is what it writes. Simulated once, the right foot stood
+# on Stone10 on one machine and slid over it without standing on another (the same packages): the bar
+# is the command's, and the command writes the attempt it keeps.
 BAR_OPTIONS = mpc.Options(h=0.02, horizon_s=0.6)
 MOVED = {"Stone10": np.array([0.0, 0.0, 0.15])}  # displaced 15 cm toward the stage's +Z
 

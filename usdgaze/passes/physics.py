@@ -175,29 +175,42 @@ def _head(ref, n: int):
     return Reference(ref.translations[:n], ref.rotations[:n], ref.scales[:n], s2w)
 
 
+def retry_ladder(options: mpc.Options) -> list[int]:
+    """The solver iterations a step of each further simulation of a shot with a problem: ``retry_iterations``,
+    then twice that (at most 10); none where ``retry_iterations`` is not more than ``iterations`` (0: none)."""
+    if options.retry_iterations <= options.iterations:
+        return []
+    return sorted({options.retry_iterations, min(2 * options.retry_iterations, 10)})
+
+
 def _simulate_shot(attempt, options: mpc.Options) -> tuple:
-    """``attempt(options)`` (a shot's report, override, per-frame terms, inspection or None); a shot with
-    a problem (a fall, a foot sunk over 2 cm, a stone missed, an obstacle touched, a ball not reached;
-    not one that another simulation cannot mend, ``ShotReport.unmendable``) is simulated again with
-    ``options.retry_iterations`` solver iterations a step, and that kept unless it is worse (it fell
-    where the first stood, or it has more problems, or as many with a deeper foot). With one
-    iteration 3 of 12 stepping-stone shots fell; with two none did (docs/physics.md), at twice the
-    cost, spent only where the first failed."""
+    """``attempt(options)`` (a shot's report, override, per-frame terms, inspection or None); while the kept
+    simulation has a problem (a fall, a foot sunk over 2 cm, a stone missed, an obstacle touched, a ball
+    not reached; not one that another simulation cannot mend, ``ShotReport.unmendable``) the shot is
+    simulated again with the next of ``retry_ladder``'s iterations a step, and that kept unless it is
+    worse (it fell where the kept one stood, or it has more problems, or as many with a deeper foot).
+    With one iteration 3 of 12 stepping-stone shots fell; the second and third simulations rescue
+    different shots of the chaotic loop (docs/physics-log.md, "A third simulation"); each is spent
+    only where the one kept before it failed."""
     import dataclasses
 
-    first = attempt(options)
-    first[0].iterations = options.iterations
-    mendable = set(first[0].problems) - set(first[0].unmendable)
-    if not mendable or options.retry_iterations <= options.iterations:
-        return first
-    second = attempt(dataclasses.replace(options, iterations=options.retry_iterations))
-    second[0].iterations = options.retry_iterations
+    kept = attempt(options)
+    kept[0].iterations = options.iterations
+    others, wall = [], kept[0].wall_s
     # Ties go by the deepest foot: the whole CMU walk's retry (2 iterations) had one problem as the
     # first did, a foot 3.6 cm deep against 2.2, and was kept.
     rank = lambda r: (r.fell, len(r.problems), r.max_foot_below_ground_m)  # noqa: E731
-    kept, other = (second, first) if rank(second[0]) <= rank(first[0]) else (first, second)
-    kept[0].other_attempt = [f"with {other[0].iterations} iteration(s) a step: {p}" for p in other[0].problems]
-    kept[0].wall_s = first[0].wall_s + second[0].wall_s
+    for iterations in retry_ladder(options):
+        if not set(kept[0].problems) - set(kept[0].unmendable):
+            break
+        again = attempt(dataclasses.replace(options, iterations=iterations))
+        again[0].iterations = iterations
+        wall += again[0].wall_s
+        kept, other = (again, kept) if rank(again[0]) <= rank(kept[0]) else (kept, again)
+        others.append(other[0])
+    if others:
+        kept[0].other_attempt = [f"with {o.iterations} iteration(s) a step: {p}" for o in others for p in o.problems]
+        kept[0].wall_s = wall
     return kept
 
 

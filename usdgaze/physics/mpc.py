@@ -71,9 +71,10 @@ class Options:
     horizon_s: float = 0.6
     iterations: int = 1  # solver iterations a step after the first window
     # The physics pass simulates a shot with a problem (a fall, a stone missed, an obstacle touched) again
-    # with this many (none where it is <= iterations): with one, 3 of 12 stepping-stone shots fell, and
-    # throws fell in 1 of 5 in some configurations; with two, none (docs/physics-log.md, "A shot with a
-    # problem is simulated again").
+    # with this many, and once more with twice as many where that fails too (none where it is <=
+    # iterations; ``passes.physics.retry_ladder``): with one, 3 of 12 stepping-stone shots fell, and
+    # throws fell in 1 of 5 in some configurations (docs/physics-log.md, "A shot with a problem is
+    # simulated again", "A third simulation").
     retry_iterations: int = 2
     first_iterations: int = 5
     workers: int = 1  # threads for the window's finite differences
