@@ -19,7 +19,8 @@ from usdgaze.console.types import FiniteRange
 @click.option("--cost", default="uncertainty", show_default=True, type=click.Choice(["uncertainty", "distance", "sequential"]),
               help="Attention cost: the paper's uncertainty, the distance-sum baseline, or one object after another.")
 @click.option("--window", "window_s", default=None, type=float,
-              help="Planner window, seconds.  [default: 0.8; with --physics 0.6]")
+              help="Planner window, seconds (with --physics and stepping stones keep 0.6: longer windows "
+                   "fell, docs/physics.md).  [default: 0.8; with --physics 0.6]")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(0, 2**32 - 1),
               help="Seed of the simulated observation noise.")
 @click.option("--realize", default="direct", show_default=True, type=click.Choice(["direct", "map"]),
