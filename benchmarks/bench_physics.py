@@ -36,7 +36,7 @@ written layer by UsdSkel FK: the nearer palm's distance to the true ball at its 
 the field of view.
 
     python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
-        [--horizon 0.6] [--iterations 1] [--stride 1] [--reuse 1] [--speed] [--fk]
+        [--horizon S] [--iterations 1] [--stride 1] [--reuse 1] [--speed] [--fk]
 
 ``--speed``: every task once per core count, timed alone, with frames/s per wall second, per CPU
 second and the idle bound (``benchmarks/_physics_speed.py``).
@@ -164,13 +164,21 @@ def run_catch(opts: mpc.Options, seeds=range(5)) -> list[dict]:
     return rows
 
 
+def _options(a, **kw) -> mpc.Options:
+    """The bench's options: ``--horizon`` for every shot where given, else the command's windows by task."""
+    from usdgaze.passes.physics import with_window
+
+    return with_window(mpc.Options(**kw), a.horizon)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--tasks", default="track,push")
     ap.add_argument("--seconds", type=float, default=8.3)
     ap.add_argument("--cores", default="1,2")
     ap.add_argument("--h", type=float, default=0.02)
-    ap.add_argument("--horizon", type=float, default=0.6)
+    ap.add_argument("--horizon", type=float, default=None,
+                    help="the window of every shot (default: the command's, 0.6 s and 1.0 s with stepping stones)")
     ap.add_argument("--iterations", type=int, default=1)
     ap.add_argument("--take-after", type=float, default=0.0,
                     help="stones-bar: the walk's take goes on this many seconds past the shot's range")
@@ -194,10 +202,10 @@ def main() -> None:
 
     obstacles.FORM = a.obstacle_form
     if a.throw is not None:
-        print(json.dumps(catch_one(a.throw, mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))))
+        print(json.dumps(catch_one(a.throw, _options(a, h=a.h, iterations=a.iterations))))
         return
     if a.obstacle_scene is not None:
-        opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+        opts = _options(a, h=0.03, iterations=a.iterations)
         print(json.dumps(coupled_obstacles_one(a.obstacle_scene, opts, a.toward, not a.known)))
         return
     from threadpoolctl import threadpool_limits
@@ -209,20 +217,20 @@ def main() -> None:
     rows = []
     for task in a.tasks.split(","):
         if task == "catch":
-            run_catch(mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations))
+            run_catch(_options(a, h=a.h, iterations=a.iterations))
             continue
         if task == "stones-fk":
-            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+            opts = _options(a, h=0.03, iterations=a.iterations)
             for turn in (0.0, 90.0, 180.0, 270.0):
                 print(json.dumps(run_stones_fk(opts, turn)), flush=True)
             continue
         if task == "stones-gaze":
-            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+            opts = _options(a, h=0.03, iterations=a.iterations)
             for until_lift, task_on in ((True, False), (False, False), (True, True)):
                 print(json.dumps(run_stones_gaze(opts, (4.0, 6.0), until_lift, task_on)), flush=True)
             continue
         if task == "stones-bar":  # the whole bar in one coupled shot (the test's scene, four directions)
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
+            opts = _options(a, h=a.h, iterations=a.iterations)
             for seed in [int(s_) for s_ in (a.seeds or "0").split(",")]:
                 for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):  # the stage's +X, +Z, -X, -Z
                     shift = {"Stone10": 0.15 * np.array([np.cos(turn), 0.0, np.sin(turn)])}
@@ -230,18 +238,18 @@ def main() -> None:
                           flush=True)
             continue
         if task == "stones-walk":  # the walk itself, 4.0-5.5 s: the left foot's 0.67 s landing displaced
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations)
+            opts = _options(a, h=a.h, iterations=a.iterations)
             for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):
                 print(json.dumps(run_stones(opts, {"LeftAnkle": 0.15}, turn, (4.0, 5.5))), flush=True)
             continue
         if task in ("obstacles-coupled", "obstacles-known"):
             default = "0,2,5,6,7" if a.toward else "0,2,4,7,8"  # the first five the reference touches
-            run_coupled_obstacles(mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations),
+            run_coupled_obstacles(_options(a, h=0.03, iterations=a.iterations),
                                   [int(s_) for s_ in (a.seeds or default).split(",")], a.toward,
                                   task == "obstacles-coupled", a.obstacle_form)
             continue
         if task in ("stones", "stones10", "obstacles"):
-            opts = mpc.Options(h=0.03, horizon_s=a.horizon, iterations=a.iterations)
+            opts = _options(a, h=0.03, iterations=a.iterations)
             shifts = {"RightAnkle": 0.15} | ({"LeftAnkle": 0.10} if task == "stones10" else {})
             runs = ([run_obstacles(opts, int(s_)) for s_ in (a.seeds or "0,1,2,3,4").split(",")] if task == "obstacles" else
                     [run_stones(opts, shifts, turn) for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi)])
@@ -250,8 +258,8 @@ def main() -> None:
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
-            opts = mpc.Options(h=a.h, horizon_s=a.horizon, iterations=a.iterations, workers=cores,
-                               fd_stride=a.stride, fd_reuse=a.reuse)
+            opts = _options(a, h=a.h, iterations=a.iterations, workers=cores, fd_stride=a.stride,
+                            fd_reuse=a.reuse)
             with threadpool_limits(1):
                 row = run_task(task, a.seconds, opts, a.fk) | {"cores": cores}
             rows.append(row)
@@ -277,8 +285,8 @@ def speed_table(a, cpus: list[int]) -> None:
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
             h = 0.03 if task.startswith(("stones", "obstacles")) else a.h  # as the task runs above
-            opts = mpc.Options(h=h, horizon_s=a.horizon, iterations=a.iterations, workers=cores, fd_stride=a.stride,
-                               fd_reuse=a.reuse)
+            opts = _options(a, h=h, iterations=a.iterations, workers=cores, fd_stride=a.stride,
+                            fd_reuse=a.reuse)
             with threadpool_limits(1):
                 rows.append(speed.run(task, cores, opts, a.seconds, sys.modules[__name__]))
             print(json.dumps(rows[-1]), flush=True)

@@ -26,6 +26,21 @@ TOES = ("LeftToe", "RightToe")
 ON_DEG, ON_M = 5.0, 0.3  # reached: line of sight within 5 deg, or point of sight within 0.3 m (as attend's test)
 
 
+def walk_body(h: float, first: int = 120, last: int = 300):
+    """The CMU walk's MuJoCo body at step ``h`` and its reference over frames ``first:last`` (1.0-2.5 s
+    at 120 fps): ``(dyn, ref_q at steps of h, (qpos at the frames, their seconds from the first))``."""
+    from usdgaze.physics import build, retarget
+    from usdgaze.physics.dynamics import MujocoBody
+    from usdgaze.physics.tracking import resample
+
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    dyn = MujocoBody(model, h=h)
+    frames = clip.seconds[first:last] - clip.seconds[first]
+    qpos = retarget.to_qpos(model, ref)[first:last]
+    return dyn, resample(qpos, frames, h, dyn), (qpos, frames)
+
+
 def copy_animation(layer: Sdf.Layer, src: Sdf.Layer, anim: str, codes) -> None:
     """An over of ``anim`` in ``layer`` holding ``src``'s skinning arrays at ``codes`` only (a crop)."""
     prim = Sdf.CreatePrimInLayer(layer, anim)

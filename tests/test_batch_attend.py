@@ -73,6 +73,8 @@ def test_attend_jobs_write_what_the_attend_command_writes_and_resume(tmp_path, m
     assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["massKg"] == 60.0
     assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["planner"]["iterations"] == 2
     assert Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["planner"]["groundFeet"] is False
+    planner = Sdf.Layer.OpenAsAnonymous(str(out / "body.usdc")).customLayerData["usdgaze"]["planner"]
+    assert planner["window"] == 0.3 and "stonesWindow" not in planner  # a job's window is every shot's, as --window
     assert main(["attend", str(still.path), "--physics", "--out", str(tmp_path / "cli_75.usdc"), "--window", "0.3",
                  "--fd-stride", "2", "--fd-reuse", "2", "--iterations", "2", "--raw-contacts"]) == 0
     assert _samples(tmp_path / "cli_75.usdc") != _samples(tmp_path / "cli_body.usdc")

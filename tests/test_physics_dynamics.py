@@ -248,3 +248,29 @@ def test_a_foot_still_in_the_ground_is_lifted_by_its_leg(body):
         else:
             turn = np.degrees(np.abs(target[:, a] - toes_out[:, a]))
         assert turn.max() < 30.0, (m.names[b], turn.max())
+
+
+def test_lowest_foot_point_is_mujocos_distance_to_the_floor(body):
+    """``measures.lowest_z`` (what the foot-depth measure, the stones' verdict and the ground checks
+    read) against MuJoCo's own signed distance from each foot shape to the floor plane, on the
+    reference's frames (the lunge's feet in the floor and the swings above it)."""
+    from usdgaze.physics.measures import bottom_point, foot_depth, lowest_z
+
+    dyn, qpos = body
+    mj = dyn.mj
+    floor = next(g for g in range(mj.ngeom) if mj.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE)
+    feet = [b for b, r in enumerate(dyn.model.role) if r == "foot"]
+    geoms = np.flatnonzero(np.isin(mj.geom_bodyid - 1, feet))
+    d = mujoco.MjData(mj)
+    lows, depths = [], []
+    for q in qpos[::20]:
+        d.qpos[:] = q
+        mujoco.mj_forward(mj, d)
+        # mj_geomDistance is signed: negative where the capsule is in the floor
+        gap = min(mujoco.mj_geomDistance(mj, d, int(g), floor, 1.0, None) for g in geoms)
+        assert lowest_z(mj, d, geoms) == pytest.approx(gap, abs=1e-9)
+        assert lowest_z(mj, d, geoms) == min(float(bottom_point(mj, d, g)[2]) for g in geoms)
+        assert foot_depth(mj, d, geoms) == max(0.0, -lowest_z(mj, d, geoms))
+        lows.append(gap)
+    assert min(lows) < -0.01 < 0.05 < max(lows)  # both cases met: feet in the floor and well above it
+    assert lowest_z(mj, d, np.array([], dtype=int)) == np.inf

@@ -198,7 +198,7 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["crushed.usda"]
     assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3"]) == 0
     printed = capsys.readouterr().out
-    assert "fell at" in printed and out.is_file()
+    assert "fell at" in printed and "(window 0.3 s)" in printed and out.is_file()
     layer = Sdf.Layer.FindOrOpen(str(out))
     assert "fell at" in list(layer.customLayerData["usdgaze:physics"][SKEL]["problems"])[0]
     again = tmp_path / "again.usda"  # deterministic, and threads split the work without changing it
@@ -219,8 +219,14 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     steps = np.diff(list(data["usdgaze:physics"][SKEL]["frames"]["seconds"]))
     assert len(steps) >= 5 and np.allclose(steps, 0.03)
     assert dict(data["usdgaze"]["planner"]) == {"mujoco": importlib.metadata.version("mujoco"), "timestep": 0.03,
-                                                "window": 0.6, "iterations": 1, "retryIterations": 2,
-                                                "firstIterations": 5, "fdStride": 1, "fdReuse": 1, "groundFeet": True}
+                                                "window": 0.6, "stonesWindow": 1.0, "iterations": 1,
+                                                "retryIterations": 2, "firstIterations": 5, "fdStride": 1,
+                                                "fdReuse": 1, "groundFeet": True}
+    assert data["usdgaze:physics"][SKEL]["report"]["window_s"] == 0.6  # no stones here
+    # --window is every shot's window, stones or not: no stones' window is left to record
+    chosen = Sdf.Layer.FindOrOpen(str(again)).customLayerData
+    assert chosen["usdgaze"]["planner"]["window"] == 0.3 and "stonesWindow" not in chosen["usdgaze"]["planner"]
+    assert chosen["usdgaze:physics"][SKEL]["report"]["window_s"] == 0.3
     # The fall was simulated again with two iterations a step and, falling again, with four (each fell
     # as early: the last is kept), and the report says so; --retry-iterations 0 simulates once,
     # --iterations sets the first.

@@ -80,3 +80,25 @@ def test_a_push_outside_the_shot_is_not_a_push_of_the_shot(walk):
     pushes = read_pushes(root, shot, model, "shot")
     starts = [round(p.start_s * clip.time_codes_per_second + clip.start_time, 6) for p in pushes]
     assert starts == [90.0, 150.0]
+
+
+def test_a_shot_with_stones_gets_their_window_unless_one_is_chosen(tmp_path):
+    """The paper sets the window by task: a shot with stepping stones is simulated with
+    ``stones_horizon_s`` (1.0 s), any other with ``horizon_s`` (0.6 s); a window the user chooses
+    (``--window``, a manifest's ``window``) is every shot's. A bad stones' window is one line naming it."""
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.physics import mpc
+
+    stage = Usd.Stage.Open(str(_shot(tmp_path / "plain.usda", False)))
+    found = physics_pass.task_prims(stage, "plain.usda", "/root")
+    assert [len(found["stone"]), len(found["obstacle"])] == [2, 0]
+    bare = {"stone": [], "obstacle": []}
+    default = mpc.Options()
+    assert (default.horizon_s, default.stones_horizon_s) == (0.6, 1.0)
+    assert physics_pass.shot_options(default, found).horizon_s == 1.0
+    assert physics_pass.shot_options(default, bare) is default
+    chosen = physics_pass.with_window(default, 0.7)
+    assert physics_pass.shot_options(chosen, found).horizon_s == 0.7 == physics_pass.shot_options(chosen, bare).horizon_s
+    assert physics_pass.with_window(default, None) is default
+    with pytest.raises(UsdGazeError, match=r"^--window 0\.01 s: expected 0\.04 to 5 s"):
+        physics_pass.check_window(mpc.Options(stones_horizon_s=0.01), "--window")

@@ -19,8 +19,9 @@ from usdgaze.console.types import FiniteRange
 @click.option("--cost", default="uncertainty", show_default=True, type=click.Choice(["uncertainty", "distance", "sequential"]),
               help="Attention cost: the paper's uncertainty, the distance-sum baseline, or one object after another.")
 @click.option("--window", "window_s", default=None, type=float,
-              help="Planner window, seconds (with --physics and stepping stones keep 0.6: longer windows "
-                   "fell, docs/physics.md).  [default: 0.8; with --physics 0.6]")
+              help="Planner window, seconds, for every shot (with --physics the stepping stones' task still "
+                   "looks 0.6 s ahead, docs/physics.md).  [default: 0.8; with --physics 0.6, and 1.0 for a shot "
+                   "with stepping stones]")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(0, 2**32 - 1),
               help="Seed of the simulated observation noise.")
 @click.option("--realize", default="direct", show_default=True, type=click.Choice(["direct", "map"]),
@@ -72,11 +73,12 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
 
     _check_combination(ctx, physics)
     if physics:
+        from usdgaze.passes.physics import with_window
         from usdgaze.physics.mpc import Options
 
-        options = Options(h=timestep, horizon_s=Options.horizon_s if window_s is None else window_s,
-                          workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse, iterations=iterations,
-                          retry_iterations=retry_iterations, ground_feet=not raw_contacts)
+        options = with_window(Options(h=timestep, workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse,
+                                      iterations=iterations, retry_iterations=retry_iterations,
+                                      ground_feet=not raw_contacts), window_s)
         return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                         parse_hints(bind, forward), mass)
     from usdgaze.attend import AttendSettings, attend as run
@@ -162,5 +164,5 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
         click.echo(f"{r.skeleton}: {state}; pelvis >= {r.min_pelvis_ratio:.0%} of the reference, mean joint error "
                    f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground{_sank(r)}, "
                    f"root <= {100 * r.max_root_drift_m:.1f} cm from the reference's across the ground, "
-                   f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s")
+                   f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s (window {r.window_s:g} s)")
     click.echo(f"wrote {out}")

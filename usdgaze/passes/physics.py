@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -47,12 +47,10 @@ from usdgaze.usd.objects import PHYSICS_TASK as TASK
 TASKS = ("stone", "obstacle")
 
 
-def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
-    """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
-    ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
-    the coupled loop's object paths, whose belief the obstacle task then reads."""
-    from usdgaze.physics import obstacles, stones
-    from usdgaze.usd.objects import check_apart, read_objects, require_xformable, scene_prims
+def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
+    """The stage's stone and obstacle prims (``usdgaze:physics:task``), checked: one plain value each,
+    a transformable prim, none under the SkelRoot ``skel_root``."""
+    from usdgaze.usd.objects import check_apart, require_xformable, scene_prims
 
     prims = {kind: [] for kind in TASKS}
     for prim in scene_prims(stage):
@@ -67,8 +65,19 @@ def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: l
             raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: '{kind}' is not one of 'stone', 'obstacle'")
         require_xformable(prim, source, f"a{'n' if kind == 'obstacle' else ''} {kind}")
         prims[str(kind)].append(prim)
-    check_apart([p for found in prims.values() for p in found], [stage.GetPrimAtPath(clip.skel_root)], source,
+    check_apart([p for found in prims.values() for p in found], [stage.GetPrimAtPath(skel_root)], source,
                 "a stone or an obstacle", inside=True)
+    return prims
+
+
+def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
+    """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
+    ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
+    the coupled loop's object paths, whose belief the obstacle task then reads."""
+    from usdgaze.physics import obstacles, stones
+    from usdgaze.usd.objects import read_objects
+
+    prims = task_prims(stage, source, clip.skel_root)
     factories = []
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # metres in, metres out
     for kind, found in prims.items():
@@ -192,10 +201,8 @@ def _simulate_shot(attempt, options: mpc.Options) -> tuple:
     With one iteration 3 of 12 stepping-stone shots fell; the second and third simulations rescue
     different shots of the chaotic loop (docs/physics-log.md, "A third simulation"); each is spent
     only where the one kept before it failed."""
-    import dataclasses
-
     kept = attempt(options)
-    kept[0].iterations = options.iterations
+    kept[0].iterations, kept[0].window_s = options.iterations, options.horizon_s
     others, wall = [], kept[0].wall_s
     # Ties go by the deepest foot: the whole CMU walk's retry (2 iterations) had one problem as the
     # first did, a foot 3.6 cm deep against 2.2, and was kept.
@@ -203,8 +210,8 @@ def _simulate_shot(attempt, options: mpc.Options) -> tuple:
     for iterations in retry_ladder(options):
         if not set(kept[0].problems) - set(kept[0].unmendable):
             break
-        again = attempt(dataclasses.replace(options, iterations=iterations))
-        again[0].iterations = iterations
+        again = attempt(replace(options, iterations=iterations))
+        again[0].iterations, again[0].window_s = iterations, options.horizon_s
         wall += again[0].wall_s
         kept, other = (again, kept) if rank(again[0]) <= rank(kept[0]) else (kept, again)
         others.append(other[0])
@@ -219,7 +226,7 @@ def _attempt(shot: tuple, options: mpc.Options, total_mass: float, progress, see
     loop's inspection (None for the body alone)."""
     from usdgaze.passes import visuomotor
 
-    root, clip, (prims, paths, catches), chain_frame, ahead = shot
+    root, clip, (prims, paths, catches), chain_frame, ahead, _ = shot
     if prims:  # something to look at: eyes, belief and body in one loop
         return visuomotor.simulate_clip(clip, root, options, prims, paths, catches, total_mass, progress, seed,
                                         chain_frame, ahead)
@@ -232,15 +239,31 @@ def _planner_record(options: mpc.Options) -> dict:
     import mujoco
 
     return {"mujoco": mujoco.__version__,
-            "timestep": options.h, "window": options.horizon_s, "iterations": options.iterations,
+            "timestep": options.h, "window": options.horizon_s,
+            **({} if options.stones_horizon_s is None else {"stonesWindow": options.stones_horizon_s}),
+            "iterations": options.iterations,
             "retryIterations": options.retry_iterations, "firstIterations": options.first_iterations,
             "fdStride": options.fd_stride, "fdReuse": options.fd_reuse, "groundFeet": options.ground_feet}
 
 
 def check_window(options: mpc.Options, label: str) -> None:
-    """The planner window must hold two steps and stay under 5 s; ``label`` names the value."""
-    if not (np.isfinite(options.horizon_s) and 2 * options.h - 1e-9 <= options.horizon_s <= 5.0):
-        raise UsdGazeError(f"{label}: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
+    """The planner windows must hold two steps and stay under 5 s; ``label`` names where they were set."""
+    for window in (options.horizon_s, options.stones_horizon_s):
+        if window is not None and not (np.isfinite(window) and 2 * options.h - 1e-9 <= window <= 5.0):
+            raise UsdGazeError(f"{label} {window:g} s: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
+
+
+def with_window(options: mpc.Options, window_s: float | None) -> mpc.Options:
+    """``options`` with the window a user chose (``--window``, a manifest's ``window``) for every shot,
+    stones or not; None: the defaults, the window by task (``mpc.Options.stones_horizon_s``)."""
+    return options if window_s is None else replace(options, horizon_s=window_s, stones_horizon_s=None)
+
+
+def shot_options(options: mpc.Options, prims: dict[str, list]) -> mpc.Options:
+    """The options one shot is simulated with: a shot with stepping stones (``task_prims``) gets their window."""
+    if prims["stone"] and options.stones_horizon_s is not None:
+        return replace(options, horizon_s=options.stones_horizon_s)
+    return options
 
 
 def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Options = mpc.Options(),
@@ -263,7 +286,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     require_mujoco()  # before any work: a missing extra is one line, exit 2
     source = str(input_path)
     require_file(source)
-    check_window(options, f"--window {options.horizon_s:g} s")
+    check_window(options, "--window")
     with Outputs(no_clobber=no_clobber) as tx:
         tx.read(source)  # first, so a clash names the input as such
         if make_folders:  # kept only if the command succeeds
@@ -282,8 +305,8 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
 
 
 def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding) -> list[tuple]:
-    """(root, clip, scene, chain and frame, the take after the shot) of every skeleton: all read and
-    bound before any work."""
+    """(root, clip, scene, chain and frame, the take after the shot, its options) of every skeleton: all
+    read and bound before any work."""
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes import visuomotor
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
@@ -292,12 +315,13 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
     roots = select_roots(stage, source, skel_root)
     others = animations_elsewhere(stage, roots)
     for root in roots:
+        shot = shot_options(options, task_prims(stage, source, str(root.GetPath())))
         for skel in skeletons_under(root):
-            ahead_s = options.horizon_s + 2 * options.h  # the planner's last window, past the shot
+            ahead_s = shot.horizon_s + 2 * shot.h  # the planner's last window, past the shot
             clip, ahead = _in_shot_range(read_clip(stage, skel, root, source), stage, ahead_s)
             check_not_shared(others, clip.animation, source)
-            scene = visuomotor.read_scene(root, clip, source, options.h)
-            shots.append((root, clip, scene, bind_root(clip, root, binding), ahead))
+            scene = visuomotor.read_scene(root, clip, source, shot.h)
+            shots.append((root, clip, scene, bind_root(clip, root, binding), ahead, shot))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots
@@ -331,7 +355,7 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
     reports, overrides, terms, inspections = [], [], {}, []
     for shot in shots:
         report, override, shot_terms, inspection = _simulate_shot(
-            lambda opts: _attempt(shot, opts, total_mass, progress, seed), options)  # noqa: B023 (called here)
+            lambda opts: _attempt(shot, opts, total_mass, progress, seed), shot[-1])  # noqa: B023 (called here)
         if inspection is not None:
             inspections.append(inspection)
         reports.append(report)

@@ -33,6 +33,7 @@ class ShotReport:
     problems: list[str] = field(default_factory=list)
     diverged: bool = False  # cut short by MuJoCo's step blowing up (``fell`` too: the shot failed)
     iterations: int = 1  # the solver's iterations a step of the simulation kept
+    window_s: float = 0.6  # its planner window (a shot with stepping stones has theirs: ``shot_options``)
     # A retried shot (``physics._simulate_shot``): the problems of the attempt not kept, each with its iterations.
     other_attempt: list[str] = field(default_factory=list)
     # Problems another simulation cannot mend (a ball never within reach in time): not simulated again.

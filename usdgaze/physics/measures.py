@@ -42,14 +42,31 @@ def blown_up(qpos: np.ndarray, qvel: np.ndarray, ref: np.ndarray, height: float)
                 or np.abs(qvel[3:]).max(initial=0.0) > 500.0)
 
 
+_CAPSULE = 3  # mujoco.mjtGeom.mjGEOM_CAPSULE (a sphere has no half-length)
+
+
+def bottom_point(mj, d, g: int) -> np.ndarray:
+    """The lowest point of a capsule or sphere geom (world)."""
+    axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
+    half = mj.geom_size[g, 1] if mj.geom_type[g] == _CAPSULE else 0.0
+    end = d.geom_xpos[g] - np.sign(axis[2]) * half * axis
+    return end - np.array([0.0, 0.0, mj.geom_size[g, 0]])
+
+
+def lowest_z(mj, d, geoms: np.ndarray) -> float:
+    """The height of the lowest point of the given capsule and sphere geoms (inf for none): the z of
+    :func:`bottom_point`, bit for bit (``sign(a) half a`` is ``|a| half``), for all of them at once."""
+    geoms = np.asarray(geoms, dtype=int)
+    if not len(geoms):
+        return np.inf
+    half = np.where(mj.geom_type[geoms] == _CAPSULE, mj.geom_size[geoms, 1], 0.0)
+    z = d.geom_xpos[geoms, 2] - np.abs(d.geom_xmat[geoms, 8]) * half - mj.geom_size[geoms, 0]
+    return float(z.min())
+
+
 def foot_depth(mj, d, geoms: np.ndarray) -> float:
     """How far the lowest point of the given capsule geoms is below the ground (0 if above)."""
-    low = np.inf
-    for g in geoms:
-        axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
-        half = mj.geom_size[g, 1] if mj.geom_type[g] == 3 else 0.0
-        low = min(low, d.geom_xpos[g, 2] - abs(axis[2]) * half - mj.geom_size[g, 0])
-    return max(0.0, -low)
+    return max(0.0, -lowest_z(mj, d, geoms))
 
 
 def foot_depths(mj, qpos: np.ndarray, geoms: np.ndarray) -> np.ndarray:

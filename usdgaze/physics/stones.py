@@ -52,7 +52,7 @@ import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.points import Points, frame_jacobian
-from usdgaze.physics.tracking import bottom_point
+from usdgaze.physics.measures import lowest_z
 
 W_TSK = 10.0
 CONTACT_HEIGHT_M = 0.06
@@ -62,6 +62,9 @@ POSITION_SCALE = 3.0  # the position residual in thirds of a metre (see the modu
 START_ON_M = 0.01  # a contact under way at the first frame keeps a stone only this close to its footfall
 LANDING_S = 0.3  # a simulated foot must come down this close in time to the reference's footfall
 DOWN_M = 0.02  # a simulated foot is down with the lowest point of its capsules this near the ground
+# The task looks this far into the planner's window and no further: costed over a whole 0.8 or 1.0 s
+# window, every stones shot tried fell (``physics.lookahead``); the default window is this long.
+LOOK_AHEAD_S = 0.6
 
 
 def foot_chains(dyn: MujocoBody) -> list[list[int]]:
@@ -99,6 +102,7 @@ class StoneTask:
     """The stepping-stone task term over the planner's state (a ``ddp.Cost`` plus ``measure``)."""
 
     name = "stones"
+    look_ahead_s = LOOK_AHEAD_S  # costed on a longer window's first 0.6 s only (physics.lookahead)
 
     def __init__(self, dyn: MujocoBody, ref_qpos: np.ndarray, stones: np.ndarray, weight: float = W_TSK,
                  frames: tuple[np.ndarray, np.ndarray] | None = None, names: list[str] | None = None) -> None:
@@ -272,7 +276,7 @@ class StoneTask:
             d.qpos[:] = q
             mujoco.mj_kinematics(mj, d)
             for f, (_, a, t) in enumerate(self.feet):
-                sole[k, f] = min(bottom_point(mj, d, g)[2] for g in self._foot_geoms[f])
+                sole[k, f] = lowest_z(mj, d, self._foot_geoms[f])
                 ankle[k, f], toe[k, f] = d.xpos[a], d.xpos[t]
 
         def moving(p):

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody, _jr
+from usdgaze.physics.measures import bottom_point, lowest_z
 
 
 @dataclass
@@ -243,7 +244,7 @@ def clear_ground(dyn: MujocoBody, ref_qpos: np.ndarray, step_deg: float = 1.0, r
     def lowest(q, b):
         d.qpos[:] = q
         mujoco.mj_kinematics(dyn.mj, d)
-        return min((_geom_bottom(dyn.mj, d, g) for g in geoms[b]), default=np.inf)
+        return lowest_z(dyn.mj, d, geoms[b])
 
     step = np.radians(step_deg)
     turns = step * np.arange(1, int(round(reach_deg / step_deg)) + 1)
@@ -259,11 +260,6 @@ def clear_ground(dyn: MujocoBody, ref_qpos: np.ndarray, step_deg: float = 1.0, r
                     out[k, a] = q[a]
                     break
     return out
-
-
-def _geom_bottom(mj, d, g: int) -> float:
-    """Lowest point of a capsule or sphere geom (world z)."""
-    return float(bottom_point(mj, d, g)[2])
 
 
 def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_rad: float = 0.1,
@@ -296,7 +292,7 @@ def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_
             for _ in range(iterations):
                 d.qpos[:] = q
                 mujoco.mj_kinematics(mj, d)
-                bottoms = [_geom_bottom(mj, d, g) for g in geoms]
+                bottoms = [float(bottom_point(mj, d, g)[2]) for g in geoms]
                 g = geoms[int(np.argmin(bottoms))]
                 depth = -min(bottoms)
                 if depth <= 0.0:
@@ -317,11 +313,3 @@ def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_
                 full[cols] = dv
                 mujoco.mj_integratePos(mj, q, full, 1.0)
     return out
-
-
-def bottom_point(mj, d, g: int) -> np.ndarray:
-    """The lowest point of a capsule or sphere geom (world)."""
-    axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
-    half = mj.geom_size[g, 1] if mj.geom_type[g] == 3 else 0.0
-    end = d.geom_xpos[g] - np.sign(axis[2]) * half * axis
-    return end - np.array([0.0, 0.0, mj.geom_size[g, 0]])
