@@ -262,7 +262,7 @@ def test_lowest_foot_point_is_mujocos_distance_to_the_floor(body):
     feet = [b for b, r in enumerate(dyn.model.role) if r == "foot"]
     geoms = np.flatnonzero(np.isin(mj.geom_bodyid - 1, feet))
     d = mujoco.MjData(mj)
-    lows, depths = [], []
+    lows = []
     for q in qpos[::20]:
         d.qpos[:] = q
         mujoco.mj_forward(mj, d)

@@ -4,8 +4,8 @@ The stepping stones' task keeps its look-ahead at 0.6 s whatever the window (``S
 Costed over a whole 0.8 s or 1.0 s window, it fell every 4.0-5.5 s stones shot tried, 0.3-0.7 s in: from
 0.3 s on, a 1.0 s window reaches the displaced landing at 1.3 s, long before the swing that makes it
 starts (0.7 s). Costed only on each window's first 0.6 s, a 1.0 s window landed 12 of 12 bar shots, no
-fall (most on their second simulation: the first, with one iteration a step, still fell), where the
-whole-window task fell in all three simulations (docs/physics-log.md, "The stones' look-ahead");
+fall (10 of them simulated again: the first simulation, one iteration a step, can still fall), where
+the whole-window task fell in every simulation (docs/physics-log.md, "The stones' look-ahead");
 costed on its first 0.4 s they stood but missed (the swing is 0.6 s).
 
 The planner's costs learn where a window starts only from the batched calls (``cost_batch(X, U, k0)``,
