@@ -68,8 +68,8 @@ TaskFactory = Callable[[MujocoBody, np.ndarray], Task]
 class Options:
     h: float = 0.02
     horizon_s: float = 0.6
-    # A shot with stepping stones: its window (None: ``horizon_s``); the paper's varies by task, 0.6-1.2 s. 1.0
-    # stood 12 of 12 bar shots on their stone, 0.6 11 (``physics.lookahead``; docs/physics-log.md).
+    # A shot with stepping stones: its window (None: ``horizon_s``); the paper's varies by task, 0.6-1.2 s.
+    # 1.0 landed 12 of 12 bar shots, 0.6 landed 11 (``physics.lookahead``; docs/physics-log.md).
     stones_horizon_s: float | None = 1.0
     iterations: int = 1  # solver iterations a step after the first window
     # The physics pass simulates a shot with a problem (a fall, a stone missed, an obstacle touched) again

@@ -63,7 +63,7 @@ START_ON_M = 0.01  # a contact under way at the first frame keeps a stone only t
 LANDING_S = 0.3  # a simulated foot must come down this close in time to the reference's footfall
 DOWN_M = 0.02  # a simulated foot is down with the lowest point of its capsules this near the ground
 # The task looks this far into the planner's window and no further: costed over a whole 0.8 or 1.0 s
-# window, every stones shot tried fell (``physics.lookahead``); the default window is this long.
+# window, every stones shot tried fell (``physics.lookahead``). A stones shot's window is 1.0 s.
 LOOK_AHEAD_S = 0.6
 
 
