@@ -1,7 +1,7 @@
 """The stones' task looks 0.6 s into the planner's window and no further (``physics.lookahead``): on a
 longer window it is costed on the first 0.6 s only, each step's value and derivatives the task's own
 per-step ones (computed here by the task's ``l`` and ``derivs``, not by the wrapper), its terminal
-dropped; on the default 0.6 s window the task is used as it is."""
+dropped; on a 0.6 s window (any other shot's default) the task is used as it is."""
 
 from __future__ import annotations
 

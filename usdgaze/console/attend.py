@@ -58,7 +58,8 @@ from usdgaze.console.types import FiniteRange
               help="With --physics: simulate a shot that fell, sank a foot over 2 cm or missed a task again "
                    "with this many iterations per step, and where that fails too with twice as many (at most 10); "
                    "the best is kept (never where it is not more than --iterations, e.g. 0; one iteration let 3 of "
-                   "12 stepping-stone shots fall, docs/physics.md).")
+                   "12 stepping-stone shots fall, and with their 1.0 s window the first simulation often falls, "
+                   "docs/physics.md).")
 @click.option("--raw-contacts", is_flag=True,
               help="With --physics: write the simulated feet as MuJoCo's soft ground left them (a loaded foot sinks "
                    "1-3 cm into it), not lifted out of it by their legs (docs/physics.md).")
