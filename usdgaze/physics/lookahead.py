@@ -9,8 +9,8 @@ the whole-window task fell in every simulation (docs/physics-log.md, "The stones
 costed on its first 0.4 s they stood but missed (the swing is 0.6 s).
 
 The planner's costs learn where a window starts only from the batched calls (``cost_batch(X, U, k0)``,
-``derivs_batch``) and its end from the terminal's step, which is what ``compose.CostSum`` and the
-solver use; the per-step ``l`` and ``derivs`` have no window and are refused.
+``derivs_batch``), which are what ``compose.CostSum`` and the solver use; the per-step ``l`` and
+``derivs`` have no window and are refused.
 """
 
 from __future__ import annotations
@@ -19,12 +19,12 @@ import numpy as np
 
 
 class Lookahead:
-    """``task`` costed on the first ``steps`` steps of each window of ``window`` steps, its terminal
-    only where the window is no longer than that; its name, measures, verdict and percepts are the
-    task's own."""
+    """``task`` costed on the first ``steps`` steps of each window, without its terminal (made only for
+    windows longer than ``steps``: their end lies past what the task looks at); its name, measures,
+    verdict and percepts are the task's own."""
 
-    def __init__(self, task, steps: int, window: int) -> None:
-        self.task, self.steps, self.window = task, int(steps), int(window)
+    def __init__(self, task, steps: int) -> None:
+        self.task, self.steps = task, int(steps)
 
     def __getattr__(self, name: str):
         if name == "task":  # not set yet (a copy being made): no recursion
@@ -49,17 +49,15 @@ class Lookahead:
             parts = self.task.derivs_batch(X[:m], U[:m], k0)
         else:
             got = [self.task.derivs(X[i], U[i], k0 + i) for i in range(m)]
-            parts = tuple(np.stack([g[j] for g in got]) for j in range(5)) if m else None
-        for whole, part in zip(out, parts or ()):
+            parts = [np.stack([g[j] for g in got]) for j in range(5)]
+        for whole, part in zip(out, parts):
             whole[:m] = part
         return out
 
     def terminal(self, x: np.ndarray, k: int) -> float:
-        return float(self.task.terminal(x, k)) if self.window <= self.steps else 0.0
+        return 0.0
 
     def terminal_derivs(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        if self.window <= self.steps:
-            return self.task.terminal_derivs(x, k)
         return np.zeros(len(x)), np.zeros((len(x), len(x)))
 
     def l(self, x, u, k):
@@ -76,4 +74,4 @@ def limit(task, window: int, h: float):
     if ahead is None:
         return task
     steps = max(1, int(round(ahead / h)))
-    return Lookahead(task, steps, window) if window > steps else task
+    return Lookahead(task, steps) if window > steps else task
