@@ -31,6 +31,7 @@ import os
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,18 @@ from usdgaze.physics import mpc
 from usdgaze.usd.objects import PHYSICS_TASK as TASK
 
 TASKS = ("stone", "obstacle")
+
+
+class Shot(NamedTuple):
+    """One skeleton to simulate, read and checked before any is simulated (``_read_shots``)."""
+
+    root: Any  # the Usd.Prim of its SkelRoot
+    clip: Any  # the usdgaze.core.clip.Clip, cut to the stage's playback range
+    scene: tuple  # the coupled loop's (object prims, their paths, the balls to catch)
+    chain_frame: tuple  # the gaze binding: (Chain, CharacterFrame)
+    ahead: Any  # the take's clip after the shot (None: none)
+    tasks: dict[str, list]  # the stage's stone and obstacle prims (task_prims)
+    options: mpc.Options  # its options: a shot with stones has their window
 
 
 def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
@@ -70,14 +83,16 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
     return prims
 
 
-def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None) -> list:
+def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None,
+               prims: dict[str, list] | None = None) -> list:
     """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
     ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
-    the coupled loop's object paths, whose belief the obstacle task then reads."""
+    the coupled loop's object paths, whose belief the obstacle task then reads; ``prims``: the task
+    prims ``task_prims`` found (None: found here)."""
     from usdgaze.physics import obstacles, stones
     from usdgaze.usd.objects import read_objects
 
-    prims = task_prims(stage, source, clip.skel_root)
+    prims = task_prims(stage, source, clip.skel_root) if prims is None else prims
     factories = []
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # metres in, metres out
     for kind, found in prims.items():
@@ -121,16 +136,17 @@ def _frames_from_steps(result: mpc.Result, seconds: np.ndarray, dyn_quats: list[
 
 
 def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, progress=None, chain_frame=None,
-                  ahead=None):
+                  ahead=None, task_found: dict[str, list] | None = None):
     """Simulate one clip; its :class:`ShotReport`, the override and the per-frame measures
     (``chain_frame``: the gaze binding, for rigs whose joint names do not tell the body's segments;
-    ``ahead``: the take's clip after the shot, which only the planner sees)."""
+    ``ahead``: the take's clip after the shot, which only the planner sees; ``task_found``: the
+    stage's task prims, ``task_prims``'s, None: found here)."""
     from usdgaze.physics import build, retarget
 
     model, ref = build.body_model(clip, total_mass, chain_frame=chain_frame)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
     ref_qpos = retarget.to_qpos(model, ref)
-    tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos)
+    tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos, prims=task_found)
     start = time.perf_counter()
     result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress, tasks=tasks,
                           ahead=take_after(model, ahead))
@@ -221,16 +237,17 @@ def _simulate_shot(attempt, options: mpc.Options) -> tuple:
     return kept
 
 
-def _attempt(shot: tuple, options: mpc.Options, total_mass: float, progress, seed: int) -> tuple:
-    """One simulation of a shot (``_read_shots``'s): its report, override, per-frame terms and the coupled
-    loop's inspection (None for the body alone)."""
+def _attempt(shot: Shot, options: mpc.Options, total_mass: float, progress, seed: int) -> tuple:
+    """One simulation of a shot: its report, override, per-frame terms and the coupled loop's
+    inspection (None for the body alone)."""
     from usdgaze.passes import visuomotor
 
-    root, clip, (prims, paths, catches), chain_frame, ahead, _ = shot
+    prims, paths, catches = shot.scene
     if prims:  # something to look at: eyes, belief and body in one loop
-        return visuomotor.simulate_clip(clip, root, options, prims, paths, catches, total_mass, progress, seed,
-                                        chain_frame, ahead)
-    return (*simulate_clip(clip, root, options, total_mass, progress, chain_frame, ahead), None)
+        return visuomotor.simulate_clip(shot.clip, shot.root, options, prims, paths, catches, total_mass, progress,
+                                        seed, shot.chain_frame, shot.ahead, shot.tasks)
+    return (*simulate_clip(shot.clip, shot.root, options, total_mass, progress, shot.chain_frame, shot.ahead,
+                           shot.tasks), None)
 
 
 def _planner_record(options: mpc.Options) -> dict:
@@ -304,9 +321,8 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     return reports
 
 
-def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding) -> list[tuple]:
-    """(root, clip, scene, chain and frame, the take after the shot, its options) of every skeleton: all
-    read and bound before any work."""
+def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding) -> list[Shot]:
+    """Every skeleton's :class:`Shot`: all read, checked and bound before any work."""
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes import visuomotor
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
@@ -315,13 +331,14 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
     roots = select_roots(stage, source, skel_root)
     others = animations_elsewhere(stage, roots)
     for root in roots:
-        shot = shot_options(options, task_prims(stage, source, str(root.GetPath())))
+        tasks = task_prims(stage, source, str(root.GetPath()))
+        opts = shot_options(options, tasks)
         for skel in skeletons_under(root):
-            ahead_s = shot.horizon_s + 2 * shot.h  # the planner's last window, past the shot
+            ahead_s = opts.horizon_s + 2 * opts.h  # the planner's last window, past the shot
             clip, ahead = _in_shot_range(read_clip(stage, skel, root, source), stage, ahead_s)
             check_not_shared(others, clip.animation, source)
-            scene = visuomotor.read_scene(root, clip, source, shot.h)
-            shots.append((root, clip, scene, bind_root(clip, root, binding), ahead, shot))
+            scene = visuomotor.read_scene(root, clip, source, opts.h)
+            shots.append(Shot(root, clip, scene, bind_root(clip, root, binding), ahead, tasks, opts))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots
@@ -355,7 +372,7 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
     reports, overrides, terms, inspections = [], [], {}, []
     for shot in shots:
         report, override, shot_terms, inspection = _simulate_shot(
-            lambda opts: _attempt(shot, opts, total_mass, progress, seed), shot[-1])  # noqa: B023 (called here)
+            lambda opts: _attempt(shot, opts, total_mass, progress, seed), shot.options)  # noqa: B023 (called here)
         if inspection is not None:
             inspections.append(inspection)
         reports.append(report)

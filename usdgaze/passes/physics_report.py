@@ -36,7 +36,8 @@ class ShotReport:
     window_s: float = 0.6  # its planner window (a shot with stepping stones has theirs: ``shot_options``)
     # A retried shot (``physics._simulate_shot``): the problems of the attempt not kept, each with its iterations.
     other_attempt: list[str] = field(default_factory=list)
-    # Problems another simulation cannot mend (a ball never within reach in time): not simulated again.
+    # Problems another simulation cannot mend (a ball never within reach in time, a foot the shot ends
+    # before it must land): not simulated again.
     unmendable: list[str] = field(default_factory=list)
     # What in the reference itself no simulated body can follow (``physics.feasible``): said, not retried.
     reference_notes: list[str] = field(default_factory=list)
@@ -108,7 +109,7 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         max_foot_below_ground_m=float(result.foot_below_ground_m.max()), pushes=pushes,
                         wall_s=wall, problems=problems, diverged=result.diverged,
                         max_root_drift_m=float(result.root_drift_m.max()),
-                        contact_depth_m=float(result.sank_m.max()),
+                        contact_depth_m=float(result.sank_m.max()), unmendable=list(result.task_unmendable),
                         reference_notes=result.reference_notes + feasible.scale_notes(clip.scales, clip.anim_joints))
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),

@@ -64,11 +64,12 @@ def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop
 
 
 def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,
-                  progress=None, seed: int = 0, chain_frame=None, ahead=None):
+                  progress=None, seed: int = 0, chain_frame=None, ahead=None, task_found=None):
     """Simulate one clip with its eyes; (ShotReport, AnimOverride, per-frame terms, inspection).
 
     ``chain_frame``: the clip's (Chain, CharacterFrame) from :func:`usdgaze.characters.bind_root`
-    (default: bound by names and the SkelRoot's map); ``ahead``: the take's clip after the shot."""
+    (default: bound by names and the SkelRoot's map); ``ahead``: the take's clip after the shot;
+    ``task_found``: the stage's stone and obstacle prims (``physics.task_prims``; None: found here)."""
     from usdgaze.characters import bind_root
     from usdgaze.passes import physics as body_pass
     from usdgaze.physics import build, retarget, visuomotor
@@ -84,7 +85,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     things = _things(root, clip, source, prims, model, steps, h)
     tasks = [(lambda j: lambda plan, ref_q: CatchTask(plan, j, seed + j, truth=things[j].positions,
                                                                 reference=ref_q))(j) for j in catches]
-    tasks += body_pass.read_tasks(root.GetStage(), clip, model, source, ref_qpos, paths)
+    tasks += body_pass.read_tasks(root.GetStage(), clip, model, source, ref_qpos, paths, task_found)
     opts = visuomotor.Options(options)
     opts.vision.seed = seed
     start = time.perf_counter()
@@ -146,9 +147,10 @@ def _catch_problems(report, task_terms: dict, balls: list[str]) -> None:
     reached its proactive phase (no arrival within reach was ever expected in time: thrown from
     behind, or out of reach) is one that another simulation cannot mend, so it is not simulated again."""
     from usdgaze.physics.catch import CatchOptions
+    from usdgaze.physics.tasks import task_prefix
 
     for i, path in enumerate(balls):
-        prefix = mpc.task_prefix(["catch"] * len(balls), i)
+        prefix = task_prefix(["catch"] * len(balls), i)
         miss = task_terms.get(f"{prefix}.handToBallM")
         if miss is None or not np.all(np.isnan(miss) | (miss > CATCH_TOLERANCE_M)):
             continue

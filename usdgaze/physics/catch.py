@@ -89,7 +89,7 @@ def _side(model: BodyModel, b: int) -> str:
 
 
 class CatchTask:
-    """A ``mpc.Task`` for one ball (object index ``ball`` of the loop's things)."""
+    """A ``physics.tasks.Task`` for one ball (object index ``ball`` of the loop's things)."""
 
     name = "catch"
 

@@ -15,7 +15,7 @@ after a fall the same way; a ``Controller`` adds what it senses and plans beside
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Protocol, Sequence
+from typing import Protocol, Sequence
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.measures import (blown_up, foot_depth, foot_depths, heading_errors_deg, joint_errors_deg,
                                       start_lift)
 from usdgaze.physics.model import BodyModel
+from usdgaze.physics.tasks import TaskFactory, judge_tasks, measure_tasks
 from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, lift_feet, resample, velocities
 
 FALL_RATIO = 0.8  # the issue's bar: pelvis below 80% of the reference's height is a fall
@@ -46,22 +47,6 @@ class Push:
     force: np.ndarray
     start_s: float
     duration_s: float
-
-
-class Task(Protocol):
-    """A task term of the paper's cost (catch, stones, obstacles): a ``ddp.Cost`` over the planner's
-    state, summed with the tracking cost, plus what it measures on the simulated body after each step
-    (``data``: a ``mujoco.MjData`` at the new state, kinematics done) for the shot's report."""
-
-    name: str
-
-    def l(self, x: np.ndarray, u: np.ndarray, k: int) -> float: ...
-
-    def measure(self, k: int, data) -> dict[str, float]: ...
-
-
-# A task is made once the planner's body exists: ``factory(plan, ref_qpos_at_h)``.
-TaskFactory = Callable[[MujocoBody, np.ndarray], Task]
 
 
 @dataclass
@@ -108,6 +93,7 @@ class Result:
     task_terms: dict[str, np.ndarray] = field(default_factory=dict)  # "task.measure" -> (K,), NaN at k = 0
     diverged: bool = False  # MuJoCo's step blew up (the run stopped early without a fall)
     task_problems: list[str] = field(default_factory=list)  # what the tasks judged on the whole run, in words
+    task_unmendable: list[str] = field(default_factory=list)  # of those, what another simulation cannot mend
     reference_notes: list[str] = field(default_factory=list)  # what in the reference no body can follow
     # (K,) the simulated feet's depth in the soft ground before ``Options.ground_feet`` lifted them
     # (None: not lifted, ``foot_below_ground_m``; see ``sank_m``)
@@ -337,7 +323,7 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
     written, depth, sank = grounded or (qpos[:kk], depth, None)
     result = shot_result(shot.model, written, ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
     result.contact_depth_m = sank
-    result.task_problems = judge_tasks(shot.tasks, result)
+    result.task_problems, result.task_unmendable = judge_tasks(shot.tasks, result)
     result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q[:steps + 1]), h)]
                               if n]
     return result
@@ -348,11 +334,6 @@ def _grounded(plan: MujocoBody, qpos: np.ndarray, depth: np.ndarray, feet: np.nd
     (``Options.ground_feet``), their feet's depths, and the simulation's own."""
     lifted = lift_feet(plan, qpos)
     return lifted, foot_depths(plan.mj, lifted, feet), depth.copy()
-
-
-def judge_tasks(tasks, result: Result) -> list[str]:
-    """The problems each task with a ``problems(qpos, seconds)`` finds in the simulated states."""
-    return [p for task in tasks if hasattr(task, "problems") for p in task.problems(result.qpos, result.seconds)]
 
 
 def shot_result(model: BodyModel, qpos, ref_q, ref_seconds, ctrl, depth, costs, measured, steps: int,
@@ -369,22 +350,6 @@ def shot_result(model: BodyModel, qpos, ref_q, ref_seconds, ctrl, depth, costs, 
                   joint_error_deg=joint_errors_deg(model, qpos, ref_q[:kk]), foot_below_ground_m=depth[:kk],
                   solve_costs=costs, fell_at=fell, diverged=bool(diverged),
                   task_terms={key: np.array(v + [np.nan] * (kk - len(v)))[:kk] for key, v in measured.items()})
-
-
-def task_prefix(names: Sequence[str], i: int) -> str:
-    """The per-frame key prefix of the ``i``-th task: its name, numbered from its second instance on
-    (two balls to catch report ``catch.*`` and ``catch2.*``)."""
-    n = list(names[:i]).count(names[i])
-    return names[i] if n == 0 else f"{names[i]}{n + 1}"
-
-
-def measure_tasks(tasks, k: int, data, measured: dict[str, list[float]]) -> None:
-    """Append every task's measures after step ``k`` (NaN-padded where a key first appears)."""
-    names = [t.name for t in tasks]
-    for i, task in enumerate(tasks):
-        prefix = task_prefix(names, i)
-        for key, value in task.measure(k, data).items():
-            measured.setdefault(f"{prefix}.{key}", [np.nan] * k).append(float(value))
 
 
 def _schedule(model: BodyModel, pushes, h: float, nbody: int):

@@ -273,7 +273,7 @@ def clearance(mj, data, centres: np.ndarray, radii: np.ndarray) -> float:
 
 
 def factory(centres_at, radii: np.ndarray, objects: list[int] | None = None, **options):
-    """A ``mpc.TaskFactory``; ``centres_at(seconds)`` gives ``(K, J, 3)`` model-world centres at the
+    """A ``physics.tasks.TaskFactory``; ``centres_at(seconds)`` gives ``(K, J, 3)`` model-world centres at the
     planner's step times (seconds from the clip's start); ``objects`` as for :class:`ObstacleTask`."""
 
     def make(plan, ref_q):

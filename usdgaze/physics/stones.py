@@ -61,6 +61,7 @@ CONTACT_MIN_S = 0.05
 POSITION_SCALE = 3.0  # the position residual in thirds of a metre (see the module docstring)
 START_ON_M = 0.01  # a contact under way at the first frame keeps a stone only this close to its footfall
 LANDING_S = 0.3  # a simulated foot must come down this close in time to the reference's footfall
+CUT_SHORT = "by the shot's end"  # a footfall the shot ends before its LANDING_S is up: said so
 DOWN_M = 0.02  # a simulated foot is down with the lowest point of its capsules this near the ground
 # The task looks this far into the planner's window and no further: costed over a whole 0.8 or 1.0 s
 # window, every stones shot tried fell (``physics.lookahead``). A stones shot's window is 1.0 s.
@@ -255,13 +256,21 @@ class StoneTask:
                 if _lasting(down & (nearest == ref[a]), lasting)[max(a - reach, 0): a + reach + 1].any():
                     continue
                 if seconds[a] + LANDING_S > seconds[-1] + 1e-9:
-                    out.append(f"{name} not down on {self.names[ref[a]]} by the shot's end at {seconds[-1]:.2f} s "
+                    out.append(f"{name} not down on {self.names[ref[a]]} {CUT_SHORT} at {seconds[-1]:.2f} s "
                                f"(its sole then {100 * sole[-1, f]:.1f} cm up, moving {speed[-1, f]:.2f} m/s; the "
                                f"reference's contact from {seconds[a]:.2f} s)")
                 else:
                     out.append(f"{name} not down on {self.names[ref[a]]} within {LANDING_S:.1f} s of "
                                f"{seconds[a]:.2f} s (the reference's contact)")
         return out
+
+    @staticmethod
+    def mendable(problem: str) -> bool:
+        """Whether another simulation could mend a problem of ``problems``: not a footfall the shot
+        ends before its ``LANDING_S`` is up (the simulated foot may land that long after the
+        reference's, and no simulation has more of the shot to land it in: retrying one cost the
+        stones test's scene a third simulation with the same problem)."""
+        return CUT_SHORT not in problem
 
     def _on_ground(self, qpos: np.ndarray):
         """Per step and foot: its capsules' lowest point's height ``(K, F)``, the slower of its heel's
@@ -297,7 +306,7 @@ def _lasting(low: np.ndarray, steps: int) -> np.ndarray:
 
 def factory(stones: np.ndarray, frames: tuple[np.ndarray, np.ndarray] | None = None, weight: float = W_TSK,
             names: list[str] | None = None):
-    """A ``mpc.TaskFactory`` for stones at model-world positions ``(S, 3)``; ``frames`` and ``names``
+    """A ``physics.tasks.TaskFactory`` for stones at model-world positions ``(S, 3)``; ``frames`` and ``names``
     as for :class:`StoneTask` (the reference ``qpos`` at its frames, seconds from the start; the
     stones' prim paths, for reports)."""
     return lambda plan, ref_q: StoneTask(plan, ref_q, stones, weight, frames, names)

@@ -25,6 +25,7 @@ import numpy as np
 
 from usdgaze.physics import mpc
 from usdgaze.physics.model import BodyModel
+from usdgaze.physics.tasks import TaskFactory
 from usdgaze.planning.compose import CostSum, Stacked
 from usdgaze.vision import eye as eyemod
 from usdgaze.vision import loop
@@ -96,7 +97,7 @@ class _Problem:
 
 
 def simulate(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarray, things: list[loop.Thing],
-             options: Options = Options(), pushes: tuple[mpc.Push, ...] = (), tasks: Sequence[mpc.TaskFactory] = (),
+             options: Options = Options(), pushes: tuple[mpc.Push, ...] = (), tasks: Sequence[TaskFactory] = (),
              progress=None, ahead: tuple[np.ndarray, np.ndarray] | None = None) -> Result:
     """Simulate body, eyes and belief over the reference's length; ``things``' positions per step of h
     (``ahead``: see :func:`usdgaze.physics.mpc.prepare`)."""
