@@ -1,5 +1,6 @@
 """Hypothesis profiles: ``ci`` (default; fixed, derandomized, small) and ``long`` (USDGAZE_FUZZ=long);
-matplotlib figures a test drew and did not close are closed after it."""
+matplotlib figures a test drew and did not close are closed after it; the suite's worker processes
+(pytest-xdist, ``-n auto`` in pyproject.toml): one per core this process may run on, at most 8."""
 
 import os
 import sys
@@ -19,3 +20,11 @@ def _close_figures():
     plt = sys.modules.get("matplotlib.pyplot")
     if plt is not None:
         plt.close("all")
+
+
+def pytest_xdist_auto_num_workers(config) -> int:
+    """One worker per core this process may run on (a CI container's share, not the host's), at most 8:
+    each worker imports USD, MuJoCo and the package (~0.5 GB), and the longest test file alone
+    (the coupled physics shots) sets the suite's floor well before 8."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, 8))

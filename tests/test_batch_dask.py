@@ -14,7 +14,8 @@ from .test_pipeline import THREE, _samples, _status, _summary, _tree
 
 def test_shots_run_as_tasks_on_a_dask_cluster(tmp_path):
     manifest = _tree(tmp_path, THREE)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+    # the dashboard on a free port: test processes side by side (pytest -n) would clash over 8787
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
             Client(cluster) as client:
         pids = {f"{host}:{pid}" for host, pid in
                 ((os.uname().nodename, p) for p in client.run(os.getpid).values())}
@@ -88,7 +89,7 @@ def test_a_worker_running_shots_on_several_threads_writes_what_one_thread_does(t
     for k, (_, name, _) in enumerate(jobs):
         (tmp_path / name).write_bytes((tmp_path / ("walk2.usdc" if k % 2 else "walk1.usdc")).read_bytes())
     stderr = os.fstat(2)
-    with LocalCluster(n_workers=1, threads_per_worker=4, processes=False, dashboard_address=None) as cluster, \
+    with LocalCluster(n_workers=1, threads_per_worker=4, processes=False, dashboard_address=":0") as cluster, \
             Client(cluster):
         assert main(["batch", str(manifest), "--dask", cluster.scheduler_address]) == 0
     assert _status(_summary(manifest)) == {n: "done" for n, _, _ in jobs}

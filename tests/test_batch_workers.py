@@ -76,8 +76,9 @@ def test_a_dask_task_whose_worker_dies_fails_its_shot_and_the_others_run(tmp_pat
         return real(shot, force, limit)
 
     monkeypatch.setattr(engine, "run_shot", run_shot)
+    # the dashboard on a free port: test processes side by side (pytest -n) would clash over 8787
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
-            LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
         assert main(["batch", str(manifest), "--dask", cluster.scheduler_address]) == 1
     summary = json.loads((tmp_path / "jobs.summary.json").read_text())
     assert {r["name"]: r["status"] for r in summary["shots"]} == {"a": "done", "boom": "internal error", "c": "done"}

@@ -13,7 +13,9 @@ from usdgaze.physics.dynamics import MujocoBody
 class Task(Protocol):
     """A task term of the paper's cost (catch, stones, obstacles): a ``ddp.Cost`` over the planner's
     state, summed with the tracking cost, plus what it measures on the simulated body after each step
-    (``data``: a ``mujoco.MjData`` at the new state, kinematics done) for the shot's report."""
+    (``data``: a ``mujoco.MjData`` at the new state, kinematics done) for the shot's report. It may
+    also judge the whole run (``problems(qpos, seconds)``, in words) and say which of those another
+    simulation could not mend (``mendable(problem)``; without it, every one could)."""
 
     name: str
 
