@@ -2,7 +2,7 @@
 obstacles) authored on it, the test's seeded obstacle crossings, and the contact measure on the written
 layer (UsdSkel FK of the bones against USD's own transforms of the spheres).
 
-Used by tests/test_physics_tasks.py and by benchmarks/bench_physics.py (``--tasks obstacles-coupled``).
+Used by tests/test_physics_obstacles.py and by benchmarks/bench_physics.py (``--tasks obstacles-coupled``).
 """
 
 from __future__ import annotations

@@ -274,7 +274,7 @@ def test_the_lunge_lands_with_no_foot_in_the_floor_where_the_reference_puts_one(
     ``footBelowGroundM`` (MuJoCo's geoms) agrees with it where their times meet. (The model before the
     foot contacts stiffened with depth also kept this excerpt within 2 cm, 1.5 cm; it failed the whole
     walk on push-offs: docs/physics.md.)"""
-    from .test_physics_tasks import cut
+    from .obstacle_stages import cut
 
     src = cut(tmp_path / "lunge.usda", 2.6, 3.2)
     out = tmp_path / "landed.usda"
@@ -440,7 +440,7 @@ def test_feet_the_soft_ground_let_sink_are_written_lifted_out_by_their_legs(tmp_
     lifted ones are on the ground (within what nlerp between steps gives); the two layers differ only
     in the thighs and shanks (every other joint, the root's motion included, bit-identical: the same
     simulation); the report's sink is the raw run's depth."""
-    from .test_physics_tasks import cut
+    from .obstacle_stages import cut
 
     src = cut(tmp_path / "lunge.usda", 2.6, 3.2)
     reports, lows, rotations = [], [], []

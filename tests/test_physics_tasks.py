@@ -1,16 +1,11 @@
-"""The physics tasks of the second seed (section 7) on the MuJoCo body: stepping stones and moving
-obstacles, authored in the stage and measured on the WRITTEN layer by UsdSkel forward kinematics.
-
-Stones: an excerpt of the CMU walk (1.0-2.5 s) with a stone at each reference footfall, found from
-the toes' height and speed in the capture, the right foot's swing stone displaced 15 cm; the feet
-measured against the stones on the written layer (the bar, four directions, is not met in all of
-them: docs/physics.md). The whole bar in one shot: the walk (4.0-5.5 s) with stepping_stones.usda's
-stones as objects and physics stones, one displaced 15 cm, eyes, belief and body in one loop
-(tests/stone_stages.py).
-Obstacles: spheres coming at the walker from ahead near the reference's own position and time
-(tests/obstacle_stages.py), measured against the written body's bones (joint to parent joint, 8 cm
-thick). Each new cost term's gradient is checked against central differences; each solve's cost
-decreases.
+"""The stepping stones of the second seed (section 7) on the MuJoCo body, authored in the stage and
+measured on the WRITTEN layer by UsdSkel forward kinematics: an excerpt of the CMU walk (1.0-2.5 s)
+with a stone at each reference footfall, found from the toes' height and speed in the capture, the
+right foot's swing stone displaced 15 cm; the feet measured against the stones on the written layer
+(the bar, four directions, is not met in all of them: docs/physics.md). The stones' verdict, their
+cost's derivatives against central differences, and a solve with both tasks (stones and obstacles)
+whose cost decreases. The whole bar in one coupled shot: test_physics_stones_bar.py; the obstacles:
+test_physics_obstacles.py.
 """
 
 from __future__ import annotations
@@ -19,15 +14,15 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from pxr import Sdf, Usd
+from pxr import Sdf
 
 from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import mpc, obstacles, stones
 from usdgaze.physics.tasks import judge_tasks
 
 from . import measure, stone_stages
-from .attend_support import compose, positions
-from .obstacle_stages import RADIUS_M, add_objects, cut, gaps, obstacle_scene
+from .attend_support import compose
+from .obstacle_stages import add_objects, cut
 
 SKEL = "/root/Body/BodySkel"
 SPAN = (1.0, 2.5)  # seconds of the walk: the right foot's 0.8 s swing lands at 1.9 s
@@ -38,7 +33,6 @@ TOES = ("LeftToe", "RightToe")
 # (displaced 10 cm, its first shuffle lands 7-13 cm off: docs/physics.md).
 SHIFT = {"LeftToe": 0.0, "RightToe": 0.15}
 TOWARD = np.array([-0.975, 0.0, 0.223])  # the stage's -X, 13 deg toward +Z
-OBSTACLE_SEED = 6  # spheres from ahead (obstacle_stages.crossing): the reference walks 24 cm into one
 
 
 def contacts(posed: measure.Posed, toe: str, tcps: float) -> list[tuple[int, int]]:
@@ -120,88 +114,6 @@ def test_stone_terms_are_in_the_layer_and_the_input_is_untouched(stepped):
     keys = [k for k in frames if k.startswith("stones.")]
     assert sorted(keys) == ["stones.LeftAnkle.stoneDistanceM", "stones.RightAnkle.stoneDistanceM"]
     assert all(len(frames[k]) == len(frames["seconds"]) for k in keys)
-
-
-BAR_SPAN = (4.0, 5.5)  # seconds of the walk: the right foot lifts 0.7 s in and lands on Stone10 at 1.3 s
-# The command's defaults: h 0.02 (at 0.03 this walk falls with the stones' task, docs/physics.md), the
-# stones' 1.0 s window (their task costed on its first 0.6 s, physics.lookahead), a shot with a problem
-# simulated again with two iterations a step and four where that fails too, the best written. The bar
-# is the command's: the command writes the attempt it keeps. All four directions and three
-# observation seeds are benchmarks/bench_physics.py --tasks stones-bar's (12 of 12 with this window,
-# docs/physics-log.md, "The stones' look-ahead"); this one, +X, stood at its first simulation there.
-BAR_OPTIONS = mpc.Options(h=0.02)
-MOVED = {"Stone10": np.array([0.15, 0.0, 0.0])}  # displaced 15 cm toward the stage's +X
-
-
-def test_one_coupled_shot_stands_on_a_displaced_stone_after_looking_at_it(tmp_path):
-    """The issue's whole stones bar in ONE shot: eyes, belief, body and the stones' physics task on
-    the walk, stepping_stones.usda's stones as GazeObjectAPI objects, each important from the
-    previous swing start until its own foot lifts (the paper's order), Stone10 displaced 15 cm from
-    the right foot's footfall. By UsdSkel FK on the written layer: no fall; every stone stepped on is
-    within 5 cm (the written toe's mean ground-plane distance over the reference's contact:
-    Stone10 2.0 cm, Stone09 2.4 cm, simulated once on one machine); that the foot is on the ground
-    there is the report's verdict, not asserted here (the loop is chaotic and the landing falls 0.2 s
-    before the shot's end, docs/physics-log.md, "Floating feet"); for each stone whose written foot
-    lifts at least 0.4 s in (the planner's start, as attend's test) the line of sight comes within 5
-    deg of it (or the point of sight within 0.3 m) before that lift (Stone10: 0.8 deg). The shot has
-    stones, so its window is theirs."""
-    src = stone_stages.walk_stage(tmp_path / "walk.usda", *BAR_SPAN, until_lift=True, task=True, shift=MOVED)
-    out = tmp_path / "stepped.usda"
-    report = physics_pass.run(src, out, BAR_OPTIONS)[0]
-    rows = stone_stages.gaze_before_lift(tmp_path, src, out, MOVED)
-    judged = [r for r in rows if r.lift_s >= 0.4]
-    assert report.window_s == 1.0
-    assert not report.fell and [r.stone for r in judged] == list(MOVED), (rows, report.problems)
-    assert all(r.ref_miss_m <= 0.05 for r in rows), rows
-    assert all(r.reached for r in judged), judged
-
-
-def _first_estimate(layer: Sdf.Layer, obj: str) -> float:
-    """The first time code at which the written inspection prims hold an estimate of ``obj``."""
-    for char in layer.GetPrimAtPath("/UsdGazeAttend").nameChildren:
-        for child in char.nameChildren:
-            if child.attributes["gaze:attend:object"].default == obj:
-                est = child.attributes["gaze:attend:estimate"].path
-                return next(t for t in layer.ListTimeSamplesForPath(est)
-                            if np.all(np.isfinite(layer.QueryTimeSample(est, t))))
-    raise AssertionError(f"no inspection prim for {obj}")
-
-
-def test_approaching_obstacles_the_reference_walks_into_are_seen_and_not_touched(tmp_path):
-    """One of the five seeded runs of the bar (docs/physics.md: no contact in the 5 approaching
-    scenes): with the eyes and belief coupled and the cost on the body's capsules, two spheres coming
-    at the walker from ahead, both of which the reference walks into (24 and 9 cm deep). The shallower
-    one starts 66 deg off the head's forward, 1.2 m away: only its edge (asin(0.25 / 1.2) = 12 deg) is
-    in the field of view, and it is tracked from the first frame (the written inspection prims, the
-    angle by UsdSkel FK of the written head; as a point it was never seen before it touched,
-    docs/physics.md). The simulated body, by UsdSkel FK on the written layer, clears both (by 6.0 cm
-    when measured), does not fall, and the report agrees."""
-    src, prims = obstacle_scene(tmp_path, OBSTACLE_SEED, toward=True)
-    ref = measure.posed(str(src), SKEL)
-    assert gaps(ref, src, prims, RADIUS_M).min() < -0.2  # the reference walks into one
-    out = tmp_path / "avoided.usda"
-    report = physics_pass.run(src, out, OPTIONS)[0]
-    composed = compose(tmp_path, src, out)
-    posed = measure.posed(str(composed), SKEL)
-    after = gaps(posed, composed, prims, RADIUS_M)
-    assert after.min() > 0 and not report.fell, (after.min(), report.problems)
-    layer = Sdf.Layer.FindOrOpen(str(out))
-    frames = layer.customLayerData["usdgaze:physics"][SKEL]["frames"]
-    assert max(frames["obstacles.proximity"][1:]) > 0.1  # the belief saw them coming
-    touched = min(frames["obstacles.clearanceM"][1:]) < 0
-    assert touched == any("touched an obstacle" in p for p in report.problems)
-    # At the first frame, by UsdSkel FK of the written head: the sphere farthest off its forward has
-    # its centre outside +-60 deg and its edge inside; both are tracked from that frame on.
-    fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
-    head_fwd = posed.axis("Head", measure.local_forward(posed, "Head", fwd))[0]
-    eyes = 0.5 * (posed.position("LeftEye")[0] + posed.position("RightEye")[0])
-    stage = Usd.Stage.Open(str(composed))
-    to = np.array([positions(stage, p, posed.times[:1])[0] for p in prims]) - eyes
-    dist = np.linalg.norm(to, axis=1)
-    off = np.degrees(np.arccos(to @ head_fwd / dist))
-    edge = np.degrees(np.arcsin(RADIUS_M / dist))
-    assert 63 < off.max() and np.all(off - edge < 60), (off, edge)
-    assert all(_first_estimate(layer, p) == posed.times[0] for p in prims)
 
 
 @pytest.fixture(scope="module")
@@ -352,58 +264,6 @@ def test_a_toe_that_only_brushes_the_ground_for_a_step_is_not_down(body):
             dipped[a:a + steps, 2] = pinned[a:a + steps, 2]
             lines = [p for p in task.problems(dipped, seconds) if p.startswith(line) and f"{seconds[a]:.2f} s" in p]
             assert bool(lines) is said, (f, a, steps)
-
-
-@pytest.mark.parametrize("form", ["body", "root"])
-def test_obstacle_cost_derivatives_match_central_differences(body, form):
-    """Both forms (ours on every capsule, the paper's on the root), six obstacles (the four nearest
-    kept), running and terminal (with the extrapolated sub-window: position and velocity)."""
-    dyn, ref_q, _ = body
-    rng = np.random.default_rng(1)
-    t = 0.03 * np.arange(len(ref_q))
-    centres = ref_q[:, None, :3] + rng.normal(0, 0.4, (1, 6, 3)) + np.outer(t, [0.8, -0.3, 0])[:, None]
-    centres[:, :, 2] = np.abs(centres[:, :, 2])  # above the ground, at the body's height
-    task = obstacles.ObstacleTask(dyn, centres, np.full(6, 0.25), form=form)
-    for k in (3, 30):
-        x = dyn.to_state(ref_q[k], rng.normal(0, 0.5, dyn.nv))
-        u = np.zeros(dyn.nu)
-        lx, _, lxx, _, _ = task.derivs(x, u, k)
-        assert task.l(x, u, k) > 0.05
-        assert _rel(lx, _central(lambda z: task.l(z, u, k), x)) <= 1e-4
-        tx, txx = task.terminal_derivs(x, k)
-        assert np.abs(tx[dyn.nv:dyn.nv + 2]).max() > 0
-        assert _rel(tx, _central(lambda z: task.terminal(z, k), x)) <= 1e-4
-        assert np.all(np.linalg.eigvalsh(lxx) > -1e-9) and np.all(np.linalg.eigvalsh(txx) > -1e-9)
-        if form == "root":
-            p = x[:2].copy()
-            assert _rel(task.exact_hessian(p, k), _central(lambda z: task._terms(z, k)[1], p)) <= 1e-4
-        else:  # more than the root moves the cost: the arms and legs have gradients of their own
-            assert np.count_nonzero(np.abs(lx[6:dyn.nv]) > 1e-6 * np.abs(lx).max()) > 10
-
-
-def test_capsule_point_jacobians_match_central_differences(body):
-    """What the body form's gradient and Gauss-Newton Hessian are built on: ``v @ dp/dq`` for
-    points fixed on the capsules (hand, head, shin), against differences of the posed point."""
-    dyn, ref_q, _ = body
-    caps = obstacles.Capsules(dyn)
-    rng = np.random.default_rng(2)
-    x = dyn.to_state(ref_q[10])
-    x[:dyn.nv] += rng.normal(0, 0.1, dyn.nv)
-    xb = x[: 2 * dyn.nv]
-    geoms = np.array([len(caps.geoms) - 5, len(caps.geoms) // 2, 3])
-    bodies = caps.body[geoms]
-    xpos, xmat = caps.points.pose(xb)
-    local = rng.normal(0, 0.05, (3, 3))
-    p = xpos[bodies] + np.einsum("nij,nj->ni", xmat[bodies], local)
-    vecs = rng.normal(0, 1, (3, 3))
-    caps.segments(xb)
-    got = caps.project(xb, geoms, p, vecs)
-
-    def posed(q):
-        xp, xm = caps.points.pose(np.r_[q, xb[dyn.nv:]])
-        return np.sum(vecs * (xp[bodies] + np.einsum("nij,nj->ni", xm[bodies], local)), axis=1)
-
-    assert _rel(got, _central(posed, xb[: dyn.nv]).T) <= 1e-6
 
 
 def test_each_solve_with_both_tasks_decreases_the_cost(body):
