@@ -22,12 +22,9 @@ from usdgaze.vision import loop
 
 from . import catch_stages as cs
 from . import measure
+from .differences import central
 
 H = 0.03
-
-
-def _central(f, x, eps=1e-6):
-    return np.array([(f(x + e) - f(x - e)) / (2 * eps) for e in np.eye(len(x)) * eps])
 
 
 def _gaze(posed):
@@ -67,15 +64,15 @@ def test_catch_term_gradient_and_gauss_newton_hessian_match_central_differences(
     prob, task, x, u = problem
     assert task.weight(0, H) == task.o.w_proactive
     lx, _, lxx, _, _ = task.derivs(x, u, 0)
-    num = _central(lambda z: task.l(z, u, 0), x)
+    num = central(lambda z: task.l(z, u, 0), x)
     assert np.linalg.norm(num) > 1.0 and np.linalg.norm(lx - num) / np.linalg.norm(num) < 1e-4
     xs = task.dyn.xs
-    J = _central(lambda z: task._residuals(z[xs][None], False)[0][0], x).T  # residual Jacobian
+    J = central(lambda z: task._residuals(z[xs][None], False)[0][0], x).T  # residual Jacobian
     assert np.linalg.norm(lxx - 2 * task.weight(0, H) * J.T @ J) / np.linalg.norm(lxx) < 1e-4
     # The lateral term is live beyond the free band: move the feet 40 cm off the arrival's side.
     task.arrival = (0.3, task.arrival[1] + 0.7 * task.left)
     lx2 = task.derivs(x, u, 0)[0]
-    num2 = _central(lambda z: task.l(z, u, 0), x)
+    num2 = central(lambda z: task.l(z, u, 0), x)
     assert abs(task._residuals(x[xs][None], False)[0][0, 3]) > 1.0
     assert np.linalg.norm(lx2 - num2) / np.linalg.norm(num2) < 1e-4
     task.arrival = (0.3, task.arrival[1] - 0.7 * task.left)
@@ -95,9 +92,9 @@ def test_catch_window_derivatives_match_central_differences_of_each_step(problem
     assert c[2] == 0.0 and not lx[2].any() and not lxx[2].any() and not (lu.any() or luu.any() or lux.any())
     xs = task.dyn.xs
     for i in range(2):
-        num = _central(lambda z: task.cost_batch(np.r_[X[:i], z[None], X[i + 1:]], U, k0)[i], X[i])
+        num = central(lambda z: task.cost_batch(np.r_[X[:i], z[None], X[i + 1:]], U, k0)[i], X[i])
         assert c[i] > 1.0 and np.linalg.norm(lx[i] - num) / np.linalg.norm(num) < 1e-4
-        J = _central(lambda z: task._residuals(z[xs][None], False)[0][0], X[i]).T
+        J = central(lambda z: task._residuals(z[xs][None], False)[0][0], X[i]).T
         assert np.linalg.norm(lxx[i] - 2 * task.o.w_proactive * J.T @ J) / np.linalg.norm(lxx[i]) < 1e-4
 
 
@@ -150,9 +147,9 @@ def test_coupled_cost_gradient_matches_central_differences(problem):
     prob, _, x, u = problem
     cost = prob.cost
     lx, lu = cost.derivs(x, u, 0)[:2]
-    num = _central(lambda z: cost.l(z, u, 0), x)
+    num = central(lambda z: cost.l(z, u, 0), x)
     assert np.linalg.norm(lx - num) / np.linalg.norm(num) < 1e-4
-    num_u = _central(lambda v: cost.l(x, v, 0), u)
+    num_u = central(lambda v: cost.l(x, v, 0), u)
     assert np.linalg.norm(lu - num_u) / np.linalg.norm(num_u) < 1e-4
     b0 = prob.stack["belief"].xs.start
     assert abs(lx[b0 + 7]) > 0  # the velocity variance is in the cost (scaled by h^2)

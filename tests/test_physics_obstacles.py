@@ -14,6 +14,7 @@ from usdgaze.physics import mpc, obstacles
 
 from . import measure, stone_stages
 from .attend_support import compose, positions
+from .differences import central, rel
 from .obstacle_stages import RADIUS_M, gaps, obstacle_scene
 
 SKEL = "/root/Body/BodySkel"
@@ -74,14 +75,6 @@ def body():
     return stone_stages.walk_body(0.03)
 
 
-def _central(f, x, eps=1e-6):
-    return np.array([(f(x + e) - f(x - e)) / (2 * eps) for e in np.eye(len(x)) * eps])
-
-
-def _rel(a, b):
-    return np.linalg.norm(a - b) / np.linalg.norm(b)
-
-
 @pytest.mark.parametrize("form", ["body", "root"])
 def test_obstacle_cost_derivatives_match_central_differences(body, form):
     """Both forms (ours on every capsule, the paper's on the root), six obstacles (the four nearest
@@ -97,14 +90,14 @@ def test_obstacle_cost_derivatives_match_central_differences(body, form):
         u = np.zeros(dyn.nu)
         lx, _, lxx, _, _ = task.derivs(x, u, k)
         assert task.l(x, u, k) > 0.05
-        assert _rel(lx, _central(lambda z: task.l(z, u, k), x)) <= 1e-4
+        assert rel(lx, central(lambda z: task.l(z, u, k), x)) <= 1e-4
         tx, txx = task.terminal_derivs(x, k)
         assert np.abs(tx[dyn.nv:dyn.nv + 2]).max() > 0
-        assert _rel(tx, _central(lambda z: task.terminal(z, k), x)) <= 1e-4
+        assert rel(tx, central(lambda z: task.terminal(z, k), x)) <= 1e-4
         assert np.all(np.linalg.eigvalsh(lxx) > -1e-9) and np.all(np.linalg.eigvalsh(txx) > -1e-9)
         if form == "root":
             p = x[:2].copy()
-            assert _rel(task.exact_hessian(p, k), _central(lambda z: task._terms(z, k)[1], p)) <= 1e-4
+            assert rel(task.exact_hessian(p, k), central(lambda z: task._terms(z, k)[1], p)) <= 1e-4
         else:  # more than the root moves the cost: the arms and legs have gradients of their own
             assert np.count_nonzero(np.abs(lx[6:dyn.nv]) > 1e-6 * np.abs(lx).max()) > 10
 
@@ -131,4 +124,4 @@ def test_capsule_point_jacobians_match_central_differences(body):
         xp, xm = caps.points.pose(np.r_[q, xb[dyn.nv:]])
         return np.sum(vecs * (xp[bodies] + np.einsum("nij,nj->ni", xm[bodies], local)), axis=1)
 
-    assert _rel(got, _central(posed, xb[: dyn.nv]).T) <= 1e-6
+    assert rel(got, central(posed, xb[: dyn.nv]).T) <= 1e-6

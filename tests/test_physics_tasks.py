@@ -22,6 +22,7 @@ from usdgaze.physics.tasks import judge_tasks
 
 from . import measure, stone_stages
 from .attend_support import compose
+from .differences import central, rel
 from .obstacle_stages import add_objects, cut
 
 SKEL = "/root/Body/BodySkel"
@@ -121,14 +122,6 @@ def body():
     return stone_stages.walk_body(0.03)
 
 
-def _central(f, x, eps=1e-6):
-    return np.array([(f(x + e) - f(x - e)) / (2 * eps) for e in np.eye(len(x)) * eps])
-
-
-def _rel(a, b):
-    return np.linalg.norm(a - b) / np.linalg.norm(b)
-
-
 def test_stone_cost_gradient_matches_central_differences(body):
     dyn, ref_q, frames = body
     task = stones.StoneTask(dyn, ref_q, np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]]), frames=frames)
@@ -142,12 +135,12 @@ def test_stone_cost_gradient_matches_central_differences(body):
         u = np.zeros(dyn.nu)
         lx, lu, lxx, luu, lux = task.derivs(x, u, k)
         assert task.l(x, u, k) > 0.01 and not lu.any()
-        assert _rel(lx, _central(lambda z: task.l(z, u, k), x)) <= 1e-4
-        assert _rel(task.terminal_derivs(x, k)[0], _central(lambda z: task.terminal(z, k), x)) <= 1e-4
+        assert rel(lx, central(lambda z: task.l(z, u, k), x)) <= 1e-4
+        assert rel(task.terminal_derivs(x, k)[0], central(lambda z: task.terminal(z, k), x)) <= 1e-4
         # Gauss-Newton: 2 w J'J with J the residuals' Jacobian, itself checked against differences.
         for r, J in task._residuals(x[dyn.xs], k, True):
-            num = _central(lambda z: task._residuals(np.r_[z, x[dyn.nv:]], k, False)[0][0], x[:dyn.nv]).T
-            assert _rel(J, num) <= 1e-4
+            num = central(lambda z: task._residuals(np.r_[z, x[dyn.nv:]], k, False)[0][0], x[:dyn.nv]).T
+            assert rel(J, num) <= 1e-4
             break
         assert np.all(np.linalg.eigvalsh(lxx) > -1e-9)
 

@@ -14,6 +14,8 @@ from usdgaze.physics import build, mpc, retarget
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.tracking import BodyTracking, resample, velocities
 
+from .differences import central, rel
+
 CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 H = 0.03
 STEPS = 12  # the reference's steps; windows of N start before its end and run past it
@@ -36,23 +38,15 @@ def problem():
     return dyn, tracking, X, U, k0
 
 
-def _central(f, x, eps=1e-6):
-    return np.array([(f(x + e) - f(x - e)) / (2 * eps) for e in np.eye(len(x)) * eps])
-
-
-def _rel(a, b):
-    return np.linalg.norm(a - b) / max(np.linalg.norm(b), 1e-300)
-
-
 def test_tracking_gradient_matches_central_differences_before_the_references_end(problem):
     dyn, tr, X, U, k0 = problem
     for i in (0, 3):  # steps k0 and k0 + 3 = the reference's last
         k = k0 + i
         lx, lu, lxx, luu, _ = tr.derivs(X[i], U[i], k)
         assert tr.l(X[i], U[i], k) > 1.0
-        assert _rel(lx, _central(lambda z: tr.l(z, U[i], k), X[i])) <= 1e-5
-        assert _rel(lu, _central(lambda v: tr.l(X[i], v, k), U[i])) <= 1e-5
-        assert _rel(tr.terminal_derivs(X[i], k)[0], _central(lambda z: tr.terminal(z, k), X[i])) <= 1e-5
+        assert rel(lx, central(lambda z: tr.l(z, U[i], k), X[i])) <= 1e-5
+        assert rel(lu, central(lambda v: tr.l(X[i], v, k), U[i])) <= 1e-5
+        assert rel(tr.terminal_derivs(X[i], k)[0], central(lambda z: tr.terminal(z, k), X[i])) <= 1e-5
         # Gauss-Newton in the head vector, exact in the state and the controls: positive semi-definite.
         assert np.linalg.eigvalsh(lxx).min() > -1e-9 and np.linalg.eigvalsh(luu).min() > 0
 
