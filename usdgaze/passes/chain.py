@@ -105,7 +105,6 @@ def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: Pass
 def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray, base: Pose
                  ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
     """New local rotations along the chain (parents first) and their new world rotations."""
-    f = len(disp)
     canon = frame.rotation  # canonical -> skeleton space
     counts = np.zeros(4, dtype=int)
     for role, seg in SEGMENT_OF_ROLE.items():
@@ -125,7 +124,9 @@ def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray
     for j in chain.path:
         _, q_j, _ = rig.local(j)
         p = int(rig.parents[j])
-        parent_world = new_world.get(p, base.rotation.get(p)) if p >= 0 else np.tile(rot.IDENTITY, (f, 1))
+        # A root's parent frame is skeleton space: its products by the identity are left out (they
+        # change no value, only the sign of a zero, and the next product's sums keep no such zero).
+        parent_world = new_world.get(p, base.rotation.get(p)) if p >= 0 else None
         role = role_of.get(j)
         if j in turned:
             new_rot[j] = turned[j]
@@ -137,8 +138,10 @@ def _drive_chain(rig: Rig, chain: Chain, frame: CharacterFrame, disp: np.ndarray
             flat = facing - np.outer(facing @ frame.up, frame.up)
             heading = np.arctan2(rot.cross(frame.forward, flat) @ frame.up, flat @ frame.forward)
             q_world = rot.conjugate_into(rot.multiply(rot.from_axis_angle(frame.up, heading), canon), spread[run, 0])
-            new_rot[j] = rot.normalized_product(rot.conjugate_into(rot.conjugate(parent_world), q_world), q_j)
-        new_world[j] = rot.normalized_product(parent_world, new_rot[j])
+            if parent_world is not None:
+                q_world = rot.conjugate_into(rot.conjugate(parent_world), q_world)
+            new_rot[j] = rot.normalized_product(q_world, q_j)
+        new_world[j] = rot.normalize(new_rot[j]) if parent_world is None else rot.normalized_product(parent_world, new_rot[j])
     return new_rot, new_world
 
 
