@@ -81,6 +81,7 @@ def tokens(joint: str) -> tuple[str, ...]:
     return tuple(out)
 
 
+@functools.lru_cache(maxsize=4096)  # as tokens: asked for every joint of every character bound
 def side(joint: str) -> int:
     """+1 for a left-side joint name, -1 for right, 0 for neither (or both)."""
     words = set(tokens(joint))
@@ -88,6 +89,7 @@ def side(joint: str) -> int:
     return int(left) - int(right)
 
 
+@functools.lru_cache(maxsize=4096)
 def mirror_key(joint: str, numbers: bool = True) -> str:
     """The name with its side word blanked: a left joint and its right twin share it.
 
