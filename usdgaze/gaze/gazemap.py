@@ -106,9 +106,11 @@ class ParametricGazeMap:
         self.high = self.sample_params.max(axis=0)
 
     # -- measuring -------------------------------------------------------------------------
-    def _measure(self, weights: np.ndarray) -> np.ndarray:
-        """Measured (yaw, pitch) of blends; yaw unwrapped near the blend's mean example yaw."""
-        share = motion.blend_shares(weights)  # the blend's and its hint's normalized weights
+    def _measure(self, weights: np.ndarray, checked: bool = False) -> np.ndarray:
+        """Measured (yaw, pitch) of blends; yaw unwrapped near the blend's mean example yaw.
+        ``checked``: float weights known non-negative with a positive sum per blend (a correction's)."""
+        # The blend's and its hint's normalized weights (blend_shares' division, less its checks).
+        share = weights / weights.sum(axis=-1, keepdims=True) if checked else motion.blend_shares(weights)
         offsets = motion.mixed_offsets(share @ self._table)
         hint = share @ self.params[:, 0]
         return motion.achieved_gaze(offsets, hint)
@@ -148,12 +150,12 @@ class ParametricGazeMap:
         score = np.where(weights > 1e-9, -1.0, dist_by_example)
         cand = np.argsort(score, axis=1, kind="stable")[:, :c]  # (Q, C) example indices
         rows, probed = np.arange(q)[:, None], (np.arange(q)[:, None], np.arange(c)[None, :], cand)
-        achieved = self._measure(weights)
+        achieved = self._measure(weights, checked=True)
         for _ in range(iterations):
             err = target - achieved
             probe = np.repeat(weights[:, None, :], c, axis=1)
             probe[probed] += eps
-            moved = self._measure(probe.reshape(-1, n)).reshape(q, c, 2)
+            moved = self._measure(probe.reshape(-1, n), checked=True).reshape(q, c, 2)
             jac = np.swapaxes(moved - achieved[:, None, :], 1, 2) / eps  # (Q, 2, C)
             # Projected step: a candidate at zero weight that the step would push negative is
             # held at zero and the step recomputed without it, instead of clipping the step
@@ -175,7 +177,7 @@ class ParametricGazeMap:
             candidates[:, rows, cand] = np.maximum(w_cand + _BACKTRACK[:, None, None] * step, 0.0)
             total = candidates.sum(axis=2, keepdims=True)
             candidates = np.where(total > 0, candidates / np.where(total > 0, total, 1.0), weights)
-            measured = self._measure(candidates.reshape(-1, n)).reshape(len(_BACKTRACK), q, 2)
+            measured = self._measure(candidates.reshape(-1, n), checked=True).reshape(len(_BACKTRACK), q, 2)
             best_err = rot.length(err)
             for candidate, cand_achieved in zip(candidates, measured):
                 cand_err = rot.length(target - cand_achieved)
