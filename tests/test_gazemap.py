@@ -273,6 +273,20 @@ def test_the_timing_only_answer_is_the_uncorrected_querys_timing(default_map):
     assert default_map.timing(200.0, 0.0)[motion.DURATION] > default_map.timing(180.0, 0.0)[motion.DURATION]
 
 
+@pytest.mark.parametrize("asked, timed", [(4, 4), (1, 3), (5, 6), (3, 1)])
+def test_a_query_with_timing_is_the_two_answers_bit_for_bit(default_map, asked, timed):
+    rng = np.random.default_rng(asked * 10 + timed)
+    for _ in range(5):
+        yaw, pitch = rng.uniform(-200, 200, asked), rng.uniform(-45, 45, asked)  # some beyond the samples
+        t_yaw, t_pitch = rng.uniform(-200, 200, timed), rng.uniform(-45, 45, timed)
+        answer, timing = default_map.query_with_timing(yaw, pitch, t_yaw, t_pitch)
+        alone = default_map.query_full(yaw, pitch)
+        for got, want in ((answer.motions.offsets, alone.motions.offsets), (answer.motions.timing, alone.motions.timing),
+                          (answer.weights, alone.weights), (answer.achieved, alone.achieved),
+                          (timing, default_map.timing(t_yaw, t_pitch))):
+            assert np.array_equal(np.asarray(got).view(np.int64), np.asarray(want).view(np.int64))
+
+
 def test_a_map_on_one_line_times_a_request_off_it_by_its_amplitude_not_by_a_vanishing_one(default_map):
     """The built-in examples at pitch 0 only (a map on a line, which is allowed): a request (0, 10)
     clamps to (0, 0), and its duration grew by 10 / 1e-9 (a 2.5e9 s shift that never moved)."""

@@ -207,8 +207,21 @@ class ParametricGazeMap:
 
         ``correct=False`` skips the Gauss-Newton correction: the plain Kovar & Gleicher answer.
         """
-        shape, request, inside, extrapolated = self._clamped(yaw_deg, pitch_deg)
-        weights = self._interpolate(inside)
+        clamped = self._clamped(yaw_deg, pitch_deg)
+        return self._answer(clamped, self._interpolate(clamped[2]), correct)
+
+    def query_with_timing(self, yaw_deg, pitch_deg, timing_yaw, timing_pitch) -> tuple[QueryResult, np.ndarray]:
+        """``query_full(yaw_deg, pitch_deg)`` and ``timing(timing_yaw, timing_pitch)``, bit for bit, with
+        one k-NN interpolation of both sets (each row's weights are its own either way): a scheduler
+        asks for its new shifts and their changes' timing together."""
+        asked, timed = self._clamped(yaw_deg, pitch_deg), self._clamped(timing_yaw, timing_pitch)
+        weights = self._interpolate(np.concatenate([asked[2], timed[2]]))
+        n = len(asked[2])
+        return self._answer(asked, weights[:n]), self._timing_of(timed, weights[n:])
+
+    def _answer(self, clamped: tuple, weights: np.ndarray, correct: bool = True) -> QueryResult:
+        """:meth:`query_full`'s answer from the clamped requests and their k-NN blend weights."""
+        shape, request, inside, extrapolated = clamped
         achieved = np.empty_like(inside) if correct else self._measure(weights)
         for lo in range(0, len(inside) if correct else 0, _CHUNK):
             part = slice(lo, lo + _CHUNK)
@@ -232,8 +245,13 @@ class ParametricGazeMap:
     def timing(self, yaw_deg, pitch_deg) -> np.ndarray:
         """The timing floats ``(..., 7)`` of the uncorrected answer (``query_full(correct=False)``'s,
         bit for bit), for callers that need only when a shift's segments move: no offsets are built."""
-        shape, request, inside, extrapolated = self._clamped(yaw_deg, pitch_deg)
-        timing = motion.blend_timing(self._table, self._interpolate(inside))
+        clamped = self._clamped(yaw_deg, pitch_deg)
+        return self._timing_of(clamped, self._interpolate(clamped[2]))
+
+    def _timing_of(self, clamped: tuple, weights: np.ndarray) -> np.ndarray:
+        """:meth:`timing`'s answer from the clamped changes and their k-NN blend weights."""
+        shape, request, inside, extrapolated = clamped
+        timing = motion.blend_timing(self._table, weights)
         if extrapolated.any():
             timing[extrapolated] = self._stretched(timing[extrapolated], request[extrapolated], inside[extrapolated])
         return timing.reshape(shape + (7,))

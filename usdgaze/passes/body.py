@@ -30,13 +30,28 @@ class CachedMap:
         self._timing: dict[tuple[float, float], np.ndarray] = {}
 
     def query(self, yaw_deg, pitch_deg) -> motion.GazeMotions:
+        return self.query_prefetching(yaw_deg, pitch_deg, None)
+
+    def query_prefetching(self, yaw_deg, pitch_deg, changes: np.ndarray | None) -> motion.GazeMotions:
+        """:meth:`query`, with the timing of ``changes (N, 2)`` prefetched as :meth:`prefetch_timing`
+        does: where both miss, the map is asked for both at once (one k-NN interpolation)."""
         yaw, pitch = np.broadcast_arrays(np.asarray(yaw_deg, float), np.asarray(pitch_deg, float))
         keys = list(zip(yaw.ravel().tolist(), pitch.ravel().tolist()))
         missing = [k for k in dict.fromkeys(keys) if k not in self._rows]
+        timed = self._untimed(changes) if changes is not None else []
         if missing:
-            answer = self.map.query(np.array([k[0] for k in missing]), np.array([k[1] for k in missing]))
+            ys, ps = np.array([k[0] for k in missing]), np.array([k[1] for k in missing])
+            if timed and hasattr(self.map, "query_with_timing"):
+                answer, timing = self.map.query_with_timing(ys, ps, np.array([k[0] for k in timed]),
+                                                            np.array([k[1] for k in timed]))
+                answer = answer.motions
+                self._timing.update(zip(timed, timing))
+            else:
+                answer = self.map.query(ys, ps)
             for i, k in enumerate(missing):
                 self._rows[k] = answer[i]
+        if changes is not None:
+            self.prefetch_timing(changes)  # whatever the joint answer did not hold
         rows = [self._rows[k] for k in keys]
         return motion.GazeMotions.of_checked(np.stack([r.offsets for r in rows]).reshape(yaw.shape + (5, 4)),
                                              np.stack([r.timing for r in rows]).reshape(yaw.shape + (7,)))
@@ -50,10 +65,14 @@ class CachedMap:
     def prefetch_timing(self, changes: np.ndarray) -> None:
         """Answer the timing of several changes ``(N, 2)`` in one batch of the map, so that the
         :meth:`timing` calls that follow find them (a scheduler asks one shift at a time)."""
-        keys = [k for k in dict.fromkeys(map(tuple, np.asarray(changes, float).tolist())) if k not in self._timing]
+        keys = self._untimed(changes)
         if keys:
             answer = self.map.timing(np.array([k[0] for k in keys]), np.array([k[1] for k in keys]))
             self._timing.update(zip(keys, answer))
+
+    def _untimed(self, changes: np.ndarray) -> list[tuple[float, float]]:
+        """The distinct changes ``(N, 2)`` whose timing is not known yet, in order."""
+        return [k for k in dict.fromkeys(map(tuple, np.asarray(changes, float).tolist())) if k not in self._timing]
 
     def timing(self, yaw_deg, pitch_deg) -> np.ndarray:
         """The uncorrected answer's timing floats ``(7,)`` for one change (see ``ParametricGazeMap.timing``)."""

@@ -220,11 +220,10 @@ class Scheduler:
             n = 0
         if len(shifts) > n:
             requests = np.array([[s.yaw, s.pitch] for s in shifts], dtype=float)
-            targets = self.map.query(requests[:, 0], requests[:, 1]).offsets
+            targets = self._query(requests, shifts[n:], requests[n:]).offsets
             targets[np.all(requests == 0.0, axis=1)] = rot.IDENTITY
             canons = np.zeros((len(shifts), 2))
             canons[n:] = motion.achieved_gaze(targets[n:], requests[n:, 0])  # the new ones', at once
-            self._prefetch_timing(shifts[n:], requests[n:])
             added = []
             for k in range(n, len(shifts)):
                 # A shift's frames end where the next known one starts (that one writes the rest).
@@ -232,19 +231,19 @@ class Scheduler:
                 added.append(self._append(shifts[k], requests[k], targets[k], canons[k], until))
             self._write(added)
 
-    def _prefetch_timing(self, shifts: list[Shift], requests: np.ndarray) -> None:
-        """The timing of each new shift's change as it is when it interrupts none (from the request
-        before it), asked of a caching map in one batch; :meth:`_append` finds them there (one that
-        interrupts another asks its own)."""
-        prefetch = getattr(self.map, "prefetch_timing", None)
-        if prefetch is None:
-            return
-        before = np.vstack([self.last.request[None] if self.last is not None else np.zeros((1, 2)), requests[:-1]])
-        changes = requests - before
+    def _query(self, requests: np.ndarray, shifts: list[Shift], new: np.ndarray):
+        """The map's motions for all ``requests``; a caching map is also asked, in the same batch, for
+        the timing of each new shift's change as it is when it interrupts none (from the request
+        before it): :meth:`_append` finds them there (one that interrupts another asks its own)."""
+        prefetching = getattr(self.map, "query_prefetching", None)
+        if prefetching is None:
+            return self.map.query(requests[:, 0], requests[:, 1])
+        before = np.vstack([self.last.request[None] if self.last is not None else np.zeros((1, 2)), new[:-1]])
+        changes = new - before
         for i, s in enumerate(shifts):
             if s.timing_change is not None:
                 changes[i] = s.timing_change
-        prefetch(changes)
+        return prefetching(requests[:, 0], requests[:, 1], changes)
 
     def _write(self, added: list[tuple[_Segment, np.ndarray]]) -> None:
         """Evaluate the added segments on their frames: those that interrupt a shift one by one, the
