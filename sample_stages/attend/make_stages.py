@@ -19,6 +19,8 @@
   importance rises to 1 at the swing start before its own (the other foot leaving, in a walk) and
   falls back to 0.05 when its foot lands (the task: see docs/attend.md); each stone is also a
   stepping stone for the physics body (``usdgaze:physics:task = "stone"``);
+* ``stepping_stones_shot.usda``: a shot over it, 4.0-5.5 s of the walk, the right foot's stone there
+  (Stone10) displaced 15 cm: the stones bar's scene for ``attend --physics``;
 * ``obstacles.usda``: the cmu_131_02 walk among eight spheres crossing its path (``usdgaze:physics:task
   = "obstacle"`` for the physics body).
 
@@ -163,6 +165,21 @@ def footfalls(times, world, names, tcps):
     return sorted(out, key=lambda c: c[0])
 
 
+def _stones_shot(first: float, tcps: float) -> None:
+    """``stepping_stones_shot.usda``: a shot's root layer over ``stepping_stones.usda``, 4.0-5.5 s of the
+    walk (the take goes on past it, for the planner), Stone10 (the right foot's footfall at 5.32 s)
+    displaced 15 cm along the stage's +X: the stones bar's scene (docs/physics.md) for ``attend
+    --physics``, which the whole walk from its first frame is not (it falls at its start)."""
+    layer = _new_layer(HERE / "stepping_stones_shot.usda", ["stepping_stones.usda"], first + 480.0, first + 660.0,
+                       tcps)
+    over = Sdf.CreatePrimInLayer(layer, "/Stones/Stone10")
+    over.specifier = Sdf.SpecifierOver
+    at = Sdf.Layer.FindOrOpen(str(HERE / "stepping_stones.usda")).GetPrimAtPath("/Stones/Stone10")
+    x, y, z = at.attributes["xformOp:translate"].default
+    Sdf.AttributeSpec(over, "xformOp:translate", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(x + 0.15, y, z)
+    layer.Save()
+
+
 def main() -> None:
     stage, times, names, world = _posed(CMU / "cmu_131_01.usdc")
     tcps = stage.GetTimeCodesPerSecond()
@@ -211,6 +228,7 @@ def main() -> None:
         for key, value in (("landing", land), ("lift", lift), ("swingStart", swing)):
             Sdf.AttributeSpec(prim, f"userProperties:{key}", Sdf.ValueTypeNames.Double).default = value
     layer.Save()
+    _stones_shot(times[0], tcps)
 
     stage2, times2, names2, world2 = _posed(CMU / "cmu_131_02.usdc")
     hips = world2[:, names2.index("Hips"), 3, :3]
