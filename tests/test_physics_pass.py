@@ -415,8 +415,8 @@ def test_a_shot_with_a_problem_is_simulated_again_and_the_best_attempt_kept():
 
 def test_the_simulated_steps_are_a_bar_on_a_terminal_and_nothing_in_a_log(tmp_path):
     """``attend --physics``'s step bar (``StepBar``) through the pass: a crushed shot falls, is
-    simulated again twice, and the bar shows the three simulations; off a terminal nothing is written
-    (there simulated once: nothing is written for a first simulation or a later one alike)."""
+    simulated again twice, and the bar shows the three simulations; off a terminal (where the shot is
+    simulated once, to save two simulations) nothing is written."""
     import io
 
     from usdgaze.batch.progress import StepBar
