@@ -84,15 +84,15 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
 
 
 def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None,
-               prims: dict[str, list] | None = None) -> list:
+               task_found: dict[str, list] | None = None) -> list:
     """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
     ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
-    the coupled loop's object paths, whose belief the obstacle task then reads; ``prims``: the task
-    prims ``task_prims`` found (None: found here)."""
+    the coupled loop's object paths, whose belief the obstacle task then reads; ``task_found``: the
+    task prims ``task_prims`` found (None: found here)."""
     from usdgaze.physics import obstacles, stones
     from usdgaze.usd.objects import read_objects
 
-    prims = task_prims(stage, source, clip.skel_root) if prims is None else prims
+    prims = task_prims(stage, source, clip.skel_root) if task_found is None else task_found
     factories = []
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # metres in, metres out
     for kind, found in prims.items():
@@ -146,7 +146,7 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     model, ref = build.body_model(clip, total_mass, chain_frame=chain_frame)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
     ref_qpos = retarget.to_qpos(model, ref)
-    tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos, prims=task_found)
+    tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos, task_found=task_found)
     start = time.perf_counter()
     result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress, tasks=tasks,
                           ahead=take_after(model, ahead))
