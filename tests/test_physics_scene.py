@@ -52,7 +52,9 @@ def _stones_read(path: Path, walk, monkeypatch) -> np.ndarray:
     clip, model, qpos = walk
     seen = []
     monkeypatch.setattr(stones, "factory", lambda centres, *a, **k: seen.append(centres) or (lambda *a: None))
-    physics_pass.read_tasks(Usd.Stage.Open(str(path)), clip, model, str(path), qpos)
+    stage = Usd.Stage.Open(str(path))
+    found = physics_pass.task_prims(stage, str(path), clip.skel_root)
+    physics_pass.read_tasks(stage, clip, model, str(path), qpos, task_found=found)
     assert len(seen) == 1
     return seen[0]
 

@@ -83,19 +83,18 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
     return prims
 
 
-def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None,
-               task_found: dict[str, list] | None = None) -> list:
+def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None, *,
+               task_found: dict[str, list]) -> list:
     """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
     ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
     the coupled loop's object paths, whose belief the obstacle task then reads; ``task_found``: the
-    task prims ``task_prims`` found (None: found here)."""
+    stage's task prims, as ``task_prims`` found them (once a shot, ``_read_shots``)."""
     from usdgaze.physics import obstacles, stones
     from usdgaze.usd.objects import read_objects
 
-    prims = task_prims(stage, source, clip.skel_root) if task_found is None else task_found
     factories = []
     rot = model.to_model / np.linalg.norm(model.to_model[:, 0])  # metres in, metres out
-    for kind, found in prims.items():
+    for kind, found in task_found.items():
         if not found:
             continue
         objs = read_objects(stage, source, found, clip.times, clip.meters_per_unit)
@@ -136,11 +135,11 @@ def _frames_from_steps(result: mpc.Result, seconds: np.ndarray, dyn_quats: list[
 
 
 def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, progress=None, chain_frame=None,
-                  ahead=None, task_found: dict[str, list] | None = None):
+                  ahead=None, *, task_found: dict[str, list]):
     """Simulate one clip; its :class:`ShotReport`, the override and the per-frame measures
     (``chain_frame``: the gaze binding, for rigs whose joint names do not tell the body's segments;
     ``ahead``: the take's clip after the shot, which only the planner sees; ``task_found``: the
-    stage's task prims, ``task_prims``'s, None: found here)."""
+    stage's task prims, ``task_prims``'s)."""
     from usdgaze.physics import build, retarget
 
     model, ref = build.body_model(clip, total_mass, chain_frame=chain_frame)
@@ -245,9 +244,9 @@ def _attempt(shot: Shot, options: mpc.Options, total_mass: float, progress, seed
     prims, paths, catches = shot.scene
     if prims:  # something to look at: eyes, belief and body in one loop
         return visuomotor.simulate_clip(shot.clip, shot.root, options, prims, paths, catches, total_mass, progress,
-                                        seed, shot.chain_frame, shot.ahead, shot.tasks)
+                                        seed, shot.chain_frame, shot.ahead, task_found=shot.tasks)
     return (*simulate_clip(shot.clip, shot.root, options, total_mass, progress, shot.chain_frame, shot.ahead,
-                           shot.tasks), None)
+                           task_found=shot.tasks), None)
 
 
 def _planner_record(options: mpc.Options) -> dict:

@@ -64,12 +64,12 @@ def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop
 
 
 def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,
-                  progress=None, seed: int = 0, chain_frame=None, ahead=None, task_found=None):
+                  progress=None, seed: int = 0, chain_frame=None, ahead=None, *, task_found: dict[str, list]):
     """Simulate one clip with its eyes; (ShotReport, AnimOverride, per-frame terms, inspection).
 
     ``chain_frame``: the clip's (Chain, CharacterFrame) from :func:`usdgaze.characters.bind_root`
     (default: bound by names and the SkelRoot's map); ``ahead``: the take's clip after the shot;
-    ``task_found``: the stage's stone and obstacle prims (``physics.task_prims``; None: found here)."""
+    ``task_found``: the stage's stone and obstacle prims (``physics.task_prims``'s)."""
     from usdgaze.characters import bind_root
     from usdgaze.passes import physics as body_pass
     from usdgaze.physics import build, retarget, visuomotor
@@ -85,7 +85,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
     things = _things(root, clip, source, prims, model, steps, h)
     tasks = [(lambda j: lambda plan, ref_q: CatchTask(plan, j, seed + j, truth=things[j].positions,
                                                                 reference=ref_q))(j) for j in catches]
-    tasks += body_pass.read_tasks(root.GetStage(), clip, model, source, ref_qpos, paths, task_found)
+    tasks += body_pass.read_tasks(root.GetStage(), clip, model, source, ref_qpos, paths, task_found=task_found)
     opts = visuomotor.Options(options)
     opts.vision.seed = seed
     start = time.perf_counter()
