@@ -22,6 +22,15 @@ def _close_figures():
         plt.close("all")
 
 
+@pytest.fixture(scope="session")
+def stone_walk():
+    """The CMU walk's MuJoCo body at h 0.03 and its reference over 1.0-2.5 s
+    (``stone_stages.walk_body``), built once per worker for the stone and obstacle cost tests."""
+    from . import stone_stages
+
+    return stone_stages.walk_body(0.03)
+
+
 def pytest_xdist_auto_num_workers(config) -> int:
     """One worker per core this process may run on (a CI container's share, not the host's), at most 8:
     each worker imports USD, MuJoCo and the package (~0.5 GB), and the longest test file alone

@@ -76,7 +76,7 @@ def test_no_saccade_in_a_recharge_window(tmp_path, capsys, tcps, start, stage_st
     secs, speed = _eye_in_head_speed(compose(tmp_path, scene, out), rig, tcps)
     period = np.floor((secs + 1e-6) / 0.4)
     phase = secs - 0.4 * period
-    a, b = phase[:-1], phase[1:]
+    a = phase[:-1]
     recharge = (a >= 0.2 - 1e-6) & (period[:-1] == period[1:])  # both frames inside one recharge window
     assert recharge.sum() > 10 and speed.max() > 300  # the ball asks for saccades
     worst = int(np.argmax(np.where(recharge, speed, 0)))

@@ -6,7 +6,6 @@ placeholder) and non-USD files are replaced as before."""
 from __future__ import annotations
 
 import os
-import shutil
 import stat
 
 import pytest

@@ -16,7 +16,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from usdgaze.console.main import main
-from usdgaze.physics import build, retarget
+from usdgaze.physics import build, retarget, shapes
 
 from . import measure
 from . import synthetic as syn
@@ -135,6 +135,10 @@ def test_model_is_physically_plausible(case):
     top = d.xpos[ids].max(axis=0)[2]
     assert feet[:, 0].min() - 0.05 < com[0] < feet[:, 0].max() + 0.05
     assert 0.4 < com[2] / top < 0.7
+    # Only spheres and capsules, the shapes the measures and task costs know (by MuJoCo's codes).
+    body_geoms = np.flatnonzero(mj.geom_bodyid > 0)
+    assert set(mj.geom_type[body_geoms]) <= {shapes.SPHERE, shapes.CAPSULE}
+    assert (shapes.SPHERE, shapes.CAPSULE) == (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CAPSULE)
 
 
 def _geom_extremes(mj, d, axis: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ from pxr import Sdf, Usd
 from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import mpc, obstacles
 
-from . import measure, stone_stages
+from . import measure
 from .attend_support import compose, positions
 from .differences import central, rel
 from .obstacle_stages import RADIUS_M, gaps, obstacle_scene
@@ -70,16 +70,11 @@ def test_approaching_obstacles_the_reference_walks_into_are_seen_and_not_touched
     assert all(_first_estimate(layer, p) == posed.times[0] for p in prims)
 
 
-@pytest.fixture(scope="module")
-def body():
-    return stone_stages.walk_body(0.03)
-
-
 @pytest.mark.parametrize("form", ["body", "root"])
-def test_obstacle_cost_derivatives_match_central_differences(body, form):
+def test_obstacle_cost_derivatives_match_central_differences(stone_walk, form):
     """Both forms (ours on every capsule, the paper's on the root), six obstacles (the four nearest
     kept), running and terminal (with the extrapolated sub-window: position and velocity)."""
-    dyn, ref_q, _ = body
+    dyn, ref_q, _ = stone_walk
     rng = np.random.default_rng(1)
     t = 0.03 * np.arange(len(ref_q))
     centres = ref_q[:, None, :3] + rng.normal(0, 0.4, (1, 6, 3)) + np.outer(t, [0.8, -0.3, 0])[:, None]
@@ -102,10 +97,10 @@ def test_obstacle_cost_derivatives_match_central_differences(body, form):
             assert np.count_nonzero(np.abs(lx[6:dyn.nv]) > 1e-6 * np.abs(lx).max()) > 10
 
 
-def test_capsule_point_jacobians_match_central_differences(body):
+def test_capsule_point_jacobians_match_central_differences(stone_walk):
     """What the body form's gradient and Gauss-Newton Hessian are built on: ``v @ dp/dq`` for
     points fixed on the capsules (hand, head, shin), against differences of the posed point."""
-    dyn, ref_q, _ = body
+    dyn, ref_q, _ = stone_walk
     caps = obstacles.Capsules(dyn)
     rng = np.random.default_rng(2)
     x = dyn.to_state(ref_q[10])

@@ -20,7 +20,7 @@ from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import mpc, obstacles, stones
 from usdgaze.physics.tasks import judge_tasks
 
-from . import measure, stone_stages
+from . import measure
 from .attend_support import compose
 from .differences import central, rel
 from .obstacle_stages import add_objects, cut
@@ -117,13 +117,8 @@ def test_stone_terms_are_in_the_layer_and_the_input_is_untouched(stepped):
     assert all(len(frames[k]) == len(frames["seconds"]) for k in keys)
 
 
-@pytest.fixture(scope="module")
-def body():
-    return stone_stages.walk_body(0.03)
-
-
-def test_stone_cost_gradient_matches_central_differences(body):
-    dyn, ref_q, frames = body
+def test_stone_cost_gradient_matches_central_differences(stone_walk):
+    dyn, ref_q, frames = stone_walk
     task = stones.StoneTask(dyn, ref_q, np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]]), frames=frames)
     both = np.flatnonzero((task.stone >= 0).all(axis=0))
     one = np.flatnonzero((task.stone >= 0).sum(axis=0) == 1)
@@ -170,14 +165,14 @@ def _contacts(task) -> list[tuple[int, int]]:
             if task.stone[f, a] >= 0]
 
 
-def test_a_foot_held_over_its_stone_is_not_down_though_its_ground_distance_is_a_hit(body):
+def test_a_foot_held_over_its_stone_is_not_down_though_its_ground_distance_is_a_hit(stone_walk):
     """The run's verdict (``StoneTask.problems``): the reference with a foot put on the ground (each
     in turn) comes down with that foot for each of its contacts, the capture as it is does not with
     its floating right foot; raised 15 cm it never does, each contact on a stone said once, by foot
     and stone, although its toe's ground-plane distance (the per-step measure) is unchanged."""
     import mujoco
 
-    dyn, ref_q, frames = body
+    dyn, ref_q, frames = stone_walk
     spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
     task = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
     seconds = 10.0 + dyn.h * np.arange(len(ref_q))
@@ -206,14 +201,14 @@ def test_a_foot_held_over_its_stone_is_not_down_though_its_ground_distance_is_a_
     assert measured(raised[k], k) == pytest.approx(measured(pinned[k], k), abs=1e-9)
 
 
-def test_a_floating_foot_is_pulled_down_onto_its_stone(body):
+def test_a_floating_foot_is_pulled_down_onto_its_stone(stone_walk):
     """The capture's right foot stands 3.7-4.4 cm over the floor here: the stone's height target
     over each contact is the toe's height with the foot on the ground (at the contact's lowest
     step, the toe of the reference lowered onto that foot), not the floating toe's; a contact whose
     foot reaches into the ground keeps the reference toe's heights."""
     import mujoco
 
-    dyn, ref_q, frames = body
+    dyn, ref_q, frames = stone_walk
     spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
     task = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
     d = mujoco.MjData(dyn.mj)
@@ -237,12 +232,12 @@ def test_a_floating_foot_is_pulled_down_onto_its_stone(body):
     assert any(m <= 0 for _, m in floats), floats
 
 
-def test_a_toe_that_only_brushes_the_ground_for_a_step_is_not_down(body):
+def test_a_toe_that_only_brushes_the_ground_for_a_step_is_not_down(stone_walk):
     """A footfall lasts: the motion raised 15 cm but dipped to the reference's height for one step at
     a contact's start is said to miss that stone (a swing's toe passing through the contact band, or
     skidding across the ground, is no footfall); dipped for two steps (0.06 s at h 0.03), it comes
     down on it. Each contact on its own."""
-    dyn, ref_q, frames = body
+    dyn, ref_q, frames = stone_walk
     spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
     task = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
     seconds = 10.0 + dyn.h * np.arange(len(ref_q))
@@ -259,8 +254,8 @@ def test_a_toe_that_only_brushes_the_ground_for_a_step_is_not_down(body):
             assert bool(lines) is said, (f, a, steps)
 
 
-def test_each_solve_with_both_tasks_decreases_the_cost(body):
-    dyn, ref_q, (qpos, frames) = body
+def test_each_solve_with_both_tasks_decreases_the_cost(stone_walk):
+    dyn, ref_q, (qpos, frames) = stone_walk
     # A stone 10 cm off each foot's footfall and an obstacle coming at the root: both terms are active.
     probe = stones.StoneTask(dyn, ref_q, np.zeros((0, 3)))
     feet = np.array([probe.points.pose(dyn.to_state(ref_q[0]))[0][toe] for _, _, toe in probe.feet])
@@ -288,11 +283,11 @@ def test_an_unknown_task_is_one_line_exit_2_nothing_written(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.usda"]
 
 
-def test_a_foot_down_for_the_shots_last_steps_is_down(body):
+def test_a_foot_down_for_the_shots_last_steps_is_down(stone_walk):
     """The last step has no next one to give the toe's speed: it takes the step before's, so a foot
     that comes down on its stone for the shot's last two steps (0.06 s) is down; one that does not
     is said not down by the shot's end."""
-    dyn, ref_q, frames = body
+    dyn, ref_q, frames = stone_walk
     spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
     task = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
     seconds = 10.0 + dyn.h * np.arange(len(ref_q))

@@ -7,8 +7,6 @@ the chest (an obstacle the body touches mid-shot: a problem with its time), simu
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from PIL import Image

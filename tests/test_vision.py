@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from tests.test_ddp import _base_chain, _fd, _rel_err
-from usdgaze.planning import ddp
 from usdgaze.planning.compose import Stacked
 from usdgaze.planning.kinbody import KinematicBody
 from usdgaze.vision import eye as eyemod

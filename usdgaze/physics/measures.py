@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from usdgaze.physics.model import BodyModel
+from usdgaze.physics.shapes import half_lengths
 
 
 def joint_errors_deg(model: BodyModel, qpos: np.ndarray, ref: np.ndarray) -> np.ndarray:
@@ -42,13 +43,10 @@ def blown_up(qpos: np.ndarray, qvel: np.ndarray, ref: np.ndarray, height: float)
                 or np.abs(qvel[3:]).max(initial=0.0) > 500.0)
 
 
-_CAPSULE = 3  # mujoco.mjtGeom.mjGEOM_CAPSULE (a sphere has no half-length)
-
-
 def bottom_point(mj, d, g: int) -> np.ndarray:
     """The lowest point of a capsule or sphere geom (world)."""
     axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
-    half = mj.geom_size[g, 1] if mj.geom_type[g] == _CAPSULE else 0.0
+    half = half_lengths(mj, g)
     end = d.geom_xpos[g] - np.sign(axis[2]) * half * axis
     return end - np.array([0.0, 0.0, mj.geom_size[g, 0]])
 
@@ -59,7 +57,7 @@ def lowest_z(mj, d, geoms: np.ndarray) -> float:
     geoms = np.asarray(geoms, dtype=int)
     if not len(geoms):
         return np.inf
-    half = np.where(mj.geom_type[geoms] == _CAPSULE, mj.geom_size[geoms, 1], 0.0)
+    half = half_lengths(mj, geoms)
     z = d.geom_xpos[geoms, 2] - np.abs(d.geom_xmat[geoms, 8]) * half - mj.geom_size[geoms, 0]
     return float(z.min())
 

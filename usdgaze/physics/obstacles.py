@@ -43,6 +43,7 @@ import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.points import Capsules
+from usdgaze.physics.shapes import half_lengths
 
 W_TSK = 1.0
 NEAREST = 4
@@ -262,10 +263,8 @@ def clearance(mj, data, centres: np.ndarray, radii: np.ndarray) -> float:
     for g in range(mj.ngeom):
         if mj.geom_bodyid[g] == 0:  # the ground
             continue
-        c, half, rad = data.geom_xpos[g], 0.0, mj.geom_size[g, 0]
-        axis = data.geom_xmat[g].reshape(3, 3)[:, 2]
-        if mj.geom_type[g] == 3:  # capsule: a segment of half-length size[1] along its z
-            half = mj.geom_size[g, 1]
+        c, half, rad = data.geom_xpos[g], half_lengths(mj, g), mj.geom_size[g, 0]
+        axis = data.geom_xmat[g].reshape(3, 3)[:, 2]  # a capsule is a segment along its z
         t = np.clip((centres - c) @ axis, -half, half)
         d = np.linalg.norm(centres - (c + t[:, None] * axis), axis=1) - rad - radii
         gap = min(gap, float(d.min()))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody, _jr, _skew
+from usdgaze.physics.shapes import CAPSULE, SPHERE, half_lengths
 
 
 class Points:
@@ -77,10 +78,10 @@ class Capsules:
     def __init__(self, dyn: MujocoBody) -> None:
         mj = dyn.mj
         self.points = Points(dyn)
-        self.geoms = np.array([g for g in range(mj.ngeom) if mj.geom_bodyid[g] > 0 and mj.geom_type[g] in (2, 3)])
+        self.geoms = np.array([g for g in range(mj.ngeom) if mj.geom_bodyid[g] > 0 and mj.geom_type[g] in (SPHERE, CAPSULE)])
         self.body = mj.geom_bodyid[self.geoms].astype(int)
         self.radius = mj.geom_size[self.geoms, 0].copy()
-        self.half = np.where(mj.geom_type[self.geoms] == 3, mj.geom_size[self.geoms, 1], 0.0)
+        self.half = half_lengths(mj, self.geoms)
 
     def segments(self, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Centres and axes ``(G, 3)`` at body state ``xb`` (kinematics left for :meth:`jacobians`)."""

@@ -5,6 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
+# MuJoCo's geom type codes (``mujoco.mjtGeom``), here so the modules that read a compiled model need not
+# import mujoco; tests/test_physics_model.py checks them against it.
+SPHERE, CAPSULE = 2, 3
+
+
+def half_lengths(mj, geoms: np.ndarray) -> np.ndarray:
+    """Half-lengths of the given sphere and capsule geoms of the compiled model ``mj`` (0 for a sphere)."""
+    return np.where(mj.geom_type[geoms] == CAPSULE, mj.geom_size[geoms, 1], 0.0)
+
 
 def radii(mass: np.ndarray, lengths: np.ndarray, roles: list[str], height: float) -> np.ndarray:
     """Capsule radii: a cylinder of water of the segment's mass and length (0.6 of that for the trunk's

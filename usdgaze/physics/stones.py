@@ -53,6 +53,7 @@ import numpy as np
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.points import Points, frame_jacobian
 from usdgaze.physics.measures import lowest_z
+from usdgaze.physics.tasks import Problem
 
 W_TSK = 10.0
 CONTACT_HEIGHT_M = 0.06
@@ -61,7 +62,6 @@ CONTACT_MIN_S = 0.05
 POSITION_SCALE = 3.0  # the position residual in thirds of a metre (see the module docstring)
 START_ON_M = 0.01  # a contact under way at the first frame keeps a stone only this close to its footfall
 LANDING_S = 0.3  # a simulated foot must come down this close in time to the reference's footfall
-CUT_SHORT = "by the shot's end"  # a footfall the shot ends before its LANDING_S is up: said so
 DOWN_M = 0.02  # a simulated foot is down with the lowest point of its capsules this near the ground
 # The task looks this far into the planner's window and no further: costed over a whole 0.8 or 1.0 s
 # window, every stones shot tried fell (``physics.lookahead``). A stones shot's window is 1.0 s.
@@ -256,21 +256,17 @@ class StoneTask:
                 if _lasting(down & (nearest == ref[a]), lasting)[max(a - reach, 0): a + reach + 1].any():
                     continue
                 if seconds[a] + LANDING_S > seconds[-1] + 1e-9:
-                    out.append(f"{name} not down on {self.names[ref[a]]} {CUT_SHORT} at {seconds[-1]:.2f} s "
-                               f"(its sole then {100 * sole[-1, f]:.1f} cm up, moving {speed[-1, f]:.2f} m/s; the "
-                               f"reference's contact from {seconds[a]:.2f} s)")
+                    # Not mendable: the simulated foot may land LANDING_S after the reference's, and no
+                    # simulation has more of the shot to land it in (retrying one cost the stones
+                    # test's scene a third simulation with the same problem).
+                    out.append(Problem(f"{name} not down on {self.names[ref[a]]} by the shot's end at "
+                                       f"{seconds[-1]:.2f} s (its sole then {100 * sole[-1, f]:.1f} cm up, moving "
+                                       f"{speed[-1, f]:.2f} m/s; the reference's contact from {seconds[a]:.2f} s)",
+                                       mendable=False))
                 else:
                     out.append(f"{name} not down on {self.names[ref[a]]} within {LANDING_S:.1f} s of "
                                f"{seconds[a]:.2f} s (the reference's contact)")
         return out
-
-    @staticmethod
-    def mendable(problem: str) -> bool:
-        """Whether another simulation could mend a problem of ``problems``: not a footfall the shot
-        ends before its ``LANDING_S`` is up (the simulated foot may land that long after the
-        reference's, and no simulation has more of the shot to land it in: retrying one cost the
-        stones test's scene a third simulation with the same problem)."""
-        return CUT_SHORT not in problem
 
     def _on_ground(self, qpos: np.ndarray):
         """Per step and foot: its capsules' lowest point's height ``(K, F)``, the slower of its heel's

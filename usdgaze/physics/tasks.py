@@ -14,8 +14,8 @@ class Task(Protocol):
     """A task term of the paper's cost (catch, stones, obstacles): a ``ddp.Cost`` over the planner's
     state, summed with the tracking cost, plus what it measures on the simulated body after each step
     (``data``: a ``mujoco.MjData`` at the new state, kinematics done) for the shot's report. It may
-    also judge the whole run (``problems(qpos, seconds)``, in words) and say which of those another
-    simulation could not mend (``mendable(problem)``; without it, every one could)."""
+    also judge the whole run (``problems(qpos, seconds)``: :class:`Problem`s, or plain strings, which
+    another simulation could mend)."""
 
     name: str
 
@@ -24,16 +24,28 @@ class Task(Protocol):
     def measure(self, k: int, data) -> dict[str, float]: ...
 
 
+class Problem(str):
+    """A task's problem with a whole run, in words (it is the string the report says), and whether
+    another simulation of the shot could mend it."""
+
+    mendable: bool
+
+    def __new__(cls, text: str, mendable: bool = True) -> "Problem":
+        problem = super().__new__(cls, text)
+        problem.mendable = mendable
+        return problem
+
+
 # A task is made once the planner's body exists: ``factory(plan, ref_qpos_at_h)``.
 TaskFactory = Callable[[MujocoBody, np.ndarray], Task]
 
 
 def judge_tasks(tasks, result) -> tuple[list[str], list[str]]:
     """The problems each task with a ``problems(qpos, seconds)`` finds in the simulated states (an
-    ``mpc.Result``), and those of them that the task's ``mendable(problem)`` says another simulation
-    of the shot cannot mend."""
-    found = [(task, p) for task in tasks if hasattr(task, "problems") for p in task.problems(result.qpos, result.seconds)]
-    return [p for _, p in found], [p for task, p in found if not getattr(task, "mendable", lambda _: True)(p)]
+    ``mpc.Result``), and those of them another simulation of the shot cannot mend (``Problem.mendable``),
+    as plain strings (what the report says)."""
+    found = [p for task in tasks if hasattr(task, "problems") for p in task.problems(result.qpos, result.seconds)]
+    return [str(p) for p in found], [str(p) for p in found if not getattr(p, "mendable", True)]
 
 
 def task_prefix(names: Sequence[str], i: int) -> str:
