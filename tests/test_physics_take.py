@@ -59,3 +59,43 @@ def test_a_walk_cut_from_its_take_walks_through_its_last_frame(tmp_path):
     # 0.15 s, 9.1 cm behind it at the end; seeing the take go on, 1.306 m/s and 2.8 cm.
     assert abs(speed(simulated) / speed(reference) - 1.0) < 0.12, (speed(simulated), speed(reference))
     assert np.linalg.norm((simulated[-1] - reference[-1])[[0, 2]]) < 0.05
+
+
+def test_the_layer_over_the_take_holds_a_fall_and_gives_back_what_the_input_shows():
+    """``through_take`` on an override of frames 3-6 of a 10-frame take, the simulation stopped after
+    two of them (a fall): the range's last two frames hold the last written one; outside the range an
+    animated joint has the take's values, a joint the animation does not list its rest (a rest
+    matrix made here from a known turn), and an added eye its nearest written frame."""
+    from types import SimpleNamespace
+
+    from scipy.spatial.transform import Rotation
+
+    from usdgaze.passes.take import through_take
+    from usdgaze.usd.layers import AnimOverride
+
+    rng = np.random.default_rng(3)
+    f = 10
+    rest_turn = Rotation.from_euler("xyz", [10, 20, 30], degrees=True)
+    rest = np.tile(np.eye(4), (2, 1, 1))
+    rest[1, :3, :3], rest[1, :3, 3] = rest_turn.as_matrix(), [0.1, 0.2, 0.3]
+    take = SimpleNamespace(times=np.arange(f, dtype=float) + 100.0, anim_joints=["a"], joints=["a", "a/b"],
+                           rotations=rng.normal(size=(f, 1, 4)).astype(np.float32),
+                           translations=rng.normal(size=(f, 1, 3)).astype(np.float32), rest_local=rest)
+    shot = SimpleNamespace(times=take.times[3:7])
+    written = AnimOverride(animation="/A", times=shot.times[:2], joints=["a", "a/b", "a/b/eye"],
+                           rotations=rng.normal(size=(2, 3, 4)).astype(np.float32),
+                           translations=rng.normal(size=(2, 3, 3)).astype(np.float32))
+    out = through_take(written, take, shot)
+    assert np.array_equal(out.times, take.times)
+    for name in ("rotations", "translations"):
+        got, mine, given = getattr(out, name), getattr(written, name), getattr(take, name)
+        assert got.shape == (f, 3, mine.shape[2]) and got.dtype == np.float32
+        assert np.array_equal(got[3:5], mine) and np.array_equal(got[5], mine[1]) and np.array_equal(got[6], mine[1])
+        outside = np.r_[0:3, 7:f]
+        assert np.array_equal(got[outside, 0], given[outside, 0])  # the take's own bits
+        assert np.array_equal(got[0:3, 2], np.repeat(mine[:1, 2], 3, 0))  # the eye: nearest written
+        assert np.array_equal(got[7:, 2], np.repeat(mine[-1:, 2], 3, 0))
+    q = out.rotations[outside, 1].astype(float)
+    assert np.allclose(np.abs(q @ rest_turn.as_quat()), 1.0, atol=1e-6)  # x, y, z, w; either sign
+    assert np.allclose(out.translations[outside, 1], [0.1, 0.2, 0.3], atol=1e-7)
+    assert out.scales is None

@@ -42,6 +42,7 @@ from usdgaze.passes.physics_report import (  # noqa: F401  (the pass's names)
     FOOT_TOLERANCE_M, HEADING_TOLERANCE_DEG, STONE_TOLERANCE_M, ShotReport, foot_problems, heading_problems,
     shot_summary, task_problems)
 from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, read_pushes  # noqa: F401  (the pass's names)
+from usdgaze.passes.take import cut_to_range, through_take
 from usdgaze.physics import mpc
 from usdgaze.usd.objects import PHYSICS_TASK as TASK
 
@@ -56,6 +57,7 @@ class Shot(NamedTuple):
     scene: tuple  # the coupled loop's (object prims, their paths, the balls to catch)
     chain_frame: tuple  # the gaze binding: (Chain, CharacterFrame)
     ahead: Any  # the take's clip after the shot (None: none)
+    take: Any  # the whole take the clip was cut from (None: the clip is the take)
     tasks: dict[str, list]  # the stage's stone and obstacle prims (task_prims)
     options: mpc.Options  # its options: a shot with stones has their window
 
@@ -334,32 +336,13 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
         opts = shot_options(options, tasks)
         for skel in skeletons_under(root):
             ahead_s = opts.horizon_s + 2 * opts.h  # the planner's last window, past the shot
-            clip, ahead = _in_shot_range(read_clip(stage, skel, root, source), stage, ahead_s)
+            clip, ahead, take = cut_to_range(read_clip(stage, skel, root, source), stage, ahead_s)
             check_not_shared(others, clip.animation, source)
             scene = visuomotor.read_scene(root, clip, source, opts.h)
-            shots.append(Shot(root, clip, scene, bind_root(clip, root, binding), ahead, tasks, opts))
+            shots.append(Shot(root, clip, scene, bind_root(clip, root, binding), ahead, take, tasks, opts))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots
-
-
-def _in_shot_range(clip, stage, ahead_s: float):
-    """The clip cut to the stage's playback range where the stage authors one inside the animation
-    (a shot's root layer over a longer take): the rest is not played, and simulating it cost time
-    for nothing (five times the shot's on a 49-frame shot over 241). With it, the take's frames up to
-    ``ahead_s`` after the shot's end, for the planner's windows there (else None)."""
-    if not stage.HasAuthoredTimeCodeRange():
-        return clip, None
-    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
-    lo, hi = np.searchsorted(clip.times, [start - 1e-9, end + 1e-9])
-    if hi - lo < 2:  # nothing, or one pose, to simulate: the whole take was simulated and written before
-        raise UsdGazeError(f"{clip.where()}: the stage's playback range {start:g} to {end:g} holds {hi - lo} of the "
-                           f"animation's samples (time codes {clip.times[0]:g}-{clip.times[-1]:g}); a simulated "
-                           "shot needs two or more: set the range to the frames to simulate")
-    if lo == 0 and hi == len(clip.times):
-        return clip, None
-    last = np.searchsorted(clip.seconds, clip.seconds[hi - 1] + ahead_s + 1e-9)
-    return clip.frames(int(lo), int(hi)), (clip.frames(int(hi), int(last)) if last > hi else None)
 
 
 def _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed, record):
@@ -375,7 +358,7 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
         if inspection is not None:
             inspections.append(inspection)
         reports.append(report)
-        overrides.append(override)
+        overrides.append(override if shot.take is None else through_take(override, shot.take, shot.clip))
         # wall_s stays out of the layer: the same inputs and seed must give the same bytes.
         kept = {k: v for k, v in asdict(report).items() if v is not None and k not in ("problems", "wall_s",
                                                                                          "other_attempt", "unmendable", "reference_notes")}

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,10 +19,13 @@ from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.errors import UsdGazeError, usd_failure
 from usdgaze.review import recorded
-from usdgaze.review.physics_record import PHYSICS_KEY, PhysicsMeasures, read_physics
+from usdgaze.review.physics_record import PhysicsMeasures, read_physics
 from usdgaze.review.recorded import Look
 from usdgaze.usd.stage import open_root
 from usdgaze.files.kinds import not_a_file
+
+if TYPE_CHECKING:  # annotations only: pxr is imported where a stage is read
+    from pxr import Sdf
 
 EYE_RANGE_KEY = "eyeRange"
 """``customLayerData["usdgaze"]["eyeRange"]``: the eye-in-head limits the pass used (degrees)."""
@@ -131,19 +135,6 @@ def _check_same_frames(base, gaze, layer_file: str) -> None:
         return f"{len(c.times)} at time codes {c.times[0]:g}..{c.times[-1]:g}"
     raise UsdGazeError(f"{layer_file}:{gaze.animation}: the layer's frames ({span(gaze)} with the input's) are not the "
                        f"input's ({span(base)}); review it over the input it was made for")
-
-
-def _in_shot_range(base, gaze, layer, stage):
-    """``base`` cut to the stage's playback range where ``layer`` is an ``attend --physics`` layer of
-    this skeleton that samples exactly the input's frames in that range: the pass simulates and writes
-    only the shot's range of a longer take (docs/physics.md, "The shot's range"), and plot and preview
-    had refused every such layer as made for another take. Otherwise ``base`` as it is."""
-    record = dict(layer.customLayerData or {}).get(PHYSICS_KEY)
-    if not hasattr(record, "get") or gaze.skeleton not in record or len(gaze.times) >= len(base.times):
-        return base
-    lo, hi = np.searchsorted(base.times, [stage.GetStartTimeCode() - 1e-9, stage.GetEndTimeCode() + 1e-9])
-    cut = base.frames(int(lo), int(hi))
-    return cut if np.array_equal(cut.times, gaze.times) else base
 
 
 def _in_stack(root: Sdf.Layer, layer: Sdf.Layer) -> bool:
@@ -301,7 +292,7 @@ class _Reader:
         gaze_clip = read_clip(self.stage, skel, root, self.source)
         if gaze_clip.animation not in touched:
             return None
-        base_clip = _in_shot_range(self._base_clip(skel, root), gaze_clip, self.layer, self.stage)
+        base_clip = self._base_clip(skel, root)
         _check_same_frames(base_clip, gaze_clip, self.layer_file)
         chain, frame = api.bind(gaze_clip, own_map(root, self.source), self.hints)
         parents, joints = gaze_clip.parents, gaze_clip.joints
