@@ -1,4 +1,4 @@
-"""The built-in gaze map against the human head-eye data it claims to follow (REFERENCES.md).
+"""The built-in gaze map against the human head-eye data it claims to follow (its sources in ``usdgaze.gaze.defaults``).
 
 Everything is measured on the map's answers (``ParametricGazeMap.query``), not on the rules in
 ``usdgaze.gaze.defaults``: segment angles and eye-in-head directions with scipy, expected bands from the
@@ -65,7 +65,7 @@ def test_onset_cascade_eyes_neck_upper_lower_pelvis_for_every_example(definition
     assert np.all(order[:, 0] == 0.0)
     bad = np.flatnonzero(~np.all(np.diff(order, axis=1) > 0.0, axis=1))
     assert bad.size == 0, [(tuple(definition.params[i]), order[i].round(3)) for i in bad]
-    # the head starts 20-50 ms after the eyes (REFERENCES: onset cascade)
+    # the head starts 20-50 ms after the eyes (the onset cascade; LEAP, Pejsa et al. 2016: 50 - 20 x predictability ms)
     head_ms = 1000.0 * starts[:, NECK] * definition.motions.duration
     assert np.all((head_ms >= 20.0 - 1e-9) & (head_ms <= 50.0 + 1e-9)), head_ms
 

@@ -98,7 +98,7 @@ def test_main_sequence_figures():
     assert np.allclose(saccade.duration(a), 0.025 + 0.0024 * a)
     peak = saccade.peak_speed(a)
     assert np.all(np.diff(peak) > 0) and peak.max() < 800.0  # rises with amplitude, saturates under 800
-    assert 300 <= saccade.peak_speed(10.0) <= 400  # REFERENCES.md: a 10 deg saccade peaks near 300-400 deg/s
+    assert 300 <= saccade.peak_speed(10.0) <= 400  # the main sequence's exponential fits put a 10 deg saccade's peak near 300-400 deg/s
     # The profile itself: sampled finely, its steepest slope is the stated peak speed.
     t = np.linspace(0.0, float(saccade.duration(30.0)), 20001)
     p = saccade.progress(t, 30.0) * 30.0

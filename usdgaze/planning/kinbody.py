@@ -65,8 +65,8 @@ class KinematicBody(SecondOrder):
     # taken by the head at 1145 deg/s (51 deg out in 50 ms, most of it back once the eyes could
     # saccade), as a new track's velocity variance (sigma_v^2 ~ 1e4 in c_uct) outbids any soft bound at
     # w_bnd 0.1. Head peak velocity grows with the gaze shift's amplitude, to a few hundred deg/s at
-    # most in the largest shifts (Freedman & Sparks 1997 in monkeys; lower in humans). REFERENCES.md has
-    # no figure for it (only LEAP's 75 deg/s base speed): 300 is assumed, the top of that range.
+    # most in the largest shifts (Freedman & Sparks 1997 in monkeys; lower in humans). The sources
+    # give no figure for it (LEAP's 75 deg/s is a base speed): 300 is assumed, the top of that range.
     HEAD_SPEED = np.radians(300.0)
 
     @staticmethod
