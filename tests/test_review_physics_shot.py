@@ -35,6 +35,7 @@ def _shot(path: Path, start_s: float, end_s: float) -> Sdf.Layer:
     shot.timeCodesPerSecond = shot.framesPerSecond = tcps
     shot.pseudoRoot.SetInfo("upAxis", "Y")
     shot.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    shot.defaultPrim = take.defaultPrim
     shot.Save()
     return shot
 
@@ -89,3 +90,17 @@ def test_the_review_poses_the_take_as_usdskel_does_and_only_the_range_moves(shot
     assert np.abs(gaze[inside] - base[inside]).max() > 0.01  # the simulated body is not the reference
     outside = codes != np.clip(codes, layer.startTimeCode, layer.endTimeCode)
     assert outside.sum() > 10 * inside.sum() and np.abs(gaze[outside] - base[outside]).max() < 1e-6  # the take's
+
+
+def test_validate_checks_a_physics_layer_against_the_take_it_was_made_for(shot, tmp_path, capsys):
+    """A physics layer records its characters, so ``validate --layer`` checks it as it checks apply's:
+    clean over its own shot; over a take cut shorter (its first 2.5 s), another take."""
+    from .test_physics_pass import excerpt
+
+    folder, layer, out = shot
+    assert main(["validate", str(folder / "shot.usda"), "--layer", str(out)]) == 0
+    short = excerpt(tmp_path / "short.usda", 2.5)
+    capsys.readouterr()
+    assert main(["validate", str(short), "--layer", str(out)]) == 3
+    found = capsys.readouterr().out.strip().splitlines()
+    assert len(found) == 1 and "OtherTake" in found[0] and "the input below it" in found[0], found

@@ -157,6 +157,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     report.planner = _planner_summary(report.results, steps, frames, time.perf_counter() - t_start,
                                       time.process_time() - cpu_start, settings)
     info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",
+                               "characters": sorted({c["skel_root"] for c in report.characters}),
                                "objects": [str(p.GetPath()) for p in prims], "alpha": settings.alpha,
                                "cost": settings.cost, "window_s": settings.window_s, "seed": settings.seed,
                                **(record or {})}}

@@ -374,6 +374,7 @@ def _simulate_all(stage, source, shots, options, total_mass, progress, seed, kee
     info.custom = {"usdgaze:physics": terms,
                    "usdgaze": {"version": __version__, "input": os.path.basename(source),
                                "command": "attend --physics", "seed": seed, "massKg": float(total_mass),
+                               "characters": sorted({str(shot.root.GetPath()) for shot in shots}),
                                "planner": _planner_record(options),
                                **(record or {})}}
     layer = build_override(overrides, info)

@@ -20,8 +20,8 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
     for layer in stage.GetLayerStack(includeSessionLayers=False):
         record = (layer.customLayerData or {}).get("usdgaze")
-        if not isinstance(record, dict) or "shifts" not in record:
-            continue
+        if not isinstance(record, dict) or not ("shifts" in record or "characters" in record):
+            continue  # not a gaze layer (apply's records its shifts; attend's, plain or physics, its characters)
         name = layer.GetDisplayName()
         lo, hi = sampled_range(stage, record.get("characters", []), start, end)
         clock = recorded_code(layer, layer_offset(stage, layer))
