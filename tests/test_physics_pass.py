@@ -9,6 +9,7 @@ local rotations, welded joints bit-identical, the input untouched.
 from __future__ import annotations
 
 import importlib.metadata
+import json
 from pathlib import Path
 
 import numpy as np
@@ -185,6 +186,29 @@ def test_each_solve_decreases_the_cost(tmp_path, workers, stride):
     for costs in result.solve_costs:
         assert all(b <= a for a, b in zip(costs, costs[1:]))
     assert result.solve_costs[0][-1] < 0.9 * result.solve_costs[0][0]
+
+
+def test_a_fall_that_stops_the_simulation_early_holds_its_last_pose_to_the_shots_end(tmp_path, capsys):
+    """A crushed body falls and the simulation stops 0.2 s later; the layer still samples every frame
+    of the input (the rest hold the last simulated pose), so validate finds no other take in it."""
+    from usdgaze.console.main import main
+
+    src = excerpt(tmp_path / "crushed.usda", 0.8, (0.0, 0.8, 0.0), vector=(0.0, -10000.0, 0.0))
+    out = tmp_path / "sim.usda"
+    assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3", "--retry-iterations", "0",
+                 "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["shots"][0]
+    layer, given = Sdf.Layer.FindOrOpen(str(out)), Sdf.Layer.FindOrOpen(str(src))
+    path = f"{ANIM}.rotations"
+    times = layer.ListTimeSamplesForPath(path)
+    assert report["fell_at_s"] is not None and times == given.ListTimeSamplesForPath(path)
+    seconds = (np.array(times) - given.startTimeCode) / given.timeCodesPerSecond
+    after = [t for t, s in zip(times, seconds) if s > report["simulated_s"] + 1e-6]
+    assert len(after) >= 0.2 * len(times)  # stopped well before the shot's end
+    last = np.asarray(layer.QueryTimeSample(path, after[0]))
+    assert all(np.array_equal(np.asarray(layer.QueryTimeSample(path, t)), last) for t in after)
+    assert main(["validate", str(src), "--layer", str(out)]) in (0, 3)
+    assert "OtherTake" not in capsys.readouterr().out
 
 
 def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):

@@ -86,7 +86,7 @@ def test_joints_the_animation_does_not_list_are_appended_with_their_simulated_va
     rest = np.tile(np.eye(4), (5, 1, 1))
     rest[:, :3, :3] *= np.array([1.0, 2.0, 1.0, 1.0, 0.5])[:, None, None]  # rest scales 1, 2, 1, 1, 0.5
     listed = [3, 0, -1, 2]
-    frames, n = 6, 4
+    frames = 6
     rng = np.random.default_rng(3)
     own_rot = rot.normalize(rng.normal(size=(frames, 4, 4))).astype(np.float32)
     own_trans = rng.normal(size=(frames, 4, 3)).astype(np.float32)
@@ -97,19 +97,19 @@ def test_joints_the_animation_does_not_list_are_appended_with_their_simulated_va
         rotations=own_rot, translations=own_trans,
         scales=np.full((frames, 4, 3), 3.0, np.float16), skel_to_world=np.eye(4)[None], up_axis="Y",
         meters_per_unit=1.0, time_codes_per_second=24.0, frames_per_second=24.0, start_time=0.0, end_time=5.0)
-    simulated = rot.normalize(np.random.default_rng(1).normal(size=(n, 5, 4)))
-    moved = np.random.default_rng(2).normal(size=(n, 5, 3))
-    o = physics_pass._body_override(clip, n, simulated, moved)
+    simulated = rot.normalize(np.random.default_rng(1).normal(size=(frames, 5, 4)))
+    moved = np.random.default_rng(2).normal(size=(frames, 5, 3))
+    o = physics_pass._body_override(clip, simulated, moved)
     assert o.joints == ["a/b/c/d", "a", "zz", "a/b/c", "a/b", "a/b/c/d/e"]
     for column, joint in ((0, 3), (1, 0), (3, 2), (4, 1), (5, 4)):
         assert np.array_equal(o.rotations[:, column], simulated[:, joint].astype(np.float32))
         assert np.array_equal(o.translations[:, column], moved[:, joint].astype(np.float32))
-    assert o.rotations[:, 2].tobytes() == own_rot[:n, 2].tobytes()
-    assert o.translations[:, 2].tobytes() == own_trans[:n, 2].tobytes()
-    assert o.scales.shape == (n, 6, 3)
+    assert o.rotations[:, 2].tobytes() == own_rot[:, 2].tobytes()
+    assert o.translations[:, 2].tobytes() == own_trans[:, 2].tobytes()
+    assert o.scales.shape == (frames, 6, 3)
     assert np.all(o.scales[:, :4] == 3.0)
     assert np.allclose(o.scales[:, 4], [2.0, 2.0, 2.0]) and np.allclose(o.scales[:, 5], [0.5, 0.5, 0.5])
-    assert o.write_joints and not o.define and np.array_equal(o.times, np.arange(n))
+    assert o.write_joints and not o.define and np.array_equal(o.times, np.arange(frames))
 
 
 def test_a_shot_range_shorter_than_the_take_is_all_that_is_simulated_and_the_rest_keeps_the_take(tmp_path):

@@ -156,8 +156,12 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
     quats = [3] + [int(qadr[b]) for b, k in enumerate(model.kind) if k == "ball"]
     qpos, n = _frames_from_steps(result, clip.seconds, quats)
     rotations, translations = retarget.from_qpos(model, qpos, _head(ref, n))
+    # A fall stops the simulation early: the frames after it hold its last pose, so the layer samples
+    # the frames the input does (validate's OtherTake; a layer over a take ends where the shot does).
+    held = np.minimum(np.arange(len(clip.times)), n - 1)
+    rotations, translations = rotations[held], translations[held]
     report, terms = shot_summary(clip, result, n, len(pushes), wall)
-    return report, _body_override(clip, n, rotations, translations), terms
+    return report, _body_override(clip, rotations, translations), terms
 
 
 def take_after(model, ahead) -> tuple[np.ndarray, np.ndarray] | None:
@@ -169,10 +173,10 @@ def take_after(model, ahead) -> tuple[np.ndarray, np.ndarray] | None:
     return retarget.to_qpos(model, retarget.Reference.from_clip(ahead)), ahead.seconds
 
 
-def _body_override(clip, n: int, rotations: np.ndarray, translations: np.ndarray):
-    """Every joint of the simulated body over the first ``n`` frames: the animation's own joints in
-    its order, then those it does not list (all of them for a skeleton with no animation), appended
-    with their rest scales so every existing index stays valid."""
+def _body_override(clip, rotations: np.ndarray, translations: np.ndarray):
+    """Every joint of the simulated body at the clip's frames: the animation's own joints in its order,
+    then those it does not list (all of them for a skeleton with no animation), appended with their
+    rest scales so every existing index stays valid."""
     from usdgaze.core import rotations as rot
     from usdgaze.usd.layers import AnimOverride
 
@@ -183,12 +187,13 @@ def _body_override(clip, n: int, rotations: np.ndarray, translations: np.ndarray
     scales = None
     if grow:
         rest_scales = rot.decompose_tr(clip.rest_local[extra])[2].astype(np.float16)
-        scales = np.concatenate([clip.scales[:n], np.broadcast_to(rest_scales, (n, len(extra), 3))], axis=1)
+        n = len(clip.times)
+        scales = np.concatenate([clip.scales, np.broadcast_to(rest_scales, (n, len(extra), 3))], axis=1)
     idx = np.array(cols + extra, dtype=int)
     out_rot, out_trans = rotations[:, idx].astype(np.float32), translations[:, idx].astype(np.float32)
     lacking = np.flatnonzero(idx < 0)  # the animation's joints the skeleton lacks: written through
-    out_rot[:, lacking], out_trans[:, lacking] = clip.rotations[:n, lacking], clip.translations[:n, lacking]
-    return AnimOverride(animation=clip.animation, times=clip.times[:n],
+    out_rot[:, lacking], out_trans[:, lacking] = clip.rotations[:, lacking], clip.translations[:, lacking]
+    return AnimOverride(animation=clip.animation, times=clip.times,
                         joints=list(clip.anim_joints) + [clip.joints[j] for j in extra],
                         rotations=out_rot, translations=out_trans, scales=scales, write_joints=grow,
                         skeleton=None if clip.animation_bound else clip.skeleton, define=not clip.animation_bound)

@@ -36,23 +36,20 @@ def cut_to_range(clip, stage, ahead_s: float):
 
 
 def through_take(override, take, shot):
-    """``override`` (an ``AnimOverride`` of ``shot``, the take cut to its range) over the whole take: its
-    frames, held at the last one written to the range's end (a fall stops the simulation early), and
-    outside the range the take's own values, bit for bit: an animated joint's samples, a joint the
-    animation does not list at the skeleton's rest. A joint the input does not have (eyes the pass
-    added) holds its nearest written frame: the input has nothing to give back for it."""
+    """``override`` (an ``AnimOverride`` of ``shot``, the take cut to its range: its every frame) over
+    the whole take: outside the range the take's own values, bit for bit: an animated joint's samples,
+    a joint the animation does not list at the skeleton's rest. A joint the input does not have (eyes
+    the pass added) holds its nearest written frame: the input has nothing to give back for it."""
     lo = int(np.searchsorted(take.times, shot.times[0] - 1e-9))
     hi = lo + len(shot.times)
     columns = _sources(override.joints, take)
     padded = {}
     for name, values in (("rotations", override.rotations), ("translations", override.translations),
                          ("scales", override.scales)):
-        if values is None:
-            continue
-        held = np.concatenate([values, np.repeat(values[-1:], len(shot.times) - len(values), 0)])
-        padded[name] = np.concatenate([_outside(name, take, np.arange(lo), columns, held[0], values.dtype), held,
-                                       _outside(name, take, np.arange(hi, len(take.times)), columns, held[-1],
-                                                values.dtype)])
+        if values is not None:
+            before = _outside(name, take, np.arange(lo), columns, values[0], values.dtype)
+            after = _outside(name, take, np.arange(hi, len(take.times)), columns, values[-1], values.dtype)
+            padded[name] = np.concatenate([before, values, after])
     return dataclasses.replace(override, times=take.times, **padded)
 
 
