@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import usdgaze  # noqa: F401  (registers GazeMapAPI and the validators before any stage is opened)
-from pxr import Sdf, Usd, UsdSkel, UsdValidation
+from pxr import Sdf, Usd, UsdSkel, UsdValidation, Vt
 
 from usdgaze import api
 from usdgaze.errors import UsdGazeError
@@ -78,3 +78,46 @@ def test_a_full_animation_without_rest_transforms_looks_where_asked(tmp_path):
     muted = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton, mute=[str(tmp_path / "gaze.usdc")])
     assert np.array_equal(base.world, muted.world)
 
+
+
+def _list_eyes_the_skeleton_lacks(rig: syn.Rig) -> list[str]:
+    """Append to the animation the eye joints a fuller rig has under the head (this skeleton has none)."""
+    stage = Usd.Stage.Open(str(rig.path))
+    anim = UsdSkel.Animation(stage.GetPrimAtPath(rig.animation))
+    eyes = [f"{rig.joint('head')}/LeftEye", f"{rig.joint('head')}/RightEye"]
+    anim.GetJointsAttr().Set(Vt.TokenArray([str(j) for j in anim.GetJointsAttr().Get()] + eyes))
+    rows = {"rotations": [[0.3, 0.0, 0.0, 0.954]] * 2, "translations": [[0.03, 0.08, 0.1], [-0.03, 0.08, 0.1]],
+            "scales": [[1.0, 1.0, 1.0]] * 2}
+    for name, extra in rows.items():
+        attr = anim.GetPrim().GetAttribute(name)
+        for t in attr.GetTimeSamples():
+            value = attr.Get(t)
+            block = np.asarray(value)
+            attr.Set(type(value).FromNumpy(np.vstack([block, np.asarray(extra, dtype=block.dtype)])), t)
+    stage.GetRootLayer().Save()
+    return eyes
+
+
+def test_added_eyes_do_not_take_the_path_of_eyes_the_animation_lists_for_a_fuller_rig(tmp_path):
+    """The animation lists <head>/LeftEye and <head>/RightEye, which the skeleton lacks (UsdSkel ignores
+    them); the eyes usdgaze added had those paths, so the layer's animation listed each twice (a file
+    apply itself refuses: 'listed twice'). The added eyes take free names, look at the target by
+    UsdSkel FK, and the listed ones are still written through."""
+    rig = syn.make_rig(tmp_path / "in.usda", frames=45, time_codes_per_second=30, joints=40, eyes=False, mesh=False)
+    listed = _list_eyes_the_skeleton_lacks(rig)
+    api.apply(rig.path, [], tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda",
+              look_at=[",".join(map(str, TARGET)) + "@0.2s"])
+    layer = Sdf.Layer.FindOrOpen(str(tmp_path / "gaze.usdc"))
+    anim_joints = list(layer.GetAttributeAtPath(rig.animation + ".joints").default)
+    skel_joints = list(layer.GetAttributeAtPath(rig.skeleton + ".joints").default)
+    assert len(set(anim_joints)) == len(anim_joints)
+    added = skel_joints[len(rig.joints):]
+    assert len(added) == 2 and not set(added) & set(listed) and set(listed) <= set(anim_joints)
+    p = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton)
+    fwd = measure.character_forward_skel(p, rig.leaf["thigh_l"], rig.leaf["thigh_r"])
+    left, right = (a.rsplit("/", 1)[-1] for a in added)
+    line = measure.sight_line(p, left, right, measure.local_forward(p, left, fwd), measure.local_forward(p, right, fwd))
+    to_target = np.asarray(TARGET)[None] - 0.5 * (p.position(left) + p.position(right))
+    error = measure.angle_between(line, to_target / np.linalg.norm(to_target, axis=-1, keepdims=True))
+    assert error[p.times >= 0.8 * 30].max() < 1.0
+    api.apply(tmp_path / "preview.usda", ["0.5s:10:0"], tmp_path / "again.usdc")  # the result reads as an input
