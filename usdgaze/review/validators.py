@@ -230,15 +230,18 @@ def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
 
 def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
     """A bound animation that leaves joints out needs restTransforms: UsdSkel takes those joints from
-    them, and without them poses nothing (apply refused it; validate passed it)."""
+    them, and without them poses nothing (apply refuses such a skeleton, so validate says it too)."""
     rest = skel.GetRestTransformsAttr()
     if not joints or (rest and rest.HasAuthoredValue() and len(rest.Get() or []) > 0):
         return []
-    targets = UsdSkel.BindingAPI(skel.GetPrim()).GetAnimationSourceRel().GetForwardedTargets()
-    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if len(targets) == 1 else None
-    anim = UsdSkel.Animation(anim_prim) if anim_prim and anim_prim.IsA(UsdSkel.Animation) else None
-    listed = set(anim.GetJointsAttr().Get() or []) if anim else None
-    left_out = [j for j in joints if listed is not None and j not in listed]
+    binding = UsdSkel.BindingAPI(skel.GetPrim())
+    targets = binding.GetAnimationSourceRel().GetForwardedTargets() if binding.GetAnimationSourceRel() else []
+    # On the Skeleton, or inherited from an ancestor such as the SkelRoot, as UsdSkel binds it.
+    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
+    if not anim_prim or not anim_prim.IsA(UsdSkel.Animation):
+        return []
+    listed = set(UsdSkel.Animation(anim_prim).GetJointsAttr().Get() or [])
+    left_out = [j for j in joints if j not in listed]
     if not left_out:
         return []
     return [_error(skel.GetPrim(), rest.GetPath(), "SparseWithoutRest",
