@@ -45,7 +45,8 @@ VALIDATORS = {
     "AnimationArrays": "A SkelAnimation's rotations, translations and scales hold one finite entry per joint at "
                        "every time sample, and its rotations are unit quaternions.",
     "SkeletonArrays": "A Skeleton's bindTransforms and restTransforms, where authored, hold one finite matrix per "
-                      "joint of its joints array.",
+                      "joint of its joints array; restTransforms are authored where its bound animation leaves "
+                      "joints out (UsdSkel takes those from them).",
     "GazeSchedule": "A GazeScheduleAPI reads as a schedule (arrays one per directive, known kinds, times in order, "
                     "weights and blends in range), each target is an Xformable or Boundable prim of the stage, "
                     "and each directive lies in the stage's time range or its SkelRoot's animation samples.",

@@ -68,6 +68,14 @@ def _check_unmirrored(clip: SkelClip, chain: Chain, rest_world: np.ndarray) -> N
                            f"the SkelRoot's transform instead)")
 
 
+def _free_path(path: str, taken: set[str]) -> str:
+    """``path``, or ``path`` numbered (``LeftEye1``, ...) where a joint of that path is ``taken``."""
+    k, out = 1, path
+    while out in taken:
+        out, k = f"{path}{k}", k + 1
+    return out
+
+
 def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Rig:
     """The rig with its eye joints: existing ones, or a left and a right added under the head."""
     rest_world = clip.neutral()
@@ -83,13 +91,16 @@ def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: Pass
     height = (rest_world[head, :3, 3] - rest_world[:, :3, 3]) @ frame.up
     units_per_m = max(float(height.max()), 1e-9) / 1.5
     joints, added, locals_ = list(clip.joints), [], []
+    # An animation made for a fuller rig may list eyes there that this skeleton lacks (UsdSkel ignores
+    # them, the layer writes them through): an added eye of that path was listed twice in the layer.
+    taken = set(clip.joints) | set(clip.anim_joints)
     for side, name in ((1.0, "LeftEye"), (-1.0, "RightEye")):
         offset = units_per_m * (options.eye_above_head_m * frame.up + options.eye_ahead_of_head_m * frame.forward
                                 + side * 0.5 * options.interocular_m * frame.left)
         m = np.eye(4)
         m[:3, 3] = np.linalg.solve(rest_world[head, :3, :3], offset)
         locals_.append(m)
-        joints.append(f"{clip.joints[head]}/{name}")
+        joints.append(_free_path(f"{clip.joints[head]}/{name}", taken))
         added.append(joints[-1])
     eyes = (len(joints) - 2, len(joints) - 1)
     return Rig(

@@ -225,7 +225,28 @@ def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
             errors.append(_error(prim, attr.GetPath(), "Length", f"{attr.GetName()}: {len(m)} entries, expected {n} (one per joint)"))
         elif not np.isfinite(m).all():
             errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values"))
-    return errors
+    return errors + _sparse_without_rest(skel, joints)
+
+
+def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
+    """A bound animation that leaves joints out needs restTransforms: UsdSkel takes those joints from
+    them, and without them poses nothing (apply refuses such a skeleton, so validate says it too)."""
+    rest = skel.GetRestTransformsAttr()
+    if not joints or (rest and rest.HasAuthoredValue() and len(rest.Get() or []) > 0):
+        return []
+    binding = UsdSkel.BindingAPI(skel.GetPrim())
+    targets = binding.GetAnimationSourceRel().GetForwardedTargets() if binding.GetAnimationSourceRel() else []
+    # On the Skeleton, or inherited from an ancestor such as the SkelRoot, as UsdSkel binds it.
+    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
+    if not anim_prim or not anim_prim.IsA(UsdSkel.Animation):
+        return []
+    listed = set(UsdSkel.Animation(anim_prim).GetJointsAttr().Get() or [])
+    left_out = [j for j in joints if j not in listed]
+    if not left_out:
+        return []
+    return [_error(skel.GetPrim(), rest.GetPath(), "SparseWithoutRest",
+                   f"restTransforms: not authored, and {anim_prim.GetPath()} leaves {len(left_out)} of the skeleton's "
+                   f"{len(joints)} joints out ('{left_out[0]}'); UsdSkel cannot pose this skeleton")]
 
 
 def _malformed(prim: Usd.Prim, text: str):

@@ -104,3 +104,20 @@ def check_scales(scales: np.ndarray, where: str) -> None:
         finite = bool(np.isfinite(scales).all())
     if not finite:
         raise UsdGazeError(f"{where}: holds NaN or infinite values")
+
+
+def check_rest_covers(rest_authored: bool, joints: list[str], anim_to_skel: np.ndarray, where_skel: str,
+                      animation: str) -> None:
+    """A sparse animation needs restTransforms: UsdSkel takes the joints an animation leaves out from
+    them, and without them poses nothing at all (neither the input nor a layer over it would move)."""
+    if rest_authored:
+        return
+    covered = np.zeros(len(joints), dtype=bool)
+    covered[anim_to_skel[anim_to_skel >= 0]] = True
+    if covered.all():
+        return
+    left_out = [joints[i] for i in np.flatnonzero(~covered)]
+    raise UsdGazeError(
+        f"{where_skel}.restTransforms: not authored, and {animation} leaves {len(left_out)} of the skeleton's "
+        f"{len(joints)} joints out ('{left_out[0]}'{', ...' if len(left_out) > 1 else ''}); UsdSkel takes those "
+        "from restTransforms, so it cannot pose this skeleton: author restTransforms or animate every joint")

@@ -329,6 +329,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         anim = UsdSkel.Animation(anim_prim)
         animation = str(anim_prim.GetPath())
         anim_joints, anim_to_skel, ignored = _animated_joints(anim, joints, skel, where_anim)
+        checks.check_rest_covers(authored[0], joints, anim_to_skel, where_skel, animation)
         times, rotations, translations, scales, held = _animation_samples(anim, len(anim_joints), where_anim, anim_joints)
         if ignored:
             notes.append(f"{where_anim}.joints: {len(ignored)} of its joints are not joints of {skel.GetPath()} "
