@@ -15,7 +15,7 @@ from usdgaze.physics import mpc
 CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
 
 
-def _shot(d: Path, start_s: float, end_s: float) -> tuple[Path, Sdf.Layer]:
+def shot_over_take(d: Path, start_s: float, end_s: float) -> tuple[Path, Sdf.Layer]:
     """A root layer over the whole CMU walk whose playback range is ``start_s``-``end_s``."""
     take = Sdf.Layer.FindOrOpen(str(CMU))
     tcps = take.timeCodesPerSecond
@@ -26,6 +26,7 @@ def _shot(d: Path, start_s: float, end_s: float) -> tuple[Path, Sdf.Layer]:
     shot.timeCodesPerSecond = shot.framesPerSecond = tcps
     shot.pseudoRoot.SetInfo("upAxis", "Y")
     shot.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    shot.defaultPrim = take.defaultPrim
     shot.Save()
     return d / "shot.usda", shot
 
@@ -41,7 +42,7 @@ def _root_path(path: Path, shot: Sdf.Layer) -> np.ndarray:
 
 
 def test_a_walk_cut_from_its_take_walks_through_its_last_frame(tmp_path):
-    src, shot = _shot(tmp_path, 5.0, 5.6)
+    src, shot = shot_over_take(tmp_path, 5.0, 5.6)
     out = tmp_path / "body.usdc"
     report = physics_pass.run(src, out, mpc.Options(h=0.03, retry_iterations=0))[0]
     assert report.fell_at_s is None

@@ -21,23 +21,9 @@ from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import mpc
 from usdgaze.review.composed import read_review
 
+from .test_physics_take import shot_over_take
+
 CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
-
-
-def _shot(path: Path, start_s: float, end_s: float) -> Sdf.Layer:
-    """A root layer over the whole CMU take whose playback range is ``start_s``-``end_s``."""
-    take = Sdf.Layer.FindOrOpen(str(CMU))
-    tcps = take.timeCodesPerSecond
-    shot = Sdf.Layer.CreateNew(str(path))
-    shot.subLayerPaths[:] = [str(CMU)]
-    shot.startTimeCode = take.startTimeCode + round(start_s * tcps)
-    shot.endTimeCode = take.startTimeCode + round(end_s * tcps)
-    shot.timeCodesPerSecond = shot.framesPerSecond = tcps
-    shot.pseudoRoot.SetInfo("upAxis", "Y")
-    shot.pseudoRoot.SetInfo("metersPerUnit", 1.0)
-    shot.defaultPrim = take.defaultPrim
-    shot.Save()
-    return shot
 
 
 def _joint_positions(root_layer: str, codes: np.ndarray) -> np.ndarray:
@@ -52,7 +38,7 @@ def _joint_positions(root_layer: str, codes: np.ndarray) -> np.ndarray:
 @pytest.fixture(scope="module")
 def shot(tmp_path_factory):
     folder = tmp_path_factory.mktemp("physics_shot_review")
-    layer = _shot(folder / "shot.usda", 2.0, 2.3)
+    _, layer = shot_over_take(folder, 2.0, 2.3)
     out = folder / "body.usdc"
     physics_pass.run(folder / "shot.usda", out, mpc.Options(h=0.03, retry_iterations=0))
     return folder, layer, out
