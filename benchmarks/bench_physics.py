@@ -156,7 +156,7 @@ def run_catch(opts: mpc.Options, seeds=range(5)) -> list[dict]:
     rows = []
     for seed in [*map(str, seeds), "behind"]:
         cmd = [sys.executable, __file__, "--throw", seed, "--h", str(opts.h), "--horizon", str(opts.horizon_s),
-               "--iterations", str(opts.iterations)]
+               "--iterations", str(opts.iterations), "--stride", str(opts.fd_stride), "--reuse", str(opts.fd_reuse)]
         rows.append(json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.splitlines()[-1]))
         print(json.dumps(rows[-1]), flush=True)
     near = [r for r in rows if r["throw"] != "behind" and r["hand_to_ball_at_arrival_cm"] <= 10.0]
@@ -165,10 +165,11 @@ def run_catch(opts: mpc.Options, seeds=range(5)) -> list[dict]:
 
 
 def _options(a, **kw) -> mpc.Options:
-    """The bench's options: ``--horizon`` for every shot where given, else the command's windows by task."""
+    """The bench's options: ``--stride`` and ``--reuse`` for every task, ``--horizon`` for every shot
+    where given, else the command's windows by task."""
     from usdgaze.passes.physics import with_window
 
-    return with_window(mpc.Options(**kw), a.horizon)
+    return with_window(mpc.Options(**{"fd_stride": a.stride, "fd_reuse": a.reuse, **kw}), a.horizon)
 
 
 def main() -> None:
@@ -258,8 +259,7 @@ def main() -> None:
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
-            opts = _options(a, h=a.h, iterations=a.iterations, workers=cores, fd_stride=a.stride,
-                            fd_reuse=a.reuse)
+            opts = _options(a, h=a.h, iterations=a.iterations, workers=cores)
             with threadpool_limits(1):
                 row = run_task(task, a.seconds, opts, a.fk) | {"cores": cores}
             rows.append(row)
@@ -285,8 +285,7 @@ def speed_table(a, cpus: list[int]) -> None:
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
             h = 0.03 if task.startswith(("stones", "obstacles")) else a.h  # as the task runs above
-            opts = _options(a, h=h, iterations=a.iterations, workers=cores, fd_stride=a.stride,
-                            fd_reuse=a.reuse)
+            opts = _options(a, h=h, iterations=a.iterations, workers=cores)
             with threadpool_limits(1):
                 rows.append(speed.run(task, cores, opts, a.seconds, sys.modules[__name__]))
             print(json.dumps(rows[-1]), flush=True)
