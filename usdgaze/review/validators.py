@@ -29,6 +29,7 @@ from usdgaze.gaze.definition import (
 )
 from usdgaze.gaze.motion import TIMING_FIELDS
 from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
+from usdgaze.usd.checks import arc_units_problem
 from usdgaze.review.sample_checks import first_bad
 
 PLUGIN = "usdgaze.review.validators"
@@ -234,11 +235,8 @@ def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
     rest = skel.GetRestTransformsAttr()
     if not joints or (rest and rest.HasAuthoredValue() and len(rest.Get() or []) > 0):
         return []
-    binding = UsdSkel.BindingAPI(skel.GetPrim())
-    targets = binding.GetAnimationSourceRel().GetForwardedTargets() if binding.GetAnimationSourceRel() else []
-    # On the Skeleton, or inherited from an ancestor such as the SkelRoot, as UsdSkel binds it.
-    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
-    if not anim_prim or not anim_prim.IsA(UsdSkel.Animation):
+    anim_prim = _bound_animation(skel)
+    if not anim_prim:
         return []
     listed = set(UsdSkel.Animation(anim_prim).GetJointsAttr().Get() or [])
     left_out = [j for j in joints if j not in listed]
@@ -247,6 +245,24 @@ def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
     return [_error(skel.GetPrim(), rest.GetPath(), "SparseWithoutRest",
                    f"restTransforms: not authored, and {anim_prim.GetPath()} leaves {len(left_out)} of the skeleton's "
                    f"{len(joints)} joints out ('{left_out[0]}'); UsdSkel cannot pose this skeleton")]
+
+
+def _bound_animation(skel: UsdSkel.Skeleton) -> Usd.Prim | None:
+    """The SkelAnimation bound to ``skel``: on the Skeleton, or inherited from an ancestor such as the
+    SkelRoot, as UsdSkel binds it; None if there is none."""
+    binding = UsdSkel.BindingAPI(skel.GetPrim())
+    targets = binding.GetAnimationSourceRel().GetForwardedTargets() if binding.GetAnimationSourceRel() else []
+    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
+    return anim_prim if anim_prim and anim_prim.IsA(UsdSkel.Animation) else None
+
+
+def skeleton_units(prim: Usd.Prim, time_range=None) -> list:
+    """The Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them in,
+    come from layers in the stage's metersPerUnit (apply refuses them otherwise, so validate says it too)."""
+    root = UsdSkel.Root.Find(prim)
+    prims = [root.GetPrim() if root else None, prim, _bound_animation(UsdSkel.Skeleton(prim))]
+    problem = arc_units_problem(prim.GetStage(), prim, prims)
+    return [] if problem is None else [_error(problem[0], problem[0].GetPath(), "Units", problem[1])]
 
 
 def _malformed(prim: Usd.Prim, text: str):
@@ -329,6 +345,7 @@ TASKS = {
     "GazeMapRoleJoints": gaze_map_role_joints,
     "AnimationArrays": animation_arrays,
     "SkeletonArrays": skeleton_arrays,
+    "SkeletonUnits": skeleton_units,
     "GazeSchedule": gaze_schedule,
     "GazeObject": gaze_object,
 }
