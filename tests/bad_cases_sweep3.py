@@ -40,3 +40,26 @@ def b_meters_per_unit_only_in_a_reference(d):
 
 def b_meters_per_unit_only_in_a_payload(d):
     return _shot_over(d, "payload", metersPerUnit=0.01)
+
+
+def b_joint_names_wrong_length_no_chain(d):
+    """Generic joint tokens (``bone_000``) and a jointNames list one short: the names, the only words a
+    binder could read, were ignored, and the "no gaze chain" line did not say why."""
+    from pxr import Vt
+
+    from . import synthetic as syn
+
+    named = syn.make_rig(d / "named.usda", frames=30, mesh=False)
+
+    def short_names(layer, r):
+        names = [j.rsplit("/", 1)[-1].replace("mixamorig_", "") for j in named.joints]
+        attr = layer.GetPrimAtPath(r.skeleton).attributes.get("jointNames") or _token_array(layer, r.skeleton)
+        attr.default = Vt.TokenArray(names[:-1])
+    return apply_argv(d, edited(d, short_names, convention="generic"))
+
+
+def _token_array(layer, prim_path: str):
+    from pxr import Sdf
+
+    return Sdf.AttributeSpec(layer.GetPrimAtPath(prim_path), "jointNames", Sdf.ValueTypeNames.TokenArray,
+                             Sdf.VariabilityUniform)

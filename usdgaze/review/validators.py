@@ -210,7 +210,8 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
 
 def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
     """A Skeleton's bind and rest transforms, where authored, one finite matrix per joint (a layer that
-    adds eyes writes all three: a short or broken one passed validate and failed every reader)."""
+    adds eyes writes all three: a short or broken one passed validate and failed every reader); its
+    jointNames one name per joint."""
     skel = UsdSkel.Skeleton(prim)
     joints = skel.GetJointsAttr().Get()
     n = 0 if joints is None else len(joints)
@@ -226,7 +227,19 @@ def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
             errors.append(_error(prim, attr.GetPath(), "Length", f"{attr.GetName()}: {len(m)} entries, expected {n} (one per joint)"))
         elif not np.isfinite(m).all():
             errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values"))
-    return errors + _sparse_without_rest(skel, joints)
+    return errors + _joint_names_length(skel, joints) + _sparse_without_rest(skel, joints)
+
+
+def _joint_names_length(skel: UsdSkel.Skeleton, joints) -> list:
+    """jointNames, where authored, one per joint: readers (and the binder, which reads a rig's names
+    there where its joint tokens say nothing) cannot pair a longer or shorter list with the joints."""
+    attr = skel.GetJointNamesAttr()
+    if not attr or not attr.HasAuthoredValue():
+        return []
+    k, n = len(attr.Get() or []), 0 if joints is None else len(joints)
+    if k == n:
+        return []
+    return [_error(skel.GetPrim(), attr.GetPath(), "Length", f"jointNames: {k} entries, expected {n} (one per joint)")]
 
 
 def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
