@@ -41,7 +41,7 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     as animated (:func:`_into_parents`). Measured in the parent's frame, a face joint animated 25 deg
     from its bind-pose relation to the head shifted the range by as much, and the gaze missed."""
     parents = [int(rig.parents[e]) for e in rig.eyes]
-    heads = [rig.head, rig.head]
+    heads = parents if _held_as_bound(rig, moved, parents) else [rig.head, rig.head]
     fwd_h, left_h, up_h, rest_eye, to_head, to_world, shown_at_rest = _sockets(rig, frame, moved, heads)
     pos = positions if positions is not None else np.stack([moved.place(p, rig.local(e)[0]) for p, e in zip(parents, rig.eyes)])
     u_h = to_head(rot.normalize(sight_point - pos))
@@ -70,6 +70,29 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
         positions=list(pos),
         directions=list(to_world(u_h)),
     )
+
+
+HELD_AS_BOUND = 1e-6
+"""A joint between head and eye whose animated linear map relative to the head stays this close (max
+abs difference of the 3x3, about radians) to its bind-pose one frames the eyes as the head does: the
+eyes are aimed in their parent's frame, as before there was a head-frame measure, bit for bit."""
+
+
+def _held_as_bound(rig: Rig, moved: Pose, parents: list[int]) -> bool:
+    """Whether each eye's parent is the head, or holds its bind-pose relation to it on every frame
+    (within :data:`HELD_AS_BOUND`), so that measuring in the parent's frame is measuring in the head's."""
+    head = rig.head
+    if all(p == head for p in parents):
+        return True
+    neutral = rig.clip.neutral()[:, :3, :3]
+    for p in set(parents) - {head}:
+        if p in moved.linear:
+            held = np.linalg.solve(moved.linear[head], moved.linear[p])
+        else:
+            held = rot.to_matrix(rot.multiply(rot.conjugate(moved.rotation[head]), moved.rotation[p]))
+        if np.abs(held - np.linalg.solve(neutral[head], neutral[p])).max() > HELD_AS_BOUND:
+            return False
+    return True
 
 
 def _into_parents(moved: Pose, head: int, parents: list[int], turned: np.ndarray, u_h: np.ndarray) -> np.ndarray:
