@@ -45,8 +45,12 @@ VALIDATORS = {
     "AnimationArrays": "A SkelAnimation's rotations, translations and scales hold one finite entry per joint at "
                        "every time sample, and its rotations are unit quaternions.",
     "SkeletonArrays": "A Skeleton's bindTransforms and restTransforms, where authored, hold one finite matrix per "
-                      "joint of its joints array; restTransforms are authored where its bound animation leaves "
-                      "joints out (UsdSkel takes those from them).",
+                      "joint of its joints array, and its jointNames, where authored, one name per joint; "
+                      "restTransforms are authored where its bound animation leaves joints out (UsdSkel takes those "
+                      "from them).",
+    "SkeletonUnits": "A Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them "
+                     "in, come from layers that author the stage's metersPerUnit (or none), or the reference is "
+                     "scaled to make up for it.",
     "GazeSchedule": "A GazeScheduleAPI reads as a schedule (arrays one per directive, known kinds, times in order, "
                     "weights and blends in range), each target is an Xformable or Boundable prim of the stage, "
                     "and each directive lies in the stage's time range or its SkelRoot's animation samples.",
@@ -57,6 +61,7 @@ VALIDATORS = {
                          "samples its animation over the span the input below it does (not another take's).",
 }
 VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "SkeletonArrays": ["UsdSkelSkeleton"],
+                          "SkeletonUnits": ["UsdSkelSkeleton"],
                           "GazeSchedule": ["UsdGazeGazeScheduleAPI"],
                           "GazeObject": ["UsdGazeGazeObjectAPI"], "GazeLayerSchedule": []}
 USDVIEW_PLUGIN = "usdgaze.review.usdview_plugin"

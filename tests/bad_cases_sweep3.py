@@ -11,3 +11,55 @@ def b_sparse_animation_without_rest_transforms(d):
     def bare(layer, rig):
         remove(layer, rig.skeleton + ".restTransforms")
     return apply_argv(d, edited(d, bare, unanimated=("spine_b",)))
+
+
+def _shot_over(d, arc: str, **shot_meta):
+    """``shot.usda`` bringing a metre rig (``char.usda``) in at /Character through ``arc`` (a reference
+    or payload), its own metadata ``shot_meta`` (no metersPerUnit: USD takes 0.01)."""
+    from pxr import Sdf
+
+    from .bad_common import rig
+
+    r = rig(d, "char.usda", meters_per_unit=1.0)
+    shot = Sdf.Layer.CreateNew(str(d / "shot.usda"))
+    for key, value in {"upAxis": "Y", **shot_meta}.items():
+        shot.pseudoRoot.SetInfo(key, value)
+    prim = Sdf.CreatePrimInLayer(shot, r.skel_root)
+    prim.specifier = Sdf.SpecifierDef
+    items = [(Sdf.Reference if arc == "reference" else Sdf.Payload)("./char.usda", r.skel_root)]
+    (prim.referenceList if arc == "reference" else prim.payloadList).prependedItems = items
+    shot.Save()
+    return apply_argv(d, d / "shot.usda")
+
+
+def b_meters_per_unit_only_in_a_reference(d):
+    """A stage that authors no metersPerUnit referencing a metre character: a 1.6 cm character, said
+    only as targets out of reach."""
+    return _shot_over(d, "reference")
+
+
+def b_meters_per_unit_only_in_a_payload(d):
+    return _shot_over(d, "payload", metersPerUnit=0.01)
+
+
+def b_joint_names_wrong_length_no_chain(d):
+    """Generic joint tokens (``bone_000``) and a jointNames list one short: the names, the only words a
+    binder could read, were ignored, and the "no gaze chain" line did not say why."""
+    from pxr import Vt
+
+    from . import synthetic as syn
+
+    named = syn.make_rig(d / "named.usda", frames=30, mesh=False)
+
+    def short_names(layer, r):
+        names = [j.rsplit("/", 1)[-1].replace("mixamorig_", "") for j in named.joints]
+        attr = layer.GetPrimAtPath(r.skeleton).attributes.get("jointNames") or _token_array(layer, r.skeleton)
+        attr.default = Vt.TokenArray(names[:-1])
+    return apply_argv(d, edited(d, short_names, convention="generic"))
+
+
+def _token_array(layer, prim_path: str):
+    from pxr import Sdf
+
+    return Sdf.AttributeSpec(layer.GetPrimAtPath(prim_path), "jointNames", Sdf.ValueTypeNames.TokenArray,
+                             Sdf.VariabilityUniform)

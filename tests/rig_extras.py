@@ -125,3 +125,88 @@ def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> 
         s[k] = (-1.0, 1.0, 1.0)
         scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
     layer.Save()
+
+
+def insert_face_root(rig, turn_deg: float, turn_axis=None, orient_deg: float = 35.0, name: str = "FaceRoot",
+                     scale: tuple = (1.0, 1.0, 1.0)) -> tuple[str, str]:
+    """Put a joint ``name`` between the head and both eyes of a synthetic rig written with ``mesh=False``
+    (a face rig's root, as production rigs hang the eyes under), saved in place; returns the eyes' new
+    paths. Its bind frame is the head's turned ``orient_deg`` about a skewed axis (its own joint orient);
+    its animated local rotation is its bind-pose one turned ``turn_deg`` more about ``turn_axis`` (skeleton
+    space as the bind pose has it; default the rig's up: a yaw), so the eyes ride ``turn_deg`` away from
+    their bind-pose relation to the head (0: a consistent rig). ``scale``: its animated local scale. The eyes keep
+    their bind transforms and their animated pose relative to the head at ``turn_deg`` 0."""
+    stage = Usd.Stage.Open(str(rig.path))
+    skel = UsdSkel.Skeleton(stage.GetPrimAtPath(rig.skeleton))
+    anim = UsdSkel.Animation(stage.GetPrimAtPath(rig.animation))
+    joints = [str(j) for j in skel.GetJointsAttr().Get()]
+    head, eyes = rig.joint("head"), [rig.joint("eye_l"), rig.joint("eye_r")]
+    face = f"{head}/{name}"
+    moved = {e: f"{face}/{e.rsplit('/', 1)[-1]}" for e in eyes}
+    bind = np.array(skel.GetBindTransformsAttr().Get())  # row-vector skeleton-space matrices
+    rest = np.array(skel.GetRestTransformsAttr().Get())
+    h = joints.index(head)
+    orient = _turn(orient_deg, (0.3, 1.0, 0.5))
+    face_bind = bind[h].copy()
+    face_bind[:3, :3] = orient @ bind[h, :3, :3]
+    face_bind[3, :3] = 0.5 * (bind[joints.index(eyes[0]), 3, :3] + bind[joints.index(eyes[1]), 3, :3]) - 0.04 * bind[h, 1, :3]
+    face_local = face_bind @ np.linalg.inv(bind[h])
+    at = min(joints.index(e) for e in eyes)  # parents before children, as UsdSkel orders them
+    new_joints = [moved.get(j, j) for j in joints]
+    new_joints.insert(at, face)
+    for name_, m in (("bindTransforms", np.insert(bind, at, face_bind, axis=0)),
+                     ("restTransforms", _relocal(np.insert(rest, at, face_local, axis=0), eyes, joints, at, face_local))):
+        (skel.GetBindTransformsAttr() if name_ == "bindTransforms" else skel.GetRestTransformsAttr()).Set(
+            Vt.Matrix4dArray.FromNumpy(m))
+    skel.GetJointsAttr().Set(Vt.TokenArray(new_joints))
+    if skel.GetJointNamesAttr().HasAuthoredValue():
+        names = [str(n) for n in skel.GetJointNamesAttr().Get()]
+        names.insert(at, name)
+        skel.GetJointNamesAttr().Set(Vt.TokenArray(names))
+    axis = np.asarray(rig.up if turn_axis is None else turn_axis, dtype=float) @ face_bind[:3, :3].T  # into the face's frame
+    _reanimate_under_face(anim, eyes, moved, face, face_local, _turn(turn_deg, axis), scale)
+    stage.GetRootLayer().Save()
+    return moved[eyes[0]], moved[eyes[1]]
+
+
+def _turn(deg: float, axis: tuple) -> np.ndarray:
+    """A 3x3 row-vector rotation of ``deg`` about ``axis``."""
+    from scipy.spatial.transform import Rotation as R
+
+    a = np.asarray(axis, dtype=float)
+    return R.from_rotvec(np.radians(deg) * a / np.linalg.norm(a)).as_matrix().T
+
+
+def _relocal(rest: np.ndarray, eyes: list[str], joints: list[str], at: int, face_local: np.ndarray) -> np.ndarray:
+    """Rest transforms with the eyes' locals re-expressed under the face joint (row vectors)."""
+    out = rest.copy()
+    for e in eyes:
+        k = joints.index(e) + 1  # shifted by the inserted joint
+        out[k] = rest[k] @ np.linalg.inv(face_local)
+    return out
+
+
+def _reanimate_under_face(anim, eyes: list[str], moved: dict, face: str, face_local: np.ndarray,
+                          turn: np.ndarray, scale: tuple) -> None:
+    """The animation with the face joint listed (its bind-pose local rotation turned by ``turn``) and the
+    eyes' animated locals re-expressed under its bind-pose local, so at no turn the pose is unchanged."""
+    from scipy.spatial.transform import Rotation as R
+
+    joints = [str(j) for j in anim.GetJointsAttr().Get()]
+    attrs = (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
+    inv = np.linalg.inv(face_local)
+    face_q = R.from_matrix((turn @ face_local[:3, :3]).T).as_quat().astype(np.float32)
+    for t in attrs[0].GetTimeSamples():
+        q, tr, s = (np.array(a.Get(t), dtype=float) for a in attrs)
+        for e in eyes:
+            k = joints.index(e)
+            m = np.eye(4)
+            m[:3, :3] = R.from_quat(q[k]).as_matrix().T
+            m[3, :3] = tr[k]
+            m = m @ inv
+            q[k], tr[k] = R.from_matrix(m[:3, :3].T).as_quat(), m[3, :3]
+        q, tr, s = np.vstack([q, face_q]), np.vstack([tr, face_local[3, :3]]), np.vstack([s, np.array(scale, dtype=float)[None]])
+        attrs[0].Set(Vt.QuatfArray.FromNumpy(q.astype(np.float32)), t)
+        attrs[1].Set(Vt.Vec3fArray.FromNumpy(tr.astype(np.float32)), t)
+        attrs[2].Set(Vt.Vec3hArray.FromNumpy(s.astype(np.float16)), t)
+    anim.GetJointsAttr().Set(Vt.TokenArray([moved.get(j, j) for j in joints] + [face]))

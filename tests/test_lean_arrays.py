@@ -104,7 +104,9 @@ def _crowd(folder: Path, characters: int, joints: int = 40, frames: int = 600) -
 
     make_rig(folder / "rig.usdc", joints=joints, frames=frames, time_codes_per_second=24.0)
     shutil.copy(SHARED_MAP, folder / "gaze_map.usda")
-    lines = ["#usda 1.0", "(", "    timeCodesPerSecond = 24", f"    endTimeCode = {frames - 1}", ")",
+    # The walker's unit (metres) on the stage: USD reads a reference in the stage's unit, and a stage that
+    # authors none (0.01) made it a 1.6 cm crowd, which apply refuses (tests/test_reference_units.py).
+    lines = ["#usda 1.0", "(", "    metersPerUnit = 1", "    timeCodesPerSecond = 24", f"    endTimeCode = {frames - 1}", ")",
              'class "CrowdMap" (prepend references = @./gaze_map.usda@</GazeMap>)', "{", "}",
              'def Xform "Crowd"', "{"]
     for i in range(characters):

@@ -8,6 +8,7 @@ import numpy as np
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.hints import BindHints
 from usdgaze.core.kinematics import snap_up
+from usdgaze.core.names import names_not_read
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.gaze.definition import GazeMapDefinition
@@ -99,6 +100,9 @@ def _by_names_too(clip: SkelClip, fn):
         return fn(clip.joints)
     except RigError as first:
         named = clip.named_joints()
+        note = names_not_read(clip.joints, clip.joint_names)
+        if note:
+            raise RigError(f"{first}{note}") from None
         if named is None:
             raise
         try:

@@ -47,6 +47,15 @@ def spelled_with_names(joints: list[str], parents, names) -> list[str] | None:
     return None if spelled == list(joints) else spelled
 
 
+def names_not_read(joints: list[str], names) -> str:
+    """What a binding failure adds where the skeleton's ``jointNames`` are not one per joint (and so
+    were not read, see :func:`spelled_with_names`): otherwise the line suggests there are none."""
+    if names is None or len(names) == len(joints):
+        return ""
+    return (f"; its jointNames holds {len(names)} names for {len(joints)} joints (not one per joint), so they were "
+            "not read: author one name per joint")
+
+
 @functools.lru_cache(maxsize=4096)
 def _segment(word: str) -> tuple[str, ...]:
     """A lower-case token as vocabulary words, a leading side letter allowed (``lhand``); else itself."""

@@ -25,7 +25,7 @@ from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.kinematics import snap_up
-from usdgaze.core.names import spelled_with_names
+from usdgaze.core.names import names_not_read, spelled_with_names
 from usdgaze.core.rig import bind_chain, character_frame, leaf
 from usdgaze.ingest.frames import UPRIGHT_DEG, off_upright
 from usdgaze.ingest.markers import SkeletonBinding, parse_axis
@@ -101,7 +101,8 @@ def _bound_chain(query: UsdSkel.SkeletonQuery, binding: SkeletonBinding, where: 
     joints = [str(j) for j in query.GetJointOrder()]
     parents = np.array(query.GetTopology().GetParentIndices(), dtype=int)
     names_attr = query.GetSkeleton().GetJointNamesAttr()
-    named = spelled_with_names(joints, parents, names_attr.Get() if names_attr.HasAuthoredValue() else None)
+    names = names_attr.Get() if names_attr.HasAuthoredValue() else None
+    named = spelled_with_names(joints, parents, names)
     first = None
     for spelled in [joints] + ([named] if named else []):
         try:
@@ -110,7 +111,7 @@ def _bound_chain(query: UsdSkel.SkeletonQuery, binding: SkeletonBinding, where: 
             first = first or exc
     if isinstance(first, SkeletonClipError):
         raise first
-    raise SkeletonClipError(f"{first} (for build-map: name the joints in a [skeleton] table of the marker set or TOML sheet)") from None
+    raise SkeletonClipError(f"{first}{names_not_read(joints, names)} (for build-map: name the joints in a [skeleton] table of the marker set or TOML sheet)") from None
 
 
 def _frame_times(stage: Usd.Stage, times: list[float], where: str) -> tuple[list[float], float]:

@@ -34,9 +34,15 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     ``seconds``, no eye turns faster than the seed's bound (:func:`capped_speed`).
 
     Both eyes are computed together, as arrays ``(2, F, ...)``; ``positions`` are the eyes' own, where
-    the caller has them."""
+    the caller has them.
+
+    The range and the aim are the head joint's: for eyes hung under a face joint, the eye-in-head
+    angles are measured in the head's frame and the eye's turn is then carried into its parent's frame
+    as animated (:func:`_into_parents`). Measured in the parent's frame, a face joint animated 25 deg
+    from its bind-pose relation to the head shifted the range by as much, and the gaze missed."""
     parents = [int(rig.parents[e]) for e in rig.eyes]
-    fwd_h, left_h, up_h, rest_eye, to_head, to_world, shown_at_rest = _sockets(rig, frame, moved, parents)
+    heads = parents if _held_as_bound(rig, moved, parents) else [rig.head, rig.head]
+    fwd_h, left_h, up_h, rest_eye, to_head, to_world, shown_at_rest = _sockets(rig, frame, moved, heads)
     pos = positions if positions is not None else np.stack([moved.place(p, rig.local(e)[0]) for p, e in zip(parents, rig.eyes)])
     u_h = to_head(rot.normalize(sight_point - pos))
 
@@ -56,6 +62,8 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     bent = _own_scale_turn(rig, rest_eye, fwd_h, shown_at_rest)
     turned = (rot.normalized_product(arc, rest_eye[:, None]) if bent is None
               else rot.normalized_product(rot.multiply(arc, rest_eye[:, None]), bent))
+    if parents != heads:
+        turned = _into_parents(moved, rig.head, parents, turned, u_h)
     return EyeAim(
         rotations=dict(zip(rig.eyes, turned)),
         angles=np.stack([yaw, pitch], axis=-1).transpose(1, 0, 2),  # (F, eye, yaw|pitch)
@@ -64,10 +72,53 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     )
 
 
+HELD_AS_BOUND = 1e-6
+"""A joint between head and eye whose animated linear map relative to the head stays this close (max
+abs difference of the 3x3, about radians) to its bind-pose one frames the eyes as the head does: the
+eyes are aimed in their parent's frame, as before there was a head-frame measure, bit for bit."""
+
+
+def _held_as_bound(rig: Rig, moved: Pose, parents: list[int]) -> bool:
+    """Whether each eye's parent is the head, or holds its bind-pose relation to it on every frame
+    (within :data:`HELD_AS_BOUND`), so that measuring in the parent's frame is measuring in the head's."""
+    head = rig.head
+    if all(p == head for p in parents):
+        return True
+    neutral = rig.clip.neutral()[:, :3, :3]
+    for p in set(parents) - {head}:
+        if p in moved.linear:
+            held = np.linalg.solve(moved.linear[head], moved.linear[p])
+        else:
+            held = rot.to_matrix(rot.multiply(rot.conjugate(moved.rotation[head]), moved.rotation[p]))
+        if np.abs(held - np.linalg.solve(neutral[head], neutral[p])).max() > HELD_AS_BOUND:
+            return False
+    return True
+
+
+def _into_parents(moved: Pose, head: int, parents: list[int], turned: np.ndarray, u_h: np.ndarray) -> np.ndarray:
+    """Eye rotations ``turned (2, F, 4)`` given in the head's frame, as local rotations in each eye's own
+    parent's frame ``parents`` as animated (a face joint between head and eye, turned or not as in the
+    bind pose). ``u_h`` is where each eye looks in the head's frame.
+
+    Without scales the change of frame is the rotation between the two joints' world rotations. With
+    scales it is the linear map from the head's frame into the parent's (a rotation unless a joint
+    between them is scaled itself): its rotation, and then the turn that puts the eye on ``u_h``
+    as the parent's frame maps it, so that the eye still looks where the head's frame aimed it."""
+    if not any(p in moved.linear for p in parents):
+        change = np.stack([rot.multiply(rot.conjugate(moved.rotation[p]), moved.rotation[head]) for p in parents])
+        return rot.normalized_product(change, turned)
+    lin = np.stack([np.linalg.solve(moved.linear[p], moved.linear[head]) for p in parents])  # (2, F, 3, 3)
+    change = rot.rotation_part(lin)[0]
+    aimed = np.einsum("efij,efj->efi", lin, u_h)
+    fix = rot.shortest_arc(rot.rotate(change, u_h), aimed)
+    return rot.normalized_product(rot.multiply(fix, change), turned)
+
+
 def _sockets(rig: Rig, frame: CharacterFrame, moved: Pose, parents: list[int]):
-    """Per eye, in its parent's frame: the character's forward, left and up as the eye sees them in the
-    neutral pose, the eye's neutral local rotation, and the maps of directions into the parent's frame
-    ``(2, F, 3)`` and back to skeleton space, and the eye-local axis the neutral pose shows as forward.
+    """Per eye, in the frame of joint ``parents`` (the head: see :func:`aim_eyes`): the character's
+    forward, left and up as the eye sees them in the neutral pose, the eye's neutral rotation in it,
+    and the maps of directions into that frame ``(2, F, 3)`` and back to skeleton space, and the
+    eye-local axis the neutral pose shows as forward.
 
     With scales on the eyes' parents or the eyes (a squashed and stretched head, an eye mirrored by a
     negative scale) the parent's frame is its full linear map, not its rotation: the eye turns in a

@@ -139,7 +139,8 @@ def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local,
     """Both eyes' local rotations aiming at the point of sight of eye pose ``e`` (F, 3: theta, psi rad,
     zeta mm) on the head that ``new_local(j)`` -> (t, q, s) poses; and that point (world, stage units)."""
     head = chain.head
-    moved = forward(with_ancestors([head], rig.parents), rig.parents, new_local)
+    # The eyes' parents too: a face joint between head and eyes is where their turns are written.
+    moved = forward(with_ancestors([head, *(int(rig.parents[j]) for j in rig.eyes)], rig.parents), rig.parents, new_local)
     n = len(e)
     to_rest = rot.multiply(moved.rotation[head], rot.conjugate(rig.rest_q[head]))
     f, l, u = (rot.rotate(to_rest, np.broadcast_to(v, (n, 3))) for v in (frame.forward, frame.left, frame.up))

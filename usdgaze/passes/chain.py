@@ -42,6 +42,8 @@ class Rig:
     eyes: tuple[int, int]
     added: list[str]
     added_t: dict[int, np.ndarray]
+    head: int
+    """The head joint: the eyes' range and aim are measured in its frame, whatever joints hang between."""
 
     def __post_init__(self) -> None:
         # Each joint's columns are read and converted once, however many steps look at them.
@@ -85,7 +87,7 @@ def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: Pass
     rest_q = np.full((len(rest_world), 4), np.nan)
     rest_q[read] = rot.rotation_part(rest_world[read, :3, :3])[0]
     if chain.eyes is not None:
-        return Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {})
+        return Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {}, chain.head)
     head = chain.head
     # Eye placement scales with the character: the head joint (skull base) of an adult stands ~1.5 m up.
     height = (rest_world[head, :3, 3] - rest_world[:, :3, 3]) @ frame.up
@@ -109,7 +111,7 @@ def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: Pass
         rest_local=np.concatenate([clip.rest_local, np.stack(locals_)]),
         rest_q=np.concatenate([rest_q, rest_q[[head, head]]]),  # added eyes start aligned with the head
         eyes=eyes, added=added,
-        added_t={e: m[:3, 3] for e, m in zip(eyes, locals_)},
+        added_t={e: m[:3, 3] for e, m in zip(eyes, locals_)}, head=head,
     )
 
 
@@ -283,5 +285,6 @@ def move_body(base: Base, chain: Chain, frame: CharacterFrame, displacement: np.
         return new_trans.get(j, t), new_rot.get(j, q), s
 
     eye_parents = sorted({int(rig.parents[e]) for e in rig.eyes})
-    moved = forward(with_ancestors(eye_parents, rig.parents), rig.parents, new_local, new_world)
+    # The head too: the eyes' range is measured in its frame, and an eye need not hang below it.
+    moved = forward(with_ancestors(eye_parents + [chain.head], rig.parents), rig.parents, new_local, new_world)
     return Body(new_rot, new_trans, moved)

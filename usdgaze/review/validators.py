@@ -29,6 +29,7 @@ from usdgaze.gaze.definition import (
 )
 from usdgaze.gaze.motion import TIMING_FIELDS
 from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
+from usdgaze.usd.checks import arc_units_problem
 from usdgaze.review.sample_checks import first_bad
 
 PLUGIN = "usdgaze.review.validators"
@@ -209,7 +210,8 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
 
 def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
     """A Skeleton's bind and rest transforms, where authored, one finite matrix per joint (a layer that
-    adds eyes writes all three: a short or broken one passed validate and failed every reader)."""
+    adds eyes writes all three: a short or broken one passed validate and failed every reader); its
+    jointNames one name per joint."""
     skel = UsdSkel.Skeleton(prim)
     joints = skel.GetJointsAttr().Get()
     n = 0 if joints is None else len(joints)
@@ -225,7 +227,19 @@ def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
             errors.append(_error(prim, attr.GetPath(), "Length", f"{attr.GetName()}: {len(m)} entries, expected {n} (one per joint)"))
         elif not np.isfinite(m).all():
             errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values"))
-    return errors + _sparse_without_rest(skel, joints)
+    return errors + _joint_names_length(skel, joints) + _sparse_without_rest(skel, joints)
+
+
+def _joint_names_length(skel: UsdSkel.Skeleton, joints) -> list:
+    """jointNames, where authored, one per joint: readers (and the binder, which reads a rig's names
+    there where its joint tokens say nothing) cannot pair a longer or shorter list with the joints."""
+    attr = skel.GetJointNamesAttr()
+    if not attr or not attr.HasAuthoredValue():
+        return []
+    k, n = len(attr.Get() or []), 0 if joints is None else len(joints)
+    if k == n:
+        return []
+    return [_error(skel.GetPrim(), attr.GetPath(), "Length", f"jointNames: {k} entries, expected {n} (one per joint)")]
 
 
 def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
@@ -234,11 +248,8 @@ def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
     rest = skel.GetRestTransformsAttr()
     if not joints or (rest and rest.HasAuthoredValue() and len(rest.Get() or []) > 0):
         return []
-    binding = UsdSkel.BindingAPI(skel.GetPrim())
-    targets = binding.GetAnimationSourceRel().GetForwardedTargets() if binding.GetAnimationSourceRel() else []
-    # On the Skeleton, or inherited from an ancestor such as the SkelRoot, as UsdSkel binds it.
-    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
-    if not anim_prim or not anim_prim.IsA(UsdSkel.Animation):
+    anim_prim = _bound_animation(skel)
+    if not anim_prim:
         return []
     listed = set(UsdSkel.Animation(anim_prim).GetJointsAttr().Get() or [])
     left_out = [j for j in joints if j not in listed]
@@ -247,6 +258,24 @@ def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
     return [_error(skel.GetPrim(), rest.GetPath(), "SparseWithoutRest",
                    f"restTransforms: not authored, and {anim_prim.GetPath()} leaves {len(left_out)} of the skeleton's "
                    f"{len(joints)} joints out ('{left_out[0]}'); UsdSkel cannot pose this skeleton")]
+
+
+def _bound_animation(skel: UsdSkel.Skeleton) -> Usd.Prim | None:
+    """The SkelAnimation bound to ``skel``: on the Skeleton, or inherited from an ancestor such as the
+    SkelRoot, as UsdSkel binds it; None if there is none."""
+    binding = UsdSkel.BindingAPI(skel.GetPrim())
+    targets = binding.GetAnimationSourceRel().GetForwardedTargets() if binding.GetAnimationSourceRel() else []
+    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
+    return anim_prim if anim_prim and anim_prim.IsA(UsdSkel.Animation) else None
+
+
+def skeleton_units(prim: Usd.Prim, time_range=None) -> list:
+    """The Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them in,
+    come from layers in the stage's metersPerUnit (apply refuses them otherwise, so validate says it too)."""
+    root = UsdSkel.Root.Find(prim)
+    prims = [root.GetPrim() if root else None, prim, _bound_animation(UsdSkel.Skeleton(prim))]
+    problem = arc_units_problem(prim.GetStage(), prim, prims)
+    return [] if problem is None else [_error(problem[0], problem[0].GetPath(), "Units", problem[1])]
 
 
 def _malformed(prim: Usd.Prim, text: str):
@@ -329,6 +358,7 @@ TASKS = {
     "GazeMapRoleJoints": gaze_map_role_joints,
     "AnimationArrays": animation_arrays,
     "SkeletonArrays": skeleton_arrays,
+    "SkeletonUnits": skeleton_units,
     "GazeSchedule": gaze_schedule,
     "GazeObject": gaze_object,
 }

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pxr import Usd
+from pxr import Pcp, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError
 
@@ -47,6 +47,59 @@ def _check_root_metadata(stage: Usd.Stage, source: str) -> None:
                 raise UsdGazeError(
                     f"{source}: authors no {key}, so USD takes {fallback}, but its sublayer {layer.identifier} says "
                     f"{layer.pseudoRoot.GetInfo(key)}; author {key} on {source} itself")
+
+
+_ARCS = {Pcp.ArcTypeReference: "reference", Pcp.ArcTypePayload: "payload"}
+_UNIT_TOLERANCE = 1e-3  # relative: a unit or a scale authored as 0.0254 or 1/39.37
+
+
+def check_arc_units(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None], source: str) -> None:
+    """Refuse what :func:`arc_units_problem` finds, in one line naming the file and prim."""
+    problem = arc_units_problem(stage, skel, prims)
+    if problem:
+        raise UsdGazeError(f"{source}:{problem[0].GetPath()}: {problem[1]}")
+
+
+def arc_units_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None]) -> tuple[Usd.Prim, str] | None:
+    """The first of ``prims`` (the SkelRoot, Skeleton and animation) that a reference or payload brings
+    in from a layer authoring another metersPerUnit than the stage's, with what to say; None if every
+    one measures in the stage's unit or the reference is scaled to make up for it (the Skeleton
+    ``skel``'s world scale at its first time does). USD takes the stage's unit for them, whatever the
+    asset says: a metre asset referenced into a stage that authors none (0.01) made a 1.6 cm character
+    that showed only as targets out of reach. An asset that authors no unit is taken in the stage's."""
+    stage_mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
+    scale = None
+    for prim in prims:
+        if not prim:
+            continue
+        for node, arc in _arc_nodes(prim.GetPrimIndex().rootNode, stage.GetRootLayer(), None):
+            layer = node.layerStack.identifier.rootLayer
+            value = layer.pseudoRoot.GetInfo("metersPerUnit") if layer.pseudoRoot.HasInfo("metersPerUnit") else None
+            if not isinstance(value, (int, float)) or abs(value / stage_mpu - 1.0) <= _UNIT_TOLERANCE:
+                continue
+            if scale is None:  # read only where units differ: most characters are never asked
+                world = np.array(UsdGeom.Xformable(skel).ComputeLocalToWorldTransform(Usd.TimeCode.EarliestTime()))
+                scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
+            if abs(value / (stage_mpu * scale) - 1.0) <= _UNIT_TOLERANCE:
+                continue
+            said = "authored on it" if stage.HasAuthoredMetadata("metersPerUnit") else "USD's fallback: it authors none"
+            return prim, (
+                f"is defined through a {arc} of {layer.identifier}, which says metersPerUnit {value:g}, but the stage "
+                f"measures in {stage_mpu:g} ({said}), so USD reads the character {value / stage_mpu:g} times too "
+                f"{'small' if value > stage_mpu else 'large'}; author metersPerUnit = {value:g} on "
+                f"{stage.GetRootLayer().identifier} or scale the {arc} by {value / stage_mpu:g}")
+    return None
+
+
+def _arc_nodes(node, root_layer, arc: str | None):
+    """The nodes of a prim index outside the stage's own layer stack, each with the reference or payload
+    that brought its layer stack in (nested arcs: the outermost)."""
+    for child in node.children:
+        inside = child.layerStack.identifier.rootLayer == root_layer
+        here = arc or (None if inside else _ARCS.get(child.arcType, "composition arc"))
+        if not inside and child.hasSpecs:
+            yield child, here
+        yield from _arc_nodes(child, root_layer, here)
 
 
 def authored_type(attr: Usd.Attribute) -> str:
