@@ -181,6 +181,9 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     # has a length, mass or shape of its own.
     if head is None:  # the head joint by name (the gaze binding's otherwise)
         head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(joints[idx[b]])), None)
+    if head is None:  # a head segment of one end joint (a rig whose neck ends it) is the head, no aside leaf
+        alone = [b for b in range(1, n) if roles[b] == "head" and not children[b] and roles[bparent[b]] != "head"]
+        head = alone[0] if len(alone) == 1 else None
     tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
     attached = seg.attachments(roles, bparent, children, head, tips)

@@ -119,11 +119,12 @@ def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: in
         legs = _shape_legs(roles, children, z)
     if "head" not in roles:
         if head is None:
-            off_legs = [j for j in leaves if not any(a in legs for a in [j, *_ancestors(j, parents)])]
-            top = max(off_legs, key=lambda j: z[j], default=None)
-            head = int(parents[top]) if top is not None and parents[top] > 0 else top
+            head = _shape_head(roles, parents, children, leaves, legs, z)
         if head is not None and head > 0:
-            _mark(roles, children, head, "head")
+            # Only what no name placed: a bound head above the arms must not make them the head.
+            for k in subtree_of(children, head):
+                if roles[k] == "other":
+                    roles[k] = "head"
     heads = [j for j in range(n) if roles[j] == "head"]
     if "hand" not in roles and heads:
         spine = _ancestors(min(heads, key=lambda j: len(_ancestors(j, parents))), parents)
@@ -134,6 +135,21 @@ def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: in
                 if roles[j] == "other":
                     roles[j] = "head"
     return roles
+
+
+def _shape_head(roles: list[str], parents: np.ndarray, children: list[list[int]], leaves: list[int],
+                legs: list[int], z: np.ndarray) -> int | None:
+    """The head where no name says it: the parent of the highest end joint off the legs (a skull's top
+    end site), or that end joint itself where its parent also carries named limbs (a rig without a
+    head joint, whose neck is the highest end: its parent, the chest, made the arms the head)."""
+    off_legs = [j for j in leaves if not any(a in legs for a in [j, *_ancestors(j, parents)])]
+    top = max(off_legs, key=lambda j: z[j], default=None)
+    if top is None or parents[top] <= 0:
+        return top
+    parent = int(parents[top])
+    if any(roles[k] != "other" for k in subtree_of(children, parent)):
+        return top
+    return parent
 
 
 def children_of(parents: np.ndarray) -> list[list[int]]:

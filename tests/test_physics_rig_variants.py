@@ -1,0 +1,93 @@
+"""``physics-model`` on valid but unusual bipeds: a rig without a head joint, with one arm, with one leg.
+
+Measured on MuJoCo's own reading of the MJCF the command writes (subtree masses, joint types,
+``mj_kinematics``) against de Leva's (1996) table typed in here and UsdSkel's forward kinematics,
+not against usdgaze's model. Before: a rig whose neck was its highest joint made its chest the head
+and the arms part of it (no elbow hinges, the arms weighing the head's share); a rig with one arm or
+one leg gave that limb both sides' de Leva share (an arm of 7.4 kg, a leg of 29.8 kg).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from pxr import Usd, UsdGeom, UsdSkel, Vt
+
+from usdgaze.console.main import main
+
+from . import measure
+from . import synthetic as syn
+
+# de Leva (1996), Table 4, males: fractions of the total mass.
+ARM = 0.0271 + 0.0162 + 0.0061  # upper arm, forearm, hand
+LEG = 0.1416 + 0.0433 + 0.0137  # thigh, shank, foot
+HEAD = 0.0694  # head and neck
+MASS = 75.0
+
+
+def drop_joints(path: Path, leaves: set[str]) -> None:
+    """Remove the joints named ``leaves`` and everything below them from the rig's Skeleton and
+    SkelAnimation, saved in place (the rig has no mesh)."""
+    stage = Usd.Stage.Open(str(path))
+    skel = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
+    anim = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Animation))
+    joints = [str(j) for j in skel.GetAttribute("joints").Get()]
+    gone = {j for j in joints if set(j.split("/")) & leaves}
+    keep = [i for i, j in enumerate(joints) if j not in gone]
+    for name in ("joints", "jointNames", "restTransforms", "bindTransforms"):
+        attr = skel.GetAttribute(name)
+        if attr.HasAuthoredValue():
+            values = list(attr.Get())
+            attr.Set(type(attr.Get())([values[i] for i in keep]))
+    listed = [str(j) for j in anim.GetAttribute("joints").Get()]
+    kept = [i for i, j in enumerate(listed) if j not in gone]
+    anim.GetAttribute("joints").Set(Vt.TokenArray([listed[i] for i in kept]))
+    for name in ("rotations", "translations", "scales"):
+        attr = anim.GetAttribute(name)
+        for t in attr.GetTimeSamples():
+            values = np.array(attr.Get(t))
+            attr.Set(type(attr.Get(t)).FromNumpy(np.ascontiguousarray(values[kept])), t)
+    stage.GetRootLayer().Save()
+
+
+def _model(tmp_path: Path, drop: set[str]):
+    """The Mixamo-style rig (Y up, centimetres) without the joints ``drop``: MuJoCo's model and data at
+    rest, the body id of a leaf name, and the rest joint positions by UsdSkel in MuJoCo's axes."""
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", up_axis="Y", meters_per_unit=0.01,
+                       frames=8, mesh=False)
+    drop_joints(rig.path, {rig.leaf[k] for k in drop})
+    xml = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    mujoco.mj_comPos(mj, d)
+    posed = measure.posed(str(rig.path), rig.skeleton)
+    assert UsdGeom.GetStageUpAxis(Usd.Stage.Open(str(rig.path))) == "Y"
+    p = (posed.rest_skel @ posed.skel_to_world)[:, 3, :3] * 0.01
+    rest = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
+    body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key].split("_", 1)[1])  # noqa: E731
+    return rig, mj, d, body, posed, rest
+
+
+def _fk_error(rig, d, body, posed, rest) -> float:
+    """Largest distance between MuJoCo's joint positions at rest and UsdSkel's (relative to the hips)."""
+    keys = [k for k in rig.leaf if body(k) >= 0]
+    got = np.array([d.xpos[body(k)] - d.xpos[body("pelvis")] for k in keys])
+    want = np.array([rest[posed.index(rig.leaf[k])] - rest[posed.index(rig.leaf["pelvis"])] for k in keys])
+    return float(np.linalg.norm(got - want, axis=1).max())
+
+
+def test_a_rig_without_a_head_joint_keeps_its_arms_and_its_neck_is_the_head(tmp_path):
+    rig, mj, d, body, posed, rest = _model(tmp_path, {"head"})
+    assert _fk_error(rig, d, body, posed, rest) < 0.01
+    assert abs(mj.body_mass[1:].sum() - MASS) < 1e-3
+    for side in "lr":  # each arm weighs one de Leva arm and bends at a hinge elbow
+        assert abs(mj.body_subtreemass[body(f"arm_{side}")] - ARM * MASS) < 1e-3
+        elbow = mj.body_jntadr[body(f"forearm_{side}")]
+        assert mj.jnt_type[elbow] == mujoco.mjtJoint.mjJNT_HINGE
+    neck = body("neck")  # the highest joint: de Leva's head and neck, with its mass above the joint
+    assert abs(mj.body_subtreemass[neck] - HEAD * MASS) < 1e-3
+    assert d.xipos[neck, 2] > d.xpos[neck, 2] + 0.05
