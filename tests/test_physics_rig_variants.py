@@ -13,6 +13,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import pytest
 from pxr import Usd, UsdGeom, UsdSkel, Vt
 
 from usdgaze.console.main import main
@@ -91,3 +92,12 @@ def test_a_rig_without_a_head_joint_keeps_its_arms_and_its_neck_is_the_head(tmp_
     neck = body("neck")  # the highest joint: de Leva's head and neck, with its mass above the joint
     assert abs(mj.body_subtreemass[neck] - HEAD * MASS) < 1e-3
     assert d.xipos[neck, 2] > d.xpos[neck, 2] + 0.05
+
+
+@pytest.mark.parametrize("drop, key, share", [({"clav_l"}, "arm_r", ARM), ({"thigh_l"}, "thigh_r", LEG)],
+                         ids=["one arm", "one leg"])
+def test_a_limb_on_one_side_only_weighs_one_sides_share(tmp_path, drop, key, share):
+    rig, mj, d, body, posed, rest = _model(tmp_path, drop)
+    assert _fk_error(rig, d, body, posed, rest) < 0.01
+    assert abs(mj.body_mass[1:].sum() - MASS) < 1e-3
+    assert abs(mj.body_subtreemass[body(key)] - share * MASS) < 1e-3

@@ -302,7 +302,7 @@ def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
 def _masses(roles: list[str], lengths: np.ndarray, total_mass: float, passive: set[int], bparent: np.ndarray):
     """de Leva's segment masses; a ``passive`` body (tip, attachment) weighs a token mass taken from
     the body it hangs from, so the total stays."""
-    share = seg.segment_masses(roles, lengths, total_mass, passive)
+    share = seg.segment_masses(roles, lengths, total_mass, passive, bparent)
     mass = np.maximum(share, 1e-3 * total_mass / len(roles))
     for b in sorted(passive):
         a = bparent[b]

@@ -323,10 +323,12 @@ def attachments(roles: list[str], parents: np.ndarray, children: list[list[int]]
     return {b for b in range(len(roles)) if b not in frame and b not in tips}
 
 
-def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tips=frozenset()) -> np.ndarray:
+def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tips=frozenset(),
+                   parents: np.ndarray | None = None) -> np.ndarray:
     """Mass per joint body: each de Leva segment's share split over its bodies by length; the trunk's
     share, plus that of segments the rig lacks, split over the ``other`` bodies by length. ``tips``
-    (no segment of their own) get none."""
+    (no segment of their own) get none. With ``parents``, a limb the rig has on one side only (one
+    arm, one leg) weighs one side's share, the other's going to the trunk: it weighed both."""
     lengths = np.maximum(np.asarray(lengths, dtype=float), 1e-3)
     lengths[sorted(tips)] = 0.0
     masses = np.zeros(len(roles))
@@ -339,7 +341,9 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tip
         if not members:
             continue
         # Paired limbs appear twice; the table gives one side's share.
-        sides = 2 if role not in ("head",) else 1
+        sides = 1 if role == "head" else 2
+        if parents is not None and sides == 2:
+            sides = min(2, sum(1 for i in members if parents[i] < 0 or roles[int(parents[i])] != role))
         share = seg.mass * sides
         # Split per side by length; bodies of one role on both sides share the paired total.
         masses[members] = share * _by_length(lengths[members])
