@@ -1,10 +1,13 @@
-"""``physics-model`` on valid but unusual bipeds: a rig without a head joint, with one arm, with one leg.
+"""``physics-model`` on valid but unusual bipeds: a rig without a head joint, with one arm, with one leg,
+without hand joints.
 
 Measured on MuJoCo's own reading of the MJCF the command writes (subtree masses, joint types,
 ``mj_kinematics``) against de Leva's (1996) table typed in here and UsdSkel's forward kinematics,
 not against usdgaze's model. Before: a rig whose neck was its highest joint made its chest the head
 and the arms part of it (no elbow hinges, the arms weighing the head's share); a rig with one arm or
-one leg gave that limb both sides' de Leva share (an arm of 7.4 kg, a leg of 29.8 kg).
+one leg gave that limb both sides' de Leva share (an arm of 7.4 kg, a leg of 29.8 kg); a rig whose
+arms end at the forearm (no hand joints, no names saying hand) had its shoulder made a hinge elbow and
+its elbow a wrist, and its walk turned 163 deg in 0.5 s.
 """
 
 from __future__ import annotations
@@ -53,10 +56,10 @@ def drop_joints(path: Path, leaves: set[str]) -> None:
     stage.GetRootLayer().Save()
 
 
-def _model(tmp_path: Path, drop: set[str]):
-    """The Mixamo-style rig (Y up, centimetres) without the joints ``drop``: MuJoCo's model and data at
-    rest, the body id of a leaf name, and the rest joint positions by UsdSkel in MuJoCo's axes."""
-    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", up_axis="Y", meters_per_unit=0.01,
+def _model(tmp_path: Path, drop: set[str], convention: str = "mixamo"):
+    """The rig (Y up, centimetres) without the joints ``drop``: MuJoCo's model and data at rest, the
+    body id of a template key, and the rest joint positions by UsdSkel in MuJoCo's axes."""
+    rig = syn.make_rig(tmp_path / "rig.usda", convention=convention, up_axis="Y", meters_per_unit=0.01,
                        frames=8, mesh=False)
     drop_joints(rig.path, {rig.leaf[k] for k in drop})
     xml = tmp_path / "model.xml"
@@ -69,7 +72,7 @@ def _model(tmp_path: Path, drop: set[str]):
     assert UsdGeom.GetStageUpAxis(Usd.Stage.Open(str(rig.path))) == "Y"
     p = (posed.rest_skel @ posed.skel_to_world)[:, 3, :3] * 0.01
     rest = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
-    body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key].split("_", 1)[1])  # noqa: E731
+    body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key].removeprefix("mixamorig_"))  # noqa: E731
     return rig, mj, d, body, posed, rest
 
 
@@ -101,3 +104,17 @@ def test_a_limb_on_one_side_only_weighs_one_sides_share(tmp_path, drop, key, sha
     assert _fk_error(rig, d, body, posed, rest) < 0.01
     assert abs(mj.body_mass[1:].sum() - MASS) < 1e-3
     assert abs(mj.body_subtreemass[body(key)] - share * MASS) < 1e-3
+
+
+def test_arms_without_hand_joints_are_upper_arms_and_forearms_with_hinge_elbows(tmp_path):
+    rig, mj, d, body, posed, rest = _model(tmp_path, {"hand_l", "hand_r"}, convention="ue")
+    assert _fk_error(rig, d, body, posed, rest) < 0.01
+    assert abs(mj.body_mass[1:].sum() - MASS) < 1e-3
+    for side in "lr":
+        shoulder, elbow = (mj.body_jntadr[body(f"{k}_{side}")] for k in ("arm", "forearm"))
+        assert mj.jnt_type[shoulder] == mujoco.mjtJoint.mjJNT_BALL
+        assert mj.jnt_type[elbow] == mujoco.mjtJoint.mjJNT_HINGE
+        # de Leva's upper arm and forearm (the hand's share is the trunk's), a forearm of a forearm's length
+        assert abs(mj.body_subtreemass[body(f"arm_{side}")] - (0.0271 + 0.0162) * MASS) < 1e-3
+        forearm = np.flatnonzero(mj.geom_bodyid == body(f"forearm_{side}"))
+        assert len(forearm) == 1 and 2 * mj.geom_size[forearm[0], 1] > 0.2

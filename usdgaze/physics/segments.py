@@ -210,8 +210,10 @@ def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: floa
     """The two longest branches off the spine (below the head, above the base) are arms. Along each,
     the upper arm and forearm are the most distal two consecutive bones of at least 0.6 of the
     branch's longest (a clavicle can be as long as a forearm: 19 vs 18.5 cm on CMU's left arm; hand
-    and finger bones are shorter); the hand is where they end. Returns the spine joints the arms hang
-    from."""
+    and finger bones are shorter); the hand is where they end. Where no two long bones follow each
+    other and the longest ends the branch, the arm has no hand joint: that bone is the upper arm and
+    its end the forearm (a handless rig's shoulder became a hinge elbow, its elbow a wrist). Returns
+    the spine joints the arms hang from."""
     def reach(k: int, start: int) -> float:
         return max(float(np.linalg.norm(pos[i] - pos[start])) for i in subtree_of(children, k))
 
@@ -221,10 +223,11 @@ def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: floa
     for _, c, _ in arms:
         path = _main_path(children, c, lambda k: reach(k, c))
         bones = np.linalg.norm(np.diff(pos[path], axis=0), axis=1)
-        if len(bones) < 2:
-            continue
         long = bones >= 0.6 * bones.max()
         pairs = np.flatnonzero(long[:-1] & long[1:])
+        if not len(pairs) and int(np.argmax(bones)) == len(bones) - 1:
+            roles[path[-1]], roles[path[-2]] = "forearm", "upperArm"
+            continue
         i = int(pairs[-1]) if len(pairs) else int(np.argmax(bones[:-1] + bones[1:]))
         _mark(roles, children, path[i + 2], "hand")
         roles[path[i + 1]], roles[path[i]] = "forearm", "upperArm"
@@ -316,6 +319,7 @@ def attachments(roles: list[str], parents: np.ndarray, children: list[list[int]]
     if head is None:
         return set()
     ends = [b for b, r in enumerate(roles) if r in ("hand", "foot") and (parents[b] < 0 or roles[int(parents[b])] != r)]
+    ends += [b for b, r in enumerate(roles) if r == "forearm" and not children[b]]  # an arm without a hand
     frame = {head, *_ancestors(head, parents)}
     for b in ends:
         frame.update(_ancestors(b, parents))
