@@ -17,7 +17,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from pxr import Usd, UsdGeom, UsdSkel, Vt
+from pxr import Gf, Usd, UsdGeom, UsdSkel, Vt
 
 from usdgaze.console.main import main
 
@@ -118,3 +118,46 @@ def test_arms_without_hand_joints_are_upper_arms_and_forearms_with_hinge_elbows(
         assert abs(mj.body_subtreemass[body(f"arm_{side}")] - (0.0271 + 0.0162) * MASS) < 1e-3
         forearm = np.flatnonzero(mj.geom_bodyid == body(f"forearm_{side}"))
         assert len(forearm) == 1 and 2 * mj.geom_size[forearm[0], 1] > 0.2
+
+
+def _scale_root(path: Path, samples: dict) -> None:
+    """A scale op on the rig's SkelRoot: ``{time or None (default): (x, y, z)}``."""
+    stage = Usd.Stage.Open(str(path))
+    root = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Root))
+    op = UsdGeom.Xformable(root).AddScaleOp()
+    for t, s in samples.items():
+        op.Set(Gf.Vec3f(*s), Usd.TimeCode.Default() if t is None else t)
+    stage.GetRootLayer().Save()
+
+
+@pytest.mark.parametrize("samples, says", [({None: (1.0, 1.2, 1.0)}, "unevenly (1 to 1.2"),
+                                           ({0: (1.0, 1.0, 1.0), 7: (1.5, 1.5, 1.5)}, "by 1 to 1.5 over the clip")],
+                         ids=["squashed", "growing"])
+def test_a_skelroot_scaled_unevenly_or_over_time_is_refused_in_one_line(tmp_path, capsys, samples, says):
+    """Rigid bodies cannot follow a squash or a growth: the model's joints were 10-15 cm from UsdSkel's as
+    they turned (squashed 1.2 along the stage's up)."""
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", frames=8, mesh=False)
+    _scale_root(rig.path, samples)
+    out, layer = tmp_path / "model.xml", tmp_path / "out.usda"
+    assert main(["physics-model", str(rig.path), "--out", str(out)]) == 2
+    assert main(["attend", str(rig.path), "--physics", "--out", str(layer)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and all(says in line and str(rig.path) in line for line in err), err
+    assert not out.exists() and not layer.exists()
+
+
+def test_a_skelroot_scaled_evenly_is_modelled_where_usdskel_puts_the_joints(tmp_path):
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", frames=8, mesh=False)
+    _scale_root(rig.path, {None: (0.6, 0.6, 0.6)})
+    out = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(out)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(out))
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    posed = measure.posed(str(rig.path), rig.skeleton)
+    p = (posed.rest_skel @ posed.skel_to_world)[:, 3, :3]
+    rest = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
+    body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key].removeprefix("mixamorig_"))  # noqa: E731
+    assert _fk_error(rig, d, body, posed, rest) < 0.01
+    head = rest[posed.index(rig.leaf["head"])] - rest[posed.index(rig.leaf["toe_l"])]
+    assert abs(head[2] - 0.6 * 1.58) < 0.01  # the synthetic head 1.58 m above the toe, scaled

@@ -227,6 +227,7 @@ def _body_tree(joints, parents: np.ndarray, rest_local: np.ndarray, skel_to_worl
     matrix, the rest pose's world matrices, the simulated joints (the base joint's subtree), their body
     indices by joint and each body's parent body (-1 for the base)."""
     to_model = stage_to_model(up_axis, meters_per_unit)
+    _check_rigid(skel_to_world, where)
     skel_to_world0 = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
     if np.linalg.det(skel_to_world0[:3, :3]) < 0.0:
         to_model = np.diag([-1.0, 1.0, 1.0]) @ to_model  # the mirror image: right-handed bodies
@@ -239,6 +240,27 @@ def _body_tree(joints, parents: np.ndarray, rest_local: np.ndarray, skel_to_worl
     bparent = np.array([body_of.get(int(parents[j]), -1) for j in idx])
     bparent[0] = -1
     return to_model, skel_to_world0, world, idx, body_of, bparent
+
+
+# How unevenly the skeleton's transform in the stage may scale it: 0.5% of a 2 m body is 1 cm.
+_SCALE_SPREAD = 1.005
+
+
+def _check_rigid(skel_to_world, where: str) -> None:
+    """The skeleton's transform in the stage must scale it evenly and by one factor throughout: the model
+    is built once, of rigid bodies, so a squash (a SkelRoot scaled (1, 1.2, 1)) or a scale animated over
+    the clip put the model's joints 10-15 cm from UsdSkel's as the joints turned."""
+    scales = np.linalg.svd(np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[:, :3, :3], compute_uv=False)
+    uneven = scales.max(axis=1) / np.maximum(scales.min(axis=1), 1e-300)
+    f = int(np.argmax(uneven))
+    if uneven[f] > _SCALE_SPREAD:
+        raise UsdGazeError(f"{where}: its transform in the stage (the SkelRoot's or a prim's above the Skeleton) "
+                           f"scales it unevenly ({scales[f].min():.4g} to {scales[f].max():.4g} along its axes"
+                           f"{f' at its sample {f}' if len(scales) > 1 else ''}); the physics body is rigid: scale it by one factor, or bake the squash into the joints")
+    if scales.max() / max(scales.min(), 1e-300) > _SCALE_SPREAD:
+        raise UsdGazeError(f"{where}: its transform in the stage scales it by {scales[:, 0].min():.4g} to "
+                           f"{scales[:, 0].max():.4g} over the clip; the physics body is built once at one size: "
+                           "keep the scale of the SkelRoot and the prims above the Skeleton constant")
 
 
 def _check_mirrored(joints, idx, bparent, kind, lin: np.ndarray, where: str) -> None:
