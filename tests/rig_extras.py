@@ -98,6 +98,12 @@ def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> 
     """Mirror joint ``leaf`` along its own x: its local x row (UsdSkel matrices are row-vector)
     negated in the rest transforms, the bind transforms at and below it recomputed, and a scale of
     (-1, 1, 1) in the animation. Positions stay; the frames' handedness changes."""
+    scale_joint(path, skeleton, animation, leaf, (-1.0, 1.0, 1.0))
+
+
+def scale_joint(path: str | Path, skeleton: str, animation: str, leaf: str, scale: tuple) -> None:
+    """Scale joint ``leaf`` by ``scale`` along its own axes: its local rows scaled in the rest transforms,
+    the bind transforms at and below it recomputed, and ``scale`` in the animation at every sample."""
     from pxr import Sdf
 
     layer = Sdf.Layer.FindOrOpen(str(path))
@@ -108,12 +114,13 @@ def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> 
     below = [i for i, name in enumerate(joints) if name.startswith(joints[j] + "/")]
     rest = np.array(skel.GetAttribute("restTransforms").Get())
     bind = np.array(skel.GetAttribute("bindTransforms").Get())
-    rest[j] = np.diag([-1.0, 1.0, 1.0, 1.0]) @ rest[j]
+    rest[j] = np.diag([*map(float, scale), 1.0]) @ rest[j]
     skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(rest))
     # Bind transforms (skeleton space) of the joint and those below: rest FK from the parent's bind.
     index = {name: i for i, name in enumerate(joints)}
     for i in [j, *below]:
-        bind[i] = rest[i] @ bind[index[joints[i].rsplit("/", 1)[0]]]
+        parent = joints[i].rsplit("/", 1)[0]
+        bind[i] = rest[i] @ bind[index[parent]] if parent in index else rest[i]
     skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(bind))
     anim = stage.GetPrimAtPath(animation)
     anim_joints = [str(x) for x in anim.GetAttribute("joints").Get()]
@@ -122,6 +129,6 @@ def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> 
     times = scales.GetTimeSamples()
     for t in times or [Usd.TimeCode.Default()]:
         s = np.array(scales.Get(t), dtype=float)
-        s[k] = (-1.0, 1.0, 1.0)
+        s[k] = scale
         scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
     layer.Save()

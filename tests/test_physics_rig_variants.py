@@ -21,7 +21,7 @@ from pxr import Gf, Usd, UsdGeom, UsdSkel, Vt
 
 from usdgaze.console.main import main
 
-from . import measure
+from . import measure, rig_extras
 from . import synthetic as syn
 
 # de Leva (1996), Table 4, males: fractions of the total mass.
@@ -161,3 +161,33 @@ def test_a_skelroot_scaled_evenly_is_modelled_where_usdskel_puts_the_joints(tmp_
     assert _fk_error(rig, d, body, posed, rest) < 0.01
     head = rest[posed.index(rig.leaf["head"])] - rest[posed.index(rig.leaf["toe_l"])]
     assert abs(head[2] - 0.6 * 1.58) < 0.01  # the synthetic head 1.58 m above the toe, scaled
+
+
+def test_a_joint_scaled_unevenly_at_rest_is_refused_and_an_even_one_follows_usdskel(tmp_path, capsys):
+    """Below a thigh scaled (1, 1.3, 1) at rest, the knee turns inside a squashed frame: the model's knee
+    and foot were 9.7 cm from UsdSkel's as the leg swung (exit 0); now one line naming the joints. A hips
+    joint scaled 1.1 along every axis is modelled, its joints within 1 cm of UsdSkel's on every frame."""
+    from usdgaze.physics import build, mjcf, retarget
+
+    uneven = syn.make_rig(tmp_path / "uneven.usda", convention="mixamo", frames=8, mesh=False)
+    rig_extras.scale_joint(uneven.path, uneven.skeleton, uneven.animation, uneven.leaf["thigh_l"], (1.0, 1.3, 1.0))
+    out = tmp_path / "model.xml"
+    assert main(["physics-model", str(uneven.path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and uneven.leaf["knee_l"] in err[0] and "unevenly" in err[0], err
+    assert not out.exists()
+
+    even = syn.make_rig(tmp_path / "even.usda", convention="mixamo", frames=8, mesh=False)
+    rig_extras.scale_joint(even.path, even.skeleton, even.animation, even.leaf["pelvis"], (1.1, 1.1, 1.1))
+    clip = build.load_clip(even.path)
+    model, ref = build.body_model(clip)
+    mj = mujoco.MjModel.from_xml_string(mjcf.write(model))
+    d = mujoco.MjData(mj)
+    posed = measure.posed(str(even.path), even.skeleton, times=clip.times)
+    kept = [b for b in range(len(model.bodies)) if b == 0 or model.kind[model.body_parent[b]] != "weld"]
+    for f, q in enumerate(retarget.to_qpos(model, ref)):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(mj, d)
+        p = posed.world[f][model.bodies, 3, :3]
+        want = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
+        assert np.linalg.norm(d.xpos[1:][kept] - want[kept], axis=1).max() < 0.01

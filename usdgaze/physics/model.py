@@ -197,6 +197,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     kind = ["free"] + ["weld" if b in eyes or b in passive or _welded(joints[idx[b]], roles, bparent, b, children)
                        else "ball" for b in range(1, n)]
     _check_mirrored(joints, idx, bparent, kind, to_model @ world[idx, :3, :3], where)
+    _check_even(joints, idx, bparent, kind, world[idx, :3, :3], where)
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
     feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]  # topmost foot bodies
@@ -276,6 +277,21 @@ def _check_mirrored(joints, idx, bparent, kind, lin: np.ndarray, where: str) -> 
                 f"joint '{joints[idx[b]]}' moves below mirrored joint '{joints[idx[bparent[b]]]}'")
         raise UsdGazeError(f"{where}: {what} at rest (a negative scale); the body cannot simulate a mirrored "
                            f"limb: unmirror it in the rig (mirror the SkelRoot's transform to mirror the whole character)")
+
+
+def _check_even(joints, idx, bparent, kind, lin: np.ndarray, where: str) -> None:
+    """A body below a joint scaled unevenly at rest may only be welded: its rotation turns what hangs
+    from it inside a squashed frame, which no rigid body follows (a thigh scaled (1, 1.3, 1) put the
+    model's knee and foot 9.7 cm from UsdSkel's as the leg swung). Its own scale is fine: the bones it
+    scales turn with it."""
+    scales = np.linalg.svd(lin, compute_uv=False)
+    uneven = scales.max(axis=1) / np.maximum(scales.min(axis=1), 1e-300) > _SCALE_SPREAD
+    bad = [b for b in range(1, len(idx)) if kind[b] != "weld" and uneven[bparent[b]]]
+    if bad:
+        b, p = bad[0], bparent[bad[0]]
+        raise UsdGazeError(f"{where}: joint '{joints[idx[b]]}' turns below joint '{joints[idx[p]]}', scaled unevenly at "
+                           f"rest ({scales[p].min():.4g} to {scales[p].max():.4g} along its axes); the body's limbs are "
+                           "rigid: scale joints by one factor each in the rig")
 
 
 @dataclass(frozen=True)
