@@ -191,3 +191,24 @@ def test_a_joint_scaled_unevenly_at_rest_is_refused_and_an_even_one_follows_usds
         p = posed.world[f][model.bodies, 3, :3]
         want = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
         assert np.linalg.norm(d.xpos[1:][kept] - want[kept], axis=1).max() < 0.01
+
+
+def test_a_toe_placed_on_its_ankle_gives_a_foot_along_the_ground(tmp_path):
+    """A toe joint at its ankle's place (a zero-length bone): the sole's capsule had no length and MuJoCo
+    refused the MJCF, so ``attend --physics`` stopped with an internal error (exit 1). Now the foot runs
+    to the toe's tip: no foot shape reaches below the toe tip's level by UsdSkel, less its radius."""
+    template = dict(syn._BODY)
+    try:
+        for s, x in (("l", 1.0), ("r", -1.0)):
+            syn._BODY[f"toe_{s}"] = (f"ankle_{s}", syn._BODY[f"ankle_{s}"][1])
+        rig, mj, d, body, posed, rest = _model(tmp_path, set())
+    finally:
+        syn._BODY.clear()
+        syn._BODY.update(template)
+    assert _fk_error(rig, d, body, posed, rest) < 0.01
+    for s in "lr":
+        tip = rest[posed.index(rig.leaf[f"toe_end_{s}"])] - rest[posed.index(rig.leaf["pelvis"])] + d.xpos[body("pelvis")]
+        for g in np.flatnonzero(mj.geom_bodyid == body(f"ankle_{s}")):
+            half = mj.geom_size[g, 1] if mj.geom_type[g] == mujoco.mjtGeom.mjGEOM_CAPSULE else 0.0
+            low = d.geom_xpos[g, 2] - abs(d.geom_xmat[g].reshape(3, 3)[2, 2]) * half - mj.geom_size[g, 0]
+            assert low > tip[2] - mj.geom_size[g, 0] - 0.01, (s, g, low, tip[2])

@@ -315,7 +315,14 @@ def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float,
             below = [seg.subtree_of(children, c) for c in children[b]]
             keys = [(c not in attached, head is not None and head in sub, len(sub), c not in tips)
                     for c, sub in zip(children[b], below)]
-            seg_vec[b] = offset[children[b][max(range(len(keys)), key=keys.__getitem__)]]
+            c = children[b][max(range(len(keys)), key=keys.__getitem__)]
+            seg_vec[b] = offset[c]
+            # A foot whose toe sits on its ankle (a zero-length bone) runs on to the joint below the toe: continued
+            # along the shank it stood on a stilt into the ground. (Elsewhere the bone's continuation stays, as
+            # CMU's hips and wrists were measured with it.)
+            while roles[b] == "foot" and np.linalg.norm(seg_vec[b]) < 1e-6 and children[c]:
+                c = max(children[c], key=lambda k: len(seg.subtree_of(children, k)))
+                seg_vec[b] = rmat[b].T @ (pos[c] - pos[b])
         if np.linalg.norm(seg_vec[b]) < 1e-6 and b not in tips:
             d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
             d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))
