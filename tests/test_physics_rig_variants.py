@@ -212,3 +212,27 @@ def test_a_toe_placed_on_its_ankle_gives_a_foot_along_the_ground(tmp_path):
             half = mj.geom_size[g, 1] if mj.geom_type[g] == mujoco.mjtGeom.mjGEOM_CAPSULE else 0.0
             low = d.geom_xpos[g, 2] - abs(d.geom_xmat[g].reshape(3, 3)[2, 2]) * half - mj.geom_size[g, 0]
             assert low > tip[2] - mj.geom_size[g, 0] - 0.01, (s, g, low, tip[2])
+
+
+def test_a_skeleton_the_body_refuses_stops_the_pass_before_any_simulation(tmp_path):
+    """Two skeletons under one SkelRoot, the second lying down (its Skeleton prim turned 90 deg): the
+    first was simulated before the second's body was refused. Now no step is simulated."""
+    from pxr import Sdf
+
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.passes import physics
+
+    rig = syn.make_rig(tmp_path / "in.usda", convention="mixamo", frames=8, mesh=False)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    for path in (rig.skeleton, rig.animation):
+        Sdf.CopySpec(layer, path, layer, path + "2")
+    skel = layer.GetPrimAtPath(rig.skeleton + "2")
+    skel.relationships["skel:animationSource"].targetPathList.explicitItems = [Sdf.Path(rig.animation + "2")]
+    Sdf.AttributeSpec(skel, "xformOp:rotateX", Sdf.ValueTypeNames.Float).default = 90.0
+    Sdf.AttributeSpec(skel, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      variability=Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:rotateX"])
+    layer.Save()
+    steps = []
+    with pytest.raises(UsdGazeError, match="does not stand at rest"):
+        physics.run(rig.path, tmp_path / "out.usda", progress=lambda k, n: steps.append(k))
+    assert steps == [] and not (tmp_path / "out.usda").exists()
