@@ -132,3 +132,41 @@ def scale_joint(path: str | Path, skeleton: str, animation: str, leaf: str, scal
         s[k] = scale
         scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
     layer.Save()
+
+
+def split_bone(path: str | Path, parent_leaf: str, child_leaf: str, new_leaf: str, new_name: str) -> None:
+    """Split the bone from joint ``parent_leaf`` to its child ``child_leaf`` in two (Rigify's DEF-shin.L and
+    DEF-shin.L.001): a joint ``new_leaf`` (DCC name ``new_name``) halfway along it, turned as its parent,
+    held still in the animation; the child and its subtree re-parented under it, posed where they were."""
+    stage = Usd.Stage.Open(str(path))
+    skel = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
+    anim = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Animation))
+    joints = [str(j) for j in skel.GetAttribute("joints").Get()]
+    c = next(i for i, j in enumerate(joints) if j.rsplit("/", 1)[-1] == child_leaf)
+    parent, child = joints[c].rsplit("/", 1)[0], joints[c]
+    assert parent.rsplit("/", 1)[-1] == parent_leaf
+    new = f"{parent}/{new_leaf}"
+    moved = lambda j: new + j[len(parent):] if j == child or j.startswith(child + "/") else j  # noqa: E731
+    rest, bind = (np.array(skel.GetAttribute(a).Get()) for a in ("restTransforms", "bindTransforms"))
+    half = np.eye(4)
+    half[3, :3] = 0.5 * rest[c][3, :3]  # row-vector matrices: the translation is the last row
+    rest[c][3, :3] -= half[3, :3]
+    p = joints.index(parent)
+    skel.GetAttribute("joints").Set(Vt.TokenArray(np.insert(np.array([moved(j) for j in joints], dtype=object), c, new).tolist()))
+    skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(np.insert(rest, c, half, axis=0)))
+    skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(np.insert(bind, c, half @ bind[p], axis=0)))
+    names = skel.GetAttribute("jointNames")
+    if names.HasAuthoredValue():
+        names.Set(Vt.TokenArray(np.insert(np.array(list(names.Get()), dtype=object), c, new_name).tolist()))
+    listed = [str(j) for j in anim.GetAttribute("joints").Get()]
+    k = listed.index(child)
+    anim.GetAttribute("joints").Set(Vt.TokenArray([moved(j) for j in listed] + [new]))
+    extra = {"rotations": (0.0, 0.0, 0.0, 1.0), "translations": half[3, :3], "scales": (1.0, 1.0, 1.0)}
+    for name, value in extra.items():
+        attr = anim.GetAttribute(name)
+        for t in attr.GetTimeSamples():
+            v = np.array(attr.Get(t))
+            if name == "translations":
+                v[k] -= half[3, :3]
+            attr.Set(type(attr.Get(t)).FromNumpy(np.ascontiguousarray(np.vstack([v, np.array(value, dtype=v.dtype)]))), t)
+    stage.GetRootLayer().Save()

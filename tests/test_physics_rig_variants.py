@@ -236,3 +236,31 @@ def test_a_skeleton_the_body_refuses_stops_the_pass_before_any_simulation(tmp_pa
     with pytest.raises(UsdGazeError, match="does not stand at rest"):
         physics.run(rig.path, tmp_path / "out.usda", progress=lambda k, n: steps.append(k))
     assert steps == [] and not (tmp_path / "out.usda").exists()
+
+
+def test_bones_split_in_two_are_one_segment_each(tmp_path):
+    """Rigify's deform bones come split (DEF-thigh.L, DEF-thigh.L.001, DEF-shin.L, DEF-shin.L.001, ...):
+    the shin's upper half was taken for the thigh and the thigh for the trunk (a leg of 21 kg, the knee a
+    ball joint at the knee and a hinge at mid-shin). Now each limb weighs de Leva's share, the knees and
+    elbows are hinges, and the leg lift turns the knee and the hip."""
+    from usdgaze.physics import build, tracking
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="rigify", frames=8, mesh=False)
+    for s in "LR":
+        for bone, below in (("thigh", "shin"), ("shin", "foot"), ("upper_arm", "forearm"), ("forearm", "hand")):
+            rig_extras.split_bone(rig.path, f"DEF_{bone}_{s}", f"DEF_{below}_{s}", f"DEF_{bone}_{s}_001",
+                                  f"DEF-{bone}.{s}.001")
+    out = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(out)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(out))
+    body = lambda name: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name)  # noqa: E731
+    for s in "LR":
+        assert abs(mj.body_subtreemass[body(f"DEF_thigh_{s}")] - LEG * MASS) < 1e-3
+        assert abs(mj.body_subtreemass[body(f"DEF_shin_{s}")] - (0.0433 + 0.0137) * MASS) < 1e-3
+        assert abs(mj.body_subtreemass[body(f"DEF_upper_arm_{s}")] - ARM * MASS) < 1e-3
+        for joint in (f"DEF_shin_{s}", f"DEF_forearm_{s}"):
+            assert mj.jnt_type[mj.body_jntadr[body(joint)]] == mujoco.mjtJoint.mjJNT_HINGE
+    model, _ = build.body_model(build.load_clip(rig.path))
+    for foot in model.feet:
+        side = model.names[foot][-1]
+        assert [model.names[b] for b in tracking._leg(model, foot)] == [f"DEF_shin_{side}", f"DEF_thigh_{side}"]

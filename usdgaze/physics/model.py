@@ -339,7 +339,8 @@ def _hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
     range_deg = np.zeros((n, 2))
     for b in range(1, n):
         range_deg[b] = (0.0, seg.RANGE_DEG.get(roles[b], seg.RANGE_DEG["other"]))
-        if roles[b] in _HINGES and np.any(seg_vec[b]) and kind[b] == "ball" and forward is not None:
+        top = roles[bparent[b]] != roles[b]  # a split bone's first part is the hinge; the others twist
+        if roles[b] in _HINGES and top and np.any(seg_vec[b]) and kind[b] == "ball" and forward is not None:
             bone = rmat[b] @ seg_vec[b]
             a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
             if np.linalg.norm(a) > 0.2:

@@ -69,6 +69,16 @@ def _key(name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", leaf(name).lower())
 
 
+_PART = re.compile(r"(twist|roll|bend)?\d*$")
+
+
+def _split_of(child: str, parent: str) -> bool:
+    """Whether joint key ``child`` names a further part of ``parent``'s bone: the same name but for a part
+    word or number at its end (``defshinl001`` of ``defshinl``, ``lthightwist`` of ``lthighbend``)."""
+    stem = _PART.sub("", child)
+    return bool(stem) and child != parent and stem == _PART.sub("", parent)
+
+
 def _topmost(j: int, parents: np.ndarray, names: list[str], pattern: re.Pattern) -> int:
     """The highest ancestor-or-self of ``j`` whose name matches ``pattern`` on an unbroken run."""
     while parents[j] >= 0 and pattern.search(_key(names[parents[j]])):
@@ -94,6 +104,11 @@ def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
                 if p < 0 or roles[p] != "other":
                     break
                 roles[p] = role
+                # A bone split in parts is one segment: Rigify's DEF-shin.L and DEF-shin.L.001, DAZ's
+                # lThighBend and lThighTwist (the shin's upper half had been the thigh, the thigh the trunk).
+                while parents[p] >= 0 and roles[parents[p]] == "other" and _split_of(keys[p], keys[parents[p]]):
+                    p = int(parents[p])
+                    roles[p] = role
                 p = int(parents[p])
     for j in range(n):
         if roles[j] == "other" and _HEAD.search(keys[j]):
