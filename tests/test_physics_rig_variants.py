@@ -264,3 +264,30 @@ def test_bones_split_in_two_are_one_segment_each(tmp_path):
     for foot in model.feet:
         side = model.names[foot][-1]
         assert [model.names[b] for b in tracking._leg(model, foot)] == [f"DEF_shin_{side}", f"DEF_thigh_{side}"]
+
+
+def test_joints_hung_beside_the_body_neither_size_nor_shape_it(tmp_path):
+    """A camera joint under the hips 8 m ahead made the standing rig 'lying down' (exit 2); one 3.5 m up
+    and a marker 30 cm below the ground stood the model's feet 34 cm above its ground (a capsule from the
+    hips to the marker) and doubled their thickness (the height counted the camera). By MuJoCo's own
+    geometry at rest: the feet stand on the ground, as thick as the plain rig's."""
+    def feet_at_rest(rig):
+        out = tmp_path / f"{rig.path.stem}.xml"
+        assert main(["physics-model", str(rig.path), "--out", str(out)]) == 0
+        mj = mujoco.MjModel.from_xml_path(str(out))
+        d = mujoco.MjData(mj)
+        mujoco.mj_kinematics(mj, d)
+        feet = [mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[k].removeprefix("mixamorig_"))
+                for k in ("ankle_l", "toe_l", "ankle_r", "toe_r")]
+        geoms = np.flatnonzero(np.isin(mj.geom_bodyid, feet))
+        half = np.where(mj.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_CAPSULE, mj.geom_size[geoms, 1], 0.0)
+        axis_z = np.abs(d.geom_xmat[geoms].reshape(-1, 3, 3)[:, 2, 2])
+        return float((d.geom_xpos[geoms, 2] - axis_z * half - mj.geom_size[geoms, 0]).min()), mj.geom_size[geoms, 0].max()
+
+    plain = syn.make_rig(tmp_path / "plain.usda", convention="mixamo", frames=8, mesh=False)
+    for name, extra in (("far", [("Camera", (0.0, 1.7, 8.0))]),
+                        ("up_and_down", [("Camera", (0.0, 3.5, 3.0)), ("GroundMarker", (0.0, -0.3, 0.0))])):
+        rig = syn.make_rig(tmp_path / f"{name}.usda", convention="mixamo", frames=8, mesh=False)
+        rig_extras.add_joints(rig.path, [(leaf, rig.leaf["pelvis"], at, False) for leaf, at in extra])
+        (low, radius), (_, plain_radius) = feet_at_rest(rig), feet_at_rest(plain)
+        assert abs(low) < 1e-3 and radius == pytest.approx(plain_radius), (name, low, radius)

@@ -172,11 +172,9 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
 
     pos, orient, rmat, offset, rel = _rest_frames(world[idx], bparent, to_model)
     n = len(idx)
-    height = float(np.ptp(pos[:, 2])) * 1.08 or 1.0
     hints = hints or Hints()
     head = body_of.get(hints.head) if hints.head is not None else None
     roles = seg.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
-    seg.check_biped(roles, pos, height, where)
     eyes = {body_of[e] for e in hints.eyes if e in body_of}
     eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
     children = seg.children_of(bparent)
@@ -191,6 +189,15 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     tips |= {b for b in eyes if not children[b]}
     attached = seg.attachments(roles, bparent, children, head, tips)
     passive = tips | attached  # no segment, mass or degrees of freedom of their own
+    # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
+    # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
+    # height (feet 5.9 cm thick), a marker 30 cm below the ground stood the model 34 cm up (a capsule to it).
+    aside = seg.asides([joints[j] for j in idx], roles, bparent, children, head, pos)
+    aside -= set(seg.subtree_of(children, head)) if head is not None else set()
+    extent = sorted(set(range(n)) - attached - aside)
+    height = float(np.ptp(pos[extent, 2])) * 1.08 or 1.0
+    seg.check_biped(roles, pos, height, where, extent)
+    far = {b for b in aside if np.linalg.norm(offset[b]) > 0.25 * height}  # longer than a thigh: no bone of it
     seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges, head, attached)
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = _masses(roles, lengths, total_mass, passive, bparent)
@@ -212,8 +219,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
 
     com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
     radius = shapes.radii(mass, lengths, roles, height)
-    geoms = shapes.geoms(offset, children, seg_vec, roles, rmat, feet, attached)
-    lowest = min(shapes.lowest(pos, rmat, geoms, radius, b) for b in range(n))
+    geoms = shapes.geoms(offset, children, seg_vec, roles, rmat, feet, attached | far)
+    lowest = min(shapes.lowest(pos, rmat, geoms, radius, b) for b in extent)
     strength = _strengths(roles, bparent) * total_mass / 75.0
     return BodyModel(
         joints=list(joints), parents=parents, bodies=idx, body_parent=bparent, kind=kind, role=roles,

@@ -288,6 +288,25 @@ def _on_bone(j: int, parent: int, siblings: list[int], pos: np.ndarray) -> bool:
     return False
 
 
+def _is_aside(j: int, names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
+              head: int | None, pos: np.ndarray | None) -> bool:
+    """Whether leaf ``j`` hangs beside its body rather than ending a segment."""
+    # A leaf beside a joint the chain goes on through is an attachment on its parent's bone (UE's
+    # and CC's twist joints, a breast or a tail helper), not a segment; a hand's and a foot's
+    # leaves are judged by their depth (CMU's thumb is a leaf beside its fingers) or named props,
+    # and a leaf head (CMU's) is the head, whatever hangs beside it.
+    siblings = [c for c in children[int(parents[j])] if c != j]
+    judged = roles[j] in ("hand", "foot") or j == head
+    return is_prop(names[j]) or (not judged and (
+        any(children[c] for c in siblings) or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos))))
+
+
+def asides(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]], head: int | None,
+           pos: np.ndarray | None = None) -> set[int]:
+    """The leaves beside the body (props, helpers, twist joints; a camera or a marker hung from the hips)."""
+    return {j for j in range(1, len(names)) if not children[j] and _is_aside(j, names, roles, parents, children, head, pos)}
+
+
 def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
               head: int | None, pos: np.ndarray | None = None) -> tuple[set[int], set[int]]:
     """The leaves whose extent the skeleton itself gives: ``tips`` mark where their parent's segment
@@ -303,14 +322,7 @@ def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children:
         depth, top = 0, j
         while parents[top] >= 0 and roles[int(parents[top])] == roles[j]:
             top, depth = int(parents[top]), depth + 1
-        # A leaf beside a joint the chain goes on through is an attachment on its parent's bone (UE's
-        # and CC's twist joints, a breast or a tail helper), not a segment; a hand's and a foot's
-        # leaves are judged by their depth (CMU's thumb is a leaf beside its fingers) or named props,
-        # and a leaf head (CMU's) is the head, whatever hangs beside it.
-        siblings = [c for c in children[int(parents[j])] if c != j]
-        judged = roles[j] in ("hand", "foot") or j == head
-        aside = is_prop(names[j]) or (not judged and (
-            any(children[c] for c in siblings) or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos))))
+        aside = _is_aside(j, names, roles, parents, children, head, pos)
         if (is_end_joint(names[j]) or (head is not None and head in _ancestors(j, parents)) or aside
                 or depth >= _TIP_DEPTH.get(roles[j], 1 << 30)):
             tips.add(j)
@@ -375,13 +387,14 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tip
     return masses * total_mass
 
 
-def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) -> None:
+def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str, extent=None) -> None:
     """The body is de Leva's human standing: a skeleton lying down or upside down in the stage at rest
     (its head not above its pelvis, or its feet not below), and one whose hands are on the ground at
     rest (a quadruped's front feet), would be simulated as a person in a pose it cannot hold (a lying
     rig was said to have 'stayed up' at 247% of its pelvis height), so they are refused, as is one
-    without feet."""
-    size = float(np.linalg.norm(np.ptp(pos, axis=0)))
+    without feet. ``extent``: the bodies that size it (not a camera joint hung from the hips)."""
+    body = pos if extent is None else pos[list(extent)]
+    size = float(np.linalg.norm(np.ptp(body, axis=0)))
     heads = [b for b, r in enumerate(roles) if r == "head"]
     feet = [b for b, r in enumerate(roles) if r == "foot"]
     if not feet:  # a rig without feet (cut off at the knees) was built hovering 45 cm up and fell at once
@@ -395,7 +408,7 @@ def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) ->
                                f"above the pelvis, feet {feet_down / size:.0%} below): the physics body stands "
                                "upright; a character lying down or upside down is not supported")
     hands = [b for b, r in enumerate(roles) if r == "hand"]
-    low = min((float(pos[b, 2] - pos[:, 2].min()) for b in hands), default=np.inf)
+    low = min((float(pos[b, 2] - body[:, 2].min()) for b in hands), default=np.inf)
     if low < 0.2 * height:
         raise UsdGazeError(f"{where}: its hands are on the ground at rest ({low / height:.0%} of its height up): "
                            "the physics body is a biped (de Leva's human segments); quadrupeds are not supported")
