@@ -32,7 +32,9 @@ from usdgaze.core.rig import character_frame, leaf
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.physics import checks
 from usdgaze.physics import segments as seg
+from usdgaze.physics import shape_roles as shape
 from usdgaze.physics import shapes
+from usdgaze.physics.joint_kinds import fit_to_reference, hinges, is_toe, strengths, welded
 
 Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 _BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
@@ -40,9 +42,7 @@ _BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
 # A forearm that ends its arm (a rig without hand joints) is a forearm, 0.146 of the height (Drillis and
 # Contini); continued by the 3% of other leaves it was a stump.
 _LEAF_LENGTH = {"head": 0.12, "hand": 0.06, "foot": 0.06, "forearm": 0.146, "other": 0.03}
-_STILL_DEG = 0.5
 _EYE = re.compile(r"eye", re.I)
-_HINGES = {"shank": 1.0, "forearm": -1.0}  # flexion axis = sign * (bone direction x forward)
 
 
 def stage_to_model(up_axis: str, meters_per_unit: float) -> np.ndarray:
@@ -92,7 +92,7 @@ class BodyModel:
     @property
     def toes(self) -> list[int]:
         """Bodies of the toes: foot bodies below a foot body."""
-        return [b for b in range(1, len(self.kind)) if _is_toe(self.role, self.body_parent, b)]
+        return [b for b in range(1, len(self.kind)) if is_toe(self.role, self.body_parent, b)]
 
     def layout(self) -> tuple[np.ndarray, np.ndarray]:
         """First ``qpos`` and ``qvel`` index of each body's joint (MuJoCo's order: bodies in order)."""
@@ -174,7 +174,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     n = len(idx)
     hints = hints or Hints()
     head = body_of.get(hints.head) if hints.head is not None else None
-    roles = seg.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
+    roles = shape.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
     eyes = {body_of[e] for e in hints.eyes if e in body_of}
     eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
     children = seg.children_of(bparent)
@@ -202,7 +202,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = _masses(roles, lengths, total_mass, passive, bparent)
 
-    kind = ["free"] + ["weld" if b in eyes or b in passive or _welded(joints[idx[b]], roles, bparent, b, children)
+    kind = ["free"] + ["weld" if b in eyes or b in passive or welded(joints[idx[b]], roles, bparent, b, children)
                        else "ball" for b in range(1, n)]
     checks.unmirrored(joints, idx, bparent, kind, to_model @ world[idx, :3, :3], where)
     checks.evenly_scaled(joints, idx, bparent, kind, world[idx, :3, :3], where)
@@ -211,17 +211,17 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]  # topmost foot bodies
     forward = _forward([joints[j] for j in idx], rest4, feet, bparent, pos, hints,
                        to_model @ skel_to_world0[:3, :3], where)
-    axis, range_deg = _hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
+    axis, range_deg = hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
         # Without weld_still the pelvis's own bones still weld where held: the pelvis is one rigid segment.
         still = range(n) if weld_still else seg.pelvis_bones(roles, bparent)
-        _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still))
+        fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still))
 
     com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
     radius = shapes.radii(mass, lengths, roles, height)
     geoms = shapes.geoms(offset, children, seg_vec, roles, rmat, feet, attached | far)
     lowest = min(shapes.lowest(pos, rmat, geoms, radius, b) for b in extent)
-    strength = _strengths(roles, bparent) * total_mass / 75.0
+    strength = strengths(roles, bparent) * total_mass / 75.0
     return BodyModel(
         joints=list(joints), parents=parents, bodies=idx, body_parent=bparent, kind=kind, role=roles,
         names=_safe_names(joints, idx), offset=offset, rel_quat=rel, base_pos=pos[0], base_quat=orient[0],
@@ -336,83 +336,3 @@ def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float,
             length = np.linalg.norm(d) if b in phalanges else _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
             seg_vec[b] = d / np.linalg.norm(d) * length
     return seg_vec
-
-
-def _hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
-    """Knees, elbows and toes become hinges (``kind`` is updated): their axes in the body frame and
-    every body's range in degrees."""
-    n = len(kind)
-    axis = np.zeros((n, 3))
-    range_deg = np.zeros((n, 2))
-    for b in range(1, n):
-        range_deg[b] = (0.0, seg.RANGE_DEG.get(roles[b], seg.RANGE_DEG["other"]))
-        top = roles[bparent[b]] != roles[b]  # a split bone's first part is the hinge; the others twist
-        if roles[b] in _HINGES and top and np.any(seg_vec[b]) and kind[b] == "ball" and forward is not None:
-            bone = rmat[b] @ seg_vec[b]
-            a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
-            if np.linalg.norm(a) > 0.2:
-                kind[b] = "hinge"
-                axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
-                range_deg[b] = (-5.0, 150.0)
-        elif _is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
-            # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
-            kind[b] = "hinge"
-            left = np.cross([0.0, 0.0, 1.0], forward)
-            axis[b] = rmat[b].T @ (left / np.linalg.norm(left))
-            range_deg[b] = (-40.0, 60.0)
-    return axis, range_deg
-
-
-def _is_toe(roles: list[str], bparent: np.ndarray, b: int) -> bool:
-    return roles[b] == "foot" and roles[bparent[b]] == "foot"
-
-
-def _strengths(roles: list[str], bparent: np.ndarray) -> np.ndarray:
-    """Motor strength per body (N m per unit control) from its role. Unnamed joints on the chain from
-    the base to the head are the spine, which carries the trunk (they share its mass too) and gets
-    the trunk's strength; toes get the toe flexors'."""
-    out = np.array([seg.STRENGTH.get(r, seg.STRENGTH["other"]) for r in roles])
-    heads = [b for b, r in enumerate(roles) if r == "head"]
-    b = int(bparent[heads[0]]) if heads else -1
-    while b > 0:
-        if roles[b] == "other":
-            out[b] = seg.STRENGTH["trunk"]
-        b = int(bparent[b])
-    for b in range(1, len(roles)):
-        if _is_toe(roles, bparent, b):
-            out[b] = seg.STRENGTH["toe"]
-    return out
-
-
-def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -> bool:
-    """End sites and fingers (below the hand) are welded to their parents, as are the eyes (the eye
-    model moves them, not the physics; see ``build``): they carry mass but no degrees of freedom."""
-    if seg.is_end_joint(name) and not children[b]:
-        return True
-    return roles[b] == "hand" and roles[bparent[b]] == "hand"
-
-
-def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray,
-                      weldable: set[int]) -> None:
-    """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses;
-    the ``weldable`` bodies the reference holds at rest welded."""
-    for b in range(1, len(kind)):
-        if kind[b] not in ("ball", "hinge"):
-            continue
-        q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
-        rv = rot.to_rotvec(q)
-        ang = np.degrees(np.linalg.norm(rv, axis=1))
-        if ang.max() < _STILL_DEG and b in weldable:
-            # A joint the motion holds at rest throughout (CMU's hip and collar joints) is welded:
-            # no degrees of freedom the controller would have to hold still.
-            kind[b] = "weld"
-            continue
-        if kind[b] == "ball":
-            rng[b, 1] = min(180.0, max(rng[b, 1], float(ang.max()) + 10.0))
-            continue
-        if ang.max() > 10.0:
-            _, _, vt = np.linalg.svd(rv, full_matrices=False)
-            a = vt[0] * np.sign(vt[0] @ axis[b] or 1.0)
-            axis[b] = a / np.linalg.norm(a)
-        theta = np.degrees(rv @ axis[b])
-        rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))
