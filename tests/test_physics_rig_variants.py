@@ -17,7 +17,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from pxr import Gf, Usd, UsdGeom, UsdSkel, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from usdgaze.console.main import main
 
@@ -217,8 +217,6 @@ def test_a_toe_placed_on_its_ankle_gives_a_foot_along_the_ground(tmp_path):
 def test_a_skeleton_the_body_refuses_stops_the_pass_before_any_simulation(tmp_path):
     """Two skeletons under one SkelRoot, the second lying down (its Skeleton prim turned 90 deg): the
     first was simulated before the second's body was refused. Now no step is simulated."""
-    from pxr import Sdf
-
     from usdgaze.errors import UsdGazeError
     from usdgaze.passes import physics
 
@@ -291,3 +289,31 @@ def test_joints_hung_beside_the_body_neither_size_nor_shape_it(tmp_path):
         rig_extras.add_joints(rig.path, [(leaf, rig.leaf["pelvis"], at, False) for leaf, at in extra])
         (low, radius), (_, plain_radius) = feet_at_rest(rig), feet_at_rest(plain)
         assert abs(low) < 1e-3 and radius == pytest.approx(plain_radius), (name, low, radius)
+
+
+def test_a_character_set_below_the_stage_ground_is_measured_as_it_stands(tmp_path):
+    """The rest pose with its SkelRoot 2 m below the stage's ground: the body starts raised onto the
+    ground, and its pelvis was measured against the reference's below it (a height clamped to 1 um):
+    'pelvis >= 94908900% of the reference', and no fall could ever be said. Now the reference is
+    raised with the body: the report's lowest ratio lies where UsdSkel FK of the written hips puts it."""
+    from usdgaze.passes import physics
+    from usdgaze.physics import mpc
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", frames=16, mesh=False, walk_speed=0.0,
+                       time_codes_per_second=60.0)
+    stage = Usd.Stage.Open(str(rig.path))
+    root = stage.GetPrimAtPath(rig.skel_root)
+    UsdGeom.Xformable(root).AddTranslateOp().Set(Gf.Vec3d(0.0, -2.0, 0.0))
+    skel = stage.GetPrimAtPath(rig.skeleton)
+    skel.GetRelationship("skel:animationSource").ClearTargets(True)  # the rest pose: it stands still
+    stage.GetRootLayer().Save()
+    out = tmp_path / "out.usda"
+    report = physics.run(rig.path, out, mpc.Options(h=0.02, retry_iterations=0))[0]
+    composed = tmp_path / "composed.usda"
+    layer = Sdf.Layer.CreateNew(str(composed))
+    layer.subLayerPaths[:] = [str(out), str(rig.path)]
+    layer.Save()
+    hips = measure.posed(str(composed), rig.skeleton, times=rig.times).position(rig.leaf["pelvis"])[:, 1]
+    assert hips.min() > 0.5  # standing on the stage's ground, not 2 m below it
+    assert not report.fell and 0.9 < report.min_pelvis_ratio < 1.1
+    assert report.min_pelvis_ratio == pytest.approx(hips.min() / hips[0], abs=0.03)
