@@ -317,3 +317,27 @@ def test_a_character_set_below_the_stage_ground_is_measured_as_it_stands(tmp_pat
     assert hips.min() > 0.5  # standing on the stage's ground, not 2 m below it
     assert not report.fell and 0.9 < report.min_pelvis_ratio < 1.1
     assert report.min_pelvis_ratio == pytest.approx(hips.min() / hips[0], abs=0.03)
+
+
+def test_a_weapon_chain_in_a_hand_rides_on_it(tmp_path):
+    """``weapon_r`` with its end joint 0.9 m below the right hand (a sword held point down): the chain was
+    part of the hand, with a 0.9 m capsule and 85% of the hand's mass. Now the right hand weighs what the
+    left does (de Leva's hand, within the chain's token masses) and no shape reaches past it."""
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="ue", frames=8, mesh=False)
+    hand = rig_extras._bind_positions(rig)["hand_r"]
+    rig_extras.add_joints(rig.path, [("weapon_r", "hand_r", tuple(hand + (-0.05, 0.0, 0.0)), False),
+                                     ("weapon_r_end", "weapon_r", tuple(hand + (-0.05, -0.9, 0.0)), False)])
+    out = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(out)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(out))
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    body = lambda name: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name)  # noqa: E731
+    left, right = mj.body_subtreemass[body("hand_l")], mj.body_subtreemass[body("hand_r")]
+    assert left == pytest.approx(0.0061 * MASS, abs=0.01) and right == pytest.approx(left, abs=0.01)
+    for name in ("weapon_r", "weapon_r_end"):
+        assert mj.body_geomnum[body(name)] == 0
+    geoms = np.flatnonzero(np.isin(mj.geom_bodyid, [body("hand_r"), body("weapon_r"), body("weapon_r_end")]))
+    half = mj.geom_size[geoms, 1] * (mj.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_CAPSULE)
+    reach = np.linalg.norm(d.geom_xpos[geoms] - d.xpos[body("hand_r")], axis=1) + half + mj.geom_size[geoms, 0]
+    assert reach.max() < 0.2

@@ -187,7 +187,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         head = alone[0] if len(alone) == 1 else None
     tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
-    attached = seg.attachments(roles, bparent, children, head, tips)
+    attached = seg.attachments(roles, bparent, children, head, tips, [joints[j] for j in idx])
     passive = tips | attached  # no segment, mass or degrees of freedom of their own
     # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
     # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
@@ -318,11 +318,13 @@ def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float,
     n = len(pos)
     seg_vec = np.zeros((n, 3))
     for b in range(n):
-        if children[b]:  # the head's way first: a fingered arm's subtree outnumbers the neck's
-            below = [seg.subtree_of(children, c) for c in children[b]]
+        # A body whose children all ride on it (a hand holding only a weapon's chain) ends as a leaf does.
+        kids = [] if b not in attached and all(c in attached for c in children[b]) else children[b]
+        if kids:  # the head's way first: a fingered arm's subtree outnumbers the neck's
+            below = [seg.subtree_of(children, c) for c in kids]
             keys = [(c not in attached, head is not None and head in sub, len(sub), c not in tips)
-                    for c, sub in zip(children[b], below)]
-            c = children[b][max(range(len(keys)), key=keys.__getitem__)]
+                    for c, sub in zip(kids, below)]
+            c = kids[max(range(len(keys)), key=keys.__getitem__)]
             seg_vec[b] = offset[c]
             # A foot whose toe sits on its ankle (a zero-length bone) runs on to the joint below the toe: continued
             # along the shank it stood on a stilt into the ground. (Elsewhere the bone's continuation stays, as
