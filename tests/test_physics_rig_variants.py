@@ -341,3 +341,21 @@ def test_a_weapon_chain_in_a_hand_rides_on_it(tmp_path):
     half = mj.geom_size[geoms, 1] * (mj.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_CAPSULE)
     reach = np.linalg.norm(d.geom_xpos[geoms] - d.xpos[body("hand_r")], axis=1) + half + mj.geom_size[geoms, 0]
     assert reach.max() < 0.2
+
+
+def test_a_ball_to_catch_for_a_rig_without_hands_is_one_line(tmp_path, capsys):
+    """A UE-style rig without hand joints and a ball its SkelRoot's ``usdgaze:physics:catch`` names: the
+    catch task found no hand and the command stopped with an internal error (exit 1)."""
+    from .catch_stages import _author_ball, flight
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="ue", frames=8, mesh=False, walk_speed=0.0)
+    drop_joints(rig.path, {rig.leaf["hand_l"], rig.leaf["hand_r"]})
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    codes = np.array(layer.ListTimeSamplesForPath(Sdf.Path(f"{rig.animation}.rotations")))
+    _author_ball(layer, codes, flight(np.array([0.0, 1.7, 6.0]), np.array([0.0, 1.3, 0.4]), 0.5, codes / 60.0), rig.skel_root)
+    layer.Save()
+    out = tmp_path / "out.usda"
+    assert main(["attend", str(rig.path), "--physics", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "usdgaze:physics:catch" in err[0] and "no hand" in err[0], err
+    assert not out.exists()

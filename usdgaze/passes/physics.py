@@ -333,6 +333,7 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes import visuomotor
     from usdgaze.physics.build import body_model
+    from usdgaze.physics.catch import can_catch
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     shots = []
@@ -349,7 +350,10 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
             chain_frame = bind_root(clip, root, binding)
             # Its body too (a few ms): a skeleton the model refuses (lying, no feet, squashed) was found only
             # after the characters before it had been simulated.
-            body_model(clip, total_mass, chain_frame=chain_frame)
+            model, _ = body_model(clip, total_mass, weld_still=not scene[2], chain_frame=chain_frame)
+            if scene[2] and not can_catch(model):  # it stopped with an internal error, exit 1
+                raise UsdGazeError(f"{source}:{root.GetPath()}.{visuomotor.CATCH}: names a ball to catch, but "
+                                   f"{clip.skeleton} has no hand (a hand joint below a forearm) to catch it with")
             shots.append(Shot(root, clip, scene, chain_frame, ahead, take, tasks, opts))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
