@@ -359,3 +359,29 @@ def test_a_ball_to_catch_for_a_rig_without_hands_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "usdgaze:physics:catch" in err[0] and "no hand" in err[0], err
     assert not out.exists()
+
+
+def test_legs_a_reference_holds_at_rest_are_not_welded(tmp_path):
+    """A walk keyed on the upper body only (the hips and legs left at rest, as an upper-body clip): the
+    legs' joints were welded as joints the reference holds still, and the stiff body slid 17 cm across
+    the ground in 0.5 s. Now hips, knees and ankles move (MuJoCo's joints) and, by UsdSkel FK of the
+    written layer, the hips stay within 10 cm of the reference's across the ground."""
+    from usdgaze.passes import physics
+    from usdgaze.physics import build, mjcf, mpc
+
+    legs = ("thigh_l", "thigh_r", "knee_l", "knee_r", "ankle_l", "ankle_r", "toe_l", "toe_r")
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="ue", frames=25, mesh=False, unanimated=("root", "pelvis", *legs))
+    model, _ = build.body_model(build.load_clip(rig.path))
+    mj = mujoco.MjModel.from_xml_string(mjcf.write(model))
+    for key in legs[:6]:
+        b = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key])
+        assert mj.body_jntnum[b] == 1, key
+    out = tmp_path / "out.usda"
+    physics.run(rig.path, out, mpc.Options(h=0.02, retry_iterations=0))
+    composed = tmp_path / "composed.usda"
+    layer = Sdf.Layer.CreateNew(str(composed))
+    layer.subLayerPaths[:] = [str(out), str(rig.path)]
+    layer.Save()
+    hips = [measure.posed(str(p), rig.skeleton, times=rig.times).position(rig.leaf["pelvis"]) for p in (rig.path, composed)]
+    drift = np.linalg.norm((hips[1] - hips[0])[:, [0, 2]], axis=1)  # stage Y up: across the ground
+    assert drift.max() < 0.1, drift.max()

@@ -214,7 +214,10 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     axis, range_deg = hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
         # Without weld_still the pelvis's own bones still weld where held: the pelvis is one rigid segment.
-        still = range(n) if weld_still else seg.pelvis_bones(roles, bparent)
+        # The legs never weld: a body stands by them. A reference that keys only the upper body (its legs
+        # held at rest) had its hips, knees and ankles welded, and the stiff body slid 17 cm in 0.5 s.
+        legs = {b for b in range(n) if roles[b] in ("thigh", "shank", "foot") and not is_toe(roles, bparent, b)}
+        still = set(range(n)) - legs if weld_still else seg.pelvis_bones(roles, bparent)
         fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still))
 
     com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
