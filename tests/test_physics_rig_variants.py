@@ -76,6 +76,17 @@ def _model(tmp_path: Path, drop: set[str], convention: str = "mixamo"):
     return rig, mj, d, body, posed, rest
 
 
+def _composed(tmp_path: Path, out: Path, rig) -> Path:
+    """A stage of the layer ``out`` over the rig's file, on the rig's clock (a sublayer on another time
+    code rate is retimed)."""
+    src = Sdf.Layer.FindOrOpen(str(rig.path))
+    layer = Sdf.Layer.CreateNew(str(tmp_path / "composed.usda"))
+    layer.timeCodesPerSecond, layer.framesPerSecond = src.timeCodesPerSecond, src.framesPerSecond
+    layer.subLayerPaths[:] = [str(out), str(rig.path)]
+    layer.Save()
+    return Path(layer.realPath)
+
+
 def _fk_error(rig, d, body, posed, rest) -> float:
     """Largest distance between MuJoCo's joint positions at rest and UsdSkel's (relative to the hips)."""
     keys = [k for k in rig.leaf if body(k) >= 0]
@@ -309,10 +320,7 @@ def test_a_character_set_below_the_stage_ground_is_measured_as_it_stands(tmp_pat
     stage.GetRootLayer().Save()
     out = tmp_path / "out.usda"
     report = physics.run(rig.path, out, mpc.Options(h=0.02, retry_iterations=0))[0]
-    composed = tmp_path / "composed.usda"
-    layer = Sdf.Layer.CreateNew(str(composed))
-    layer.subLayerPaths[:] = [str(out), str(rig.path)]
-    layer.Save()
+    composed = _composed(tmp_path, out, rig)
     hips = measure.posed(str(composed), rig.skeleton, times=rig.times).position(rig.leaf["pelvis"])[:, 1]
     assert hips.min() > 0.5  # standing on the stage's ground, not 2 m below it
     assert not report.fell and 0.9 < report.min_pelvis_ratio < 1.1
@@ -378,10 +386,33 @@ def test_legs_a_reference_holds_at_rest_are_not_welded(tmp_path):
         assert mj.body_jntnum[b] == 1, key
     out = tmp_path / "out.usda"
     physics.run(rig.path, out, mpc.Options(h=0.02, retry_iterations=0))
-    composed = tmp_path / "composed.usda"
-    layer = Sdf.Layer.CreateNew(str(composed))
-    layer.subLayerPaths[:] = [str(out), str(rig.path)]
-    layer.Save()
+    composed = _composed(tmp_path, out, rig)
     hips = [measure.posed(str(p), rig.skeleton, times=rig.times).position(rig.leaf["pelvis"]) for p in (rig.path, composed)]
     drift = np.linalg.norm((hips[1] - hips[0])[:, [0, 2]], axis=1)  # stage Y up: across the ground
     assert drift.max() < 0.1, drift.max()
+
+
+def test_a_joint_keyed_to_a_zero_scale_is_simulated_and_stays_hidden(tmp_path):
+    """The right hand keyed to scale 0 from frame 8 (hidden, as animators hide a hand or a prop): its
+    orientation was read from a zero matrix and ``attend --physics`` stopped (SVD did not converge, exit
+    1). Now the shot is simulated; by UsdSkel of the layer over the input, every rotation is finite and
+    the hand is still scaled to nothing where the input hides it."""
+    from pxr import UsdSkel as Skel
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", frames=16, mesh=False)
+    stage = Usd.Stage.Open(str(rig.path))
+    scales = Skel.Animation(stage.GetPrimAtPath(rig.animation)).GetScalesAttr()
+    k = rig.anim_joints.index(rig.joint("hand_r"))
+    for t in scales.GetTimeSamples():
+        if t >= 8:
+            s = np.array(scales.Get(t), dtype=np.float16)
+            s[k] = 0.0
+            scales.Set(Vt.Vec3hArray.FromNumpy(s), t)
+    stage.GetRootLayer().Save()
+    out = tmp_path / "out.usda"
+    assert main(["attend", str(rig.path), "--physics", "--out", str(out), "--retry-iterations", "0"]) == 0
+    composed = _composed(tmp_path, out, rig)
+    posed = measure.posed(str(composed), rig.skeleton, times=rig.times)
+    assert np.isfinite(posed.world).all()
+    hand = posed.world[:, posed.index(rig.leaf["hand_r"]), :3, :3]
+    assert np.abs(hand[8:]).max() < 1e-6 and np.abs(np.linalg.det(hand[:8]) - 1.0).max() < 1e-3
