@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pxr import Gf, Sdf, Vt
+
 from .bad_common import apply_argv, edited, remove
 
 
@@ -63,3 +65,14 @@ def _token_array(layer, prim_path: str):
 
     return Sdf.AttributeSpec(layer.GetPrimAtPath(prim_path), "jointNames", Sdf.ValueTypeNames.TokenArray,
                              Sdf.VariabilityUniform)
+
+
+def b_physics_skelroot_squashed(d):
+    """A SkelRoot scaled (1, 1.2, 1): rigid bodies cannot follow the squash (the model's joints were
+    10-15 cm from UsdSkel's as they turned, exit 0)."""
+    def squash(layer, r):
+        root = layer.GetPrimAtPath(r.skel_root)
+        Sdf.AttributeSpec(root, "xformOp:scale", Sdf.ValueTypeNames.Float3).default = Gf.Vec3f(1.0, 1.2, 1.0)
+        Sdf.AttributeSpec(root, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:scale"])
+    return ["physics-model", str(edited(d, squash)), "--out", str(d / "body.xml")]

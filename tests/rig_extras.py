@@ -98,6 +98,12 @@ def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> 
     """Mirror joint ``leaf`` along its own x: its local x row (UsdSkel matrices are row-vector)
     negated in the rest transforms, the bind transforms at and below it recomputed, and a scale of
     (-1, 1, 1) in the animation. Positions stay; the frames' handedness changes."""
+    scale_joint(path, skeleton, animation, leaf, (-1.0, 1.0, 1.0))
+
+
+def scale_joint(path: str | Path, skeleton: str, animation: str, leaf: str, scale: tuple) -> None:
+    """Scale joint ``leaf`` by ``scale`` along its own axes: its local rows scaled in the rest transforms,
+    the bind transforms at and below it recomputed, and ``scale`` in the animation at every sample."""
     from pxr import Sdf
 
     layer = Sdf.Layer.FindOrOpen(str(path))
@@ -108,12 +114,13 @@ def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> 
     below = [i for i, name in enumerate(joints) if name.startswith(joints[j] + "/")]
     rest = np.array(skel.GetAttribute("restTransforms").Get())
     bind = np.array(skel.GetAttribute("bindTransforms").Get())
-    rest[j] = np.diag([-1.0, 1.0, 1.0, 1.0]) @ rest[j]
+    rest[j] = np.diag([*map(float, scale), 1.0]) @ rest[j]
     skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(rest))
     # Bind transforms (skeleton space) of the joint and those below: rest FK from the parent's bind.
     index = {name: i for i, name in enumerate(joints)}
     for i in [j, *below]:
-        bind[i] = rest[i] @ bind[index[joints[i].rsplit("/", 1)[0]]]
+        parent = joints[i].rsplit("/", 1)[0]
+        bind[i] = rest[i] @ bind[index[parent]] if parent in index else rest[i]
     skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(bind))
     anim = stage.GetPrimAtPath(animation)
     anim_joints = [str(x) for x in anim.GetAttribute("joints").Get()]
@@ -122,7 +129,7 @@ def mirror_joint(path: str | Path, skeleton: str, animation: str, leaf: str) -> 
     times = scales.GetTimeSamples()
     for t in times or [Usd.TimeCode.Default()]:
         s = np.array(scales.Get(t), dtype=float)
-        s[k] = (-1.0, 1.0, 1.0)
+        s[k] = scale
         scales.Set(Vt.Vec3hArray([Gf.Vec3h(*map(float, v)) for v in s]), t)
     layer.Save()
 
@@ -210,3 +217,41 @@ def _reanimate_under_face(anim, eyes: list[str], moved: dict, face: str, face_lo
         attrs[1].Set(Vt.Vec3fArray.FromNumpy(tr.astype(np.float32)), t)
         attrs[2].Set(Vt.Vec3hArray.FromNumpy(s.astype(np.float16)), t)
     anim.GetJointsAttr().Set(Vt.TokenArray([moved.get(j, j) for j in joints] + [face]))
+
+
+def split_bone(path: str | Path, parent_leaf: str, child_leaf: str, new_leaf: str, new_name: str) -> None:
+    """Split the bone from joint ``parent_leaf`` to its child ``child_leaf`` in two (Rigify's DEF-shin.L and
+    DEF-shin.L.001): a joint ``new_leaf`` (DCC name ``new_name``) halfway along it, turned as its parent,
+    held still in the animation; the child and its subtree re-parented under it, posed where they were."""
+    stage = Usd.Stage.Open(str(path))
+    skel = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
+    anim = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Animation))
+    joints = [str(j) for j in skel.GetAttribute("joints").Get()]
+    c = next(i for i, j in enumerate(joints) if j.rsplit("/", 1)[-1] == child_leaf)
+    parent, child = joints[c].rsplit("/", 1)[0], joints[c]
+    assert parent.rsplit("/", 1)[-1] == parent_leaf
+    new = f"{parent}/{new_leaf}"
+    moved = lambda j: new + j[len(parent):] if j == child or j.startswith(child + "/") else j  # noqa: E731
+    rest, bind = (np.array(skel.GetAttribute(a).Get()) for a in ("restTransforms", "bindTransforms"))
+    half = np.eye(4)
+    half[3, :3] = 0.5 * rest[c][3, :3]  # row-vector matrices: the translation is the last row
+    rest[c][3, :3] -= half[3, :3]
+    p = joints.index(parent)
+    skel.GetAttribute("joints").Set(Vt.TokenArray(np.insert(np.array([moved(j) for j in joints], dtype=object), c, new).tolist()))
+    skel.GetAttribute("restTransforms").Set(Vt.Matrix4dArray.FromNumpy(np.insert(rest, c, half, axis=0)))
+    skel.GetAttribute("bindTransforms").Set(Vt.Matrix4dArray.FromNumpy(np.insert(bind, c, half @ bind[p], axis=0)))
+    names = skel.GetAttribute("jointNames")
+    if names.HasAuthoredValue():
+        names.Set(Vt.TokenArray(np.insert(np.array(list(names.Get()), dtype=object), c, new_name).tolist()))
+    listed = [str(j) for j in anim.GetAttribute("joints").Get()]
+    k = listed.index(child)
+    anim.GetAttribute("joints").Set(Vt.TokenArray([moved(j) for j in listed] + [new]))
+    extra = {"rotations": (0.0, 0.0, 0.0, 1.0), "translations": half[3, :3], "scales": (1.0, 1.0, 1.0)}
+    for name, value in extra.items():
+        attr = anim.GetAttribute(name)
+        for t in attr.GetTimeSamples():
+            v = np.array(attr.Get(t))
+            if name == "translations":
+                v[k] -= half[3, :3]
+            attr.Set(type(attr.Get(t)).FromNumpy(np.ascontiguousarray(np.vstack([v, np.array(value, dtype=v.dtype)]))), t)
+    stage.GetRootLayer().Save()

@@ -317,7 +317,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
         tx.check_replaceable()  # every input recorded: before the work
-        shots = _read_shots(stage, source, skel_root, options, binding)
+        shots = _read_shots(stage, source, skel_root, options, binding, total_mass)
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)
         notes = composed_override_notes(stage, source)
@@ -327,10 +327,13 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     return reports
 
 
-def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding) -> list[Shot]:
-    """Every skeleton's :class:`Shot`: all read, checked and bound before any work."""
+def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding,
+                total_mass: float = 75.0) -> list[Shot]:
+    """Every skeleton's :class:`Shot`: all read, checked, bound and built before any work."""
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes import visuomotor
+    from usdgaze.physics.build import body_model
+    from usdgaze.physics.catch import can_catch
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     shots = []
@@ -344,7 +347,14 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
             clip, ahead, take = cut_to_range(read_clip(stage, skel, root, source), stage, ahead_s)
             check_not_shared(others, clip.animation, source)
             scene = visuomotor.read_scene(root, clip, source, opts.h)
-            shots.append(Shot(root, clip, scene, bind_root(clip, root, binding), ahead, take, tasks, opts))
+            chain_frame = bind_root(clip, root, binding)
+            # Its body too (a few ms): a skeleton the model refuses (lying, no feet, squashed) was found only
+            # after the characters before it had been simulated.
+            model, _ = body_model(clip, total_mass, weld_still=not scene[2], chain_frame=chain_frame)
+            if scene[2] and not can_catch(model):  # it stopped with an internal error, exit 1
+                raise UsdGazeError(f"{source}:{root.GetPath()}.{visuomotor.CATCH}: names a ball to catch, but "
+                                   f"{clip.skeleton} has no hand (a hand joint below a forearm) to catch it with")
+            shots.append(Shot(root, clip, scene, chain_frame, ahead, take, tasks, opts))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots

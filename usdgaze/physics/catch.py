@@ -79,6 +79,11 @@ def _hand_sites(model: BodyModel) -> dict[str, tuple[int, np.ndarray]]:
     return out
 
 
+def can_catch(model: BodyModel) -> bool:
+    """Whether the body has a hand below a forearm to catch with."""
+    return bool(_hand_sites(model))
+
+
 def _side(model: BodyModel, b: int) -> str:
     """Which side body ``b`` is on at rest: by the character's left where its forward is known (UE's
     ``hand_r`` does not start with r), else by the name."""

@@ -30,16 +30,19 @@ from usdgaze.core import rotations as rot
 from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import character_frame, leaf
 from usdgaze.errors import RigError, UsdGazeError
+from usdgaze.physics import checks
 from usdgaze.physics import segments as seg
+from usdgaze.physics import shape_roles as shape
 from usdgaze.physics import shapes
+from usdgaze.physics.joint_kinds import fit_to_reference, hinges, is_toe, strengths, welded
 
 Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 _BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
 # Fractions of standing height used where the skeleton gives no length (leaf joints).
-_LEAF_LENGTH = {"head": 0.12, "hand": 0.06, "foot": 0.06, "other": 0.03}
-_STILL_DEG = 0.5
+# A forearm that ends its arm (a rig without hand joints) is a forearm, 0.146 of the height (Drillis and
+# Contini); continued by the 3% of other leaves it was a stump.
+_LEAF_LENGTH = {"head": 0.12, "hand": 0.06, "foot": 0.06, "forearm": 0.146, "other": 0.03}
 _EYE = re.compile(r"eye", re.I)
-_HINGES = {"shank": 1.0, "forearm": -1.0}  # flexion axis = sign * (bone direction x forward)
 
 
 def stage_to_model(up_axis: str, meters_per_unit: float) -> np.ndarray:
@@ -89,7 +92,7 @@ class BodyModel:
     @property
     def toes(self) -> list[int]:
         """Bodies of the toes: foot bodies below a foot body."""
-        return [b for b in range(1, len(self.kind)) if _is_toe(self.role, self.body_parent, b)]
+        return [b for b in range(1, len(self.kind)) if is_toe(self.role, self.body_parent, b)]
 
     def layout(self) -> tuple[np.ndarray, np.ndarray]:
         """First ``qpos`` and ``qvel`` index of each body's joint (MuJoCo's order: bodies in order)."""
@@ -169,11 +172,9 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
 
     pos, orient, rmat, offset, rel = _rest_frames(world[idx], bparent, to_model)
     n = len(idx)
-    height = float(np.ptp(pos[:, 2])) * 1.08 or 1.0
     hints = hints or Hints()
     head = body_of.get(hints.head) if hints.head is not None else None
-    roles = seg.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
-    seg.check_biped(roles, pos, height, where)
+    roles = shape.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
     eyes = {body_of[e] for e in hints.eyes if e in body_of}
     eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
     children = seg.children_of(bparent)
@@ -181,33 +182,49 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     # has a length, mass or shape of its own.
     if head is None:  # the head joint by name (the gaze binding's otherwise)
         head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(joints[idx[b]])), None)
+    if head is None:  # a head segment of one end joint (a rig whose neck ends it) is the head, no aside leaf
+        alone = [b for b in range(1, n) if roles[b] == "head" and not children[b] and roles[bparent[b]] != "head"]
+        head = alone[0] if len(alone) == 1 else None
     tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
-    attached = seg.attachments(roles, bparent, children, head, tips)
+    attached = seg.attachments(roles, bparent, children, head, tips, [joints[j] for j in idx])
     passive = tips | attached  # no segment, mass or degrees of freedom of their own
+    # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
+    # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
+    # height (feet 5.9 cm thick), a marker 30 cm below the ground stood the model 34 cm up (a capsule to it).
+    aside = seg.asides([joints[j] for j in idx], roles, bparent, children, head, pos)
+    aside -= set(seg.subtree_of(children, head)) if head is not None else set()
+    extent = sorted(set(range(n)) - attached - aside)
+    height = float(np.ptp(pos[extent, 2])) * 1.08 or 1.0
+    seg.check_biped(roles, pos, height, where, extent)
+    far = {b for b in aside if np.linalg.norm(offset[b]) > 0.25 * height}  # longer than a thigh: no bone of it
     seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges, head, attached)
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = _masses(roles, lengths, total_mass, passive, bparent)
 
-    kind = ["free"] + ["weld" if b in eyes or b in passive or _welded(joints[idx[b]], roles, bparent, b, children)
+    kind = ["free"] + ["weld" if b in eyes or b in passive or welded(joints[idx[b]], roles, bparent, b, children)
                        else "ball" for b in range(1, n)]
-    _check_mirrored(joints, idx, bparent, kind, to_model @ world[idx, :3, :3], where)
+    checks.unmirrored(joints, idx, bparent, kind, to_model @ world[idx, :3, :3], where)
+    checks.evenly_scaled(joints, idx, bparent, kind, world[idx, :3, :3], where)
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
     feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]  # topmost foot bodies
     forward = _forward([joints[j] for j in idx], rest4, feet, bparent, pos, hints,
                        to_model @ skel_to_world0[:3, :3], where)
-    axis, range_deg = _hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
+    axis, range_deg = hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
         # Without weld_still the pelvis's own bones still weld where held: the pelvis is one rigid segment.
-        still = range(n) if weld_still else seg.pelvis_bones(roles, bparent)
-        _fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still))
+        # The legs never weld: a body stands by them. A reference that keys only the upper body (its legs
+        # held at rest) had its hips, knees and ankles welded, and the stiff body slid 17 cm in 0.5 s.
+        legs = {b for b in range(n) if roles[b] in ("thigh", "shank", "foot") and not is_toe(roles, bparent, b)}
+        still = set(range(n)) - legs if weld_still else seg.pelvis_bones(roles, bparent)
+        fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still))
 
     com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
     radius = shapes.radii(mass, lengths, roles, height)
-    geoms = shapes.geoms(offset, children, seg_vec, roles, rmat, feet, attached)
-    lowest = min(shapes.lowest(pos, rmat, geoms, radius, b) for b in range(n))
-    strength = _strengths(roles, bparent) * total_mass / 75.0
+    geoms = shapes.geoms(offset, children, seg_vec, roles, rmat, feet, attached | far)
+    lowest = min(shapes.lowest(pos, rmat, geoms, radius, b) for b in extent)
+    strength = strengths(roles, bparent) * total_mass / 75.0
     return BodyModel(
         joints=list(joints), parents=parents, bodies=idx, body_parent=bparent, kind=kind, role=roles,
         names=_safe_names(joints, idx), offset=offset, rel_quat=rel, base_pos=pos[0], base_quat=orient[0],
@@ -222,6 +239,7 @@ def _body_tree(joints, parents: np.ndarray, rest_local: np.ndarray, skel_to_worl
     matrix, the rest pose's world matrices, the simulated joints (the base joint's subtree), their body
     indices by joint and each body's parent body (-1 for the base)."""
     to_model = stage_to_model(up_axis, meters_per_unit)
+    checks.rigid_placement(skel_to_world, where)
     skel_to_world0 = np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[0]
     if np.linalg.det(skel_to_world0[:3, :3]) < 0.0:
         to_model = np.diag([-1.0, 1.0, 1.0]) @ to_model  # the mirror image: right-handed bodies
@@ -234,21 +252,6 @@ def _body_tree(joints, parents: np.ndarray, rest_local: np.ndarray, skel_to_worl
     bparent = np.array([body_of.get(int(parents[j]), -1) for j in idx])
     bparent[0] = -1
     return to_model, skel_to_world0, world, idx, body_of, bparent
-
-
-def _check_mirrored(joints, idx, bparent, kind, lin: np.ndarray, where: str) -> None:
-    """A body below a mirrored joint (a negative scale in the rest pose) may only be welded: a mirrored
-    leaf or welded chain (an eye, a hand's fingers) rides as the input has it, but the joints a
-    mirrored frame carries turn the other way round in the skeleton than in the model, which the
-    written animation would get wrong; the base's own frame must be unmirrored."""
-    mirrored = np.linalg.det(lin) < 0.0
-    bad = [b for b in range(len(idx)) if (b == 0 and mirrored[0]) or (b and kind[b] != "weld" and mirrored[bparent[b]])]
-    if bad:
-        b = bad[0]
-        what = (f"the simulated root joint '{joints[idx[b]]}' is mirrored" if b == 0 else
-                f"joint '{joints[idx[b]]}' moves below mirrored joint '{joints[idx[bparent[b]]]}'")
-        raise UsdGazeError(f"{where}: {what} at rest (a negative scale); the body cannot simulate a mirrored "
-                           f"limb: unmirror it in the rig (mirror the SkelRoot's transform to mirror the whole character)")
 
 
 @dataclass(frozen=True)
@@ -299,7 +302,7 @@ def _rest_frames(world: np.ndarray, bparent: np.ndarray, to_model: np.ndarray):
 def _masses(roles: list[str], lengths: np.ndarray, total_mass: float, passive: set[int], bparent: np.ndarray):
     """de Leva's segment masses; a ``passive`` body (tip, attachment) weighs a token mass taken from
     the body it hangs from, so the total stays."""
-    share = seg.segment_masses(roles, lengths, total_mass, passive)
+    share = seg.segment_masses(roles, lengths, total_mass, passive, bparent)
     mass = np.maximum(share, 1e-3 * total_mass / len(roles))
     for b in sorted(passive):
         a = bparent[b]
@@ -318,93 +321,23 @@ def _segment_vectors(pos, rmat, offset, bparent, children, roles, height: float,
     n = len(pos)
     seg_vec = np.zeros((n, 3))
     for b in range(n):
-        if children[b]:  # the head's way first: a fingered arm's subtree outnumbers the neck's
-            below = [seg.subtree_of(children, c) for c in children[b]]
+        # A body whose children all ride on it (a hand holding only a weapon's chain) ends as a leaf does.
+        kids = [] if b not in attached and all(c in attached for c in children[b]) else children[b]
+        if kids:  # the head's way first: a fingered arm's subtree outnumbers the neck's
+            below = [seg.subtree_of(children, c) for c in kids]
             keys = [(c not in attached, head is not None and head in sub, len(sub), c not in tips)
-                    for c, sub in zip(children[b], below)]
-            seg_vec[b] = offset[children[b][max(range(len(keys)), key=keys.__getitem__)]]
+                    for c, sub in zip(kids, below)]
+            c = kids[max(range(len(keys)), key=keys.__getitem__)]
+            seg_vec[b] = offset[c]
+            # A foot whose toe sits on its ankle (a zero-length bone) runs on to the joint below the toe: continued
+            # along the shank it stood on a stilt into the ground. (Elsewhere the bone's continuation stays, as
+            # CMU's hips and wrists were measured with it.)
+            while roles[b] == "foot" and np.linalg.norm(seg_vec[b]) < 1e-6 and children[c]:
+                c = max(children[c], key=lambda k: len(seg.subtree_of(children, k)))
+                seg_vec[b] = rmat[b].T @ (pos[c] - pos[b])
         if np.linalg.norm(seg_vec[b]) < 1e-6 and b not in tips:
             d = pos[b] - pos[bparent[b]] if b else np.zeros(3)
             d = rmat[b].T @ (d if np.linalg.norm(d) > 1e-6 else np.array([0, 0, 1.0]))
             length = np.linalg.norm(d) if b in phalanges else _LEAF_LENGTH.get(roles[b], _LEAF_LENGTH["other"]) * height
             seg_vec[b] = d / np.linalg.norm(d) * length
     return seg_vec
-
-
-def _hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
-    """Knees, elbows and toes become hinges (``kind`` is updated): their axes in the body frame and
-    every body's range in degrees."""
-    n = len(kind)
-    axis = np.zeros((n, 3))
-    range_deg = np.zeros((n, 2))
-    for b in range(1, n):
-        range_deg[b] = (0.0, seg.RANGE_DEG.get(roles[b], seg.RANGE_DEG["other"]))
-        if roles[b] in _HINGES and children[b] and kind[b] == "ball" and forward is not None:
-            bone = rmat[b] @ seg_vec[b]
-            a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
-            if np.linalg.norm(a) > 0.2:
-                kind[b] = "hinge"
-                axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
-                range_deg[b] = (-5.0, 150.0)
-        elif _is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
-            # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
-            kind[b] = "hinge"
-            left = np.cross([0.0, 0.0, 1.0], forward)
-            axis[b] = rmat[b].T @ (left / np.linalg.norm(left))
-            range_deg[b] = (-40.0, 60.0)
-    return axis, range_deg
-
-
-def _is_toe(roles: list[str], bparent: np.ndarray, b: int) -> bool:
-    return roles[b] == "foot" and roles[bparent[b]] == "foot"
-
-
-def _strengths(roles: list[str], bparent: np.ndarray) -> np.ndarray:
-    """Motor strength per body (N m per unit control) from its role. Unnamed joints on the chain from
-    the base to the head are the spine, which carries the trunk (they share its mass too) and gets
-    the trunk's strength; toes get the toe flexors'."""
-    out = np.array([seg.STRENGTH.get(r, seg.STRENGTH["other"]) for r in roles])
-    heads = [b for b, r in enumerate(roles) if r == "head"]
-    b = int(bparent[heads[0]]) if heads else -1
-    while b > 0:
-        if roles[b] == "other":
-            out[b] = seg.STRENGTH["trunk"]
-        b = int(bparent[b])
-    for b in range(1, len(roles)):
-        if _is_toe(roles, bparent, b):
-            out[b] = seg.STRENGTH["toe"]
-    return out
-
-
-def _welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -> bool:
-    """End sites and fingers (below the hand) are welded to their parents, as are the eyes (the eye
-    model moves them, not the physics; see ``build``): they carry mass but no degrees of freedom."""
-    if seg.is_end_joint(name) and not children[b]:
-        return True
-    return roles[b] == "hand" and roles[bparent[b]] == "hand"
-
-
-def _fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray,
-                      weldable: set[int]) -> None:
-    """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses;
-    the ``weldable`` bodies the reference holds at rest welded."""
-    for b in range(1, len(kind)):
-        if kind[b] not in ("ball", "hinge"):
-            continue
-        q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
-        rv = rot.to_rotvec(q)
-        ang = np.degrees(np.linalg.norm(rv, axis=1))
-        if ang.max() < _STILL_DEG and b in weldable:
-            # A joint the motion holds at rest throughout (CMU's hip and collar joints) is welded:
-            # no degrees of freedom the controller would have to hold still.
-            kind[b] = "weld"
-            continue
-        if kind[b] == "ball":
-            rng[b, 1] = min(180.0, max(rng[b, 1], float(ang.max()) + 10.0))
-            continue
-        if ang.max() > 10.0:
-            _, _, vt = np.linalg.svd(rv, full_matrices=False)
-            a = vt[0] * np.sign(vt[0] @ axis[b] or 1.0)
-            axis[b] = a / np.linalg.norm(a)
-        theta = np.degrees(rv @ axis[b])
-        rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))

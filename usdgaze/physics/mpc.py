@@ -146,7 +146,8 @@ def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: f
 class Shot:
     """What a receding-horizon loop runs on, made once from the reference (``prepare``): the planner's
     body (``plan``: no external force is known to it) and the simulated one (``sim``: pushed), the
-    reference at steps of ``h`` (``ref_q``: what the measures compare with), the planner's target
+    reference at steps of ``h`` (``ref_q``: what the measures compare with, raised as the body starts,
+    ``measures.start_lift``), the planner's target
     (``target``: its toes out of the ground, ``tracking.clear_ground``) with its velocities, the
     tracking cost, the tasks, and the target's inverse-dynamics controls (``tail``)."""
 
@@ -212,7 +213,12 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
     target = clear_ground(plan, ref_q)  # what the planner tracks; the measures use the reference as is
     # A reference whose first frame is in the floor is tracked raised as it starts: tracked as it is,
     # a body started on one toe 5 cm up pushed itself off the ground (a 0.4 s flight at h 0.03).
-    target[:, 2] += start_lift(plan.mj, mujoco.MjData(plan.mj), target[0])
+    lift = start_lift(plan.mj, mujoco.MjData(plan.mj), target[0])
+    target[:, 2] += lift
+    # The measures' reference is raised with it: a walk set 2 m below the stage's ground was said to keep its
+    # pelvis at 94908900% of the reference's (a height clamped to 1 um), and could never be said to fall.
+    ref_q = ref_q.copy()
+    ref_q[:, 2] += lift
     target = lift_feet(plan, target)  # then a foot still in the ground is lifted by its leg
     ref_v = velocities(target, h, plan.mj)
     tracking = BodyTracking(plan, target, ref_v, _head_body(model), options.weights)

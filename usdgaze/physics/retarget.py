@@ -37,9 +37,17 @@ class Reference:
         return cls(t, q, s, np.asarray(clip.skel_to_world, dtype=float).reshape(-1, 4, 4))
 
 
+# A joint keyed to a zero scale (a hand, an eye or a prop hidden for some frames) has no orientation in
+# the world: the retargeting took its rotation from a zero matrix and stopped (SVD did not converge, exit 1).
+# Each scale keeps at least this size, with its sign; the body keeps its rest proportions anyway and the
+# layer keeps the input's scales.
+_MIN_SCALE = 1e-6
+
+
 def reference_world(ref: Reference, parents: np.ndarray) -> np.ndarray:
     """Stage-world transforms ``(F, J, 4, 4)`` of every joint."""
-    local = rot.compose_trs(ref.translations, ref.rotations, ref.scales)
+    scales = np.where(np.abs(ref.scales) < _MIN_SCALE, np.where(ref.scales < 0, -_MIN_SCALE, _MIN_SCALE), ref.scales)
+    local = rot.compose_trs(ref.translations, ref.rotations, scales)
     return ref.skel_to_world[:, None] @ world_matrices(local, parents)
 
 

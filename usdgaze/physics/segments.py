@@ -11,7 +11,7 @@ A joint's body is the segment from that joint to its child, so on a leg chain th
 is the thigh, the knee's the shank and the ankle's the foot (toes included). Roles come from the
 joint names (``foot``/``ankle``, ``hand``/``wrist``, ``head``, ``neck``); limbs are then walked up
 from the hand and foot. Where no name says foot, hand or head, the skeleton's shape at rest does
-(:func:`shape_roles`). Joints neither identifies share what is left of the total mass in proportion to
+(:func:`usdgaze.physics.shape_roles.shape_roles`). Joints neither identifies share what is left of the total mass in proportion to
 their segment length.
 """
 
@@ -69,6 +69,16 @@ def _key(name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", leaf(name).lower())
 
 
+_PART = re.compile(r"(twist|roll|bend)?\d*$")
+
+
+def _split_of(child: str, parent: str) -> bool:
+    """Whether joint key ``child`` names a further part of ``parent``'s bone: the same name but for a part
+    word or number at its end (``defshinl001`` of ``defshinl``, ``lthightwist`` of ``lthighbend``)."""
+    stem = _PART.sub("", child)
+    return bool(stem) and child != parent and stem == _PART.sub("", parent)
+
+
 def _topmost(j: int, parents: np.ndarray, names: list[str], pattern: re.Pattern) -> int:
     """The highest ancestor-or-self of ``j`` whose name matches ``pattern`` on an unbroken run."""
     while parents[j] >= 0 and pattern.search(_key(names[parents[j]])):
@@ -94,6 +104,11 @@ def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
                 if p < 0 or roles[p] != "other":
                     break
                 roles[p] = role
+                # A bone split in parts is one segment: Rigify's DEF-shin.L and DEF-shin.L.001, DAZ's
+                # lThighBend and lThighTwist (the shin's upper half had been the thigh, the thigh the trunk).
+                while parents[p] >= 0 and roles[parents[p]] == "other" and _split_of(keys[p], keys[parents[p]]):
+                    p = int(parents[p])
+                    roles[p] = role
                 p = int(parents[p])
     for j in range(n):
         if roles[j] == "other" and _HEAD.search(keys[j]):
@@ -102,37 +117,6 @@ def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
             while p >= 0 and _NECK.search(keys[p]) and roles[p] == "other":
                 roles[p] = "head"  # de Leva's head segment includes the neck
                 p = int(parents[p])
-    return roles
-
-
-def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: int | None = None) -> list[str]:
-    """Roles the names left out, from the tree and the rest positions ``pos (J, 3)`` (z up; joint 0
-    the floating base): legs, arms, head (``head``: the bound head joint, else the parent of the
-    highest end joint). Only limbs with no named role are filled in, so a named rig is unchanged."""
-    roles = list(roles)
-    n = len(roles)
-    children = children_of(parents)
-    z = pos[:, 2] - pos[:, 2].min()
-    leaves = [j for j in range(n) if not children[j]]
-    legs: list[int] = []
-    if "foot" not in roles:
-        legs = _shape_legs(roles, children, z)
-    if "head" not in roles:
-        if head is None:
-            off_legs = [j for j in leaves if not any(a in legs for a in [j, *_ancestors(j, parents)])]
-            top = max(off_legs, key=lambda j: z[j], default=None)
-            head = int(parents[top]) if top is not None and parents[top] > 0 else top
-        if head is not None and head > 0:
-            _mark(roles, children, head, "head")
-    heads = [j for j in range(n) if roles[j] == "head"]
-    if "hand" not in roles and heads:
-        spine = _ancestors(min(heads, key=lambda j: len(_ancestors(j, parents))), parents)
-        branch_points = _shape_arms(roles, children, pos, spine, float(np.ptp(z)))
-        # de Leva's head segment starts at C7: the spine joints above the shoulders are the neck.
-        if branch_points:
-            for j in spine[:spine.index(max(branch_points, key=lambda j: z[j]))]:
-                if roles[j] == "other":
-                    roles[j] = "head"
     return roles
 
 
@@ -154,14 +138,6 @@ def _mark(roles: list[str], children: list[list[int]], j: int, role: str) -> Non
         stack.extend(children[k])
 
 
-def _main_path(children: list[list[int]], start: int, score) -> list[int]:
-    """From ``start`` down through the child whose subtree scores highest, to a leaf."""
-    path = [start]
-    while children[path[-1]]:
-        path.append(max(children[path[-1]], key=score))
-    return path
-
-
 def subtree_of(children: list[list[int]], j: int) -> list[int]:
     """``j`` and everything below it."""
     out, stack = [], [j]
@@ -170,49 +146,6 @@ def subtree_of(children: list[list[int]], j: int) -> list[int]:
         out.append(k)
         stack.extend(children[k])
     return out
-
-
-def _shape_legs(roles: list[str], children: list[list[int]], z: np.ndarray) -> list[int]:
-    """The base's two branches that reach the ground are legs: the foot is the first joint down the
-    leg below a fifth of the base's height (an ankle sits at 5-10% of hip height), above it the shank
-    and the thigh."""
-    reach = {c: min(z[k] for k in subtree_of(children, c)) for c in children[0]}
-    grounded = sorted((c for c in reach if reach[c] < 0.1 * max(z[0], 1e-9)), key=lambda c: reach[c])[:2]
-    for c in grounded:
-        path = _main_path(children, c, lambda k: -min(z[i] for i in subtree_of(children, k)))
-        foot = next((i for i, j in enumerate(path) if z[j] < 0.2 * z[0]), None)
-        if foot is None or foot < 2:
-            continue
-        _mark(roles, children, path[foot], "foot")
-        for role, j in zip(("shank", "thigh"), (path[foot - 1], path[foot - 2])):
-            if roles[j] == "other":
-                roles[j] = role
-    return grounded
-
-
-def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: float) -> list[int]:
-    """The two longest branches off the spine (below the head, above the base) are arms. Along each,
-    the upper arm and forearm are the most distal two consecutive bones of at least 0.6 of the
-    branch's longest (a clavicle can be as long as a forearm: 19 vs 18.5 cm on CMU's left arm; hand
-    and finger bones are shorter); the hand is where they end. Returns the spine joints the arms hang
-    from."""
-    def reach(k: int, start: int) -> float:
-        return max(float(np.linalg.norm(pos[i] - pos[start])) for i in subtree_of(children, k))
-
-    branches = [(reach(c, c), c, s) for s in spine if s != 0 for c in children[s]
-                if c not in spine and roles[c] == "other"]
-    arms = [b for b in sorted(branches, reverse=True)[:2] if b[0] > 0.2 * height]
-    for _, c, _ in arms:
-        path = _main_path(children, c, lambda k: reach(k, c))
-        bones = np.linalg.norm(np.diff(pos[path], axis=0), axis=1)
-        if len(bones) < 2:
-            continue
-        long = bones >= 0.6 * bones.max()
-        pairs = np.flatnonzero(long[:-1] & long[1:])
-        i = int(pairs[-1]) if len(pairs) else int(np.argmax(bones[:-1] + bones[1:]))
-        _mark(roles, children, path[i + 2], "hand")
-        roles[path[i + 1]], roles[path[i]] = "forearm", "upperArm"
-    return [s for _, _, s in arms]
 
 
 def _ancestors(j: int, parents: np.ndarray) -> list[int]:
@@ -254,6 +187,25 @@ def _on_bone(j: int, parent: int, siblings: list[int], pos: np.ndarray) -> bool:
     return False
 
 
+def _is_aside(j: int, names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
+              head: int | None, pos: np.ndarray | None) -> bool:
+    """Whether leaf ``j`` hangs beside its body rather than ending a segment."""
+    # A leaf beside a joint the chain goes on through is an attachment on its parent's bone (UE's
+    # and CC's twist joints, a breast or a tail helper), not a segment; a hand's and a foot's
+    # leaves are judged by their depth (CMU's thumb is a leaf beside its fingers) or named props,
+    # and a leaf head (CMU's) is the head, whatever hangs beside it.
+    siblings = [c for c in children[int(parents[j])] if c != j]
+    judged = roles[j] in ("hand", "foot") or j == head
+    return is_prop(names[j]) or (not judged and (
+        any(children[c] for c in siblings) or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos))))
+
+
+def asides(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]], head: int | None,
+           pos: np.ndarray | None = None) -> set[int]:
+    """The leaves beside the body (props, helpers, twist joints; a camera or a marker hung from the hips)."""
+    return {j for j in range(1, len(names)) if not children[j] and _is_aside(j, names, roles, parents, children, head, pos)}
+
+
 def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children: list[list[int]],
               head: int | None, pos: np.ndarray | None = None) -> tuple[set[int], set[int]]:
     """The leaves whose extent the skeleton itself gives: ``tips`` mark where their parent's segment
@@ -269,14 +221,7 @@ def leaf_ends(names: list[str], roles: list[str], parents: np.ndarray, children:
         depth, top = 0, j
         while parents[top] >= 0 and roles[int(parents[top])] == roles[j]:
             top, depth = int(parents[top]), depth + 1
-        # A leaf beside a joint the chain goes on through is an attachment on its parent's bone (UE's
-        # and CC's twist joints, a breast or a tail helper), not a segment; a hand's and a foot's
-        # leaves are judged by their depth (CMU's thumb is a leaf beside its fingers) or named props,
-        # and a leaf head (CMU's) is the head, whatever hangs beside it.
-        siblings = [c for c in children[int(parents[j])] if c != j]
-        judged = roles[j] in ("hand", "foot") or j == head
-        aside = is_prop(names[j]) or (not judged and (
-            any(children[c] for c in siblings) or (pos is not None and _on_bone(j, int(parents[j]), siblings, pos))))
+        aside = _is_aside(j, names, roles, parents, children, head, pos)
         if (is_end_joint(names[j]) or (head is not None and head in _ancestors(j, parents)) or aside
                 or depth >= _TIP_DEPTH.get(roles[j], 1 << 30)):
             tips.add(j)
@@ -292,25 +237,32 @@ def _by_length(lengths: np.ndarray) -> np.ndarray:
 
 
 def attachments(roles: list[str], parents: np.ndarray, children: list[list[int]], head: int | None,
-                tips=frozenset()) -> set[int]:
+                tips=frozenset(), names: list[str] | None = None) -> set[int]:
     """Bodies off the body's frame (the ways from the base to the head, the hands and the feet, and
-    the hands' and feet's own subtrees): a face's and the hair's chains below the head, a skirt's or
-    a bust's beside the trunk (VRoid's ``J_Sec_*``). They ride welded on the joint they hang from,
-    with a token mass and no shape; ``tips`` keep their own rules. None where no head is known."""
+    the hands' and feet's own subtrees but a prop's chain in them, by ``names``): a face's and the hair's
+    chains below the head, a skirt's or a bust's beside the trunk (VRoid's ``J_Sec_*``), a weapon held
+    in a hand. They ride welded on the joint they hang from, with a token mass and no shape; ``tips``
+    keep their own rules. None where no head is known."""
     if head is None:
         return set()
+    # A weapon_r > weapon_r_end chain in the hand took 85% of the hand's mass and a 0.9 m capsule.
+    props = {k for j in range(len(roles)) if names is not None and children[j] and is_prop(names[j])
+             for k in subtree_of(children, j)}
     ends = [b for b, r in enumerate(roles) if r in ("hand", "foot") and (parents[b] < 0 or roles[int(parents[b])] != r)]
+    ends += [b for b, r in enumerate(roles) if r == "forearm" and not children[b]]  # an arm without a hand
     frame = {head, *_ancestors(head, parents)}
     for b in ends:
         frame.update(_ancestors(b, parents))
         frame.update(subtree_of(children, b))
-    return {b for b in range(len(roles)) if b not in frame and b not in tips}
+    return {b for b in range(len(roles)) if (b not in frame or b in props) and b not in tips}
 
 
-def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tips=frozenset()) -> np.ndarray:
+def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tips=frozenset(),
+                   parents: np.ndarray | None = None) -> np.ndarray:
     """Mass per joint body: each de Leva segment's share split over its bodies by length; the trunk's
     share, plus that of segments the rig lacks, split over the ``other`` bodies by length. ``tips``
-    (no segment of their own) get none."""
+    (no segment of their own) get none. With ``parents``, a limb the rig has on one side only (one
+    arm, one leg) weighs one side's share, the other's going to the trunk: it weighed both."""
     lengths = np.maximum(np.asarray(lengths, dtype=float), 1e-3)
     lengths[sorted(tips)] = 0.0
     masses = np.zeros(len(roles))
@@ -323,7 +275,9 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tip
         if not members:
             continue
         # Paired limbs appear twice; the table gives one side's share.
-        sides = 2 if role not in ("head",) else 1
+        sides = 1 if role == "head" else 2
+        if parents is not None and sides == 2:
+            sides = min(2, sum(1 for i in members if parents[i] < 0 or roles[int(parents[i])] != role))
         share = seg.mass * sides
         # Split per side by length; bodies of one role on both sides share the paired total.
         masses[members] = share * _by_length(lengths[members])
@@ -336,13 +290,14 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tip
     return masses * total_mass
 
 
-def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) -> None:
+def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str, extent=None) -> None:
     """The body is de Leva's human standing: a skeleton lying down or upside down in the stage at rest
     (its head not above its pelvis, or its feet not below), and one whose hands are on the ground at
     rest (a quadruped's front feet), would be simulated as a person in a pose it cannot hold (a lying
     rig was said to have 'stayed up' at 247% of its pelvis height), so they are refused, as is one
-    without feet."""
-    size = float(np.linalg.norm(np.ptp(pos, axis=0)))
+    without feet. ``extent``: the bodies that size it (not a camera joint hung from the hips)."""
+    body = pos if extent is None else pos[list(extent)]
+    size = float(np.linalg.norm(np.ptp(body, axis=0)))
     heads = [b for b, r in enumerate(roles) if r == "head"]
     feet = [b for b, r in enumerate(roles) if r == "foot"]
     if not feet:  # a rig without feet (cut off at the knees) was built hovering 45 cm up and fell at once
@@ -356,7 +311,7 @@ def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str) ->
                                f"above the pelvis, feet {feet_down / size:.0%} below): the physics body stands "
                                "upright; a character lying down or upside down is not supported")
     hands = [b for b, r in enumerate(roles) if r == "hand"]
-    low = min((float(pos[b, 2] - pos[:, 2].min()) for b in hands), default=np.inf)
+    low = min((float(pos[b, 2] - body[:, 2].min()) for b in hands), default=np.inf)
     if low < 0.2 * height:
         raise UsdGazeError(f"{where}: its hands are on the ground at rest ({low / height:.0%} of its height up): "
                            "the physics body is a biped (de Leva's human segments); quadrupeds are not supported")

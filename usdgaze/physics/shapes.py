@@ -37,8 +37,11 @@ def geoms(offset, children, seg_vec, roles, rmat, feet, attached=frozenset()) ->
         if not g and np.linalg.norm(seg_vec[b]) > 0:  # an end site (zero) has no shape
             g = [("capsule", np.concatenate([np.zeros(3), seg_vec[b]]))] if roles[b] != "head" else \
                 [("sphere", 0.5 * seg_vec[b])]
-        if b in feet and children[b]:  # a sole from below the heel to the toes
-            toe = offset[children[b][0]]
+        # A sole from below the heel to the toes; a toe joint on its ankle (a zero-length bone) gave a
+        # capsule of no length, which MuJoCo refuses: the foot's segment, which runs past it, then.
+        toe = offset[children[b][0]] if children[b] else np.zeros(3)
+        toe = toe if np.linalg.norm(toe) > 0.01 else seg_vec[b]
+        if b in feet and children[b] and np.linalg.norm(toe) > 0.01:
             down = rmat[b].T @ np.array([0, 0, -1.0])
             drop = max(float(toe @ down), 0.0)
             forward = toe - (toe @ down) * down

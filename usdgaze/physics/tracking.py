@@ -262,6 +262,20 @@ def clear_ground(dyn: MujocoBody, ref_qpos: np.ndarray, step_deg: float = 1.0, r
     return out
 
 
+def _leg(m, foot: int) -> list[int]:
+    """The knee's and the hip's bodies above ``foot``: each the topmost movable part of the shank and of
+    the thigh. The foot's parent and grandparent were taken: on a split bone (Rigify's DEF-shin.L and
+    DEF-shin.L.001) the shin's two halves, and no hip. Without leg roles, those two still."""
+    found, b = {}, int(m.body_parent[foot])
+    while b > 0 and m.role[b] in ("shank", "thigh"):
+        if m.kind[b] in ("ball", "hinge"):
+            found[m.role[b]] = b  # overwritten going up: the segment's topmost part
+        b = int(m.body_parent[b])
+    if b != int(m.body_parent[foot]):
+        return [found[r] for r in ("shank", "thigh") if r in found]
+    return [b for b in (m.body_parent[foot], m.body_parent[m.body_parent[foot]]) if b > 0 and m.kind[b] in ("ball", "hinge")]
+
+
 def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_rad: float = 0.1,
               reach_deg: float = 30.0) -> np.ndarray:
     """The reference with each foot still in the ground after :func:`clear_ground` lifted out of it by
@@ -282,7 +296,7 @@ def lift_feet(dyn: MujocoBody, ref_qpos: np.ndarray, iterations: int = 20, step_
     for foot in m.feet:
         parts = [foot] + [b for b in m.toes if m.body_parent[b] == foot]
         geoms = np.flatnonzero(np.isin(mj.geom_bodyid - 1, parts))
-        leg = [b for b in (m.body_parent[foot], m.body_parent[m.body_parent[foot]]) if b > 0 and m.kind[b] in ("ball", "hinge")]
+        leg = _leg(m, foot)
         if not leg or not len(geoms):  # a foot hung from the base itself, or with no shape: nothing to lift
             continue
         cols = np.concatenate([vadr[b] + np.arange(3 if m.kind[b] == "ball" else 1) for b in leg]).astype(int)

@@ -1,0 +1,92 @@
+"""Each body's joint kind (free, ball, hinge, weld), hinge axes and ranges, and motor strengths, by its
+segment role and the reference motion (pure numpy)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdgaze.core import rotations as rot
+from usdgaze.physics import segments as seg
+
+_STILL_DEG = 0.5
+_HINGES = {"shank": 1.0, "forearm": -1.0}  # flexion axis = sign * (bone direction x forward)
+
+
+def hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
+    """Knees, elbows and toes become hinges (``kind`` is updated): their axes in the body frame and
+    every body's range in degrees."""
+    n = len(kind)
+    axis = np.zeros((n, 3))
+    range_deg = np.zeros((n, 2))
+    for b in range(1, n):
+        range_deg[b] = (0.0, seg.RANGE_DEG.get(roles[b], seg.RANGE_DEG["other"]))
+        top = roles[bparent[b]] != roles[b]  # a split bone's first part is the hinge; the others twist
+        if roles[b] in _HINGES and top and np.any(seg_vec[b]) and kind[b] == "ball" and forward is not None:
+            bone = rmat[b] @ seg_vec[b]
+            a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
+            if np.linalg.norm(a) > 0.2:
+                kind[b] = "hinge"
+                axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
+                range_deg[b] = (-5.0, 150.0)
+        elif is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
+            # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
+            kind[b] = "hinge"
+            left = np.cross([0.0, 0.0, 1.0], forward)
+            axis[b] = rmat[b].T @ (left / np.linalg.norm(left))
+            range_deg[b] = (-40.0, 60.0)
+    return axis, range_deg
+
+
+def is_toe(roles: list[str], bparent: np.ndarray, b: int) -> bool:
+    return roles[b] == "foot" and roles[bparent[b]] == "foot"
+
+
+def strengths(roles: list[str], bparent: np.ndarray) -> np.ndarray:
+    """Motor strength per body (N m per unit control) from its role. Unnamed joints on the chain from
+    the base to the head are the spine, which carries the trunk (they share its mass too) and gets
+    the trunk's strength; toes get the toe flexors'."""
+    out = np.array([seg.STRENGTH.get(r, seg.STRENGTH["other"]) for r in roles])
+    heads = [b for b, r in enumerate(roles) if r == "head"]
+    b = int(bparent[heads[0]]) if heads else -1
+    while b > 0:
+        if roles[b] == "other":
+            out[b] = seg.STRENGTH["trunk"]
+        b = int(bparent[b])
+    for b in range(1, len(roles)):
+        if is_toe(roles, bparent, b):
+            out[b] = seg.STRENGTH["toe"]
+    return out
+
+
+def welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -> bool:
+    """End sites and fingers (below the hand) are welded to their parents, as are the eyes (the eye
+    model moves them, not the physics; see ``build``): they carry mass but no degrees of freedom."""
+    if seg.is_end_joint(name) and not children[b]:
+        return True
+    return roles[b] == "hand" and roles[bparent[b]] == "hand"
+
+
+def fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray,
+                      weldable: set[int]) -> None:
+    """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses;
+    the ``weldable`` bodies the reference holds at rest welded."""
+    for b in range(1, len(kind)):
+        if kind[b] not in ("ball", "hinge"):
+            continue
+        q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
+        rv = rot.to_rotvec(q)
+        ang = np.degrees(np.linalg.norm(rv, axis=1))
+        if ang.max() < _STILL_DEG and b in weldable:
+            # A joint the motion holds at rest throughout (CMU's hip and collar joints) is welded:
+            # no degrees of freedom the controller would have to hold still.
+            kind[b] = "weld"
+            continue
+        if kind[b] == "ball":
+            rng[b, 1] = min(180.0, max(rng[b, 1], float(ang.max()) + 10.0))
+            continue
+        if ang.max() > 10.0:
+            _, _, vt = np.linalg.svd(rv, full_matrices=False)
+            a = vt[0] * np.sign(vt[0] @ axis[b] or 1.0)
+            axis[b] = a / np.linalg.norm(a)
+        theta = np.degrees(rv @ axis[b])
+        rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))

@@ -1,0 +1,110 @@
+"""Segment roles from the skeleton's shape at rest, where no name says foot, hand or head (pure numpy):
+legs reach the ground from the base, the head tops the highest end joint, arms are the two longest
+branches off the spine. Only limbs with no named role are filled in, so a named rig is unchanged."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdgaze.physics.segments import _ancestors, _mark, children_of, subtree_of
+
+
+def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: int | None = None) -> list[str]:
+    """Roles the names left out, from the tree and the rest positions ``pos (J, 3)`` (z up; joint 0
+    the floating base): legs, arms, head (``head``: the bound head joint, else the parent of the
+    highest end joint). Only limbs with no named role are filled in, so a named rig is unchanged."""
+    roles = list(roles)
+    n = len(roles)
+    children = children_of(parents)
+    z = pos[:, 2] - pos[:, 2].min()
+    leaves = [j for j in range(n) if not children[j]]
+    legs: list[int] = []
+    if "foot" not in roles:
+        legs = _shape_legs(roles, children, z)
+    if "head" not in roles:
+        if head is None:
+            head = _shape_head(roles, parents, children, leaves, legs, z)
+        if head is not None and head > 0:
+            # Only what no name placed: a bound head above the arms must not make them the head.
+            for k in subtree_of(children, head):
+                if roles[k] == "other":
+                    roles[k] = "head"
+    heads = [j for j in range(n) if roles[j] == "head"]
+    if "hand" not in roles and heads:
+        spine = _ancestors(min(heads, key=lambda j: len(_ancestors(j, parents))), parents)
+        branch_points = _shape_arms(roles, children, pos, spine, float(np.ptp(z)))
+        # de Leva's head segment starts at C7: the spine joints above the shoulders are the neck.
+        if branch_points:
+            for j in spine[:spine.index(max(branch_points, key=lambda j: z[j]))]:
+                if roles[j] == "other":
+                    roles[j] = "head"
+    return roles
+
+
+def _shape_head(roles: list[str], parents: np.ndarray, children: list[list[int]], leaves: list[int],
+                legs: list[int], z: np.ndarray) -> int | None:
+    """The head where no name says it: the parent of the highest end joint off the legs (a skull's top
+    end site), or that end joint itself where its parent also carries named limbs (a rig without a
+    head joint, whose neck is the highest end: its parent, the chest, made the arms the head)."""
+    off_legs = [j for j in leaves if not any(a in legs for a in [j, *_ancestors(j, parents)])]
+    top = max(off_legs, key=lambda j: z[j], default=None)
+    if top is None or parents[top] <= 0:
+        return top
+    parent = int(parents[top])
+    if any(roles[k] != "other" for k in subtree_of(children, parent)):
+        return top
+    return parent
+
+
+def _main_path(children: list[list[int]], start: int, score) -> list[int]:
+    """From ``start`` down through the child whose subtree scores highest, to a leaf."""
+    path = [start]
+    while children[path[-1]]:
+        path.append(max(children[path[-1]], key=score))
+    return path
+
+
+def _shape_legs(roles: list[str], children: list[list[int]], z: np.ndarray) -> list[int]:
+    """The base's two branches that reach the ground are legs: the foot is the first joint down the
+    leg below a fifth of the base's height (an ankle sits at 5-10% of hip height), above it the shank
+    and the thigh."""
+    reach = {c: min(z[k] for k in subtree_of(children, c)) for c in children[0]}
+    grounded = sorted((c for c in reach if reach[c] < 0.1 * max(z[0], 1e-9)), key=lambda c: reach[c])[:2]
+    for c in grounded:
+        path = _main_path(children, c, lambda k: -min(z[i] for i in subtree_of(children, k)))
+        foot = next((i for i, j in enumerate(path) if z[j] < 0.2 * z[0]), None)
+        if foot is None or foot < 2:
+            continue
+        _mark(roles, children, path[foot], "foot")
+        for role, j in zip(("shank", "thigh"), (path[foot - 1], path[foot - 2])):
+            if roles[j] == "other":
+                roles[j] = role
+    return grounded
+
+
+def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: float) -> list[int]:
+    """The two longest branches off the spine (below the head, above the base) are arms. Along each,
+    the upper arm and forearm are the most distal two consecutive bones of at least 0.6 of the
+    branch's longest (a clavicle can be as long as a forearm: 19 vs 18.5 cm on CMU's left arm; hand
+    and finger bones are shorter); the hand is where they end. Where no two long bones follow each
+    other and the longest ends the branch, the arm has no hand joint: that bone is the upper arm and
+    its end the forearm (a handless rig's shoulder became a hinge elbow, its elbow a wrist). Returns
+    the spine joints the arms hang from."""
+    def reach(k: int, start: int) -> float:
+        return max(float(np.linalg.norm(pos[i] - pos[start])) for i in subtree_of(children, k))
+
+    branches = [(reach(c, c), c, s) for s in spine if s != 0 for c in children[s]
+                if c not in spine and roles[c] == "other"]
+    arms = [b for b in sorted(branches, reverse=True)[:2] if b[0] > 0.2 * height]
+    for _, c, _ in arms:
+        path = _main_path(children, c, lambda k: reach(k, c))
+        bones = np.linalg.norm(np.diff(pos[path], axis=0), axis=1)
+        long = bones >= 0.6 * bones.max()
+        pairs = np.flatnonzero(long[:-1] & long[1:])
+        if not len(pairs) and int(np.argmax(bones)) == len(bones) - 1:
+            roles[path[-1]], roles[path[-2]] = "forearm", "upperArm"
+            continue
+        i = int(pairs[-1]) if len(pairs) else int(np.argmax(bones[:-1] + bones[1:]))
+        _mark(roles, children, path[i + 2], "hand")
+        roles[path[i + 1]], roles[path[i]] = "forearm", "upperArm"
+    return [s for _, _, s in arms]
