@@ -416,3 +416,35 @@ def test_a_joint_keyed_to_a_zero_scale_is_simulated_and_stays_hidden(tmp_path):
     assert np.isfinite(posed.world).all()
     hand = posed.world[:, posed.index(rig.leaf["hand_r"]), :3, :3]
     assert np.abs(hand[8:]).max() < 1e-6 and np.abs(np.linalg.det(hand[:8]) - 1.0).max() < 1e-3
+
+
+@pytest.mark.parametrize("binding", [True, False])
+def test_eyelids_and_brows_beside_the_eyes_do_not_move_where_the_body_sees_from(tmp_path, binding):
+    """A UE-style rig with an eyelid and a brow joint over each eye (``FACIAL_L_EyeLidUpper``,
+    ``FACIAL_L_EyeBrow``, 2 and 4 cm up): every joint named "eye" counted as an eye, and their midpoint,
+    where the vision sees from, rose 2 cm. With the gaze binding's eyes, or by name without one, the
+    model's eyes are the two eye joints, whose midpoint UsdSkel puts where MuJoCo does."""
+    from usdgaze.characters import bind_root
+    from usdgaze.physics import build
+    from usdgaze.physics.dynamics import MujocoBody
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="ue", frames=8, mesh=False)
+    pos = rig_extras._bind_positions(rig)
+    extra = [(f"FACIAL_{s}_Eye{part}", "head", tuple(pos[rig.leaf[f"eye_{s.lower()}"]] + [0.0, up, 0.0]), False)
+             for s in ("L", "R") for part, up in (("LidUpper", 0.02), ("Brow", 0.04))]
+    rig_extras.add_joints(rig.path, extra)
+    clip = build.load_clip(rig.path)
+    if binding:
+        stage = Usd.Stage.Open(str(rig.path))  # held: the SkelRoot prim lives as long as its stage
+        root = next(p for p in stage.Traverse() if p.IsA(UsdSkel.Root))
+        model, _ = build.body_model(clip, chain_frame=bind_root(clip, root))
+    else:
+        model, _ = build.body_model(clip)
+    names = {model.names[b] for b in model.eyes}
+    assert {model.joints[model.bodies[b]].rsplit("/", 1)[-1] for b in model.eyes} == {rig.leaf["eye_l"], rig.leaf["eye_r"]}
+    body = MujocoBody(model, h=0.02)
+    seen, _ = body.head_pose_batch(body.to_state(body.mj.qpos0)[None], 0)  # MuJoCo's kinematics at rest
+    d = mujoco.MjData(body.mj)
+    mujoco.mj_kinematics(body.mj, d)
+    eyes = [d.xpos[mujoco.mj_name2id(body.mj, mujoco.mjtObj.mjOBJ_BODY, n)] for n in names]
+    assert np.linalg.norm(seen[0] - np.mean(eyes, axis=0)) < 1e-6

@@ -42,7 +42,8 @@ _BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
 # A forearm that ends its arm (a rig without hand joints) is a forearm, 0.146 of the height (Drillis and
 # Contini); continued by the 3% of other leaves it was a stump.
 _LEAF_LENGTH = {"head": 0.12, "hand": 0.06, "foot": 0.06, "forearm": 0.146, "other": 0.03}
-_EYE = re.compile(r"eye", re.I)
+# An eye by name, where the gaze binding names none: not an eyelid, eyelash or eyebrow beside it.
+_EYE = re.compile(r"eye(?!_?(lid|lash|brow))", re.I)
 
 
 def stage_to_model(up_axis: str, meters_per_unit: float) -> np.ndarray:
@@ -175,8 +176,10 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     hints = hints or Hints()
     head = body_of.get(hints.head) if hints.head is not None else None
     roles = shape.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
-    eyes = {body_of[e] for e in hints.eyes if e in body_of}
-    eyes |= {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))}
+    # The binding's eyes where it names them: eyelids and brows named "eye..." beside them moved the
+    # eyes' midpoint, where the vision sees from.
+    eyes = ({body_of[e] for e in hints.eyes if e in body_of}
+            or {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))})
     children = seg.children_of(bparent)
     # An end site marks where its parent's segment ends, and an eye is a point in the head: neither
     # has a length, mass or shape of its own.
