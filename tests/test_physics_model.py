@@ -153,7 +153,7 @@ def _geom_extremes(mj, d, axis: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def _at_rest(tmp_path, rig, up: str, mpu: float):
+def model_at_rest(tmp_path, rig, up: str, mpu: float):
     """The MJCF ``physics-model`` writes for ``rig``, posed at rest by MuJoCo, and the rig's rest joint
     positions by UsdSkel in MuJoCo's axes: (mj, data, posed, rest)."""
     xml = tmp_path / "model.xml"
@@ -171,7 +171,7 @@ def test_an_end_site_ends_its_segment_and_adds_no_shape_beyond_it(tmp_path):
     and toes 12 cm too long)."""
     rig = syn.make_rig(tmp_path / "mixamo.usda", convention="mixamo", up_axis="Z", meters_per_unit=0.01,
                        frames=6, mesh=False, walk_speed=0.0)
-    mj, d, posed, rest = _at_rest(tmp_path, rig, "Z", 0.01)
+    mj, d, posed, rest = model_at_rest(tmp_path, rig, "Z", 0.01)
     base = rest[posed.index("mixamorig_Hips")]
     at = lambda leaf: rest[posed.index(leaf)] - base + d.xpos[1]  # noqa: E731  (stood where the model stands)
     radius = mj.geom_size[1:, 0].max()
@@ -241,7 +241,7 @@ def test_both_hands_catch_each_on_its_side_with_the_palm_before_the_knuckles(tmp
     model, _ = build.body_model(build.load_clip(rig.path))
     sites = catch._hand_sites(model)
     assert sorted(sites) == ["left", "right"]
-    mj, d, posed, rest = _at_rest(tmp_path, rig, "Y", 1.0)
+    mj, d, posed, rest = model_at_rest(tmp_path, rig, "Y", 1.0)
     left = np.cross([0.0, 0.0, 1.0], model.forward)
     hips = d.xpos[1]
     for side, (body, palm) in sites.items():

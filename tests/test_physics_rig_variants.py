@@ -22,6 +22,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 from usdgaze.console.main import main
 
 from . import measure, rig_extras
+from .test_physics_model import model_at_rest, to_mujoco
 from . import synthetic as syn
 
 # de Leva (1996), Table 4, males: fractions of the total mass.
@@ -62,16 +63,9 @@ def _model(tmp_path: Path, drop: set[str], convention: str = "mixamo"):
     rig = syn.make_rig(tmp_path / "rig.usda", convention=convention, up_axis="Y", meters_per_unit=0.01,
                        frames=8, mesh=False)
     drop_joints(rig.path, {rig.leaf[k] for k in drop})
-    xml = tmp_path / "model.xml"
-    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
-    mj = mujoco.MjModel.from_xml_path(str(xml))
-    d = mujoco.MjData(mj)
-    mujoco.mj_kinematics(mj, d)
-    mujoco.mj_comPos(mj, d)
-    posed = measure.posed(str(rig.path), rig.skeleton)
     assert UsdGeom.GetStageUpAxis(Usd.Stage.Open(str(rig.path))) == "Y"
-    p = (posed.rest_skel @ posed.skel_to_world)[:, 3, :3] * 0.01
-    rest = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
+    mj, d, posed, rest = model_at_rest(tmp_path, rig, "Y", 0.01)
+    mujoco.mj_comPos(mj, d)
     body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key].removeprefix("mixamorig_"))  # noqa: E731
     return rig, mj, d, body, posed, rest
 
@@ -160,14 +154,7 @@ def test_a_skelroot_scaled_unevenly_or_over_time_is_refused_in_one_line(tmp_path
 def test_a_skelroot_scaled_evenly_is_modelled_where_usdskel_puts_the_joints(tmp_path):
     rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", frames=8, mesh=False)
     _scale_root(rig.path, {None: (0.6, 0.6, 0.6)})
-    out = tmp_path / "model.xml"
-    assert main(["physics-model", str(rig.path), "--out", str(out)]) == 0
-    mj = mujoco.MjModel.from_xml_path(str(out))
-    d = mujoco.MjData(mj)
-    mujoco.mj_kinematics(mj, d)
-    posed = measure.posed(str(rig.path), rig.skeleton)
-    p = (posed.rest_skel @ posed.skel_to_world)[:, 3, :3]
-    rest = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
+    mj, d, posed, rest = model_at_rest(tmp_path, rig, "Y", 1.0)
     body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key].removeprefix("mixamorig_"))  # noqa: E731
     assert _fk_error(rig, d, body, posed, rest) < 0.01
     head = rest[posed.index(rig.leaf["head"])] - rest[posed.index(rig.leaf["toe_l"])]
@@ -199,8 +186,7 @@ def test_a_joint_scaled_unevenly_at_rest_is_refused_and_an_even_one_follows_usds
     for f, q in enumerate(retarget.to_qpos(model, ref)):
         d.qpos[:] = q
         mujoco.mj_kinematics(mj, d)
-        p = posed.world[f][model.bodies, 3, :3]
-        want = np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=-1)
+        want = to_mujoco(posed.world[f][model.bodies, 3, :3], "Y", 1.0)
         assert np.linalg.norm(d.xpos[1:][kept] - want[kept], axis=1).max() < 0.01
 
 
