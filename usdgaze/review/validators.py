@@ -10,7 +10,7 @@ loads them on demand (``usdchecker --validate``-style tools, ``UsdValidation.Val
 from __future__ import annotations
 
 import numpy as np
-from pxr import Sdf, Usd, UsdSkel, UsdValidation
+from pxr import Usd, UsdSkel, UsdValidation
 
 from usdgaze.gaze.definition import (
     API_NAME,
@@ -30,6 +30,7 @@ from usdgaze.gaze.definition import (
 from usdgaze.gaze.motion import TIMING_FIELDS
 from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
 from usdgaze.usd.checks import arc_units_problem
+from usdgaze.usd.skelio import animation_of
 from usdgaze.review.sample_checks import first_bad
 
 PLUGIN = "usdgaze.review.validators"
@@ -248,7 +249,7 @@ def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
     rest = skel.GetRestTransformsAttr()
     if not joints or (rest and rest.HasAuthoredValue() and len(rest.Get() or []) > 0):
         return []
-    anim_prim = _bound_animation(skel)
+    anim_prim = animation_of(skel.GetPrim())
     if not anim_prim:
         return []
     listed = set(UsdSkel.Animation(anim_prim).GetJointsAttr().Get() or [])
@@ -260,20 +261,11 @@ def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
                    f"{len(joints)} joints out ('{left_out[0]}'); UsdSkel cannot pose this skeleton")]
 
 
-def _bound_animation(skel: UsdSkel.Skeleton) -> Usd.Prim | None:
-    """The SkelAnimation bound to ``skel``: on the Skeleton, or inherited from an ancestor such as the
-    SkelRoot, as UsdSkel binds it; None if there is none."""
-    binding = UsdSkel.BindingAPI(skel.GetPrim())
-    targets = binding.GetAnimationSourceRel().GetForwardedTargets() if binding.GetAnimationSourceRel() else []
-    anim_prim = skel.GetPrim().GetStage().GetPrimAtPath(targets[0]) if targets else binding.GetInheritedAnimationSource()
-    return anim_prim if anim_prim and anim_prim.IsA(UsdSkel.Animation) else None
-
-
 def skeleton_units(prim: Usd.Prim, time_range=None) -> list:
     """The Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them in,
     come from layers in the stage's metersPerUnit (apply refuses them otherwise, so validate says it too)."""
     root = UsdSkel.Root.Find(prim)
-    prims = [root.GetPrim() if root else None, prim, _bound_animation(UsdSkel.Skeleton(prim))]
+    prims = [root.GetPrim() if root else None, prim, animation_of(prim)]
     problem = arc_units_problem(prim.GetStage(), prim, prims)
     return [] if problem is None else [_error(problem[0], problem[0].GetPath(), "Units", problem[1])]
 

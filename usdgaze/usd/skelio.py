@@ -51,7 +51,8 @@ def _animation_source(skel: Usd.Prim) -> tuple[bool, Usd.Prim | None]:
     return bool(targets) or bool(prim), (prim if prim and prim.IsA(UsdSkel.Animation) else None)
 
 
-def _animation_of(skel: Usd.Prim) -> Usd.Prim | None:
+def animation_of(skel: Usd.Prim) -> Usd.Prim | None:
+    """The SkelAnimation bound to ``skel`` (on it or inherited, as UsdSkel binds it), or None."""
     return _animation_source(skel)[1]
 
 
@@ -63,7 +64,7 @@ def animations_elsewhere(stage: Usd.Stage, roots: list[Usd.Prim]) -> dict[str, s
         if root.GetPath() in chosen:
             continue
         for skel in skeletons_under(root):
-            anim = _animation_of(skel)
+            anim = animation_of(skel)
             if anim is not None:
                 out.setdefault(str(anim.GetPath()), str(skel.GetPath()))
     return out
