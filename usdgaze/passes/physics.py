@@ -58,6 +58,7 @@ class Shot(NamedTuple):
     chain_frame: tuple  # the gaze binding: (Chain, CharacterFrame)
     ahead: Any  # the take's clip after the shot (None: none)
     take: Any  # the whole take the clip was cut from (None: the clip is the take)
+    body: tuple  # its body model and the reference on it (build.body_model), built once for every attempt
     tasks: dict[str, list]  # the stage's stone and obstacle prims (task_prims)
     options: mpc.Options  # its options: a shot with stones has their window
 
@@ -137,14 +138,14 @@ def _frames_from_steps(result: mpc.Result, seconds: np.ndarray, dyn_quats: list[
 
 
 def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, progress=None, chain_frame=None,
-                  ahead=None, *, task_found: dict[str, list]):
+                  ahead=None, *, task_found: dict[str, list], body=None):
     """Simulate one clip; its :class:`ShotReport`, the override and the per-frame measures
     (``chain_frame``: the gaze binding, for rigs whose joint names do not tell the body's segments;
     ``ahead``: the take's clip after the shot, which only the planner sees; ``task_found``: the
-    stage's task prims, ``task_prims``'s)."""
+    stage's task prims, ``task_prims``'s; ``body``: its ``build.body_model``, built here if None)."""
     from usdgaze.physics import build, retarget
 
-    model, ref = build.body_model(clip, total_mass, chain_frame=chain_frame)
+    model, ref = body or build.body_model(clip, total_mass, chain_frame=chain_frame)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
     ref_qpos = retarget.to_qpos(model, ref)
     tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos, task_found=task_found)
@@ -251,9 +252,9 @@ def _attempt(shot: Shot, options: mpc.Options, total_mass: float, progress, seed
     prims, paths, catches = shot.scene
     if prims:  # something to look at: eyes, belief and body in one loop
         return visuomotor.simulate_clip(shot.clip, shot.root, options, prims, paths, catches, total_mass, progress,
-                                        seed, shot.chain_frame, shot.ahead, task_found=shot.tasks)
+                                        seed, shot.chain_frame, shot.ahead, task_found=shot.tasks, body=shot.body)
     return (*simulate_clip(shot.clip, shot.root, options, total_mass, progress, shot.chain_frame, shot.ahead,
-                           task_found=shot.tasks), None)
+                           task_found=shot.tasks, body=shot.body), None)
 
 
 def _planner_record(options: mpc.Options) -> dict:
@@ -350,11 +351,11 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
             chain_frame = bind_root(clip, root, binding)
             # Its body too (a few ms): a skeleton the model refuses (lying, no feet, squashed) was found only
             # after the characters before it had been simulated.
-            model, _ = body_model(clip, total_mass, weld_still=not scene[2], chain_frame=chain_frame)
-            if scene[2] and not can_catch(model):  # it stopped with an internal error, exit 1
+            body = body_model(clip, total_mass, weld_still=not scene[2], chain_frame=chain_frame)
+            if scene[2] and not can_catch(body[0]):  # it stopped with an internal error, exit 1
                 raise UsdGazeError(f"{source}:{root.GetPath()}.{visuomotor.CATCH}: names a ball to catch, but "
                                    f"{clip.skeleton} has no hand (a hand joint below a forearm) to catch it with")
-            shots.append(Shot(root, clip, scene, chain_frame, ahead, take, tasks, opts))
+            shots.append(Shot(root, clip, scene, chain_frame, ahead, take, body, tasks, opts))
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots

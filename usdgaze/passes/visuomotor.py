@@ -64,12 +64,14 @@ def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop
 
 
 def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total_mass: float = 75.0,
-                  progress=None, seed: int = 0, chain_frame=None, ahead=None, *, task_found: dict[str, list]):
+                  progress=None, seed: int = 0, chain_frame=None, ahead=None, *, task_found: dict[str, list],
+                  body=None):
     """Simulate one clip with its eyes; (ShotReport, AnimOverride, per-frame terms, inspection).
 
     ``chain_frame``: the clip's (Chain, CharacterFrame) from :func:`usdgaze.characters.bind_root`
     (default: bound by names and the SkelRoot's map); ``ahead``: the take's clip after the shot;
-    ``task_found``: the stage's stone and obstacle prims (``physics.task_prims``'s)."""
+    ``task_found``: the stage's stone and obstacle prims (``physics.task_prims``'s); ``body``: its
+    ``build.body_model`` (catches weld no still joints), built here if None."""
     from usdgaze.characters import bind_root
     from usdgaze.passes import physics as body_pass
     from usdgaze.physics import build, retarget, visuomotor
@@ -77,7 +79,7 @@ def simulate_clip(clip, root, options: mpc.Options, prims, paths, catches, total
 
     source = clip.source
     chain_frame = chain_frame or bind_root(clip, root)
-    model, ref = build.body_model(clip, total_mass, weld_still=not catches, chain_frame=chain_frame)
+    model, ref = body or build.body_model(clip, total_mass, weld_still=not catches, chain_frame=chain_frame)
     pushes = body_pass.read_pushes(root, clip, model, f"{source}:{root.GetPath()}")
     ref_qpos = retarget.to_qpos(model, ref)
     h = options.h
