@@ -11,12 +11,17 @@ from usdgaze.errors import UsdGazeError
 _SCALE_SPREAD = 1.005
 
 
+def _spread(lin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each 3x3 map's scales along its axes ``(N, 3)`` and how uneven they are (largest over smallest)."""
+    scales = np.linalg.svd(lin, compute_uv=False)
+    return scales, scales.max(axis=1) / np.maximum(scales.min(axis=1), 1e-300)
+
+
 def rigid_placement(skel_to_world, where: str) -> None:
     """The skeleton's transform in the stage must scale it evenly and by one factor throughout: the model
     is built once, of rigid bodies, so a squash (a SkelRoot scaled (1, 1.2, 1)) or a scale animated over
     the clip put the model's joints 10-15 cm from UsdSkel's as the joints turned."""
-    scales = np.linalg.svd(np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[:, :3, :3], compute_uv=False)
-    uneven = scales.max(axis=1) / np.maximum(scales.min(axis=1), 1e-300)
+    scales, uneven = _spread(np.asarray(skel_to_world, dtype=float).reshape(-1, 4, 4)[:, :3, :3])
     f = int(np.argmax(uneven))
     if uneven[f] > _SCALE_SPREAD:
         raise UsdGazeError(f"{where}: its transform in the stage (the SkelRoot's or a prim's above the Skeleton) "
@@ -49,8 +54,8 @@ def evenly_scaled(joints, idx, bparent, kind, lin: np.ndarray, where: str) -> No
     from it inside a squashed frame, which no rigid body follows (a thigh scaled (1, 1.3, 1) put the
     model's knee and foot 9.7 cm from UsdSkel's as the leg swung). Its own scale is fine: the bones it
     scales turn with it."""
-    scales = np.linalg.svd(lin, compute_uv=False)
-    uneven = scales.max(axis=1) / np.maximum(scales.min(axis=1), 1e-300) > _SCALE_SPREAD
+    scales, spread = _spread(lin)
+    uneven = spread > _SCALE_SPREAD
     bad = [b for b in range(1, len(idx)) if kind[b] != "weld" and uneven[bparent[b]]]
     if bad:
         b, p = bad[0], bparent[bad[0]]
