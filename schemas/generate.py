@@ -51,6 +51,9 @@ VALIDATORS = {
     "SkeletonUnits": "A Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them "
                      "in, come from layers that author the stage's metersPerUnit (or none), or the reference is "
                      "scaled to make up for it.",
+    "SkeletonUpAxis": "A Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them "
+                      "in, come from layers that author the stage's upAxis (or none), or the reference is rotated "
+                      "to take the asset's up onto the stage's.",
     "GazeSchedule": "A GazeScheduleAPI reads as a schedule (arrays one per directive, known kinds, times in order, "
                     "weights and blends in range), each target is an Xformable or Boundable prim of the stage, "
                     "and each directive lies in the stage's time range or its SkelRoot's animation samples.",
@@ -61,7 +64,7 @@ VALIDATORS = {
                          "samples its animation over the span the input below it does (not another take's).",
 }
 VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "SkeletonArrays": ["UsdSkelSkeleton"],
-                          "SkeletonUnits": ["UsdSkelSkeleton"],
+                          "SkeletonUnits": ["UsdSkelSkeleton"], "SkeletonUpAxis": ["UsdSkelSkeleton"],
                           "GazeSchedule": ["UsdGazeGazeScheduleAPI"],
                           "GazeObject": ["UsdGazeGazeObjectAPI"], "GazeLayerSchedule": []}
 USDVIEW_PLUGIN = "usdgaze.review.usdview_plugin"

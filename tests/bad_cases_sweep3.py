@@ -15,17 +15,18 @@ def b_sparse_animation_without_rest_transforms(d):
     return apply_argv(d, edited(d, bare, unanimated=("spine_b",)))
 
 
-def _shot_over(d, arc: str, **shot_meta):
-    """``shot.usda`` bringing a metre rig (``char.usda``) in at /Character through ``arc`` (a reference
-    or payload), its own metadata ``shot_meta`` (no metersPerUnit: USD takes 0.01)."""
+def _shot_over(d, arc: str, up_axis: str = "Y", **shot_meta):
+    """``shot.usda`` bringing a metre rig (``char.usda``, built ``up_axis`` up) in at /Character through
+    ``arc`` (a reference or payload), its own metadata ``shot_meta`` (no metersPerUnit: USD takes 0.01)."""
     from pxr import Sdf
 
     from .bad_common import rig
 
-    r = rig(d, "char.usda", meters_per_unit=1.0)
+    r = rig(d, "char.usda", meters_per_unit=1.0, **({"up_axis": up_axis} if up_axis != "Y" else {}))
     shot = Sdf.Layer.CreateNew(str(d / "shot.usda"))
     for key, value in {"upAxis": "Y", **shot_meta}.items():
-        shot.pseudoRoot.SetInfo(key, value)
+        if value is not None:  # None: left unauthored
+            shot.pseudoRoot.SetInfo(key, value)
     prim = Sdf.CreatePrimInLayer(shot, r.skel_root)
     prim.specifier = Sdf.SpecifierDef
     items = [(Sdf.Reference if arc == "reference" else Sdf.Payload)("./char.usda", r.skel_root)]
@@ -42,6 +43,17 @@ def b_meters_per_unit_only_in_a_reference(d):
 
 def b_meters_per_unit_only_in_a_payload(d):
     return _shot_over(d, "payload", metersPerUnit=0.01)
+
+
+def b_up_axis_only_in_a_reference(d):
+    """A Y-up stage referencing a Z-up export: USD does not turn it, so the character lay on its back,
+    and apply wrote a gaze turned about the wrong axis without a word."""
+    return _shot_over(d, "reference", up_axis="Z", metersPerUnit=1.0)
+
+
+def b_up_axis_only_in_a_payload(d):
+    """A stage that authors no upAxis (USD takes Y) bringing a Z-up export in as a payload."""
+    return _shot_over(d, "payload", up_axis="Z", metersPerUnit=1.0, upAxis=None)
 
 
 def b_joint_names_wrong_length_no_chain(d):

@@ -29,7 +29,7 @@ from usdgaze.gaze.definition import (
 )
 from usdgaze.gaze.motion import TIMING_FIELDS
 from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
-from usdgaze.usd.checks import arc_units_problem
+from usdgaze.usd.checks import arc_units_problem, arc_up_axis_problem
 from usdgaze.usd.skelio import animation_of
 from usdgaze.review.sample_checks import first_bad
 
@@ -270,6 +270,15 @@ def skeleton_units(prim: Usd.Prim, time_range=None) -> list:
     return [] if problem is None else [_error(problem[0], problem[0].GetPath(), "Units", problem[1])]
 
 
+def skeleton_up_axis(prim: Usd.Prim, time_range=None) -> list:
+    """The Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them in,
+    come from layers in the stage's upAxis or are rotated onto it (apply refuses them otherwise)."""
+    root = UsdSkel.Root.Find(prim)
+    prims = [root.GetPrim() if root else None, prim, animation_of(prim)]
+    problem = arc_up_axis_problem(prim.GetStage(), prim, prims)
+    return [] if problem is None else [_error(problem[0], problem[0].GetPath(), "UpAxis", problem[1])]
+
+
 def _malformed(prim: Usd.Prim, text: str):
     """One of the schedule reader's lines (``:PRIM[.ATTRIBUTE]: problem``), sited on the attribute it names."""
     prefix = f":{prim.GetPath()}"
@@ -351,6 +360,7 @@ TASKS = {
     "AnimationArrays": animation_arrays,
     "SkeletonArrays": skeleton_arrays,
     "SkeletonUnits": skeleton_units,
+    "SkeletonUpAxis": skeleton_up_axis,
     "GazeSchedule": gaze_schedule,
     "GazeObject": gaze_object,
 }

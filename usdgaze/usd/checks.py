@@ -69,26 +69,80 @@ def arc_units_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | N
     that showed only as targets out of reach. An asset that authors no unit is taken in the stage's."""
     stage_mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
     scale = None
+    for prim, layer, arc in _arc_layers(stage, prims):
+        value = layer.pseudoRoot.GetInfo("metersPerUnit") if layer.pseudoRoot.HasInfo("metersPerUnit") else None
+        if not isinstance(value, (int, float)) or abs(value / stage_mpu - 1.0) <= _UNIT_TOLERANCE:
+            continue
+        if scale is None:  # read only where units differ: most characters are never asked
+            scale = float(np.cbrt(abs(np.linalg.det(_first_world(skel)[:3, :3]))))
+        if abs(value / (stage_mpu * scale) - 1.0) <= _UNIT_TOLERANCE:
+            continue
+        said = "authored on it" if stage.HasAuthoredMetadata("metersPerUnit") else "USD's fallback: it authors none"
+        return prim, (
+            f"is defined through a {arc} of {layer.identifier}, which says metersPerUnit {value:g}, but the stage "
+            f"measures in {stage_mpu:g} ({said}), so USD reads the character {value / stage_mpu:g} times too "
+            f"{'small' if value > stage_mpu else 'large'}; author metersPerUnit = {value:g} on "
+            f"{stage.GetRootLayer().identifier} or scale the {arc} by {value / stage_mpu:g}")
+    return None
+
+
+def check_arc_up_axis(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None], source: str) -> None:
+    """Refuse what :func:`arc_up_axis_problem` finds, in one line naming the file and prim."""
+    problem = arc_up_axis_problem(stage, skel, prims)
+    if problem:
+        raise UsdGazeError(f"{source}:{problem[0].GetPath()}: {problem[1]}")
+
+
+_AXES = {"Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
+_UP_TOLERANCE_DEG = 5.0  # a reference turned by hand to about the stage's up
+# The turn about X that takes the asset's up onto the stage's (X is the axis both Y and Z lie across).
+_TURN = {("Z", "Y"): -90, ("Y", "Z"): 90}
+
+
+def arc_up_axis_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None]) -> tuple[Usd.Prim, str] | None:
+    """The first of ``prims`` (the SkelRoot, Skeleton and animation) that a reference or payload brings
+    in from a layer authoring another upAxis than the stage's, with what to say; None if every one
+    stands in the stage's up or the reference is turned to make up for it (the Skeleton ``skel``'s
+    world transform at its first time takes the asset's up to within 5 deg of the stage's). USD does
+    not convert axes: a Z-up export referenced into a Y-up stage lies on its back. An asset that
+    authors no upAxis is taken in the stage's; one authoring neither Y nor Z is not judged here."""
+    stage_up = str(UsdGeom.GetStageUpAxis(stage))
+    world = None
+    for prim, layer, arc in _arc_layers(stage, prims):
+        value = str(layer.pseudoRoot.GetInfo("upAxis")) if layer.pseudoRoot.HasInfo("upAxis") else stage_up
+        if value == stage_up or value not in _AXES or stage_up not in _AXES:
+            continue
+        if world is None:  # read only where axes differ: most characters are never asked
+            world = _first_world(skel)[:3, :3]
+        turned = _AXES[value] @ world  # USD's matrices act on row vectors
+        norm = float(np.linalg.norm(turned))
+        cos = float(turned @ _AXES[stage_up]) / norm if norm > 0 else -1.0
+        off = math.degrees(math.acos(min(1.0, max(-1.0, cos))))
+        if off <= _UP_TOLERANCE_DEG:
+            continue
+        said = "authored on it" if stage.HasAuthoredMetadata("upAxis") else "USD's fallback: it authors none"
+        return prim, (
+            f"is defined through a {arc} of {layer.identifier}, which says upAxis {value}, but the stage's up is "
+            f"{stage_up} ({said}), and USD does not turn an asset to the stage's axis: the character's up lands "
+            f"{off:.0f} deg off {stage_up}; author upAxis = {value} on {stage.GetRootLayer().identifier} or rotate "
+            f"the {arc} to take {value} onto {stage_up} ({_TURN[value, stage_up]:+d} deg about X)")
+    return None
+
+
+def _first_world(skel: Usd.Prim) -> np.ndarray:
+    """The Skeleton's local-to-world matrix (USD's row-vector convention) at its first time."""
+    return np.array(UsdGeom.Xformable(skel).ComputeLocalToWorldTransform(Usd.TimeCode.EarliestTime()))
+
+
+def _arc_layers(stage: Usd.Stage, prims: list[Usd.Prim | None]):
+    """``(prim, layer, arc)`` for each of ``prims`` and each layer a reference or payload brings specs
+    of it in from (``arc``: the outermost arc's kind)."""
+    root_layer = stage.GetRootLayer()
     for prim in prims:
         if not prim:
             continue
-        for node, arc in _arc_nodes(prim.GetPrimIndex().rootNode, stage.GetRootLayer(), None):
-            layer = node.layerStack.identifier.rootLayer
-            value = layer.pseudoRoot.GetInfo("metersPerUnit") if layer.pseudoRoot.HasInfo("metersPerUnit") else None
-            if not isinstance(value, (int, float)) or abs(value / stage_mpu - 1.0) <= _UNIT_TOLERANCE:
-                continue
-            if scale is None:  # read only where units differ: most characters are never asked
-                world = np.array(UsdGeom.Xformable(skel).ComputeLocalToWorldTransform(Usd.TimeCode.EarliestTime()))
-                scale = float(np.cbrt(abs(np.linalg.det(world[:3, :3]))))
-            if abs(value / (stage_mpu * scale) - 1.0) <= _UNIT_TOLERANCE:
-                continue
-            said = "authored on it" if stage.HasAuthoredMetadata("metersPerUnit") else "USD's fallback: it authors none"
-            return prim, (
-                f"is defined through a {arc} of {layer.identifier}, which says metersPerUnit {value:g}, but the stage "
-                f"measures in {stage_mpu:g} ({said}), so USD reads the character {value / stage_mpu:g} times too "
-                f"{'small' if value > stage_mpu else 'large'}; author metersPerUnit = {value:g} on "
-                f"{stage.GetRootLayer().identifier} or scale the {arc} by {value / stage_mpu:g}")
-    return None
+        for node, arc in _arc_nodes(prim.GetPrimIndex().rootNode, root_layer, None):
+            yield prim, node.layerStack.identifier.rootLayer, arc
 
 
 def _arc_nodes(node, root_layer, arc: str | None):
