@@ -122,7 +122,7 @@ def _circling(eyes, fwd, keys_s, tcps):
 @pytest.mark.parametrize("start", [None, 133.0])
 def test_first_seen_is_when_it_enters_the_view_in_seconds_from_the_stage_start(tmp_path, capsys, start):
     """A ball circles in from behind (in view from ~0.3 s), out behind again (~0.76 s) and back in (~1.7 s).
-    Over the whole stage it is first seen when it first enters; over a range from 1.1 s (code 133) it is
+    Over the whole stage it is first seen when it first enters; over a range of 1.1-1.9 s (codes 133-229) it is
     first seen when it enters after the range starts, in seconds from the stage's start (from the take's
     first frame it was reported at -0.8 s: the pass planned the take before the range). The entry is
     measured on the written layer by UsdSkel FK: the ball's direction from the eyes within 60 deg of
@@ -134,13 +134,14 @@ def test_first_seen_is_when_it_enters_the_view_in_seconds_from_the_stage_start(t
     tcps = Sdf.Layer.FindOrOpen(str(base[0])).timeCodesPerSecond
     keys = [(0.0, 120.0), (0.5, 20.0), (0.6, 20.0), (1.0, 120.0), (1.4, 120.0), (1.9, 20.0), (2.0, 20.0)]
     samples = _circling(p.position("Head")[0], fwd / np.linalg.norm(fwd), keys, tcps)
-    stage = _stage_with(tmp_path, "circling.usda", base, lambda l: _object(l, "/Objects/Ball", samples), start=start)
+    end = None if start is None else 229.0  # the take goes on after it (to 241): the planner's last windows see it
+    stage = _stage_with(tmp_path, "circling.usda", base, lambda l: _object(l, "/Objects/Ball", samples), start, end)
     out = tmp_path / "circling_out.usdc"
     assert main(["attend", str(stage), "--out", str(out), "--window", "0.6", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     reported = report["characters"][0]["objects"][0]["first_seen_s"]
     t0 = 1.0 if start is None else start
-    codes = np.arange(t0, 241.0 + 1e-9)  # every time code: the entry to 1/120 s
+    codes = np.arange(t0, (end or 241.0) + 1e-9)  # every time code: the entry to 1/120 s
     g = gaze(compose(tmp_path, stage, out), times=codes)
     to = positions(g.stage, "/Objects/Ball", codes) - g.eyes
     off = np.degrees(np.arccos(np.clip((to / np.linalg.norm(to, axis=1, keepdims=True) * g.head_fwd).sum(1), -1, 1)))
@@ -151,13 +152,13 @@ def test_first_seen_is_when_it_enters_the_view_in_seconds_from_the_stage_start(t
     # The inspection prims say the same: no estimate before the ball is seen, one from the next frame.
     frames = np.array(g.stage.GetPrimAtPath("/UsdGazeAttend/root_Body/Objects_Ball")
                       .GetAttribute("gaze:attend:estimate").GetTimeSamples())
-    assert frames[0] == t0  # the range's frames only
+    assert frames[0] == t0 and frames[-1] == (end or 241.0)  # the range's frames only
     est = inspection(g.stage, "/Objects/Ball", "estimate", frames)
     tracked = (frames[np.isfinite(est[:, 0])][0] - t0) / tcps
     assert reported <= tracked <= reported + 4 / tcps + 1e-6
-    if start is not None:  # before the range the layer gives back the take's own pose, as --physics does
-        before = np.arange(1.0, start, 4.0)
-        head = [measure.posed(str(f), "/root/Body/BodySkel", times=before).world[:, p.index("Head")]
+    if start is not None:  # outside the range the layer gives back the take's own pose, as --physics does
+        outside = np.r_[np.arange(1.0, start, 4.0), np.arange(end + 4.0, 242.0, 4.0)]
+        head = [measure.posed(str(f), "/root/Body/BodySkel", times=outside).world[:, p.index("Head")]
                 for f in (stage, compose(tmp_path, stage, out, "again.usda"))]
         assert np.allclose(head[0], head[1], atol=1e-6)
 

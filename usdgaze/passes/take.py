@@ -35,6 +35,15 @@ def cut_to_range(clip, stage, ahead_s: float, verbs: tuple[str, str] = ("simulat
     return clip.frames(int(lo), int(hi)), (clip.frames(int(hi), int(last)) if last > hi else None), clip
 
 
+def with_ahead(shot, ahead, take):
+    """The shot and the take's frames after it (``cut_to_range``'s ``ahead``) as one clip, for a
+    planner whose windows reach past the shot's end; the shot itself where there is none."""
+    if ahead is None:
+        return shot
+    lo = int(np.searchsorted(take.times, shot.times[0] - 1e-9))
+    return take.frames(lo, lo + len(shot.times) + len(ahead.times))
+
+
 def through_take(override, take, shot):
     """``override`` (an ``AnimOverride`` of ``shot``, the take cut to its range: its every frame) over
     the whole take: outside the range the take's own values, bit for bit: an animated joint's samples,
