@@ -141,7 +141,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         codes = clip.start_time + t_plan * clip.time_codes_per_second
         objs = read_objects(stage, source, prims, codes, clip.meters_per_unit)
         things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
-        # The planner's windows near a shot's end see the take go on (its head held still there, before).
+        # Windows near a shot's end see the take go on, not the shot's last pose held.
         result = apply_attend(with_ahead(clip, ahead, take), chain, frame, things, settings.loop_options(), progress,
                               frames=None if ahead is None else len(clip.times))
         steps += len(result.planner_times)
