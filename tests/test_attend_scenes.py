@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from pxr import Gf, Sdf
 
 from tests import measure
-from tests.attend_support import ATTEND, angle_to, compose, gaze, positions
+from tests.attend_support import ATTEND, angle_to, compose, gaze, inspection, positions
 from tests.stone_stages import copy_animation
 from usdgaze.console.main import main
 
@@ -104,6 +106,61 @@ def test_a_sphere_is_seen_when_its_edge_enters_the_field_of_view(tmp_path, radiu
         assert off_head.min() > 60 and off.min() > 50  # a point stays out of view: never looked at
     else:
         assert off[:10].min() < 20  # seen, and turned to within 0.3 s (66 deg is past the eyes' 44 deg range)
+
+
+def _circling(eyes, fwd, keys_s, tcps):
+    """Samples every 4 codes of a point 2 m from ``eyes`` at eye height, at the angle (deg, + left of
+    ``fwd``) interpolated between ``keys_s`` [(seconds from the stage start, deg)]."""
+    left = np.cross([0, 1.0, 0], fwd)
+    out = []
+    for code in range(1, 242, 4):
+        a = np.radians(np.interp((code - 1) / tcps, *zip(*keys_s)))
+        out.append((code, tuple(eyes + 2.0 * (np.cos(a) * fwd + np.sin(a) * left))))
+    return out
+
+
+@pytest.mark.parametrize("start", [None, 133.0])
+def test_first_seen_is_when_it_enters_the_view_in_seconds_from_the_stage_start(tmp_path, capsys, start):
+    """A ball circles in from behind (in view from ~0.3 s), out behind again (~0.76 s) and back in (~1.7 s).
+    Over the whole stage it is first seen when it first enters; over a range of 1.1-1.9 s (codes 133-229) it is
+    first seen when it enters after the range starts, in seconds from the stage's start (from the take's
+    first frame it was reported at -0.8 s: the pass planned the take before the range). The entry is
+    measured on the written layer by UsdSkel FK: the ball's direction from the eyes within 60 deg of
+    the head's forward (docs/attend.md)."""
+    base = [ATTEND / "standing.usdc", CMU / "cmu_131_01.usdc"]
+    p = measure.posed(str(ATTEND / "ball_throw.usda"), "/root/Body/BodySkel")
+    fwd = p.axis("Head", measure.local_forward(p, "Head", measure.character_forward_skel(p, "LeftHip", "RightHip")))[0]
+    fwd = fwd - fwd[1] * np.array([0, 1.0, 0])
+    tcps = Sdf.Layer.FindOrOpen(str(base[0])).timeCodesPerSecond
+    keys = [(0.0, 120.0), (0.5, 20.0), (0.6, 20.0), (1.0, 120.0), (1.4, 120.0), (1.9, 20.0), (2.0, 20.0)]
+    samples = _circling(p.position("Head")[0], fwd / np.linalg.norm(fwd), keys, tcps)
+    end = None if start is None else 229.0  # the take goes on after it (to 241): the planner's last windows see it
+    stage = _stage_with(tmp_path, "circling.usda", base, lambda l: _object(l, "/Objects/Ball", samples), start, end)
+    out = tmp_path / "circling_out.usdc"
+    assert main(["attend", str(stage), "--out", str(out), "--window", "0.6", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    reported = report["characters"][0]["objects"][0]["first_seen_s"]
+    t0 = 1.0 if start is None else start
+    codes = np.arange(t0, (end or 241.0) + 1e-9)  # every time code: the entry to 1/120 s
+    g = gaze(compose(tmp_path, stage, out), times=codes)
+    to = positions(g.stage, "/Objects/Ball", codes) - g.eyes
+    off = np.degrees(np.arccos(np.clip((to / np.linalg.norm(to, axis=1, keepdims=True) * g.head_fwd).sum(1), -1, 1)))
+    entry = g.seconds[int(np.argmax(off <= 60.0))]
+    assert 0.25 < entry < 0.35 if start is None else 0.55 < entry < 0.65  # the path's own 0.3 s, 1.7 - 1.1 s
+    # The planner senses every 25 ms: first seen at its first step inside the view.
+    assert entry - 0.01 <= reported <= entry + 0.025 + 0.01, (reported, entry)
+    # The inspection prims say the same: no estimate before the ball is seen, one from the next frame.
+    frames = np.array(g.stage.GetPrimAtPath("/UsdGazeAttend/root_Body/Objects_Ball")
+                      .GetAttribute("gaze:attend:estimate").GetTimeSamples())
+    assert frames[0] == t0 and frames[-1] == (end or 241.0)  # the range's frames only
+    est = inspection(g.stage, "/Objects/Ball", "estimate", frames)
+    tracked = (frames[np.isfinite(est[:, 0])][0] - t0) / tcps
+    assert reported <= tracked <= reported + 4 / tcps + 1e-6
+    if start is not None:  # outside the range the layer gives back the take's own pose, as --physics does
+        outside = np.r_[np.arange(1.0, start, 4.0), np.arange(end + 4.0, 242.0, 4.0)]
+        head = [measure.posed(str(f), "/root/Body/BodySkel", times=outside).world[:, p.index("Head")]
+                for f in (stage, compose(tmp_path, stage, out, "again.usda"))]
+        assert np.allclose(head[0], head[1], atol=1e-6)
 
 
 @pytest.fixture(scope="module")

@@ -407,6 +407,13 @@ def b_attend_window_too_short(d):
     return _attend(d, _edited(d, lambda layer, rig: _gaze_object(layer, "/Ball", "Sphere")), "--window", "0.03")
 
 
+def b_attend_range_outside_the_animation(d):
+    def author(layer, rig):
+        _gaze_object(layer, "/Ball", "Sphere")
+        layer.startTimeCode, layer.endTimeCode = 500.0, 600.0
+    return _attend(d, _edited(d, author))
+
+
 def _ball(d: Path) -> Path:
     return _edited(d, lambda layer, rig: _gaze_object(layer, "/Ball", "Sphere"))
 

@@ -106,6 +106,7 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
 def _attend(stage, source, out_path, objects, settings, skel_root, progress, record=None):
     from usdgaze.characters import bind_root, select_roots
     from usdgaze.passes.attend import apply_attend, planner_times
+    from usdgaze.passes.take import cut_to_range, through_take, with_ahead
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, build_override, composed_override_notes, layer_info
     from usdgaze.usd.objects import check_apart, object_prims, read_objects
@@ -124,7 +125,11 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         skels = skeletons_under(root)
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
-        clip = read_clip(stage, skels[0], root, source)
+        # A shot over a longer take (a playback range inside the animation) is planned over its range,
+        # as --physics simulates it: planned from the take's first frame, objects were reported first
+        # seen before the shot (-4.00 s on stepping_stones_shot.usda) and 5 times the frames were planned.
+        ahead_s = settings.window_s + 2 * settings.h  # the take after it, for the planner's last windows
+        clip, ahead, take = cut_to_range(read_clip(stage, skels[0], root, source), stage, ahead_s, ("planned", "plan"))
         check_not_shared(others, clip.animation, source)
         report.warnings.extend(clip.notes)
         if len(skels) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
@@ -136,14 +141,17 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         codes = clip.start_time + t_plan * clip.time_codes_per_second
         objs = read_objects(stage, source, prims, codes, clip.meters_per_unit)
         things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
-        result = apply_attend(clip, chain, frame, things, settings.loop_options(), progress)
+        # Windows near a shot's end see the take go on, not the shot's last pose held.
+        result = apply_attend(with_ahead(clip, ahead, take), chain, frame, things, settings.loop_options(), progress,
+                              frames=None if ahead is None else len(clip.times))
         steps += len(result.planner_times)
         frames += len(clip.times)
         written = result
         if settings.realize == "map":
             written = _realize_map(stage, source, root, clip, chain, frame, prims, result, settings.h)
         # A realized map moves the pelvis like apply does: its leg roots' translations come with it.
-        overrides.append(AnimOverride.of(clip, written, move_roots=settings.realize == "map" and bool(chain.leg_roots)))
+        override = AnimOverride.of(clip, written, move_roots=settings.realize == "map" and bool(chain.leg_roots))
+        overrides.append(override if take is None else through_take(override, take, clip))  # the take's own outside
         inspections.append((clip.skel_root, clip.times, result, [o.path for o in objs]))
         report.results.append(result)
         seen = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]  # by this character's eyes

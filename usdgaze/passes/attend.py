@@ -98,18 +98,22 @@ def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: P
 
 
 def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: list[loop.Thing],
-                 options: loop.LoopOptions, progress=None) -> AttendResult:
-    """Run the visuomotor loop on one clip and turn its result into animation arrays."""
+                 options: loop.LoopOptions, progress=None, frames: int | None = None) -> AttendResult:
+    """Run the visuomotor loop on one clip and turn its result into animation arrays.
+
+    ``frames``: the shot is the clip's first ``frames`` frames; the rest (the take after a shot cut
+    from it) only the planner's windows see, and the result holds the shot's frames."""
     rig = with_eyes(clip, chain, frame, PassOptions())
     spine, neck = _spine_neck(chain)
     base = forward(with_ancestors(list(chain.path) + list(rig.eyes), rig.parents), rig.parents, rig.local)
-    bc, t_plan = base_chain(clip, chain, frame, rig, base, options.h)
+    bc, t_base = base_chain(clip, chain, frame, rig, base, options.h)
+    t_plan = t_base if frames is None else t_base[:len(planner_times(clip.seconds[:frames], options.h))]
     for th in things:
         th.up = clip.world_up
     res = loop.run(bc, things, options, len(t_plan), progress)
     seconds = clip.seconds
     q = _interp(seconds, t_plan, res.offsets)
-    left_w = _interp(seconds, t_plan, bc.left)
+    left_w = _interp(seconds, t_base, bc.left)
     new_rot = _drive(clip, rig, base, spine, neck, q, left_w)
 
     def new_local(j: int):
@@ -126,8 +130,10 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
     est = _interp(seconds, t_plan, res.estimate) / mpu
     unc = _interp(seconds, t_plan, res.sigma_p) * options.unit_m**2  # the belief's unit to m^2
     eye_pose = _interp(seconds, t_plan, res.eye) * [180 / np.pi, 180 / np.pi, 1.0]
-    out = AttendResult(anim_joints, rotations, translations, scales, rig.added, None, None,
-                       [rig.joints[j] for j in sorted(new_rot)], sight_units, est, unc, eye_pose, res, t_plan)
+    shot = slice(0, frames)
+    out = AttendResult(anim_joints, rotations[shot], translations[shot], scales[shot], rig.added, None, None,
+                       [rig.joints[j] for j in sorted(new_rot)], sight_units[shot], est[shot], unc[shot],
+                       eye_pose[shot], res, t_plan)
     if rig.added:
         out.added_rest_local = rig.rest_local[-2:]
         out.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]

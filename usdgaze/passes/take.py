@@ -1,4 +1,4 @@
-"""A shot cut from a longer take by its stage's playback range (``attend --physics``).
+"""A shot cut from a longer take by its stage's playback range (``attend``, kinematic or ``--physics``).
 
 Only the range is simulated, but the layer holds the take's own samples outside it: USD holds a
 layer's first and last samples before and after them, so a layer of the range alone froze the
@@ -15,24 +15,33 @@ import numpy as np
 from usdgaze.errors import UsdGazeError
 
 
-def cut_to_range(clip, stage, ahead_s: float):
+def cut_to_range(clip, stage, ahead_s: float, verbs: tuple[str, str] = ("simulated", "simulate")):
     """``(shot, ahead, take)``: the clip cut to the stage's playback range where the stage authors one
     inside the animation (a shot's root layer over a longer take; simulating the rest cost time for
     nothing: five times the shot's on a 49-frame shot over 241), the take's frames up to ``ahead_s``
     after the shot's end for the planner's windows there, and the whole take. Without a range inside
-    the animation: ``(clip, None, None)``."""
+    the animation: ``(clip, None, None)``. ``verbs``: what the pass does to a shot's frames, for the refusal."""
     if not stage.HasAuthoredTimeCodeRange():
         return clip, None, None
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
     lo, hi = np.searchsorted(clip.times, [start - 1e-9, end + 1e-9])
     if hi - lo < 2:  # nothing, or one pose, to simulate: the whole take was simulated and written before
         raise UsdGazeError(f"{clip.where()}: the stage's playback range {start:g} to {end:g} holds {hi - lo} of the "
-                           f"animation's samples (time codes {clip.times[0]:g}-{clip.times[-1]:g}); a simulated "
-                           "shot needs two or more: set the range to the frames to simulate")
+                           f"animation's samples (time codes {clip.times[0]:g}-{clip.times[-1]:g}); a {verbs[0]} "
+                           f"shot needs two or more: set the range to the frames to {verbs[1]}")
     if lo == 0 and hi == len(clip.times):
         return clip, None, None
     last = np.searchsorted(clip.seconds, clip.seconds[hi - 1] + ahead_s + 1e-9)
     return clip.frames(int(lo), int(hi)), (clip.frames(int(hi), int(last)) if last > hi else None), clip
+
+
+def with_ahead(shot, ahead, take):
+    """The shot and the take's frames after it (``cut_to_range``'s ``ahead``) as one clip, for a
+    planner whose windows reach past the shot's end; the shot itself where there is none."""
+    if ahead is None:
+        return shot
+    lo = int(np.searchsorted(take.times, shot.times[0] - 1e-9))
+    return take.frames(lo, lo + len(shot.times) + len(ahead.times))
 
 
 def through_take(override, take, shot):
