@@ -29,6 +29,7 @@ from . import synthetic as syn
 ARM = 0.0271 + 0.0162 + 0.0061  # upper arm, forearm, hand
 LEG = 0.1416 + 0.0433 + 0.0137  # thigh, shank, foot
 HEAD = 0.0694  # head and neck
+HAND = 0.0061
 MASS = 75.0
 
 
@@ -335,6 +336,51 @@ def test_a_weapon_chain_in_a_hand_rides_on_it(tmp_path):
     half = mj.geom_size[geoms, 1] * (mj.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_CAPSULE)
     reach = np.linalg.norm(d.geom_xpos[geoms] - d.xpos[body("hand_r")], axis=1) + half + mj.geom_size[geoms, 0]
     assert reach.max() < 0.2
+
+
+@pytest.mark.parametrize("convention, chain", [
+    ("mixamo", (("sword", (-0.05, 0.0, 0.0)), ("blade", (-0.05, -0.9, 0.0)))),  # no name says prop
+    ("ue", (("weapon_r", (-0.05, 0.0, 0.0)),)),  # a named prop's one joint, in a hand without fingers
+])
+def test_a_prop_held_in_a_hand_is_no_part_of_the_body(tmp_path, convention, chain):
+    """A chain a hand holds is no part of de Leva's body: each hand weighs his hand's share (within the
+    prop's token masses), the prop's bodies have no shape and no joint, no capsule of the hand runs along
+    it, and its animation is written through. Before, a sword the hand held point down (``RightHand >
+    sword > blade``, 0.9 m, no name saying prop) had a 0.9 m capsule and took the hands' share by length
+    (both hands of fingered Mixamo-style rig lighter); a ``weapon_r`` joint 5 cm from a hand without
+    fingers ended that hand's segment there (0.29 kg, the other hand 0.63)."""
+    rig = syn.make_rig(tmp_path / "rig.usda", convention=convention, frames=8, mesh=False,
+                       joints=67 if convention == "mixamo" else None)  # 67: every finger of both hands
+    hand = rig_extras._bind_positions(rig)[rig.leaf["hand_r"]]
+    parent, extra = rig.leaf["hand_r"], []
+    for name, offset in chain:
+        extra.append((name, parent, tuple(hand + np.array(offset)), True))  # animated: a twist about its bone
+        parent = name
+    rig_extras.add_joints(rig.path, extra)
+    xml = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    body = lambda name: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name.removeprefix("mixamorig_"))  # noqa: E731
+    assert abs(mj.body_mass[1:].sum() - MASS) < 1e-3
+    for side in "lr":
+        assert mj.body_subtreemass[body(rig.leaf[f"hand_{side}"])] == pytest.approx(HAND * MASS, abs=0.01), side
+    for name, _ in chain:
+        assert mj.body_geomnum[body(name)] == 0 and mj.body_jntnum[body(name)] == 0, name
+    geoms = np.flatnonzero(mj.geom_bodyid == body(rig.leaf["hand_r"]))
+    half = mj.geom_size[geoms, 1] * (mj.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_CAPSULE)
+    reach = np.linalg.norm(d.geom_xpos[geoms] - d.xpos[body(rig.leaf["hand_r"])], axis=1) + half + mj.geom_size[geoms, 0]
+    assert reach.max() < 0.2
+    out = tmp_path / "out.usda"
+    assert main(["attend", str(rig.path), "--physics", "--out", str(out), "--retry-iterations", "0"]) == 0
+    stages = [Usd.Stage.Open(str(p)) for p in (rig.path, _composed(tmp_path, out, rig))]
+    given, written = (UsdSkel.Animation(stage.GetPrimAtPath(rig.animation)) for stage in stages)
+    for name, _ in chain:
+        k, w = ([str(j).rsplit("/", 1)[-1] for j in a.GetJointsAttr().Get()].index(name) for a in (given, written))
+        for t in rig.times:
+            a, b = np.array(given.GetRotationsAttr().Get(t))[k], np.array(written.GetRotationsAttr().Get(t))[w]
+            assert np.array_equal(a, b), (name, t)
 
 
 def test_a_ball_to_catch_for_a_rig_without_hands_is_one_line(tmp_path, capsys):

@@ -190,7 +190,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         head = alone[0] if len(alone) == 1 else None
     tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
-    attached = seg.attachments(roles, bparent, children, head, tips, [joints[j] for j in idx])
+    attached = seg.attachments(roles, bparent, children, head, tips, [joints[j] for j in idx], pos)
     passive = tips | attached  # no segment, mass or degrees of freedom of their own
     # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
     # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
