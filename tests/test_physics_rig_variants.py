@@ -480,3 +480,48 @@ def test_eyelids_and_brows_beside_the_eyes_do_not_move_where_the_body_sees_from(
     mujoco.mj_kinematics(body.mj, d)
     eyes = [d.xpos[mujoco.mj_name2id(body.mj, mujoco.mjtObj.mjOBJ_BODY, n)] for n in names]
     assert np.linalg.norm(seen[0] - np.mean(eyes, axis=0)) < 1e-6
+
+
+def test_legs_hung_from_a_root_at_the_hips_beside_the_pelvis_are_its_legs(tmp_path, capsys):
+    """``root > {pelvis > spine_01 > ..., thigh_l, thigh_r}``, the root at the hips carrying the walk and the
+    pelvis below it the lower trunk: refused as having "no feet" (nothing below the pelvis reaches the
+    ground). Now the root the legs hang from is the body's pelvis: by MuJoCo's reading of the MJCF, every
+    joint within 1 cm of UsdSkel's over the walk and each leg de Leva's share; standing still 1 s it stays
+    up (by UsdSkel FK of the written layer, the hips >= 80% of the reference's). The same legs hung from a
+    root on the ground are refused in one line that says so, nothing written."""
+    from usdgaze.physics import build, retarget
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="ue", frames=30, mesh=False, legs_on="root", root_height=0.98)
+    assert rig.joint("thigh_l") == "root/thigh_l" and rig.joint("pelvis") == "root/pelvis"  # the premise
+    mj, d, posed, rest = model_at_rest(tmp_path, rig, "Y", 1.0)
+    body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key])  # noqa: E731
+    assert mj.body_parentid[body("thigh_l")] == body("root") and mj.jnt_type[mj.body_jntadr[body("root")]] == 0
+    for side in "lr":
+        assert mj.body_subtreemass[body(f"thigh_{side}")] == pytest.approx(LEG * MASS, abs=1e-3)
+    model, ref = build.body_model(build.load_clip(rig.path))
+    ids = [mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name) for name in model.names]
+    worst = 0.0
+    for f, qpos in enumerate(retarget.to_qpos(model, ref)):
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(mj, d)
+        expected = to_mujoco(posed.world[f][model.bodies, 3, :3], "Y", 1.0)
+        worst = max(worst, float(np.linalg.norm(d.xpos[ids] - expected, axis=1).max()))
+    assert worst < 0.01
+
+    still = syn.make_rig(tmp_path / "still.usda", convention="ue", frames=31, time_codes_per_second=30.0, mesh=False,
+                         walk_speed=0.0, legs_on="root", root_height=0.98)
+    stage = Usd.Stage.Open(str(still.path))
+    stage.GetPrimAtPath(still.skeleton).GetRelationship("skel:animationSource").ClearTargets(True)
+    stage.GetRootLayer().Save()
+    out = tmp_path / "out.usda"
+    assert main(["attend", str(still.path), "--physics", "--retry-iterations", "0", "--out", str(out)]) == 0
+    hips = [measure.posed(str(p), still.skeleton, times=still.times).position(still.leaf["root"])[:, 1]
+            for p in (still.path, _composed(tmp_path, out, still))]
+    assert (hips[1] / hips[0]).min() >= 0.8
+
+    capsys.readouterr()
+    ground = syn.make_rig(tmp_path / "ground.usda", convention="ue", frames=8, mesh=False, legs_on="root")
+    assert main(["attend", str(ground.path), "--physics", "--out", str(tmp_path / "no.usda")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "hang from 'root', beside its pelvis 'pelvis'" in err[0], err
+    assert not (tmp_path / "no.usda").exists()
