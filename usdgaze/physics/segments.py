@@ -283,13 +283,13 @@ def attachments(roles: list[str], parents: np.ndarray, children: list[list[int]]
     the hands' and feet's own subtrees): a face's and the hair's chains below the head, a skirt's or a
     bust's beside the trunk (VRoid's ``J_Sec_*``); and the props (:func:`props`, a prop's leaf joint
     included), wherever they hang. They ride welded on the joint they hang from, with a token mass and
-    no shape; other ``tips`` keep their own rules. None where no head is known."""
-    if head is None:
-        return set()
+    no shape; other ``tips`` keep their own rules. Only the props where no head is known."""
     # A weapon_r > weapon_r_end chain in the hand took 85% of the hand's mass and a 0.9 m capsule; a sword
     # not named a prop, a hand's length of the body's share each; a weapon_r leaf made a hand without
     # fingers end at it (5 cm long: 0.29 kg against the other hand's 0.63).
     held = props(roles, parents, children, names, pos)
+    if head is None:
+        return held
     ends = [b for b, r in enumerate(roles) if r in ("hand", "foot") and (parents[b] < 0 or roles[int(parents[b])] != r)]
     ends += [b for b, r in enumerate(roles) if r == "forearm" and not children[b]]  # an arm without a hand
     frame = {head, *_ancestors(head, parents)}
