@@ -151,7 +151,8 @@ def _legs_beside(joints: list[str], parents: np.ndarray, heights: np.ndarray, pe
         return pelvis
     below, a = pelvis, int(parents[pelvis])
     while a >= 0:
-        legs = [c for c in children[a] if c != below and not is_control(joints[c]) and len(children[c]) and grounded(c)]
+        legs = [c for c in children[a]
+                if c != below and not is_control(joints[c]) and len(children[c]) and grounded(c)]
         if len(legs) >= 2:
             up = (float(heights[a]) - low) / span
             if up > 0.25:

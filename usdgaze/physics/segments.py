@@ -274,6 +274,7 @@ def _wrists(roles: list[str], parents: np.ndarray, pos: np.ndarray) -> list[tupl
 
 
 def _reach(children: list[list[int]], pos: np.ndarray, j: int, origin: int) -> float:
+    """How far from ``origin`` the farthest joint at or below ``j`` lies."""
     return max(float(np.linalg.norm(pos[k] - pos[origin])) for k in subtree_of(children, j))
 
 
@@ -285,8 +286,8 @@ def attachments(roles: list[str], parents: np.ndarray, children: list[list[int]]
     included), wherever they hang. They ride welded on the joint they hang from, with a token mass and
     no shape; other ``tips`` keep their own rules. Only the props where no head is known."""
     # A weapon_r > weapon_r_end chain in the hand took 85% of the hand's mass and a 0.9 m capsule; a sword
-    # not named a prop, a hand's length of the body's share each; a weapon_r leaf made a hand without
-    # fingers end at it (5 cm long: 0.29 kg against the other hand's 0.63).
+    # no name calls a prop took the hands' share by its length (0.44 of both hands' 0.92 kg); a weapon_r
+    # leaf made a hand without fingers end at it (5 cm long: 0.29 kg against the other hand's 0.62).
     held = props(roles, parents, children, names, pos)
     if head is None:
         return held
