@@ -31,6 +31,12 @@ def b_physics_rig_without_feet(d):
     return ["physics-model", str(r.path), "--out", str(d / "body.xml")]
 
 
+def b_physics_legs_from_a_root_on_the_ground(d):
+    """``root > {pelvis, thigh_l, thigh_r}``, the root on the ground at rest (UE's): the legs hang beside the pelvis."""
+    r = rig(d, convention="ue", legs_on="root")
+    return ["physics-model", str(r.path), "--out", str(d / "body.xml")]
+
+
 def b_sublayer_into_a_shot_that_references_elsewhere(d):
     """A shot layer that references the character at /Hero, not at the input's /Character."""
     r = rig(d)

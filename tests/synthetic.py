@@ -322,6 +322,7 @@ def make_rig(
     rest_pose: str = "bind",
     look_aside_deg: tuple[float, float] = (0.0, 0.0),
     legs_on: str = "pelvis",
+    root_height: float | None = None,
 ) -> Rig:
     """Write a SkelRoot > Skeleton (+ SkelAnimation, skinned Mesh) stage to ``path``; return its :class:`Rig`.
 
@@ -334,7 +335,10 @@ def make_rig(
     capture; a periodic walk would let usdc store repeated arrays once and flatter a copy pass).
     ``shuffle_anim`` lists the animation's joints in another order than the skeleton's;
     ``unanimated`` leaves these template keys (``"prop"``: the first prop joint, if any) out of the
-    animation.
+    animation. ``legs_on``: the template key the thighs hang from (``"root"``: beside the pelvis);
+    ``root_height``: the root joint that high (metres) at rest, not on the ground, and, where the legs
+    hang from it, carrying the walk (a ``Root > {Hips, LeftUpLeg, RightUpLeg}`` rig: the root is the
+    hips, the pelvis below it the lower trunk).
     """
     path = Path(path)
     rng = np.random.default_rng(seed)
@@ -348,6 +352,8 @@ def make_rig(
     canon = np.column_stack([left, up, fwd])  # character frame -> skeleton space
 
     keys, spec = _template(convention, eyes, joints, body, legs_on)
+    if root_height is not None and "root" in spec:
+        spec["root"] = (None, (0.0, float(root_height), 0.0))
     n = len(keys)
     leaf = {k: token_prefix + usd_token(_name(convention, k, i)) for i, k in enumerate(keys)}
     dcc = {k: name_prefix + _name(convention, k, i) for i, k in enumerate(keys)}
@@ -389,7 +395,7 @@ def make_rig(
         rot_q[:, j] = (rest_local_rot[j] * R.from_rotvec(rv)).as_quat()
 
     # Pelvis: walk along the heading, turn, bob and sway (skeleton space, then into its parent).
-    pj = keys.index("pelvis")
+    pj = keys.index("root" if legs_on == "root" and root_height is not None else "pelvis")
     heading = np.radians(turn_deg_per_s) * t
     dt = np.diff(t, prepend=t[0])
     step = walk_speed * units * dt

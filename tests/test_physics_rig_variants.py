@@ -29,6 +29,7 @@ from . import synthetic as syn
 ARM = 0.0271 + 0.0162 + 0.0061  # upper arm, forearm, hand
 LEG = 0.1416 + 0.0433 + 0.0137  # thigh, shank, foot
 HEAD = 0.0694  # head and neck
+HAND = 0.0061
 MASS = 75.0
 
 
@@ -337,6 +338,56 @@ def test_a_weapon_chain_in_a_hand_rides_on_it(tmp_path):
     assert reach.max() < 0.2
 
 
+@pytest.mark.parametrize("convention, chain", [
+    ("mixamo", (("sword", (-0.05, 0.0, 0.0)), ("blade", (-0.05, -0.9, 0.0)))),  # no name says prop
+    ("ue", (("weapon_r", (-0.05, 0.0, 0.0)),)),  # a named prop's one joint, in a hand without fingers
+    ("generic", (("sword", (-0.05, 0.0, 0.0)), ("blade", (-0.05, -0.9, 0.0)))),  # no name says hand either
+])
+def test_a_prop_held_in_a_hand_is_no_part_of_the_body(tmp_path, convention, chain):
+    """A chain a hand holds is no part of de Leva's body: each hand weighs his hand's share (within the
+    prop's token masses), the prop's bodies have no shape and no joint, no capsule of the hand runs along
+    it, and its animation is written through. Before, a sword the hand held point down (``RightHand >
+    sword > blade``, 0.9 m, no name saying prop) had a 0.9 m capsule and took the hands' share by length
+    (both hands of fingered Mixamo-style rig lighter); a ``weapon_r`` joint 5 cm from a hand without
+    fingers ended that hand's segment there (0.29 kg, the other 0.62); on a rig whose names say nothing
+    (``bone_NNN``), the arm found by shape ran along the sword: its upper arm, forearm and hand were
+    trunk (6.9, 6.1 and 1.3 kg) and the sword's first joint its upper arm (3.1 kg)."""
+    rig = syn.make_rig(tmp_path / "rig.usda", convention=convention, frames=8, mesh=False,
+                       joints=67 if convention == "mixamo" else None)  # 67: every finger of both hands
+    hand = rig_extras._bind_positions(rig)[rig.leaf["hand_r"]]
+    parent, extra = rig.leaf["hand_r"], []
+    for name, offset in chain:
+        extra.append((name, parent, tuple(hand + np.array(offset)), True))  # animated: a twist about its bone
+        parent = name
+    rig_extras.add_joints(rig.path, extra)
+    xml = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, d)
+    body = lambda name: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name.removeprefix("mixamorig_"))  # noqa: E731
+    assert abs(mj.body_mass[1:].sum() - MASS) < 1e-3
+    for side in "lr":
+        assert mj.body_subtreemass[body(rig.leaf[f"hand_{side}"])] == pytest.approx(HAND * MASS, abs=0.01), side
+    for name, _ in chain:
+        assert mj.body_geomnum[body(name)] == 0 and mj.body_jntnum[body(name)] == 0, name
+    geoms = np.flatnonzero(mj.geom_bodyid == body(rig.leaf["hand_r"]))
+    half = mj.geom_size[geoms, 1] * (mj.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_CAPSULE)
+    reach = np.linalg.norm(d.geom_xpos[geoms] - d.xpos[body(rig.leaf["hand_r"])], axis=1) + half + mj.geom_size[geoms, 0]
+    assert reach.max() < 0.2
+    out = tmp_path / "out.usda"
+    bind = ["--bind", f"pelvis={rig.leaf['pelvis']}", "--bind", f"head={rig.leaf['head']}", "--forward",
+            ",".join(map(str, rig.forward))] if convention == "generic" else []
+    assert main(["attend", str(rig.path), "--physics", "--out", str(out), "--retry-iterations", "0", *bind]) == 0
+    stages = [Usd.Stage.Open(str(p)) for p in (rig.path, _composed(tmp_path, out, rig))]
+    given, written = (UsdSkel.Animation(stage.GetPrimAtPath(rig.animation)) for stage in stages)
+    for name, _ in chain:
+        k, w = ([str(j).rsplit("/", 1)[-1] for j in a.GetJointsAttr().Get()].index(name) for a in (given, written))
+        for t in rig.times:
+            a, b = np.array(given.GetRotationsAttr().Get(t))[k], np.array(written.GetRotationsAttr().Get(t))[w]
+            assert np.array_equal(a, b), (name, t)
+
+
 def test_a_ball_to_catch_for_a_rig_without_hands_is_one_line(tmp_path, capsys):
     """A UE-style rig without hand joints and a ball its SkelRoot's ``usdgaze:physics:catch`` names: the
     catch task found no hand and the command stopped with an internal error (exit 1)."""
@@ -434,3 +485,48 @@ def test_eyelids_and_brows_beside_the_eyes_do_not_move_where_the_body_sees_from(
     mujoco.mj_kinematics(body.mj, d)
     eyes = [d.xpos[mujoco.mj_name2id(body.mj, mujoco.mjtObj.mjOBJ_BODY, n)] for n in names]
     assert np.linalg.norm(seen[0] - np.mean(eyes, axis=0)) < 1e-6
+
+
+def test_legs_hung_from_a_root_at_the_hips_beside_the_pelvis_are_its_legs(tmp_path, capsys):
+    """``root > {pelvis > spine_01 > ..., thigh_l, thigh_r}``, the root at the hips carrying the walk and the
+    pelvis below it the lower trunk: refused as having "no feet" (nothing below the pelvis reaches the
+    ground). Now the root the legs hang from is the body's pelvis: by MuJoCo's reading of the MJCF, every
+    joint within 1 cm of UsdSkel's over the walk and each leg de Leva's share; standing still 1 s it stays
+    up (by UsdSkel FK of the written layer, the hips >= 80% of the reference's). The same legs hung from a
+    root on the ground are refused in one line that says so, nothing written."""
+    from usdgaze.physics import build, retarget
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="ue", frames=30, mesh=False, legs_on="root", root_height=0.98)
+    assert rig.joint("thigh_l") == "root/thigh_l" and rig.joint("pelvis") == "root/pelvis"  # the premise
+    mj, d, posed, rest = model_at_rest(tmp_path, rig, "Y", 1.0)
+    body = lambda key: mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key])  # noqa: E731
+    assert mj.body_parentid[body("thigh_l")] == body("root") and mj.jnt_type[mj.body_jntadr[body("root")]] == 0
+    for side in "lr":
+        assert mj.body_subtreemass[body(f"thigh_{side}")] == pytest.approx(LEG * MASS, abs=1e-3)
+    model, ref = build.body_model(build.load_clip(rig.path))
+    ids = [mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name) for name in model.names]
+    worst = 0.0
+    for f, qpos in enumerate(retarget.to_qpos(model, ref)):
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(mj, d)
+        expected = to_mujoco(posed.world[f][model.bodies, 3, :3], "Y", 1.0)
+        worst = max(worst, float(np.linalg.norm(d.xpos[ids] - expected, axis=1).max()))
+    assert worst < 0.01
+
+    still = syn.make_rig(tmp_path / "still.usda", convention="ue", frames=31, time_codes_per_second=30.0, mesh=False,
+                         walk_speed=0.0, legs_on="root", root_height=0.98)
+    stage = Usd.Stage.Open(str(still.path))
+    stage.GetPrimAtPath(still.skeleton).GetRelationship("skel:animationSource").ClearTargets(True)
+    stage.GetRootLayer().Save()
+    out = tmp_path / "out.usda"
+    assert main(["attend", str(still.path), "--physics", "--retry-iterations", "0", "--out", str(out)]) == 0
+    hips = [measure.posed(str(p), still.skeleton, times=still.times).position(still.leaf["root"])[:, 1]
+            for p in (still.path, _composed(tmp_path, out, still))]
+    assert (hips[1] / hips[0]).min() >= 0.8
+
+    capsys.readouterr()
+    ground = syn.make_rig(tmp_path / "ground.usda", convention="ue", frames=8, mesh=False, legs_on="root")
+    assert main(["attend", str(ground.path), "--physics", "--out", str(tmp_path / "no.usda")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "hang from 'root', beside its pelvis 'pelvis'" in err[0], err
+    assert not (tmp_path / "no.usda").exists()

@@ -18,7 +18,7 @@ from pxr import Sdf, Usd, UsdSkel
 
 from usdgaze.core import rotations as rot
 from usdgaze.passes import physics as physics_pass
-from usdgaze.physics import mpc
+from usdgaze.physics import build, mpc
 
 from . import measure
 from .test_physics_pass import lowest_foot_point
@@ -137,3 +137,37 @@ def test_a_shot_range_shorter_than_the_take_is_all_that_is_simulated_and_the_res
                 assert not np.array_equal(written, given), (name, t)
             elif t not in in_shot:
                 assert written.dtype == given.dtype and np.array_equal(written.view(np.uint32), given.view(np.uint32)), (name, t)
+
+
+def test_a_child_size_body_stands_still(tmp_path):
+    """The synthetic biped at half size (its SkelRoot scaled 0.5: 0.9 m tall, the hips 0.5 m up) at 20 kg,
+    standing still 1.5 s through ``attend --physics``: the ground's 1.5 cm contact margin, tuned on
+    adults, held its whole sole at rest, and the first simulation jumped off the ground and fell at
+    0.48 s (pelvis 62%), where the same rig at full size stands. By UsdSkel FK of the written layer
+    over the input, the hips stay at >= 80% of the reference's height and no foot sinks 2 cm."""
+    from pxr import Gf, UsdGeom
+
+    from usdgaze.console.main import main
+
+    from . import synthetic as syn
+    from .test_physics_rig_variants import _composed
+
+    rig = syn.make_rig(tmp_path / "rig.usda", convention="mixamo", frames=46, mesh=False, walk_speed=0.0,
+                       time_codes_per_second=30.0)
+    stage = Usd.Stage.Open(str(rig.path))
+    UsdGeom.Xformable(stage.GetPrimAtPath(rig.skel_root)).AddScaleOp().Set(Gf.Vec3f(0.5, 0.5, 0.5))
+    stage.GetPrimAtPath(rig.skeleton).GetRelationship("skel:animationSource").ClearTargets(True)  # standing still
+    stage.GetRootLayer().Save()
+    out = tmp_path / "out.usda"
+    assert main(["attend", str(rig.path), "--physics", "--mass", "20", "--retry-iterations", "0", "--out", str(out)]) == 0
+    composed = _composed(tmp_path, out, rig)
+    sim = measure.posed(str(composed), rig.skeleton, times=rig.times)
+    ref = measure.posed(str(rig.path), rig.skeleton, times=rig.times)
+    hips = lambda p: p.position(rig.leaf["pelvis"]) @ p.up  # noqa: E731
+    assert 0.45 < hips(ref).min() and hips(ref).max() < 0.55  # the premise: a child's hips, by UsdSkel
+    assert (hips(sim) / hips(ref)).min() >= 0.8
+    model, _ = build.body_model(build.load_clip(rig.path), 20.0)
+    feet = [measure.lowest_capsule_point(sim, model.joints[model.bodies[b]].rsplit("/", 1)[-1], capsules,
+                                         float(model.radius[b]), rig.meters_per_unit) for b, role in enumerate(model.role)
+            if role == "foot" and (capsules := [(v[:3], v[3:]) for k, v in model.geoms[b] if k == "capsule"])]
+    assert len(feet) == 4 and np.min(feet) > -0.02  # ankles and toes, their capsules in metres

@@ -13,6 +13,11 @@ from usdgaze.physics.segments import children_of
 # Soft contacts at a 0.04 s time constant (two 0.02 s steps) settle about 2 cm deep under body
 # weight; a contact margin starts the ground's push that much earlier, so feet rest near z = 0.
 GROUND_MARGIN = 0.015
+# The hips' height above the ground at rest of the bodies that margin was measured on (CMU 131_01 and
+# 131_02: 0.93 m, the synthetic rigs: 1.01 m). A smaller body's feet are smaller in proportion: 1.5 cm
+# held the whole sole of a 0.9 m character (hips 0.52 m up) inside it, and a still stand jumped off the
+# ground and fell at 0.48 s (docs/physics.md, "Integration").
+ADULT_HIPS_M = 0.9
 # Foot contacts stiffen with depth: MuJoCo's default impedance (0.95) for the first 3 cm of a foot's
 # violation of the margin, rising to 0.99 (a fifth of the default's give) beyond it. The soft part
 # lets a light toe carry the body's weight only by sinking in (5.6 cm on the CMU walk's push-offs);
@@ -40,6 +45,14 @@ def _motors(m: BodyModel, b: int) -> list[tuple[str, str]]:
     return []
 
 
+def ground_margin(m: BodyModel) -> float:
+    """The ground's contact margin for body ``m``: ``GROUND_MARGIN``, shrunk in proportion to the hips'
+    height at rest below an adult's (a length of the feet's scale; the sink it offsets is the soft
+    contact's, the same in metres for any body, so a taller body keeps it)."""
+    hips = float(m.base_pos[2] + m.lift)
+    return GROUND_MARGIN * min(1.0, max(hips, 0.0) / ADULT_HIPS_M)
+
+
 def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> str:
     """The model as MJCF. Semi-implicit Euler (``integrator="Euler"``) at ``timestep``; joint damping is
     integrated implicitly by that integrator, which keeps 0.02-0.03 s steps stable; contacts are
@@ -59,7 +72,7 @@ def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> s
            '  <worldbody>',
            '    <light pos="0 0 4" dir="0 0 -1" directional="true"/>',
            f'    <geom name="ground" type="plane" size="0 0 0.05" contype="0" conaffinity="1" solref="{tc:.4g} 1" '
-           f'margin="{GROUND_MARGIN}" rgba="0.45 0.5 0.55 1"/>']
+           f'margin="{ground_margin(m):.6g}" rgba="0.45 0.5 0.55 1"/>']
     children = children_of(m.body_parent)
 
     def body(b: int, depth: int) -> None:

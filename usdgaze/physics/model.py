@@ -28,6 +28,7 @@ import numpy as np
 
 from usdgaze.core import rotations as rot
 from usdgaze.core.kinematics import world_matrices
+from usdgaze.core.names import is_control
 from usdgaze.core.rig import character_frame, leaf
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.physics import checks
@@ -106,14 +107,14 @@ class BodyModel:
         return int(hits[0]) if len(hits) else -1
 
 
-def _base_joint(joints: list[str], parents: np.ndarray, heights: np.ndarray) -> int:
+def _base_joint(joints: list[str], parents: np.ndarray, heights: np.ndarray, where: str = "skeleton") -> int:
     """The floating base: the first joint named as a pelvis, else where the two legs meet: the
     nearest common ancestor of the lowest end joint at rest (a toe) and the lowest one on another
     branch (the other foot). Many rigs put a root joint on the ground above the hips, some with props
     or IK targets beside them, so neither the root nor the first branching is the pelvis."""
     for j, name in enumerate(joints):
         if _BASE.search(re.sub(r"[^a-z0-9]", "", leaf(name).lower())):
-            return j
+            return _legs_beside(joints, parents, heights, j, where)
 
     def chain(j: int) -> list[int]:
         out = [j]
@@ -132,6 +133,36 @@ def _base_joint(joints: list[str], parents: np.ndarray, heights: np.ndarray) -> 
             if meet is not None and heights[meet] - low > 0.25 * span:
                 return meet
     return int(np.flatnonzero(parents < 0)[0])
+
+
+def _legs_beside(joints: list[str], parents: np.ndarray, heights: np.ndarray, pelvis: int, where: str) -> int:
+    """The pelvis joint by name, or, where nothing below it reaches the ground and two legs branch from one
+    of its ancestors instead (``Root > {Hips, LeftUpLeg, RightUpLeg}``), that ancestor: the joint the legs
+    hang from is the body's pelvis, and the one named so below it the lower trunk. Such a rig was refused
+    as having no feet. Legs hung from a joint on the ground at rest are refused: the model's bodies follow
+    the skeleton's tree, so its thighs would hang from the ground, not from the moving hips."""
+    children = seg.children_of(parents)
+    low, span = float(np.min(heights)), float(np.ptp(heights))
+
+    def grounded(j: int) -> bool:
+        return min(float(heights[k]) for k in seg.subtree_of(children, j)) - low < 0.1 * span
+
+    if span <= 0 or grounded(pelvis):
+        return pelvis
+    below, a = pelvis, int(parents[pelvis])
+    while a >= 0:
+        legs = [c for c in children[a]
+                if c != below and not is_control(joints[c]) and len(children[c]) and grounded(c)]
+        if len(legs) >= 2:
+            up = (float(heights[a]) - low) / span
+            if up > 0.25:
+                return a
+            raise UsdGazeError(
+                f"{where}: its legs ('{leaf(joints[legs[0]])}', '{leaf(joints[legs[1]])}') hang from "
+                f"'{leaf(joints[a])}', beside its pelvis '{leaf(joints[pelvis])}' and {up:.0%} of its height up "
+                "at rest: the physics body's legs hang from its pelvis, or from a joint at the hips above it")
+        below, a = a, int(parents[a])
+    return pelvis
 
 
 def _subtree(base: int, parents: np.ndarray) -> np.ndarray:
@@ -190,7 +221,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         head = alone[0] if len(alone) == 1 else None
     tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
-    attached = seg.attachments(roles, bparent, children, head, tips, [joints[j] for j in idx])
+    attached = seg.attachments(roles, bparent, children, head, tips, [joints[j] for j in idx], pos)
     passive = tips | attached  # no segment, mass or degrees of freedom of their own
     # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
     # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
@@ -247,7 +278,7 @@ def _body_tree(joints, parents: np.ndarray, rest_local: np.ndarray, skel_to_worl
     if np.linalg.det(skel_to_world0[:3, :3]) < 0.0:
         to_model = np.diag([-1.0, 1.0, 1.0]) @ to_model  # the mirror image: right-handed bodies
     world = skel_to_world0 @ world_matrices(rest_local[None], parents)[0]
-    base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2])
+    base = _base_joint(joints, parents, (world[:, :3, 3] @ to_model.T)[:, 2], where)
     idx = _subtree(base, parents)
     if len(idx) < 2:
         raise UsdGazeError(f"{where}: the skeleton below '{joints[base]}' has no joints to simulate")

@@ -236,25 +236,68 @@ def _by_length(lengths: np.ndarray) -> np.ndarray:
     return lengths / total if total > 0 else np.full(len(lengths), 1.0 / len(lengths))
 
 
+def props(roles: list[str], parents: np.ndarray, children: list[list[int]], names: list[str] | None = None,
+          pos: np.ndarray | None = None) -> set[int]:
+    """What a character holds, no part of de Leva's body: every joint at or below one named a prop (UE's
+    ``weapon_r``, ``prop_r``; ``names.is_prop``) and, by ``pos`` (rest positions), a chain in a hand that
+    reaches farther from the wrist than the forearm is long: a hand, wrist to fingertip, is 0.108 of the
+    height against the forearm's 0.146 (Drillis and Contini), so no finger does; a sword does."""
+    tops = {j for j in range(len(roles)) if names is not None and is_prop(names[j])}
+    if pos is not None:
+        for t, forearm in _wrists(roles, parents, pos):
+            stack = list(children[t])
+            while stack:
+                c = stack.pop()
+                far = [k for k in children[c] if _reach(children, pos, k, t) > forearm]
+                if _reach(children, pos, c, t) <= forearm:
+                    continue  # a finger (nothing below it reaches farther)
+                if len(far) < len(children[c]) and float(np.linalg.norm(pos[c] - pos[t])) <= forearm:
+                    stack.extend(far)  # a hand joint holding fingers and the prop (CMU's lhand below LeftWrist)
+                else:
+                    tops.add(c)
+    return {k for j in tops for k in subtree_of(children, j)}
+
+
+def _wrists(roles: list[str], parents: np.ndarray, pos: np.ndarray) -> list[tuple[int, float]]:
+    """Each hand's first joint and its forearm's length (a split forearm's parts summed)."""
+    out = []
+    for t, r in enumerate(roles):
+        if r != "hand" or parents[t] < 0 or roles[int(parents[t])] == "hand":
+            continue
+        length, j = 0.0, t
+        while parents[j] >= 0 and roles[int(parents[j])] == "forearm":
+            length += float(np.linalg.norm(pos[j] - pos[int(parents[j])]))
+            j = int(parents[j])
+        if length > 0:
+            out.append((t, length))
+    return out
+
+
+def _reach(children: list[list[int]], pos: np.ndarray, j: int, origin: int) -> float:
+    """How far from ``origin`` the farthest joint at or below ``j`` lies."""
+    return max(float(np.linalg.norm(pos[k] - pos[origin])) for k in subtree_of(children, j))
+
+
 def attachments(roles: list[str], parents: np.ndarray, children: list[list[int]], head: int | None,
-                tips=frozenset(), names: list[str] | None = None) -> set[int]:
+                tips=frozenset(), names: list[str] | None = None, pos: np.ndarray | None = None) -> set[int]:
     """Bodies off the body's frame (the ways from the base to the head, the hands and the feet, and
-    the hands' and feet's own subtrees but a prop's chain in them, by ``names``): a face's and the hair's
-    chains below the head, a skirt's or a bust's beside the trunk (VRoid's ``J_Sec_*``), a weapon held
-    in a hand. They ride welded on the joint they hang from, with a token mass and no shape; ``tips``
-    keep their own rules. None where no head is known."""
+    the hands' and feet's own subtrees): a face's and the hair's chains below the head, a skirt's or a
+    bust's beside the trunk (VRoid's ``J_Sec_*``); and the props (:func:`props`, a prop's leaf joint
+    included), wherever they hang. They ride welded on the joint they hang from, with a token mass and
+    no shape; other ``tips`` keep their own rules. Only the props where no head is known."""
+    # A weapon_r > weapon_r_end chain in the hand took 85% of the hand's mass and a 0.9 m capsule; a sword
+    # no name calls a prop took the hands' share by its length (0.44 of both hands' 0.92 kg); a weapon_r
+    # leaf made a hand without fingers end at it (5 cm long: 0.29 kg against the other hand's 0.62).
+    held = props(roles, parents, children, names, pos)
     if head is None:
-        return set()
-    # A weapon_r > weapon_r_end chain in the hand took 85% of the hand's mass and a 0.9 m capsule.
-    props = {k for j in range(len(roles)) if names is not None and children[j] and is_prop(names[j])
-             for k in subtree_of(children, j)}
+        return held
     ends = [b for b, r in enumerate(roles) if r in ("hand", "foot") and (parents[b] < 0 or roles[int(parents[b])] != r)]
     ends += [b for b, r in enumerate(roles) if r == "forearm" and not children[b]]  # an arm without a hand
     frame = {head, *_ancestors(head, parents)}
     for b in ends:
         frame.update(_ancestors(b, parents))
         frame.update(subtree_of(children, b))
-    return {b for b in range(len(roles)) if (b not in frame or b in props) and b not in tips}
+    return {b for b in range(len(roles)) if (b not in frame and b not in tips) or b in held}
 
 
 def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tips=frozenset(),

@@ -99,6 +99,11 @@ def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: floa
     for _, c, _ in arms:
         path = _main_path(children, c, lambda k: reach(k, c))
         bones = np.linalg.norm(np.diff(pos[path], axis=0), axis=1)
+        # No arm bone is longer than 0.3 of the height (the upper arm: 0.186, Drillis and Contini): the path
+        # to the farthest reach ran on along a sword the hand holds, which made the arm's bones the sword's.
+        held = np.flatnonzero(bones > 0.3 * height)
+        if len(held) and held[0] >= 2:
+            path, bones = path[:held[0] + 1], bones[:held[0]]
         long = bones >= 0.6 * bones.max()
         pairs = np.flatnonzero(long[:-1] & long[1:])
         if not len(pairs) and int(np.argmax(bones)) == len(bones) - 1:
