@@ -4,7 +4,8 @@ reference while the true simulation may be pushed, with the per-step measures a 
 Two processes, as in the paper: the planner's internal model (``plan``, no knowledge of external
 forces or of what the eyes will see) and the simulation it drives (``sim``, with the push). Each
 control step solves a window of ``horizon_s`` warm-started from the previous solution shifted by one
-step, its new last control the reference's inverse-dynamics torques, then applies the first control.
+step, its new last control the reference's inverse-dynamics torques (with no ground: ``_inverse_dynamics``),
+then applies the first control.
 
 One loop (``run``) serves the body alone (``BodyController``) and the coupled eyes, belief and body
 (``physics.visuomotor``): both track the same target (``prepare``: the reference with its toes out of
@@ -13,6 +14,8 @@ after a fall the same way; a ``Controller`` adds what it senses and plans beside
 """
 
 from __future__ import annotations
+
+import copy
 
 from dataclasses import dataclass, field
 from typing import Protocol, Sequence
@@ -121,23 +124,29 @@ class Result:
 
 
 def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: float) -> np.ndarray:
-    """Controls ``(K, nu)`` whose torques realize the reference's accelerations (root residual dropped),
-    clipped to the motors' strengths (``|u| <= 1``, the gear being a human peak torque).
+    """Controls ``(K, nu)`` whose torques realize the reference's accelerations with no ground (the root's
+    residual, the support, dropped), clipped to the motors' strengths (``|u| <= 1``, the gear being a
+    human peak torque): the warm start of each window's new last step, and the whole first window.
 
-    The clip matters where the reference is not feasible for the model: where it puts a thigh or a
-    toe several centimetres into the ground (CMU 131_01's lunge at 3.2 s), soft contacts turn that
-    penetration into kilonewtons and the unclipped torques (up to 17 times a peak) would start the
-    window's last step from a blow-up the solver cannot recover from.
+    Without contacts because MuJoCo's inverse of its soft contacts makes a force of how deep a foot
+    sits, not of the weight it carries: a capture's foot floating 3 cm up carries nothing, one a
+    centimetre into the contact margin hundreds of newtons, one in the floor kilonewtons (CMU 131_01's
+    lunge at 3.2 s: torques up to 17 times a peak before the clip). At the start of
+    ``stepping_stones.usda``, whose swinging toe grazes the margin, that saturated the left hip, ankle
+    and toe over the cold first window, and the walk fell at 0.58 s in every run; a 0.9 m body standing
+    still jumped and fell. The solver finds the support; the guess need only move the limbs.
     """
     import mujoco
 
-    d = mujoco.MjData(plan.mj)
-    gear = np.abs(plan.mj.actuator_gear[:, :3]).max(axis=1)
+    mj = copy.copy(plan.mj)  # the planner's own model keeps its contacts
+    mj.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    d = mujoco.MjData(mj)
+    gear = np.abs(mj.actuator_gear[:, :3]).max(axis=1)
     out = np.zeros((len(qpos), plan.nu))
     for k in range(len(qpos)):
         d.qpos[:], d.qvel[:] = qpos[k], qvel[k]
         d.qacc[:] = (qvel[min(k + 1, len(qvel) - 1)] - qvel[k]) / h
-        mujoco.mj_inverse(plan.mj, d)
+        mujoco.mj_inverse(mj, d)
         out[k] = d.qfrc_inverse[6:] / gear
     return np.clip(out, -1.0, 1.0)
 
