@@ -18,6 +18,7 @@ from usdgaze import api
 from usdgaze.console.main import main
 from usdgaze.review.validation import run as validate
 
+from . import arc_shots
 from . import measure
 from . import synthetic as syn
 
@@ -32,30 +33,8 @@ def _shot(tmp_path, rig_mpu: float | None, shot_mpu: float | None, scale: float 
                        meters_per_unit=rig_mpu or 0.01)
     if rig_mpu is None:
         syn.edit(rig.path, lambda layer: layer.pseudoRoot.ClearInfo("metersPerUnit"))
-    asset = "./char.usda"
-    if via:
-        middle = Sdf.Layer.CreateNew(str(tmp_path / "middle.usda"))
-        prim = Sdf.CreatePrimInLayer(middle, rig.skel_root)
-        prim.specifier = Sdf.SpecifierDef
-        prim.referenceList.prependedItems = [Sdf.Reference(asset, rig.skel_root)]
-        middle.Save()
-        asset = "./middle.usda"
-    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
-    shot.pseudoRoot.SetInfo("upAxis", "Y")
-    if shot_mpu is not None:
-        shot.pseudoRoot.SetInfo("metersPerUnit", shot_mpu)
-    for key in ("timeCodesPerSecond", "framesPerSecond", "startTimeCode", "endTimeCode"):
-        setattr(shot, key, getattr(Sdf.Layer.FindOrOpen(str(rig.path)), key))
-    prim = Sdf.CreatePrimInLayer(shot, rig.skel_root)
-    prim.specifier = Sdf.SpecifierDef
-    items = [(Sdf.Reference if arc == "reference" else Sdf.Payload)(asset, rig.skel_root)]
-    (prim.referenceList if arc == "reference" else prim.payloadList).prependedItems = items
-    if scale != 1.0:
-        Sdf.AttributeSpec(prim, "xformOp:scale", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(scale, scale, scale)
-        Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                          variability=Sdf.VariabilityUniform).default = ["xformOp:scale"]
-    shot.Save()
-    return rig, tmp_path / "shot.usda"
+    op = ("xformOp:scale", Sdf.ValueTypeNames.Double3, Gf.Vec3d(scale, scale, scale)) if scale != 1.0 else None
+    return rig, arc_shots.shot_over(tmp_path, rig, arc, via, {"upAxis": "Y", "metersPerUnit": shot_mpu}, op)
 
 
 def _units_problems(path) -> list[dict]:

@@ -17,6 +17,7 @@ from usdgaze import api
 from usdgaze.console.main import main
 from usdgaze.review.validation import run as validate
 
+from . import arc_shots
 from . import attend_support as A
 from . import measure
 from . import synthetic as syn
@@ -33,30 +34,9 @@ def _shot(tmp_path, rig_up: str | None, shot_up: str | None, rotate_x: float = 0
                        up_axis=rig_up or "Y", walk_speed=walk_speed)
     if rig_up is None:
         syn.edit(rig.path, lambda layer: layer.pseudoRoot.ClearInfo("upAxis"))
-    asset = "./char.usda"
-    if via:
-        middle = Sdf.Layer.CreateNew(str(tmp_path / "middle.usda"))
-        prim = Sdf.CreatePrimInLayer(middle, rig.skel_root)
-        prim.specifier = Sdf.SpecifierDef
-        prim.referenceList.prependedItems = [Sdf.Reference(asset, rig.skel_root)]
-        middle.Save()
-        asset = "./middle.usda"
-    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
-    if shot_up is not None:
-        shot.pseudoRoot.SetInfo("upAxis", shot_up)
-    shot.pseudoRoot.SetInfo("metersPerUnit", rig.meters_per_unit)
-    for key in ("timeCodesPerSecond", "framesPerSecond", "startTimeCode", "endTimeCode"):
-        setattr(shot, key, getattr(Sdf.Layer.FindOrOpen(str(rig.path)), key))
-    prim = Sdf.CreatePrimInLayer(shot, rig.skel_root)
-    prim.specifier = Sdf.SpecifierDef
-    items = [(Sdf.Reference if arc == "reference" else Sdf.Payload)(asset, rig.skel_root)]
-    (prim.referenceList if arc == "reference" else prim.payloadList).prependedItems = items
-    if rotate_x:
-        Sdf.AttributeSpec(prim, "xformOp:rotateX", Sdf.ValueTypeNames.Float).default = rotate_x
-        Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                          variability=Sdf.VariabilityUniform).default = ["xformOp:rotateX"]
-    shot.Save()
-    return rig, tmp_path / "shot.usda"
+    op = ("xformOp:rotateX", Sdf.ValueTypeNames.Float, rotate_x) if rotate_x else None
+    return rig, arc_shots.shot_over(tmp_path, rig, arc, via, {"upAxis": shot_up,
+                                                         "metersPerUnit": rig.meters_per_unit}, op)
 
 
 def _up_problems(path) -> list[dict]:

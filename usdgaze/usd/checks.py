@@ -53,11 +53,17 @@ _ARCS = {Pcp.ArcTypeReference: "reference", Pcp.ArcTypePayload: "payload"}
 _UNIT_TOLERANCE = 1e-3  # relative: a unit or a scale authored as 0.0254 or 1/39.37
 
 
-def check_arc_units(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None], source: str) -> None:
-    """Refuse what :func:`arc_units_problem` finds, in one line naming the file and prim."""
-    problem = arc_units_problem(stage, skel, prims)
-    if problem:
-        raise UsdGazeError(f"{source}:{problem[0].GetPath()}: {problem[1]}")
+def check_arcs(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None], source: str) -> None:
+    """Refuse what :func:`arc_units_problem` or :func:`arc_up_axis_problem` finds, in one line naming
+    the file and prim: what USD does not carry across a reference or payload."""
+    for find in (arc_units_problem, arc_up_axis_problem):
+        problem = find(stage, skel, prims)
+        if problem:
+            raise UsdGazeError(f"{source}:{problem[0].GetPath()}: {problem[1]}")
+
+
+def _said(stage: Usd.Stage, key: str) -> str:
+    return "authored on it" if stage.HasAuthoredMetadata(key) else "USD's fallback: it authors none"
 
 
 def arc_units_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None]) -> tuple[Usd.Prim, str] | None:
@@ -77,20 +83,12 @@ def arc_units_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | N
             scale = float(np.cbrt(abs(np.linalg.det(_first_world(skel)[:3, :3]))))
         if abs(value / (stage_mpu * scale) - 1.0) <= _UNIT_TOLERANCE:
             continue
-        said = "authored on it" if stage.HasAuthoredMetadata("metersPerUnit") else "USD's fallback: it authors none"
         return prim, (
             f"is defined through a {arc} of {layer.identifier}, which says metersPerUnit {value:g}, but the stage "
-            f"measures in {stage_mpu:g} ({said}), so USD reads the character {value / stage_mpu:g} times too "
-            f"{'small' if value > stage_mpu else 'large'}; author metersPerUnit = {value:g} on "
+            f"measures in {stage_mpu:g} ({_said(stage, 'metersPerUnit')}), so USD reads the character "
+            f"{value / stage_mpu:g} times too {'small' if value > stage_mpu else 'large'}; author metersPerUnit = {value:g} on "
             f"{stage.GetRootLayer().identifier} or scale the {arc} by {value / stage_mpu:g}")
     return None
-
-
-def check_arc_up_axis(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | None], source: str) -> None:
-    """Refuse what :func:`arc_up_axis_problem` finds, in one line naming the file and prim."""
-    problem = arc_up_axis_problem(stage, skel, prims)
-    if problem:
-        raise UsdGazeError(f"{source}:{problem[0].GetPath()}: {problem[1]}")
 
 
 _AXES = {"Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
@@ -120,11 +118,10 @@ def arc_up_axis_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim |
         off = math.degrees(math.acos(min(1.0, max(-1.0, cos))))
         if off <= _UP_TOLERANCE_DEG:
             continue
-        said = "authored on it" if stage.HasAuthoredMetadata("upAxis") else "USD's fallback: it authors none"
         return prim, (
             f"is defined through a {arc} of {layer.identifier}, which says upAxis {value}, but the stage's up is "
-            f"{stage_up} ({said}), and USD does not turn an asset to the stage's axis: the character's up lands "
-            f"{off:.0f} deg off {stage_up}; author upAxis = {value} on {stage.GetRootLayer().identifier} or rotate "
+            f"{stage_up} ({_said(stage, 'upAxis')}), and USD does not turn an asset to the stage's axis: the "
+            f"character's up lands {off:.0f} deg off {stage_up}; author upAxis = {value} on {stage.GetRootLayer().identifier} or rotate "
             f"the {arc} to take {value} onto {stage_up} ({_TURN[value, stage_up]:+d} deg about X)")
     return None
 

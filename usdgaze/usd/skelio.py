@@ -324,8 +324,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     joints, parents = _skeleton_joints(skeleton, where_skel)
     rest_local, bind_world, neutral_world, neutral_source, authored = _poses(skeleton, joints, parents, where_skel)
     bound, anim_prim = _animation_source(skel)
-    checks.check_arc_units(stage, skel, [root, skel, anim_prim], source)
-    checks.check_arc_up_axis(stage, skel, [root, skel, anim_prim], source)
+    checks.check_arcs(stage, skel, [root, skel, anim_prim], source)
     notes: list[str] = []
     if bound:
         anim_prim, where_anim = _bound_animation(anim_prim, where_skel, source)
