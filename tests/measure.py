@@ -151,6 +151,14 @@ def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1)))
 
 
+def eye_miss_deg(p: Posed, eye: str, forward_skel: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Per frame, degrees between the eye's forward (its bind-pose ``forward_skel`` carried by FK) and
+    the direction from the eye to ``target`` (one point, or one per frame)."""
+    to_target = target - p.position(eye)
+    to_target = to_target / np.linalg.norm(to_target, axis=-1, keepdims=True)
+    return angle_between(p.axis(eye, local_forward(p, eye, forward_skel)), to_target)
+
+
 def rotation_angle_deg(m_a: np.ndarray, m_b: np.ndarray) -> np.ndarray:
     """Angle of the rotation between two stacks of 3x3 rotation(-ish) matrices."""
     def unit(m):

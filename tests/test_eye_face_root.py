@@ -42,9 +42,7 @@ def _misses(rig, target, new) -> dict[str, np.ndarray]:
     """Per eye, degrees between its line of sight (its bind-pose forward axis) and the target, per frame."""
     out = {}
     for eye in rig.eye_leaves:
-        to_target = target - new.position(eye)
-        to_target /= np.linalg.norm(to_target, axis=-1, keepdims=True)
-        out[eye] = measure.angle_between(new.axis(eye, measure.local_forward(new, eye, rig.forward)), to_target)
+        out[eye] = measure.eye_miss_deg(new, eye, rig.forward, target)
     return out
 
 

@@ -65,9 +65,7 @@ def test_an_eye_scaled_on_its_own_lands_on_the_target(tmp_path, bind, animated):
     seconds = (new.times - rig.start_time) / RATE
     looking = (seconds >= LOOK_S + 0.8) & (seconds < SHIFT_S)
     for eye in eyes:
-        to_target = target - new.position(eye)
-        to_target /= np.linalg.norm(to_target, axis=-1, keepdims=True)
-        miss = measure.angle_between(new.axis(eye, measure.local_forward(new, eye, fwd)), to_target)[looking]
+        miss = measure.eye_miss_deg(new, eye, fwd, target)[looking]
         assert miss.max() < 0.5, (eye, miss.max())
     change, _, _ = measure.gaze_change(base, new, fwd, rig.leaf["head"], eyes)
     held = np.abs(change[seconds >= SHIFT_S + 1.2] - [40.0, 10.0]).max()

@@ -80,7 +80,5 @@ def test_a_reference_scaled_to_the_stages_unit_is_accepted_and_reaches_its_targe
     new = measure.posed(str(preview), rig.skeleton)
     looking = (new.times - rig.start_time) / RATE >= 1.3
     for eye in rig.eye_leaves:
-        to_target = target - new.position(eye)
-        to_target /= np.linalg.norm(to_target, axis=-1, keepdims=True)
-        miss = measure.angle_between(new.axis(eye, measure.local_forward(new, eye, rig.forward)), to_target)
+        miss = measure.eye_miss_deg(new, eye, rig.forward, target)
         assert miss[looking].max() < 1.0, (eye, miss[looking].max())

@@ -168,9 +168,7 @@ def test_eyes_in_a_squashed_and_stretched_head_aim_where_asked(tmp_path, scale, 
     target = base_eyes + 1.2 * fwd + 0.4 * np.cross([0.0, 1.0, 0.0], fwd) - [0.0, 0.25, 0.0]
     _, new = _gaze(tmp_path, skeleton, look_at=[f"{target[0]:.5f},{target[1]:.5f},{target[2]:.5f}@{SHIFT_S}s"])
     for eye in ("eye_l", "eye_r"):
-        to_target = target - new.position(eye)
-        to_target /= np.linalg.norm(to_target, axis=-1, keepdims=True)
-        miss = measure.angle_between(new.axis(eye, measure.local_forward(new, eye, fwd)), to_target)
+        miss = measure.eye_miss_deg(new, eye, fwd, target)
         assert miss[seconds >= HOLD_S].max() < 0.5, (eye, miss[seconds >= HOLD_S].max())
 
 
