@@ -16,7 +16,6 @@ after a fall the same way; a ``Controller`` adds what it senses and plans beside
 from __future__ import annotations
 
 import copy
-
 from dataclasses import dataclass, field
 from typing import Protocol, Sequence
 
@@ -133,8 +132,9 @@ def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: f
     centimetre into the contact margin hundreds of newtons, one in the floor kilonewtons (CMU 131_01's
     lunge at 3.2 s: torques up to 17 times a peak before the clip). At the start of
     ``stepping_stones.usda``, whose swinging toe grazes the margin, that saturated the left hip, ankle
-    and toe over the cold first window, and the walk fell at 0.58 s in every run; a 0.9 m body standing
-    still jumped and fell. The solver finds the support; the guess need only move the limbs.
+    and toe over the cold first window, and the walk fell at 0.58 s in every run (the same guess
+    launched a 0.9 m body from standing). The solver finds the support; the guess need only move the
+    limbs.
     """
     import mujoco
 
