@@ -86,8 +86,8 @@ def arc_units_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | N
         return prim, (
             f"is defined through a {arc} of {layer.identifier}, which says metersPerUnit {value:g}, but the stage "
             f"measures in {stage_mpu:g} ({_said(stage, 'metersPerUnit')}), so USD reads the character "
-            f"{value / stage_mpu:g} times too {'small' if value > stage_mpu else 'large'}; author metersPerUnit = {value:g} on "
-            f"{stage.GetRootLayer().identifier} or scale the {arc} by {value / stage_mpu:g}")
+            f"{value / stage_mpu:g} times too {'small' if value > stage_mpu else 'large'}; author metersPerUnit = "
+            f"{value:g} on {stage.GetRootLayer().identifier} or scale the {arc} by {value / stage_mpu:g}")
     return None
 
 
@@ -121,8 +121,8 @@ def arc_up_axis_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim |
         return prim, (
             f"is defined through a {arc} of {layer.identifier}, which says upAxis {value}, but the stage's up is "
             f"{stage_up} ({_said(stage, 'upAxis')}), and USD does not turn an asset to the stage's axis: the "
-            f"character's up lands {off:.0f} deg off {stage_up}; author upAxis = {value} on {stage.GetRootLayer().identifier} or rotate "
-            f"the {arc} to take {value} onto {stage_up} ({_TURN[value, stage_up]:+d} deg about X)")
+            f"character's up lands {off:.0f} deg off {stage_up}; author upAxis = {value} on "
+            f"{stage.GetRootLayer().identifier} or rotate the {arc} to take {value} onto {stage_up} ({_TURN[value, stage_up]:+d} deg about X)")
     return None
 
 
