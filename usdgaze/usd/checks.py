@@ -122,7 +122,8 @@ def arc_up_axis_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim |
             f"is defined through a {arc} of {layer.identifier}, which says upAxis {value}, but the stage's up is "
             f"{stage_up} ({_said(stage, 'upAxis')}), and USD does not turn an asset to the stage's axis: the "
             f"character's up lands {off:.0f} deg off {stage_up}; author upAxis = {value} on "
-            f"{stage.GetRootLayer().identifier} or rotate the {arc} to take {value} onto {stage_up} ({_TURN[value, stage_up]:+d} deg about X)")
+            f"{stage.GetRootLayer().identifier} or rotate the {arc} to take {value} onto {stage_up} "
+            f"({_TURN[value, stage_up]:+d} deg about X)")
     return None
 
 
