@@ -264,19 +264,21 @@ def _sparse_without_rest(skel: UsdSkel.Skeleton, joints) -> list:
 def skeleton_units(prim: Usd.Prim, time_range=None) -> list:
     """The Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them in,
     come from layers in the stage's metersPerUnit (apply refuses them otherwise, so validate says it too)."""
-    root = UsdSkel.Root.Find(prim)
-    prims = [root.GetPrim() if root else None, prim, animation_of(prim)]
-    problem = arc_units_problem(prim.GetStage(), prim, prims)
-    return [] if problem is None else [_error(problem[0], problem[0].GetPath(), "Units", problem[1])]
+    return _across_arcs(prim, arc_units_problem, "Units")
 
 
 def skeleton_up_axis(prim: Usd.Prim, time_range=None) -> list:
     """The Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them in,
     come from layers in the stage's upAxis or are rotated onto it (apply refuses them otherwise)."""
+    return _across_arcs(prim, arc_up_axis_problem, "UpAxis")
+
+
+def _across_arcs(prim: Usd.Prim, find, name: str) -> list:
+    """What ``find`` (one of ``usd.checks``' arc problems) says of the Skeleton ``prim``, its SkelRoot and
+    its bound animation, as the reader asks it."""
     root = UsdSkel.Root.Find(prim)
-    prims = [root.GetPrim() if root else None, prim, animation_of(prim)]
-    problem = arc_up_axis_problem(prim.GetStage(), prim, prims)
-    return [] if problem is None else [_error(problem[0], problem[0].GetPath(), "UpAxis", problem[1])]
+    problem = find(prim.GetStage(), prim, [root.GetPrim() if root else None, prim, animation_of(prim)])
+    return [] if problem is None else [_error(problem[0], problem[0].GetPath(), name, problem[1])]
 
 
 def _malformed(prim: Usd.Prim, text: str):
