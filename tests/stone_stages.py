@@ -140,6 +140,34 @@ def _shot_times(src: Path) -> np.ndarray:
     return codes[(codes >= stage.GetStartTimeCode() - 1e-9) & (codes <= stage.GetEndTimeCode() + 1e-9)]
 
 
+def stood_on(tmp: Path, src: Path, out: Path) -> list[tuple[str, str, float, float]]:
+    """Per stone stepped on in the reference within the shot (a reference contact within 5 cm of it),
+    ``(stone, toe, miss_m, rise_m)``: the written toe's mean ground-plane distance to the stone over the
+    reference's contact, and how much higher than the reference's toe it is on average there. Every
+    contact, the one from the first frame included, whatever the written foot did before it (unlike
+    :func:`gaze_before_lift`, which needs the written foot's lift)."""
+    composed = compose(tmp, src, out, "stood_composed.usda")
+    times = _shot_times(src)
+    ref, sim = measure.posed(str(src), SKEL, times=times), measure.posed(str(composed), SKEL, times=times)
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(composed))
+    seconds = (times - times[0]) / stage.GetTimeCodesPerSecond()
+    rows = []
+    for prim in stage.Traverse():
+        if not prim.GetAttribute("userProperties:landing"):
+            continue
+        stone = positions(stage, str(prim.GetPath()), times)
+        for toe in TOES:
+            for a, b in contacts(ref, toe, seconds):
+                if np.linalg.norm(_flat(ref, ref.position(toe)[a:b].mean(0) - stone[a])) >= 0.05:
+                    continue
+                miss = np.linalg.norm(_flat(sim, sim.position(toe)[a:b] - stone[a:b]), axis=1).mean()
+                rise = ((sim.position(toe) - ref.position(toe))[a:b] @ sim.up).mean()
+                rows.append((prim.GetName(), toe, float(miss), float(rise)))
+    return rows
+
+
 def gaze_before_lift(tmp: Path, src: Path, out: Path, shift: dict[str, np.ndarray] | None = None) -> list[StoneGaze]:
     """Per stone stepped on in the reference (a reference contact within 5 cm of it, less its
     ``shift``), the written contact of the same foot nearest in time and the lift before it; stones

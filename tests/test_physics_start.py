@@ -9,8 +9,6 @@ margin and saturated the left hip, ankle and toe. Measured on the WRITTEN layer 
 
 from __future__ import annotations
 
-import numpy as np
-
 from usdgaze.passes import physics as physics_pass
 from usdgaze.physics import mpc
 
@@ -22,8 +20,12 @@ START_SPAN = (0.0, 1.0)
 def test_the_stones_walk_simulated_from_its_first_frame_stands_and_steps_on_its_stones(tmp_path):
     """One simulation, no retry (``retry_iterations=0``), the command's other defaults: by UsdSkel FK of
     the written layer over the input, the pelvis stays at >= 80% of the reference's height on every
-    frame (it was 30% by 0.76 s), and each stone a foot lands on within the shot is stood on within
-    5 cm (the written toe's mean ground-plane distance over the reference's contact)."""
+    frame (it was 30% by 0.76 s), and each stone a foot stands on within the shot (the right foot's from
+    the first frame, the left's from 0.27 s) is stood on within 5 cm: the written toe's mean
+    ground-plane distance over the reference's contact, the toe no higher than the reference's by 2 cm.
+    Measured whatever the written foot did before (``stone_stages.stood_on``): with the support in the
+    warm start the written left toe is never low and slow before it lands on Stone01, so
+    ``gaze_before_lift``, which needs the foot's lift before a landing, finds none to count."""
     src = stone_stages.walk_stage(tmp_path / "walk.usda", *START_SPAN, until_lift=True, task=True)
     out = tmp_path / "walked.usda"
     physics_pass.run(src, out, mpc.Options(h=0.02, retry_iterations=0))
@@ -33,6 +35,8 @@ def test_the_stones_walk_simulated_from_its_first_frame_stands_and_steps_on_its_
     ref = measure.posed(str(src), stone_stages.SKEL, times=times)
     hips = lambda p: p.position("Hips") @ p.up  # noqa: E731
     assert (hips(sim) / hips(ref)).min() >= 0.8, (hips(sim) / hips(ref)).min()
-    rows = stone_stages.gaze_before_lift(tmp_path, src, out)
-    assert rows and all(r.ref_miss_m <= 0.05 for r in rows), rows
-    assert np.isfinite([r.ref_miss_m for r in rows]).all()
+    rows = stone_stages.stood_on(tmp_path, src, out)
+    assert {(stone, toe) for stone, toe, _, _ in rows} == {("Stone00", "RightToe"), ("Stone01", "LeftToe")}, rows
+    # on its stone (the written toe's mean ground-plane distance over the reference's contact), and down:
+    # not held over it (the toe on average no more than 2 cm above the reference's there)
+    assert all(miss <= 0.05 and rise <= 0.02 for _, _, miss, rise in rows), rows

@@ -4,8 +4,8 @@ reference while the true simulation may be pushed, with the per-step measures a 
 Two processes, as in the paper: the planner's internal model (``plan``, no knowledge of external
 forces or of what the eyes will see) and the simulation it drives (``sim``, with the push). Each
 control step solves a window of ``horizon_s`` warm-started from the previous solution shifted by one
-step, its new last control the reference's inverse-dynamics torques (with no ground: ``_inverse_dynamics``),
-then applies the first control.
+step, its new last control the reference's inverse-dynamics torques (``support.inverse_dynamics``: with
+no ground, the weight then shared among the feet), then applies the first control.
 
 One loop (``run``) serves the body alone (``BodyController``) and the coupled eyes, belief and body
 (``physics.visuomotor``): both track the same target (``prepare``: the reference with its toes out of
@@ -15,13 +15,12 @@ after a fall the same way; a ``Controller`` adds what it senses and plans beside
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass, field
 from typing import Protocol, Sequence
 
 import numpy as np
 
-from usdgaze.physics import feasible, lookahead
+from usdgaze.physics import feasible, lookahead, support
 from usdgaze.physics.dynamics import MujocoBody
 from usdgaze.physics.measures import (blown_up, foot_depth, foot_depths, heading_errors_deg, joint_errors_deg,
                                       start_lift)
@@ -122,35 +121,6 @@ class Result:
         return heading_errors_deg(self.qpos, self.ref_qpos)
 
 
-def _inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: float) -> np.ndarray:
-    """Controls ``(K, nu)`` whose torques realize the reference's accelerations with no ground (the root's
-    residual, the support, dropped), clipped to the motors' strengths (``|u| <= 1``, the gear being a
-    human peak torque): the warm start of each window's new last step, and the whole first window.
-
-    Without contacts because MuJoCo's inverse of its soft contacts makes a force of how deep a foot
-    sits, not of the weight it carries: a capture's foot floating 3 cm up carries nothing, one a
-    centimetre into the contact margin hundreds of newtons, one in the floor kilonewtons (CMU 131_01's
-    lunge at 3.2 s: torques up to 17 times a peak before the clip). At the start of
-    ``stepping_stones.usda``, whose swinging toe grazes the margin, that saturated the left hip, ankle
-    and toe over the cold first window, and the walk fell at 0.58 s in every run (the same guess
-    launched a 0.9 m body from standing). The solver finds the support; the guess need only move the
-    limbs.
-    """
-    import mujoco
-
-    mj = copy.copy(plan.mj)  # the planner's own model keeps its contacts
-    mj.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    d = mujoco.MjData(mj)
-    gear = np.abs(mj.actuator_gear[:, :3]).max(axis=1)
-    out = np.zeros((len(qpos), plan.nu))
-    for k in range(len(qpos)):
-        d.qpos[:], d.qvel[:] = qpos[k], qvel[k]
-        d.qacc[:] = (qvel[min(k + 1, len(qvel) - 1)] - qvel[k]) / h
-        mujoco.mj_inverse(mj, d)
-        out[k] = d.qfrc_inverse[6:] / gear
-    return np.clip(out, -1.0, 1.0)
-
-
 @dataclass
 class Shot:
     """What a receding-horizon loop runs on, made once from the reference (``prepare``): the planner's
@@ -234,7 +204,7 @@ def prepare(model: BodyModel, ref_qpos_frames: np.ndarray, ref_seconds: np.ndarr
     n = max(2, int(round(options.horizon_s / h)))
     made = [lookahead.limit(factory(plan, target), n, h) for factory in tasks]  # the stones' 0.6 s
     return Shot(model, ref_seconds, h, plan, sim, ref_q, target, ref_v, tracking, made,
-                _inverse_dynamics(plan, target, ref_v, h), n, steps)
+                support.inverse_dynamics(plan, target, ref_v, h), n, steps)
 
 
 class Controller(Protocol):
