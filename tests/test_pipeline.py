@@ -238,6 +238,46 @@ def test_progress_is_a_bar_on_a_terminal():
     assert "2/2" in text and "shot" in text and "[2/2] bad input      s1  0.50 s  x.usdc: no such file" in text
 
 
+def test_a_long_simulation_off_a_terminal_writes_a_plain_line_a_minute():
+    """``StepBar`` in a log (no terminal): nothing for a simulation done within a minute, one line a
+    minute while one runs longer, counted from that simulation's own start (a clock the test drives:
+    one second a step)."""
+    import io
+
+    from usdgaze.batch.progress import StepBar
+
+    now = [0.0]
+    log = io.StringIO()
+    bar = StepBar(log, bar=False, clock=lambda: now[0])
+    for steps in (150, 40, 70):  # three simulations: 150 s, 40 s and 70 s long
+        for k in range(1, steps + 1):
+            bar(k, steps)
+            now[0] += 1.0
+    bar.close()
+    assert log.getvalue().splitlines() == [
+        "usdgaze: simulation 1: step 61 of 150 (41%), 60 s",
+        "usdgaze: simulation 1: step 121 of 150 (81%), 120 s",
+        "usdgaze: simulation 3: step 61 of 70 (87%), 60 s",
+    ]
+    assert bar.runs == 3 and bar.bar is None
+
+
+def test_a_batch_shot_in_a_log_names_itself_in_its_minute_lines(capsys):
+    """``usdgaze batch`` off a terminal (pytest's captured stderr) gives each physics or attend shot a
+    ``StepBar`` of lines named by the shot (``engine._run`` passes it): a farm task per shot says
+    which shot is still simulating."""
+    from usdgaze.batch.progress import step_lines
+
+    bar = step_lines("walk_01", "simulation")
+    assert bar is not None and not bar.on
+    now = [0.0]
+    bar.clock = lambda: now[0]
+    for k in range(1, 101):
+        bar(k, 100)
+        now[0] += 1.0
+    assert capsys.readouterr().err.splitlines() == ["usdgaze: walk_01: simulation 1: step 61 of 100 (61%), 60 s"]
+
+
 def test_look_at_release_and_eye_timing_reach_the_look_pass(tmp_path):
     manifest = _tree(tmp_path, """
 [[job]]

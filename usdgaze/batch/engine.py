@@ -19,6 +19,7 @@ from contextlib import contextmanager
 from typing import Callable, Generator, Iterator
 
 from usdgaze.batch.manifest import Shot, apply_kwargs, attend_kwargs
+from usdgaze.batch.progress import step_lines
 
 DONE, SKIPPED, BAD, INTERNAL = "done", "skipped", "bad input", "internal error"
 EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
@@ -129,7 +130,7 @@ def _run(shot: Shot, key: dict) -> dict:
     if kwargs.pop("physics"):
         from usdgaze.passes.physics import run
 
-        shots = run(**kwargs, record=key, make_folders=True)
+        shots = run(**kwargs, record=key, make_folders=True, progress=step_lines(shot.name, "simulation"))
         # A fall or a missed task is the shot's result, written and said (discard_failed: bad input).
         return {"characters": [r.skeleton for r in shots], "frames": sum(r.frames for r in shots),
                 "warnings": [f"{r.skeleton}: {p}" for r in shots for p in r.problems]
@@ -137,7 +138,7 @@ def _run(shot: Shot, key: dict) -> dict:
                 + list(dict.fromkeys(w for r in shots for w in r.warnings))}
     from usdgaze.attend import attend
 
-    report = attend(**kwargs, record=key, make_folders=True)
+    report = attend(**kwargs, record=key, make_folders=True, progress=step_lines(shot.name, "planning"))
     return {"characters": [c["skel_root"] for c in report.characters],
             "frames": sum(c["frames"] for c in report.characters), "warnings": report.warnings}
 
