@@ -131,3 +131,19 @@ def test_the_shipped_example_manifests_load():
         assert all(Path(s.values["input"]).is_file() for s in shots), manifest
     commands = {s.command for m in manifests for s in load_manifest(m)}
     assert commands == {"apply", "attend"}
+
+
+def test_each_shot_in_a_log_names_itself_in_its_step_lines(tmp_path, monkeypatch, capsys):
+    """Off a terminal (pytest's captured stderr) a batch shot's planner or simulation writes a plain line
+    a minute while it runs (``batch.progress.step_lines``), named by its job: a farm task per shot
+    says which shot is still simulating. The minute made 0 s here, so every step after a
+    simulation's first writes one."""
+    from usdgaze.batch import progress
+
+    manifest, *_ = _tree(tmp_path)
+    monkeypatch.setattr(progress, "LINE_EVERY_S", 0.0)
+    assert main(["batch", str(manifest)]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    for job, what in (("look", "planning"), ("body", "simulation")):
+        said = [line for line in lines if line.startswith(f"usdgaze: {job}: {what} 1: step ")]
+        assert said and said[-1].split(" of ")[0].split()[-1] == said[-1].split(" of ")[1].split()[0], said[-3:]

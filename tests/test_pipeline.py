@@ -262,22 +262,6 @@ def test_a_long_simulation_off_a_terminal_writes_a_plain_line_a_minute():
     assert bar.runs == 3 and bar.bar is None
 
 
-def test_a_batch_shot_in_a_log_names_itself_in_its_minute_lines(capsys):
-    """``usdgaze batch`` off a terminal (pytest's captured stderr) gives each physics or attend shot a
-    ``StepBar`` of lines named by the shot (``engine._run`` passes it): a farm task per shot says
-    which shot is still simulating."""
-    from usdgaze.batch.progress import step_lines
-
-    bar = step_lines("walk_01", "simulation")
-    assert bar is not None and not bar.on
-    now = [0.0]
-    bar.clock = lambda: now[0]
-    for k in range(1, 101):
-        bar(k, 100)
-        now[0] += 1.0
-    assert capsys.readouterr().err.splitlines() == ["usdgaze: walk_01: simulation 1: step 61 of 100 (61%), 60 s"]
-
-
 def test_look_at_release_and_eye_timing_reach_the_look_pass(tmp_path):
     manifest = _tree(tmp_path, """
 [[job]]

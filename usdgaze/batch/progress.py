@@ -59,20 +59,23 @@ class Progress:
             self.bar.close()
 
 
+LINE_EVERY_S = 60.0  # a log's line while one simulation runs: a farm's stalled-task watchdog waits minutes
+
+
 class StepBar:
     """``progress(k, steps)`` of a physics simulation (``passes.physics.run``) or of the attend
     planner (``vision.loop.run``); a call with a smaller ``k`` than the last starts the next simulation
     (another shot, or a shot simulated again). On a terminal, a tqdm bar. Off one (a farm's log), a
-    plain line every ``every_s`` seconds while a simulation runs, ``usdgaze: simulation 2: step 120 of
+    plain line every ``every_s`` seconds (:data:`LINE_EVERY_S`) while a simulation runs, ``usdgaze: simulation 2: step 120 of
     414 (29%), 61 s``: the whole 8.3 s stones walk takes half an hour, and a log (or a farm's
     stalled-task watchdog) silent that long cannot tell it from a hung process. A shot done within
     ``every_s`` writes nothing here; the command's one line per shot follows either way."""
 
     def __init__(self, stream: TextIO | None = None, bar: bool | None = None, desc: str = "simulation",
-                 every_s: float = 60.0, clock: Callable[[], float] = time.monotonic) -> None:
+                 every_s: float | None = None, clock: Callable[[], float] = time.monotonic) -> None:
         self.stream, self.desc = stream or sys.stderr, desc
         self.on = self.stream.isatty() if bar is None else bar
-        self.every_s, self.clock = every_s, clock
+        self.every_s, self.clock = LINE_EVERY_S if every_s is None else every_s, clock
         self.bar, self.last, self.runs = None, 0, 0
         self.started = self.said = 0.0
 
