@@ -66,8 +66,8 @@ class StepBar:
     """``progress(k, steps)`` of a physics simulation (``passes.physics.run``) or of the attend
     planner (``vision.loop.run``); a call with a smaller ``k`` than the last starts the next simulation
     (another shot, or a shot simulated again). On a terminal, a tqdm bar. Off one (a farm's log), a
-    plain line every ``every_s`` seconds (:data:`LINE_EVERY_S`) while a simulation runs, ``usdgaze: simulation 2: step 120 of
-    414 (29%), 61 s``: the whole 8.3 s stones walk takes half an hour, and a log (or a farm's
+    plain line every ``every_s`` seconds (:data:`LINE_EVERY_S`) while a simulation runs, ``usdgaze:
+    simulation 2: step 120 of 414 (29%), 61 s``: the whole 8.3 s stones walk takes half an hour, and a log (or a farm's
     stalled-task watchdog) silent that long cannot tell it from a hung process. A shot done within
     ``every_s`` writes nothing here; the command's one line per shot follows either way."""
 
