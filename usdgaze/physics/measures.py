@@ -51,6 +51,11 @@ def bottom_point(mj, d, g: int) -> np.ndarray:
     return end - np.array([0.0, 0.0, mj.geom_size[g, 0]])
 
 
+def foot_geoms(mj, model: BodyModel) -> np.ndarray:
+    """The geoms of the feet and their toes (every body whose role is a foot), in MuJoCo's order."""
+    return np.flatnonzero(np.isin(mj.geom_bodyid - 1, [b for b, r in enumerate(model.role) if r == "foot"]))
+
+
 def lowest_z(mj, d, geoms: np.ndarray) -> float:
     """The height of the lowest point of the given capsule and sphere geoms (inf for none): the z of
     :func:`bottom_point`, bit for bit (``sign(a) half a`` is ``|a| half``), for all of them at once."""

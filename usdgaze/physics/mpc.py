@@ -22,8 +22,8 @@ import numpy as np
 
 from usdgaze.physics import feasible, lookahead, support
 from usdgaze.physics.dynamics import MujocoBody
-from usdgaze.physics.measures import (blown_up, foot_depth, foot_depths, heading_errors_deg, joint_errors_deg,
-                                      start_lift)
+from usdgaze.physics.measures import (blown_up, foot_depth, foot_depths, foot_geoms, heading_errors_deg,
+                                      joint_errors_deg, start_lift)
 from usdgaze.physics.model import BodyModel
 from usdgaze.physics.tasks import TaskFactory, judge_tasks, measure_tasks
 from usdgaze.physics.tracking import BodyTracking, Weights, clear_ground, lift_feet, resample, velocities
@@ -266,7 +266,7 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
     qpos = np.zeros((steps + 1, plan.nq))
     qpos[0], qvel = shot.target[0], shot.ref_v[0].copy()
     ctrl, costs, measured = np.zeros((steps, plan.nu)), [], {}
-    feet = np.array([g for g in range(plan.mj.ngeom) if plan.mj.geom_bodyid[g] - 1 in _foot_bodies(shot.model)])
+    feet = foot_geoms(plan.mj, shot.model)
     depth = np.zeros(steps + 1)
     d = mujoco.MjData(plan.mj)
     d.qpos[:] = qpos[0]
@@ -355,7 +355,3 @@ def _schedule(model: BodyModel, pushes, h: float, nbody: int):
 def _head_body(model: BodyModel) -> int:
     heads = [b for b, r in enumerate(model.role) if r == "head" and model.kind[b] != "weld"]
     return (heads[-1] if heads else len(model.bodies) - 1) + 1
-
-
-def _foot_bodies(model: BodyModel) -> set[int]:
-    return {b for b, r in enumerate(model.role) if r == "foot"}

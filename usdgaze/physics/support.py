@@ -25,6 +25,7 @@ import copy
 import numpy as np
 
 from usdgaze.physics.dynamics import MujocoBody
+from usdgaze.physics.measures import foot_geoms
 from usdgaze.physics.shapes import half_lengths
 
 REACH_M = 0.06  # a capsule end higher than this carries nothing (CMU 131_01's right foot floats 3.7-4.9 cm)
@@ -45,7 +46,7 @@ def inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: fl
     mj.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     d = mujoco.MjData(mj)
     gear = np.abs(mj.actuator_gear[:, :3]).max(axis=1)
-    ends = _foot_ends(plan)
+    ends = foot_geoms(plan.mj, plan.model)
     out = np.zeros((len(qpos), plan.nu))
     for k in range(len(qpos)):
         d.qpos[:], d.qvel[:] = qpos[k], qvel[k]
@@ -55,13 +56,6 @@ def inverse_dynamics(plan: MujocoBody, qpos: np.ndarray, qvel: np.ndarray, h: fl
         tau -= support_forces(mj, d, tau, ends)
         out[k] = tau[6:] / gear
     return np.clip(out, -1.0, 1.0)
-
-
-def _foot_ends(plan: MujocoBody) -> np.ndarray:
-    """The geoms of the feet and their toes (capsules and spheres: where a ground reaction may act)."""
-    m = plan.model
-    parts = list(m.feet) + list(m.toes)
-    return np.flatnonzero(np.isin(plan.mj.geom_bodyid - 1, parts))
 
 
 def support_forces(mj, d, tau: np.ndarray, geoms: np.ndarray) -> np.ndarray:
