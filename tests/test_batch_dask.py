@@ -62,9 +62,9 @@ def _server(answer: bytes | None):
 def test_a_port_that_is_no_scheduler_is_one_line(tmp_path, capsys, monkeypatch, answer):
     """A closed port (it took distributed's default 30 s), bytes that are no dask protocol (exit 1, "MemoryError:
     Unable to allocate 3.07 EiB"), a port that never answers the handshake (the dashboard's HTTP: it hung)."""
-    from usdgaze.batch import engine
+    from usdgaze.batch import cluster
 
-    monkeypatch.setattr(engine, "DASK_CONNECT_S", 1)
+    monkeypatch.setattr(cluster, "DASK_CONNECT_S", 1)
     manifest = _tree(tmp_path, THREE)
     sock, address = _server(None if answer == "closed" else answer)
     if answer == "closed":
