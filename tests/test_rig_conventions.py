@@ -216,3 +216,79 @@ def test_a_character_on_a_slope_looks_at_its_target(tmp_path, tilt):
     goal = target - 0.5 * (new.position(left) + new.position(right))
     goal /= np.linalg.norm(goal, axis=1, keepdims=True)
     assert measure.angle_between(line, goal)[new.times >= 48].max() < 1.0
+
+
+def _tilt_skeleton_space(path, rig, tilt: float) -> None:
+    """Rotate the Skeleton prim ``tilt`` degrees about X and counter-rotate its joints in skeleton
+    space (bind, rest and animated root), so the character stands exactly where it stood: only the
+    skeleton's own space is tilted from the world (row vectors: new = old @ X^-1)."""
+    from pxr import Gf
+
+    x_inv = np.eye(4)
+    x_inv[:3, :3] = R.from_euler("x", tilt, degrees=True).as_matrix()  # row-vector inverse of rotateX(tilt)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    skel = layer.GetPrimAtPath(rig.skeleton)
+    Sdf.AttributeSpec(skel, "xformOp:rotateX", Sdf.ValueTypeNames.Double).default = tilt
+    Sdf.AttributeSpec(skel, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:rotateX"])
+    bind = skel.attributes["bindTransforms"]
+    bind.default = Vt.Matrix4dArray([Gf.Matrix4d(*(np.array(m) @ x_inv).ravel()) for m in bind.default])
+    rest = skel.attributes["restTransforms"]
+    rest_m = [np.array(m) for m in rest.default]
+    root = rig.joints.index(next(j for j in rig.joints if "/" not in j))
+    rest_m[root] = rest_m[root] @ x_inv
+    rest.default = Vt.Matrix4dArray([Gf.Matrix4d(*m.ravel()) for m in rest_m])
+    anim = layer.GetPrimAtPath(rig.animation)
+    a_root = list(anim.attributes["joints"].default).index(rig.joints[root])
+    rot_path = anim.attributes["rotations"].path
+    pos_path = anim.attributes["translations"].path
+    for t in layer.ListTimeSamplesForPath(rot_path):
+        q = np.array([[v.imaginary[0], v.imaginary[1], v.imaginary[2], v.real]
+                      for v in layer.QueryTimeSample(rot_path, t)])
+        p = np.array(layer.QueryTimeSample(pos_path, t), dtype=float)
+        m = np.eye(4)
+        m[:3, :3], m[3, :3] = R.from_quat(q[a_root]).as_matrix().T, p[a_root]  # row vectors
+        m = m @ x_inv
+        q[a_root] = R.from_matrix(m[:3, :3].T).as_quat()
+        p[a_root] = m[3, :3]
+        layer.SetTimeSample(rot_path, t, Vt.QuatfArray([Gf.Quatf(float(w), float(x), float(y), float(z))
+                                                        for x, y, z, w in q]))
+        layer.SetTimeSample(pos_path, t, Vt.Vec3fArray.FromNumpy(p.astype(np.float32)))
+    layer.Save()
+
+
+def test_a_skeleton_space_tilted_from_the_world_is_said_and_its_forward_honoured(tmp_path, capsys):
+    """The Skeleton prim rotated 25 deg and its joints counter-rotated: the character stands upright in
+    the world, its skeleton's space does not. Nothing in the skeleton tells that from a character on a
+    slope (which the stage's up, snapped to the skeleton's axis, is right for), so the pass takes the
+    slope's reading, and its eyes missed a 40 deg shift by 7 deg with "hold error 0.000 deg". The
+    report now says so with the forward that reads it as upright in the world; given, the eyes land
+    on a look-at target."""
+    tilt = 25.0
+    rig = syn.make_rig(tmp_path / "in.usda", frames=96, time_codes_per_second=24, walk_speed=0.0, mesh=False,
+                       root_path="/World/Character")
+    before = measure.posed(str(rig.path), rig.skeleton)
+    _tilt_skeleton_space(rig.path, rig, tilt)
+    base = measure.posed(str(rig.path), rig.skeleton)
+    assert np.abs(base.world - before.world).max() < 1e-4  # the character stands where it stood
+    forward_skel = R.from_euler("x", -tilt, degrees=True).apply(rig.forward)  # the world's forward, in skeleton space
+
+    assert main(["apply", str(rig.path), "--shift", "1s:40:0", "--out", str(tmp_path / "plain.usdc")]) == 0
+    err = capsys.readouterr().err
+    assert "25.0 deg off the skeleton's +Y axis" in err, err
+    given = np.array([float(v) for v in err.split("give --forward ")[1].split()[0].split(",")])
+    assert np.abs(given - forward_skel).max() < 1e-3, given
+
+    left, right = rig.eye_leaves
+    target = 0.5 * (base.position(left) + base.position(right))[0] + np.array([1.0, 0.3, 1.5])
+    preview = tmp_path / "preview.usda"
+    assert main(["apply", str(rig.path), "--look-at", ",".join(f"{v:.5f}" for v in target) + "@12",
+                 "--forward", ",".join(f"{v:.4g}" for v in given),
+                 "--out", str(tmp_path / "gaze.usdc"), "--preview", str(preview)]) == 0
+    assert "deg off the skeleton's" not in capsys.readouterr().err  # a forward given is the user's word
+    new = measure.posed(str(preview), rig.skeleton)
+    line = measure.sight_line(new, left, right, measure.local_forward(new, left, forward_skel),
+                              measure.local_forward(new, right, forward_skel))
+    goal = target - 0.5 * (new.position(left) + new.position(right))
+    goal /= np.linalg.norm(goal, axis=1, keepdims=True)
+    assert measure.angle_between(line, goal)[new.times >= 48].max() < 1.0

@@ -168,7 +168,7 @@ def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, Overrid
             seen_anims[clip.animation] = clip.skeleton
             # A --map file's gaze:binding:* bind the roles the SkelRoot's own map leaves unbound.
             chain, frame = bind(clip, own, req.options.binding, forced, f"--map {req.map_spec}")
-            report.warnings.extend(clip.notes)
+            report.warnings.extend(clip.notes + ([frame.note] if frame.note else []))
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
                 report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")
             directives, targets, names = clip_directives(stage, clip, root_requests)

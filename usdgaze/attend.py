@@ -136,6 +136,8 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
             report.warnings.append(f"{source}:{root.GetPath()}: {len(skels)} Skeletons under this SkelRoot; attend "
                                    f"plans the first, {skels[0].GetPath()}, and leaves the others as they are")
         chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
+        if frame.note:
+            report.warnings.append(frame.note)
         h = settings.h
         t_plan = planner_times(clip.seconds, h)
         codes = clip.start_time + t_plan * clip.time_codes_per_second

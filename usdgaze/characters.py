@@ -3,6 +3,8 @@ process), chain and character frame, and the directives each one's clip is given
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from usdgaze.core.clip import SkelClip
@@ -80,16 +82,40 @@ def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
     return gaze_map
 
 
-def _skeleton_up(clip: SkelClip) -> np.ndarray:
-    """The character's up in skeleton space: the stage's up carried in at the first frame, snapped
-    to the nearest skeleton axis (:func:`usdgaze.core.kinematics.snap_up`)."""
-    return snap_up(np.linalg.solve(clip.skel_to_world[0, :3, :3], clip.world_up))
+def _stage_up(clip: SkelClip) -> np.ndarray:
+    """The stage's up carried into skeleton space at the first frame (unit; a scaled skeleton too)."""
+    up = np.linalg.solve(clip.skel_to_world[0, :3, :3], clip.world_up)
+    return up / np.linalg.norm(up)
+
+
+TILT_NOTE_DEG = 1.0
+"""A snap of the stage's up onto a skeleton axis larger than this is said in the report."""
 
 
 def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> CharacterFrame:
-    up_s = _skeleton_up(clip)
-    return character_frame(joints, clip.neutral(), up_s, forward, where=f"{clip.source}:{clip.skeleton}",
-                           forward_label=label)
+    stage_up = _stage_up(clip)
+    up_s = snap_up(stage_up)  # the character upright in its own space, as on a tilted parent
+    where = f"{clip.source}:{clip.skeleton}"
+    frame = character_frame(joints, clip.neutral(), up_s, forward, where=where, forward_label=label,
+                            stage_up=stage_up)
+    tilt = float(np.degrees(np.arccos(np.clip(np.dot(up_s, stage_up), -1.0, 1.0))))
+    if forward is not None or tilt < TILT_NOTE_DEG:
+        return frame
+    return dataclasses.replace(frame, note=_tilt_note(where, frame, up_s, stage_up, tilt))
+
+
+def _tilt_note(where: str, frame: CharacterFrame, up_s: np.ndarray, stage_up: np.ndarray, tilt: float) -> str:
+    """Why the frame is the skeleton's and not the world's, and the forward that would make it the world's:
+    a skeleton whose own space is tilted while the character stands upright in the world (its joints
+    counter-rotated) cannot be told from a character placed on a slope by anything in the skeleton."""
+    axis = "XYZ"[int(np.argmax(np.abs(up_s)))]
+    sign = "+" if up_s.max() > 0 else "-"
+    left = frame.left - np.dot(frame.left, stage_up) * stage_up
+    world_forward = np.cross(left / np.linalg.norm(left), stage_up)
+    spelled = ",".join(f"{v:.4g}" for v in np.where(np.abs(world_forward) < 5e-5, 0.0, world_forward))
+    return (f"{where}: the stage's up is {tilt:.1f} deg off the skeleton's {sign}{axis} axis in its space (its parent or "
+            f"its own transform tilted); the character is taken as upright along {sign}{axis}, as on a tilted parent. "
+            f"If it stands upright in the world instead, give --forward {spelled}")
 
 
 def _by_names_too(clip: SkelClip, fn):

@@ -40,7 +40,8 @@ import numpy as np
               help="Bind a gaze role (pelvis, lowerSpine, upperSpine, neck, head, leftEye, rightEye) to joints, "
                    "by path or name, where names do not say it. Repeatable; wins over the map's bindings.")
 @click.option("--forward", default=None, metavar="X,Y,Z",
-              help="The character's forward in skeleton space, where no left/right joint names tell it.")
+              help="The character's forward in skeleton space, where no left/right joint names tell it or where the "
+                   "skeleton's own space is tilted from the world (the report then gives it).")
 @click.option("--no-clobber", is_flag=True, help="Refuse to replace an existing --out, --preview or --plot file.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 def apply(input_path, shifts, look_at, release, eye_timing, no_guides, out, skel_root, map_spec, sublayer_into,

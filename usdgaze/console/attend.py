@@ -33,7 +33,8 @@ from usdgaze.console.types import FiniteRange
               help="Bind a gaze role (pelvis, lowerSpine, upperSpine, neck, head, leftEye, rightEye) to joints, "
                    "by path or name, where names do not say it. Repeatable; wins over the map's bindings.")
 @click.option("--forward", default=None, metavar="X,Y,Z",
-              help="The character's forward in skeleton space, where no left/right joint names tell it.")
+              help="The character's forward in skeleton space, where no left/right joint names tell it or where the "
+                   "skeleton's own space is tilted from the world (the report then gives it).")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--physics", is_flag=True,
               help="Simulate the whole body on MuJoCo under the full-body MPC, tracking the base motion (root "

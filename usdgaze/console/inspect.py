@@ -52,3 +52,5 @@ def inspect(input_path, bind, forward, as_json) -> None:
                 why = f"  [{s['why'][role]}]" if s["why"].get(role) else ""
                 click.echo(f"    {role:<11} {bound}{why}")
             click.echo(f"    forward (skeleton space) {tuple(round(v, 3) for v in s['forward'])}  [{s['forward_from']}]")
+            if s.get('frame_note'):
+                click.echo(f"    note: {s['frame_note']}")

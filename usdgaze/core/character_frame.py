@@ -49,6 +49,8 @@ class CharacterFrame:
     forward: np.ndarray
     source: str = ""
     """Where forward came from: a left/right joint pair, or an explicit forward."""
+    note: str = ""
+    """A warning for the report where the frame rests on a guess the user may want to overrule."""
 
     @property
     def rotation(self) -> np.ndarray:
@@ -58,21 +60,19 @@ class CharacterFrame:
 
 def character_frame(joints: list[str], neutral_world: np.ndarray, up: np.ndarray,
                     forward: np.ndarray | None = None, where: str = "skeleton",
-                    forward_label: str = "gaze:binding:forward") -> CharacterFrame:
+                    forward_label: str = "gaze:binding:forward", stage_up: np.ndarray | None = None) -> CharacterFrame:
     """Character axes from the neutral pose: up from the stage, left from mirrored left/right joints.
 
-    ``neutral_world`` are skeleton-space transforms ``(J, 4, 4)`` (the bind pose); ``up`` is the stage
-    up axis in skeleton space. Nothing assumes a vertical spine: a quadruped's hips give left as a
-    biped's do. An explicit ``forward`` (skeleton space) wins over the names.
+    ``neutral_world`` are skeleton-space transforms ``(J, 4, 4)`` (the bind pose); ``up`` is the
+    character's up in skeleton space (the stage's, snapped to a skeleton axis). Nothing assumes a
+    vertical spine: a quadruped's hips give left as a biped's do. An explicit ``forward`` (skeleton
+    space) wins over the names and fixes the frame as given: up is then ``stage_up`` (the stage's up
+    carried into skeleton space, unsnapped; ``up`` where not given) made perpendicular to it.
     """
     up = rot.normalize(np.asarray(up, dtype=float))
     if forward is not None and np.linalg.norm(forward) > 0:
-        fwd = np.asarray(forward, dtype=float)
-        fwd = fwd - np.dot(fwd, up) * up
-        if np.linalg.norm(fwd) < 1e-9 * np.linalg.norm(forward):
-            raise RigError(f"{where}: {forward_label} is parallel to the stage up axis")
-        fwd = rot.normalize(fwd)
-        return CharacterFrame(left=rot.cross(up, fwd), up=up, forward=fwd, source=forward_label)
+        return _given_forward(np.asarray(forward, dtype=float), up if stage_up is None else stage_up, where,
+                              forward_label)
     pairs = mirrored_pairs(joints)
     if not pairs:
         raise RigError(f"{where}: cannot tell the character's forward: no left/right joint pairs by name; "
@@ -94,3 +94,16 @@ def character_frame(joints: list[str], neutral_world: np.ndarray, up: np.ndarray
             return CharacterFrame(left=left, up=up, forward=rot.cross(left, up), source=source)
     raise RigError(f"{where}: left and right joints coincide in the neutral pose; give the forward with "
                    f"--forward X,Y,Z (skeleton space) or {forward_label}")
+
+
+def _given_forward(forward: np.ndarray, stage_up: np.ndarray, where: str, label: str) -> CharacterFrame:
+    """The frame of an explicit forward: forward as given, up the stage's made perpendicular to it. The
+    user's forward is the one word on a rig whose skeleton space is tilted from the world (a forward
+    flattened onto the snapped axis's horizontal could not say it)."""
+    fwd = rot.normalize(forward)
+    stage_up = rot.normalize(np.asarray(stage_up, dtype=float))
+    up = stage_up - np.dot(stage_up, fwd) * fwd
+    if np.linalg.norm(up) < 1e-6:
+        raise RigError(f"{where}: {label} is parallel to the stage up axis")
+    up = rot.normalize(up)
+    return CharacterFrame(left=rot.cross(up, fwd), up=up, forward=fwd, source=label)

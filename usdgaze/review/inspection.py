@@ -57,6 +57,7 @@ def inspect_stage(path: str, hints=None) -> dict:
                          chain={r: [clip.joints[j].rsplit("/", 1)[-1] for j in idx] for r, idx in chain.roles.items()},
                          why={r: chain.reasons.get(r, "") for r in chain.roles},
                          forward=[float(v) for v in frame.forward], forward_from=frame.source,
+                         frame_note=frame.note,
                          neutral=clip.neutral_source)
             entry["skeletons"].append(s)
         info["skel_roots"].append(entry)
