@@ -200,6 +200,11 @@ def test_a_ball_from_the_front_is_watched_and_the_hand_goes_to_it(tmp_path):
     assert np.median(off[flying]) < 12.0 and np.median(off[flying]) < 0.5 * np.median(head_off[flying])
     ref = cs.catch_measures(src, src, tmp_path, throw[2])  # the reference itself: arms down
     assert m["at_arrival"] < 0.10 and ref["at_arrival"] > 0.3  # the bar's 10 cm (measured 5.3 cm)
+    # The report says the catch (it said nothing of a shot without a problem), its nearest palm as
+    # the FK's measures it: the model's palm point and the FK's (midway wrist to hand) differ by cm.
+    (said,) = [t for t in report.tasks if t.startswith("catch:")]
+    nearest = float(said.split("palm ")[1].split(" cm")[0])
+    assert said.endswith(": caught") and abs(nearest - 100 * m["distance"].min()) < 3.0, said
     layer = Sdf.Layer.FindOrOpen(str(out))
     frames = layer.customLayerData["usdgaze:physics"][cs.SKEL]["frames"]
     assert max(v for v in frames["catch.weight"] if v == v) == 0.1  # the proactive phase ran
@@ -213,6 +218,8 @@ def test_a_ball_from_behind_is_neither_looked_at_nor_reached_for_before_it_is_in
     # Said, but not simulated again: a second simulation would not see the ball any sooner.
     assert not report.fell and len(report.problems) == 1 and "never reached for" in report.problems[0]
     assert report.iterations == 1 and not report.other_attempt
+    (said,) = [t for t in report.tasks if t.startswith("catch:")]
+    assert said.endswith("not caught (over 10 cm)") and float(said.split("palm ")[1].split(" cm")[0]) > 10, said
     posed, ball = m["posed"], m["ball"]
     fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
     head_fwd = posed.axis("Head", measure.local_forward(posed, "Head", fwd))

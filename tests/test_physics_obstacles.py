@@ -56,6 +56,9 @@ def test_approaching_obstacles_the_reference_walks_into_are_seen_and_not_touched
     assert max(frames["obstacles.proximity"][1:]) > 0.1  # the belief saw them coming
     touched = min(frames["obstacles.clearanceM"][1:]) < 0
     assert touched == any("touched an obstacle" in p for p in report.problems)
+    # ... and says the smallest gap, met or not, near the FK's (the model's capsules against the bones')
+    (said,) = [t for t in report.tasks if t.startswith("obstacles:")]
+    assert "(touched)" not in said and float(said.split("obstacle ")[1].split(" cm")[0]) > 0, said
     # At the first frame, by UsdSkel FK of the written head: the sphere farthest off its forward has
     # its centre outside +-60 deg and its edge inside; both are tracked from that frame on.
     fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")

@@ -167,4 +167,6 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                    f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground{_sank(r)}, "
                    f"root <= {100 * r.max_root_drift_m:.1f} cm from the reference's across the ground, "
                    f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s (window {r.window_s:g} s)")
+        for line in r.tasks:
+            click.echo(f"  {line}")
     click.echo(f"wrote {out}")

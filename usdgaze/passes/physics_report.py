@@ -13,6 +13,7 @@ import numpy as np
 from usdgaze.physics import feasible, mpc
 
 STONE_TOLERANCE_M = 0.05
+CATCH_REACH_M = 0.10  # a palm this near the ball caught it (the issue's bar); farther is said, not judged a problem
 FOOT_TOLERANCE_M = 0.02  # a foot deeper than this below the ground is a problem (the issue's bar)
 HEADING_TOLERANCE_DEG = 30.0  # the body turned further than this from the reference's heading: a problem
 
@@ -48,6 +49,8 @@ class ShotReport:
     # were lifted out of it by their legs unless ``--raw-contacts`` (``mpc.Options.ground_feet``).
     contact_depth_m: float = 0.0
     warnings: list[str] = field(default_factory=list)  # of the input stage (``layers.composed_override_notes``)
+    # What each task did, met or not, in words (``task_outcomes``): a shot with no problem said nothing of it.
+    tasks: list[str] = field(default_factory=list)
 
 
 def foot_problems(result: mpc.Result) -> list[str]:
@@ -94,6 +97,31 @@ def task_problems(result: mpc.Result) -> list[str]:
     return out + result.task_problems
 
 
+def task_outcomes(result: mpc.Result) -> list[str]:
+    """Each task's result in words, from its per-step measures: the palm's nearest approach to a ball,
+    the stones' contacts (how many, the farthest from its stone), the obstacles' smallest gap."""
+    out, seconds = [], result.seconds
+    for key, values in result.task_terms.items():
+        task, _, measure = key.rpartition(".")
+        values = np.asarray(values, dtype=float)
+        if not np.isfinite(values).any():
+            continue
+        k = int(np.nanargmin(values))
+        if measure == "handToBallM":
+            said = "caught" if values[k] <= CATCH_REACH_M else f"not caught (over {100 * CATCH_REACH_M:.0f} cm)"
+            out.append(f"{task}: the palm {100 * values[k]:.1f} cm from the ball at its nearest, {seconds[k]:.2f} s: {said}")
+        elif measure == "clearanceM":
+            out.append(f"{task}: smallest gap to an obstacle {100 * values[k]:.1f} cm at {seconds[k]:.2f} s"
+                       + (" (touched)" if values[k] < 0 else ""))
+        elif measure == "stoneDistanceM":
+            on = np.isfinite(values)
+            edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
+            misses = [float(np.mean(values[a:b])) for a, b in zip(edges[::2], edges[1::2])]
+            out.append(f"{task}: {len(misses)} contact(s) on stones, mean distance to the stone's centre at most "
+                       f"{100 * max(misses):.1f} cm")
+    return out
+
+
 def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float) -> tuple[ShotReport, dict]:
     """The shot's report (a fall said plainly) and its per-step measures for the layer."""
     problems = []
@@ -110,7 +138,8 @@ def shot_summary(clip, result: mpc.Result, frames: int, pushes: int, wall: float
                         wall_s=wall, problems=problems, diverged=result.diverged,
                         max_root_drift_m=float(result.root_drift_m.max()),
                         contact_depth_m=float(result.sank_m.max()), unmendable=list(result.task_unmendable),
-                        reference_notes=result.reference_notes + feasible.scale_notes(clip.scales, clip.anim_joints))
+                        reference_notes=result.reference_notes + feasible.scale_notes(clip.scales, clip.anim_joints),
+                        tasks=task_outcomes(result))
     terms = {"seconds": result.seconds.tolist(), "pelvisRatio": result.pelvis_ratio.tolist(),
              "jointErrorDeg": result.joint_error_deg.tolist(), "footBelowGroundM": result.foot_below_ground_m.tolist(),
              "contactDepthM": result.sank_m.tolist(),
