@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import shlex
+import xml.etree.ElementTree as ET
+from pathlib import Path
 
 from usdgaze.batch.manifest import load_manifest
 from usdgaze.console.main import main
@@ -52,3 +54,36 @@ def test_emit_takes_force_into_every_task_and_refuses_the_flags_of_a_run(tmp_pat
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and flags[0] in err[0] and "--emit" in err[0], err
         assert not folder.exists() and not (tmp_path / "s.json").exists()
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _emitted(manifest: Path, folder: Path) -> tuple[list[str], str, dict]:
+    """The SLURM script's lines, the OpenCue layer's <cores> and the Deadline job info of ``manifest``."""
+    for farm in ("slurm", "opencue", "deadline"):
+        assert main(["batch", str(manifest), "--emit", farm, str(folder / farm)]) == 0
+    slurm = (folder / "slurm" / "usdgaze.sbatch").read_text().splitlines()
+    cores = ET.parse(next((folder / "opencue").glob("*.xml"))).getroot().find("job/layers/layer/cores").text
+    job = dict(l.split("=", 1) for l in (folder / "deadline" / "job_info.job").read_text().splitlines() if l)
+    return slurm, cores, job
+
+
+def test_emitted_jobs_ask_for_the_cores_of_the_shot_with_the_most_threads(tmp_path):
+    """The shipped attend manifest's catch shot sets threads = 2, yet SLURM was asked for
+    --cpus-per-task=1 and OpenCue for 1 core: two MuJoCo threads on one core. An array job has one
+    request for all its tasks, so it is the most threads any shot sets, and the file says why."""
+    slurm, cores, job = _emitted(ROOT / "pipeline" / "manifests" / "attend_shots.toml", tmp_path / "attend")
+    assert "#SBATCH --cpus-per-task=2" in slurm and "#SBATCH --cpus-per-task=1" not in slurm
+    assert any(l.startswith("# --cpus-per-task:") and "most threads" in l for l in slurm), slurm
+    first = next(i for i, l in enumerate(slurm) if not l.startswith("#"))  # sbatch reads directives up to here
+    assert slurm.index("#SBATCH --cpus-per-task=2") < first
+    assert cores == "2"
+    assert job["ConcurrentTasks"] == "1" and "(3 shots), each up to 2 threads" in job["Comment"], job
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)  # no shot sets threads: one core, one shot said so
+    manifest = tmp_path / "one.toml"
+    manifest.write_text('[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\nshifts = ["0.2s:30:0"]\n')
+    slurm, cores, job = _emitted(manifest, tmp_path / "one")
+    assert "#SBATCH --cpus-per-task=1" in slurm and cores == "1"
+    assert any("(1 shot)" in l for l in slurm) and "(1 shot), each up to 1 thread" in job["Comment"], job
