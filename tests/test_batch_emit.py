@@ -1,4 +1,5 @@
-"""``usdgaze batch --emit``: the farm's tasks read the manifest the command was given, at its path."""
+"""``usdgaze batch --emit``: the farm's tasks read the manifest the command was given, at its path,
+and ask for the cores its shots need; what a farm task says of its one shot."""
 
 from __future__ import annotations
 
@@ -87,3 +88,16 @@ def test_emitted_jobs_ask_for_the_cores_of_the_shot_with_the_most_threads(tmp_pa
     slurm, cores, job = _emitted(manifest, tmp_path / "one")
     assert "#SBATCH --cpus-per-task=1" in slurm and cores == "1"
     assert any("(1 shot)" in l for l in slurm) and "(1 shot), each up to 1 thread" in job["Comment"], job
+
+
+def test_a_run_of_one_shot_says_shot_not_shots(tmp_path, capsys):
+    """'1 shots in 0.42 s': every farm task (--task-index) runs one shot and said it in the plural."""
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text('[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\nshifts = ["0.2s:30:0"]\n'
+                        '[[job]]\nname = "b"\ninput = "rig.usda"\nout = "out/b.usdc"\nshifts = ["0.2s:-30:0"]\n')
+    capsys.readouterr()
+    assert main(["batch", str(manifest), "--task-index", "1"]) == 0
+    assert capsys.readouterr().out.startswith("1 shot in "), "one task, one shot"
+    assert main(["batch", str(manifest)]) == 0
+    assert capsys.readouterr().out.startswith("2 shots in ")
