@@ -1,11 +1,15 @@
 """``usdgaze batch --emit``: the farm's tasks read the manifest the command was given, at its path,
-and ask for the cores its shots need; what a farm task says of its one shot."""
+and ask for the cores its shots need; what a farm task says of its one shot; the farm recipes' usage."""
 
 from __future__ import annotations
 
+import os
 import shlex
+import subprocess
 import xml.etree.ElementTree as ET
 from pathlib import Path
+
+import pytest
 
 from usdgaze.batch.manifest import load_manifest
 from usdgaze.console.main import main
@@ -101,3 +105,20 @@ def test_a_run_of_one_shot_says_shot_not_shots(tmp_path, capsys):
     assert capsys.readouterr().out.startswith("1 shot in "), "one task, one shot"
     assert main(["batch", str(manifest)]) == 0
     assert capsys.readouterr().out.startswith("2 shots in ")
+
+
+@pytest.mark.parametrize("script, args, usage", [
+    ("array_task.sh", [], "usage: array_task.sh MANIFEST INDEX"),
+    ("array_task.sh", ["jobs.toml"], "usage: array_task.sh MANIFEST INDEX"),
+    ("slurm.sbatch", [], "usage: sbatch --array="),
+])
+def test_farm_recipes_without_their_arguments_say_their_usage_and_exit_2(script, args, usage):
+    """array_task.sh under ``set -u`` read a missing $1 first: bash's 'unbound variable' and exit 1,
+    which a farm retries as an internal error; its usage line was never reached. A missing argument is
+    bad input: the usage line and exit 2 (no retry), nothing run."""
+    env = {k: v for k, v in os.environ.items() if k != "SLURM_ARRAY_TASK_ID"}
+    proc = subprocess.run(["bash", str(ROOT / "pipeline" / "farm" / script), *args], capture_output=True,
+                          text=True, timeout=60, env={**env, "USDGAZE": "false"})  # never reached
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()] and proc.stderr.startswith(usage), proc.stderr
+    assert "unbound" not in proc.stderr and proc.stdout == ""

@@ -224,23 +224,6 @@ def test_emitted_farm_jobs_run_one_shot_per_task(tmp_path):
     assert main(["batch", str(manifest), "--task-index", "3"]) == 2
 
 
-@pytest.mark.parametrize("script, args, usage", [
-    ("array_task.sh", [], "usage: array_task.sh MANIFEST INDEX"),
-    ("array_task.sh", ["jobs.toml"], "usage: array_task.sh MANIFEST INDEX"),
-    ("slurm.sbatch", [], "usage: sbatch --array="),
-])
-def test_farm_recipes_without_their_arguments_say_their_usage_and_exit_2(script, args, usage):
-    """array_task.sh under ``set -u`` read a missing $1 first: bash's 'unbound variable' and exit 1,
-    which a farm retries as an internal error; its usage line was never reached. A missing argument is
-    bad input: the usage line and exit 2 (no retry), nothing run."""
-    env = {k: v for k, v in os.environ.items() if k != "SLURM_ARRAY_TASK_ID"}
-    proc = subprocess.run(["bash", str(ROOT / "pipeline" / "farm" / script), *args], capture_output=True,
-                          text=True, timeout=60, env={**env, "USDGAZE": "false"})  # never reached
-    assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()] and proc.stderr.startswith(usage), proc.stderr
-    assert "unbound" not in proc.stderr and proc.stdout == ""
-
-
 def test_progress_is_a_bar_on_a_terminal():
     import io
 
