@@ -1,8 +1,15 @@
-"""``usdgaze batch --emit``: the farm's tasks read the manifest the command was given, at its path."""
+"""``usdgaze batch --emit``: the farm's tasks read the manifest the command was given, at its path,
+and ask for the cores its shots need; what a farm task says of its one shot; the farm recipes' usage."""
 
 from __future__ import annotations
 
+import os
 import shlex
+import subprocess
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
 
 from usdgaze.batch.manifest import load_manifest
 from usdgaze.console.main import main
@@ -52,3 +59,66 @@ def test_emit_takes_force_into_every_task_and_refuses_the_flags_of_a_run(tmp_pat
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and flags[0] in err[0] and "--emit" in err[0], err
         assert not folder.exists() and not (tmp_path / "s.json").exists()
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _emitted(manifest: Path, folder: Path) -> tuple[list[str], str, dict]:
+    """The SLURM script's lines, the OpenCue layer's <cores> and the Deadline job info of ``manifest``."""
+    for farm in ("slurm", "opencue", "deadline"):
+        assert main(["batch", str(manifest), "--emit", farm, str(folder / farm)]) == 0
+    slurm = (folder / "slurm" / "usdgaze.sbatch").read_text().splitlines()
+    cores = ET.parse(next((folder / "opencue").glob("*.xml"))).getroot().find("job/layers/layer/cores").text
+    job = dict(l.split("=", 1) for l in (folder / "deadline" / "job_info.job").read_text().splitlines() if l)
+    return slurm, cores, job
+
+
+def test_emitted_jobs_ask_for_the_cores_of_the_shot_with_the_most_threads(tmp_path):
+    """The shipped attend manifest's catch shot sets threads = 2, yet SLURM was asked for
+    --cpus-per-task=1 and OpenCue for 1 core: two MuJoCo threads on one core. An array job has one
+    request for all its tasks, so it is the most threads any shot sets, and the file says why."""
+    slurm, cores, job = _emitted(ROOT / "pipeline" / "manifests" / "attend_shots.toml", tmp_path / "attend")
+    assert "#SBATCH --cpus-per-task=2" in slurm and "#SBATCH --cpus-per-task=1" not in slurm
+    assert any(l.startswith("# --cpus-per-task:") and "most threads" in l for l in slurm), slurm
+    first = next(i for i, l in enumerate(slurm) if not l.startswith("#"))  # sbatch reads directives up to here
+    assert slurm.index("#SBATCH --cpus-per-task=2") < first
+    assert cores == "2"
+    assert job["ConcurrentTasks"] == "1" and "(3 shots), each up to 2 threads" in job["Comment"], job
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)  # no shot sets threads: one core, one shot said so
+    manifest = tmp_path / "one.toml"
+    manifest.write_text('[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\nshifts = ["0.2s:30:0"]\n')
+    slurm, cores, job = _emitted(manifest, tmp_path / "one")
+    assert "#SBATCH --cpus-per-task=1" in slurm and cores == "1"
+    assert any("(1 shot)" in l for l in slurm) and "(1 shot), each up to 1 thread" in job["Comment"], job
+
+
+def test_a_run_of_one_shot_says_shot_not_shots(tmp_path, capsys):
+    """'1 shots in 0.42 s': every farm task (--task-index) runs one shot and said it in the plural."""
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text('[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\nshifts = ["0.2s:30:0"]\n'
+                        '[[job]]\nname = "b"\ninput = "rig.usda"\nout = "out/b.usdc"\nshifts = ["0.2s:-30:0"]\n')
+    capsys.readouterr()
+    assert main(["batch", str(manifest), "--task-index", "1"]) == 0
+    assert capsys.readouterr().out.startswith("1 shot in "), "one task, one shot"
+    assert main(["batch", str(manifest)]) == 0
+    assert capsys.readouterr().out.startswith("2 shots in ")
+
+
+@pytest.mark.parametrize("script, args, usage", [
+    ("array_task.sh", [], "usage: array_task.sh MANIFEST INDEX"),
+    ("array_task.sh", ["jobs.toml"], "usage: array_task.sh MANIFEST INDEX"),
+    ("slurm.sbatch", [], "usage: sbatch --array="),
+])
+def test_farm_recipes_without_their_arguments_say_their_usage_and_exit_2(script, args, usage):
+    """array_task.sh under ``set -u`` read a missing $1 first: bash's 'unbound variable' and exit 1,
+    which a farm retries as an internal error; its usage line was never reached. A missing argument is
+    bad input: the usage line and exit 2 (no retry), nothing run."""
+    env = {k: v for k, v in os.environ.items() if k != "SLURM_ARRAY_TASK_ID"}
+    proc = subprocess.run(["bash", str(ROOT / "pipeline" / "farm" / script), *args], capture_output=True,
+                          text=True, timeout=60, env={**env, "USDGAZE": "false"})  # never reached
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()] and proc.stderr.startswith(usage), proc.stderr
+    assert "unbound" not in proc.stderr and proc.stdout == ""

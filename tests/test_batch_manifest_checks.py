@@ -11,6 +11,7 @@ import signal
 import pytest
 
 from usdgaze.batch.manifest import load_manifest
+from usdgaze.console.main import main
 from usdgaze.errors import Interrupted, UsdGazeError
 from usdgaze.files.transaction import TMP_PREFIX, Outputs
 
@@ -23,9 +24,10 @@ def _manifest(tmp_path, extra: str):
 
 
 @pytest.mark.parametrize("extra, words", [
-    ('shifts = ["1s:10:0:weight=2"]\n', ["job 0 'w': shift = '1s:10:0:weight=2'", "weight must be a number in [0, 1]"]),
-    ('shifts = ["1s:10:0:blend=-1"]\n', ["job 0 'w': shift = '1s:10:0:blend=-1'", "blend must be >= 0"]),
-    ('shifts = ["1s:10:0:foo=1"]\n', ["job 0 'w': shift = '1s:10:0:foo=1'", "unknown or repeated option"]),
+    ('shifts = ["1s:10:0:weight=2"]\n', ["job 0 'w': shifts = '1s:10:0:weight=2'", "weight must be a number in [0, 1]"]),
+    ('shifts = ["1s:10:0:blend=-1"]\n', ["job 0 'w': shifts = '1s:10:0:blend=-1'", "blend must be >= 0"]),
+    ('shifts = ["1s:10:0:foo=1"]\n', ["job 0 'w': shifts = '1s:10:0:foo=1'", "unknown or repeated option"]),
+    ('shifts = ["2s:abc"]\n', ["job 0 'w': shifts = '2s:abc'", "expected TIME:YAW:PITCH"]),
     ('shifts = ["1s:10:0"]\nplot = "gaze.txt"\n', ["job 0 'w': plot = 'gaze.txt'", "must end in .png, .pdf or .svg"]),
     ('shifts = ["1s:10:0"]\nskel_root = "Body"\n', ["job 0 'w': skel_root = 'Body'", "absolute prim path"]),
 ])
@@ -38,6 +40,42 @@ def test_values_are_refused_naming_manifest_job_and_key(tmp_path, extra, words):
     assert "--shift" not in message
     for word in words:
         assert word in message
+
+
+@pytest.mark.parametrize("defaults, job, said", [
+    ('shifts = ["2s:abc"]', "", "[defaults] shifts = '2s:abc': expected TIME:YAW:PITCH"),
+    ('shifts = ["1s:10:0:weight=2"]', "", "[defaults] shifts = '1s:10:0:weight=2': weight must be"),
+    ("fixation = -1", 'shifts = ["1s:10:0"]', "[defaults] fixation = -1.0: must be a positive distance"),
+    ('plot = "gaze.txt"', 'shifts = ["1s:10:0"]', "[defaults] plot = 'gaze.txt': must end in .png"),
+    ('eye_timing = "fast"', 'shifts = ["1s:10:0"]', "[defaults] eye_timing = 'fast': expected one of"),
+    ('command = "render"', 'shifts = ["1s:10:0"]', "[defaults] command = 'render': expected one of"),
+])
+def test_a_bad_value_in_defaults_is_named_as_the_defaults_key_as_written(tmp_path, capsys, defaults, job, said):
+    """A bad [defaults] value was said of the first job that inherits it, and a shift under the CLI's
+    name: 'job 0 'w': shift = ...'. The fix is in [defaults]: the message names that table and the key
+    as written there; the same value written in the job still names the job."""
+    path = _manifest(tmp_path, job + "\n")
+    job_only = path.read_text()
+    for body, place in ((f"[defaults]\n{defaults}\n\n{job_only}", f"{path}: "),
+                        (job_only.replace('name = "w"', f'name = "w"\n{defaults}'), f"{path}: job 0 'w': ")):
+        path.write_text(body)
+        assert main(["batch", str(path)]) == 2
+        err = capsys.readouterr().err.strip()
+        if place == f"{path}: ":  # from [defaults]: no job named
+            assert err.count("\n") == 0 and f"{place}{said}" in err and "job 0" not in err, err
+        else:  # written in the job: that job, the key as written
+            assert f"{place}{said.removeprefix('[defaults] ')}" in err, err
+        assert not (tmp_path / "gaze.usdc").exists() and not list(tmp_path.glob("*.summary.json"))
+
+
+def test_a_defaults_value_that_clashes_with_a_jobs_own_names_both(tmp_path):
+    """A check of several keys at once (bind with forward, sublayer_into with preview) names the job and
+    says which of its values came from [defaults]."""
+    path = _manifest(tmp_path, 'shifts = ["1s:10:0"]\npreview = "p.usda"\n')
+    path.write_text('[defaults]\nbind = ["skull=j5"]\nsublayer_into = "s.usda"\n\n' + path.read_text())
+    with pytest.raises(UsdGazeError) as info:
+        load_manifest(path)
+    assert f"{path}: job 0 'w': [defaults] " in str(info.value), info.value
 
 
 def test_good_plot_and_skel_root_pass(tmp_path):

@@ -72,7 +72,7 @@ def _shifts(value: Any, label: Label, base: Path) -> list[str]:
             message = str(exc)
             if not message.startswith("--shift "):
                 raise
-            raise UsdGazeError(f"{label('shift', repr(text))}: {message.split(chr(39) + ': ', 1)[-1]}") from None
+            raise UsdGazeError(f"{label('shifts', repr(text))}: {message.split(chr(39) + ': ', 1)[-1]}") from None
     return out
 
 
@@ -141,9 +141,10 @@ def _as_given(value: Any, label: Label, base: Path) -> Any:
     return value  # checked with the keys it combines with (see manifest._COMBINED)
 
 
-def _binding(values: dict, where: str):
-    """``bind`` and ``forward`` together are one ``PassOptions.binding``."""
+def _binding(values: dict, name: Callable[[str], str]):
+    """``bind`` and ``forward`` together are one ``PassOptions.binding``; ``name(key)`` says how a
+    message names each (``Shot.name_of``)."""
     from usdgaze.core.hints import parse_hints
 
-    return parse_hints(values.get("bind"), values.get("forward"), bind_label=f"{where}: bind",
-                       forward_label=f"{where}: forward")
+    return parse_hints(values.get("bind"), values.get("forward"), bind_label=name("bind"),
+                       forward_label=name("forward"))

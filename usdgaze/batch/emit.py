@@ -40,15 +40,25 @@ def _token(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "usdgaze"
 
 
-def _deadline(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dict[str, str]:
+def task_cores(shots: Sequence["Shot"]) -> int:
+    """The cores one farm task asks for: the most ``threads`` any shot sets (1 when none does). An
+    array job makes one resource request for all its tasks, so the biggest shot sets it."""
+    return max((int(s.values.get("threads", 1)) for s in shots), default=1)
+
+
+def _deadline(manifest: Path, count: int, name: str, extra: Sequence[str], cores: int) -> dict[str, str]:
     exe, *pre = usdgaze_command()
     args = " ".join([*pre, "batch", f"<QUOTE>{manifest}<QUOTE>", *extra, "--task-index", "<STARTFRAME>"])
     job_info = "\n".join([
         "Plugin=CommandLine",
         f"Name={name}",
-        f"Comment=usdgaze batch {manifest.name}: one task per shot ({count} shots)",
+        f"Comment=usdgaze batch {manifest.name}: one task per shot ({_count(count)}), "
+        f"each up to {_count(cores, 'thread')}",
         f"Frames=0-{count - 1}",
         "ChunkSize=1",
+        # Deadline has no per-task core request: one task at a time on a worker leaves the shot that
+        # runs the most threads (Comment) every core of the machine.
+        "ConcurrentTasks=1",
         "",
     ])
     plugin_info = "\n".join([
@@ -62,7 +72,7 @@ def _deadline(manifest: Path, count: int, name: str, extra: Sequence[str]) -> di
     return {"job_info.job": job_info, "plugin_info.job": plugin_info, "submit.sh": submit}
 
 
-def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dict[str, str]:
+def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str], cores: int) -> dict[str, str]:
     cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), *extra, "--task-index"]) + " #IFRAME#"
     user = _token(os.environ.get("USER") or getpass.getuser())
     spec = f"""<?xml version="1.0"?>
@@ -79,7 +89,8 @@ def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dic
         <cmd>{escape(cmd)}</cmd>
         <range>0-{count - 1}</range>
         <chunk>1</chunk>
-        <cores>1</cores>
+        <!-- one request for every frame (shot): the most threads any shot of the manifest sets -->
+        <cores>{cores}</cores>
         <services>
           <service>shell</service>
         </services>
@@ -91,13 +102,14 @@ def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dic
     return {f"{name}.xml": spec}
 
 
-def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dict[str, str]:
+def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str], cores: int) -> dict[str, str]:
     cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), *extra, "--task-index"])
     script = f"""#!/usr/bin/env bash
-# usdgaze batch {manifest.name}: one array task per shot ({count} shots). Submit: sbatch usdgaze.sbatch
+# usdgaze batch {manifest.name}: one array task per shot ({_count(count)}). Submit: sbatch usdgaze.sbatch
+# --cpus-per-task: one request for every array task, so the most threads any shot sets ({cores}).
 #SBATCH --job-name={name}
 #SBATCH --array=0-{count - 1}
-#SBATCH --cpus-per-task=1
+#SBATCH --cpus-per-task={cores}
 #SBATCH --mem=2G
 #SBATCH --time=00:30:00
 #SBATCH --output=usdgaze_%A_%a.log
@@ -105,6 +117,10 @@ def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str]) -> dict[
 exec {cmd} "$SLURM_ARRAY_TASK_ID"
 """
     return {"usdgaze.sbatch": script}
+
+
+def _count(n: int, what: str = "shot") -> str:
+    return f"{n} {what}{'s' * (n != 1)}"
 
 
 _EMITTERS = {"deadline": _deadline, "opencue": _opencue, "slurm": _slurm}
@@ -130,9 +146,10 @@ def check_inputs(manifest: str | os.PathLike, shots: Sequence["Shot"]) -> None:
 
 
 def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike,
-         force: bool = False) -> list[Path]:
+         force: bool = False, cores: int = 1) -> list[Path]:
     """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths.
-    ``force``: every task redoes its shot (``--force``)."""
+    ``force``: every task redoes its shot (``--force``); ``cores``: what each task asks for
+    (:func:`task_cores`)."""
     from usdgaze.files.transaction import Outputs
 
     if kind not in _EMITTERS:
@@ -143,7 +160,8 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
-    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), ["--force"] if force else [])
+    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), ["--force"] if force else [],
+                           cores)
     with Outputs() as tx:
         tx.read(manifest, "manifest")
         tx.make_folder(folder)

@@ -96,7 +96,22 @@ KEYS: dict[str, Key] = {
 }
 
 # Targets fed by several keys: built from all of them at once (and checked up front).
-_COMBINED: dict[str, Callable[[dict, str], Any]] = {"options.binding": _binding}
+_COMBINED: dict[str, Callable[[dict, Callable[[str], str]], Any]] = {"options.binding": _binding}
+
+# The shared checks name some values as the CLI's flags do (parse_shift: "shift"); a manifest's
+# messages name the key as written there.
+_AS_WRITTEN = {"shift": "shifts", "fixation_m": "fixation"}
+
+
+def _key_name(manifest: str, where: str, inherited: frozenset, key: str, job: bool = True) -> str:
+    """How a message names ``key`` of a job: ``M: job I 'N': KEY``. A value the job took from
+    [defaults] says so (the fix is there, not in the job): ``M: [defaults] KEY`` for a check of the
+    value alone (``job`` False), ``M: job I 'N': [defaults] KEY`` for one that involves the job's
+    other keys."""
+    key = _AS_WRITTEN.get(key, key)
+    if key not in inherited:
+        return f"{where}: {key}"
+    return f"{where}: [defaults] {key}" if job else f"{manifest}: [defaults] {key}"
 
 
 @dataclass(frozen=True)
@@ -108,11 +123,22 @@ class Shot:
     values: dict = field(default_factory=dict)
     where: str = ""
     """How messages name it: ``MANIFEST: job I 'NAME'``."""
+    manifest: str = ""
+    inherited: frozenset = frozenset()
+    """The keys whose values came from the manifest's [defaults] (messages name them as its)."""
 
     @property
     def label(self) -> str:
         """``job I 'NAME'``, as the file checks name it."""
         return f"job {self.index} '{self.name}'"
+
+    def name_of(self, key: str) -> str:
+        """How a message names one of its keys (``_key_name``)."""
+        return _key_name(self.manifest, self.where, self.inherited, key)
+
+    def value_label(self, key: str, value: object) -> str:
+        """``label(key, value)`` of the shared checks for this job's values."""
+        return f"{self.name_of(key)} = {value}"
 
     @property
     def out(self) -> str:
@@ -133,7 +159,7 @@ class Shot:
         if "bind" in keyed or "forward" in keyed:
             # As parsed, not as spelled: forward [0, 0, 1] or "0,0,1", bind as a list or a table, in
             # any order, is one binding (a respelled manifest redid its shots).
-            hints = _binding(self.values, self.where)
+            hints = _binding(self.values, self.name_of)
             keyed.pop("bind", None)
             keyed.pop("forward", None)
             keyed["binding"] = {"bind": sorted([role, list(joints)] for role, joints in hints.bindings),
@@ -153,7 +179,7 @@ def apply_kwargs(shot: Shot) -> dict:
         to = KEYS[key].to
         if to is None:
             continue
-        value = _COMBINED[to](shot.values, shot.where) if to in _COMBINED else value
+        value = _COMBINED[to](shot.values, shot.name_of) if to in _COMBINED else value
         group, dot, name = to.partition(".")
         if dot:
             fields[group][name] = value
@@ -175,17 +201,17 @@ def attend_kwargs(shot: Shot) -> dict:
                 if (KEYS[k].to or "").startswith("settings.")}
     common = {"input_path": v["input"], "out": v["out"], "skel_root": v.get("skel_root"),
               "no_clobber": v.get("no_clobber", False)}
-    binding = _binding(v, shot.where) if ("bind" in v or "forward" in v) else None
+    binding = _binding(v, shot.name_of) if ("bind" in v or "forward" in v) else None
     if not v.get("physics"):
         extra = sorted(set(v) & set(PHYSICS_ONLY))
         if extra:
-            raise UsdGazeError(f"{shot.where}: {extra[0]}: a key of physics jobs (physics = true)")
+            raise UsdGazeError(f"{shot.name_of(extra[0])}: a key of physics jobs (physics = true)")
         found = AttendSettings(**settings, binding=binding)
         found.check()
         return {**common, "physics": False, "objects": v.get("objects"), "settings": found}
     extra = sorted(set(v) & set(KINEMATIC_ONLY))
     if extra:  # the coupled loop reads every GazeObjectAPI prim and its own belief settings
-        raise UsdGazeError(f"{shot.where}: {extra[0]}: not taken by physics jobs (docs/physics.md)")
+        raise UsdGazeError(f"{shot.name_of(extra[0])}: not taken by physics jobs (docs/physics.md)")
     from usdgaze.passes.physics import check_window, with_window
     from usdgaze.physics.mpc import Options
 
@@ -194,7 +220,7 @@ def attend_kwargs(shot: Shot) -> dict:
                                   iterations=v.get("iterations", Options.iterations),
                                   retry_iterations=v.get("retry_iterations", Options.retry_iterations),
                                   ground_feet=not v.get("raw_contacts", False)), settings.get("window_s"))
-    check_window(options, f"{shot.where}: window =")
+    check_window(options, f"{shot.name_of('window')} =")
     return {**common, "physics": True, "options": options, "seed": settings.get("seed", 0), "binding": binding,
             "keep_failed": not v.get("discard_failed", False), "total_mass": v.get("mass", 75.0)}
 
@@ -210,7 +236,9 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
         raise UsdGazeError(f"{path}: job {index}: {raw!r} is not a table; expected [[job]] tables")
     merged = {**defaults, **raw}
     where = _where(path, index, raw.get("name") if isinstance(raw.get("name"), str) else None)
-    label = lambda key, value: f"{where}: {key} = {value}"  # noqa: E731
+    inherited = frozenset(set(defaults) - set(raw))
+    # A value's own check names a [defaults] value as the table's, not the first job's that takes it.
+    label = lambda key, value: f"{_key_name(str(path), where, inherited, key, job=False)} = {value}"  # noqa: E731
     unknown = sorted(set(merged) - set(KEYS))
     if unknown:
         raise UsdGazeError(f"{where}: unknown key '{unknown[0]}' (keys: {', '.join(sorted(KEYS))})")
@@ -225,17 +253,18 @@ def _check_shot(path: Path, index: int, raw: object, defaults: dict) -> Shot:
             raise UsdGazeError(f"{where}: missing '{key}'")
     base = path.parent.resolve()
     values = {k: KEYS[k].check(v, label, base) for k, v in merged.items()}
+    name = values.pop("name", None) or Path(values["input"]).stem
+    shot = Shot(index=index, name=name, values=values, where=where, manifest=str(path), inherited=inherited)
     directives = [k for k in ("shifts", "look_at", "release") if k in values]
     if command == "apply" and directives and not any(values[k] for k in directives):
         # Left out, the SkelRoots' own GazeScheduleAPI schedules apply; only empty lists are a slip.
         what = {"shifts": "shift", "look_at": "look-at", "release": "release"}[directives[0]]
-        raise UsdGazeError(f"{label(directives[0], '[]')}: no {what} given; nothing to do")
-    name = values.pop("name", None) or Path(values["input"]).stem
-    shot = Shot(index=index, name=name, values=values, where=where)
+        raise UsdGazeError(f"{shot.value_label(directives[0], '[]')}: no {what} given; nothing to do")
     if command == "attend":
         attend_kwargs(shot)  # the attend command's own checks, up front
     else:
-        check_request(ApplyRequest(**apply_kwargs(shot)), label)  # the CLI's and the API's own checks
+        # the CLI's and the API's own checks; these involve the job's other keys, so they name the job
+        check_request(ApplyRequest(**apply_kwargs(shot)), shot.value_label)
     return shot
 
 

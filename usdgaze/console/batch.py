@@ -58,10 +58,10 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         shots = load_manifest(manifest)
         register(tx.ids, Path(manifest), shots)
         if emit:
-            from usdgaze.batch.emit import check_inputs, emit as write_jobs
+            from usdgaze.batch.emit import check_inputs, emit as write_jobs, task_cores
 
             check_inputs(manifest, shots)
-            for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force):
+            for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force, cores=task_cores(shots)):
                 click.echo(f"wrote {path}")
             return
         if task_index is not None:
@@ -71,7 +71,7 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         report = _run(shots, manifest, workers, dask_address, force, task_index)
         tx.stage_text(summary, json.dumps(report, indent=2) + "\n")
     counts = ", ".join(f"{n} {status}" for status, n in report["counts"].items() if n)
-    click.echo(f"{len(shots)} shots in {report['seconds']:.2f} s ({report['mode']}): {counts}; summary {summary}")
+    click.echo(f"{_shots(len(shots))} in {report['seconds']:.2f} s ({report['mode']}): {counts}; summary {summary}")
     ctx.exit(report["exit_code"])
 
 
@@ -87,12 +87,18 @@ def _run(shots, manifest, workers, dask_address, force, task_index) -> dict:
         records = engine.run_shots(shots, workers=workers, dask=dask_address, force=force, on_record=progress)
     except Interrupted as exc:
         # A shot may finish between its last rename and its report: the count is of the reported ones.
-        exc.detail = (f"{progress.done} of {len(shots)} shots were reported finished; finished shots keep their "
+        were = "was" if len(shots) == 1 else "were"
+        exc.detail = (f"{progress.done} of {_shots(len(shots))} {were} reported finished; finished shots keep their "
                       "outputs (a rerun skips them), no shot is half-written, no summary was written")
         raise
     finally:
         progress.close()
     return engine.summary(records, manifest, mode, time.perf_counter() - t0, started, task_index)
+
+
+def _shots(n: int) -> str:
+    """``1 shot``, ``3 shots``: a --task-index run is always one."""
+    return f"{n} shot{'s' * (n != 1)}"
 
 
 def _default_summary(manifest: Path, task_index: int | None) -> Path:
