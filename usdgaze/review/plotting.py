@@ -242,6 +242,8 @@ def figures(review) -> dict[str, object]:
     for fig in out.values():
         _mark_lone_points(fig)
         fig.tight_layout()
+        if fig._suptitle is not None:  # tight_layout set it flush on the first panel's title: a line apart
+            fig.subplots_adjust(top=fig.subplotpars.top - 0.2 / fig.get_figheight())
     return out
 
 
