@@ -42,9 +42,11 @@ VALIDATORS = {
     "GazeMapUnitQuaternions": "Every GazeMapAPI offset is a finite unit quaternion.",
     "GazeMapRoleJoints": "Every joint a GazeMapAPI binds to a role is a joint of each Skeleton under its SkelRoot, "
                          "and GazeMapAPI sits on a SkelRoot.",
-    "AnimationArrays": "A SkelAnimation's rotations, translations and scales hold one finite entry per joint at "
-                       "every time sample, and its rotations are unit quaternions.",
-    "SkeletonArrays": "A Skeleton's bindTransforms and restTransforms, where authored, hold one finite matrix per "
+    "AnimationArrays": "A SkelAnimation's rotations, translations and scales are each authored (UsdSkel poses "
+                       "nothing without all three) and hold one finite entry per joint at every time sample, and its "
+                       "rotations are unit quaternions.",
+    "SkeletonArrays": "A Skeleton's joints are valid relative paths (UsdSkel reads an ill-formed one as a root), "
+                      "its bindTransforms and restTransforms, where authored, hold one finite matrix per "
                       "joint of its joints array, and its jointNames, where authored, one name per joint; "
                       "restTransforms are authored where its bound animation leaves joints out (UsdSkel takes those "
                       "from them).",
@@ -61,7 +63,8 @@ VALIDATORS = {
                   "and its kind one of the allowed tokens.",
     "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift, look-at and release parses and "
                          "starts inside the stage's time range, every character it names is a SkelRoot there, and the layer "
-                         "samples its animation over the span the input below it does (not another take's).",
+                         "overrides a SkelAnimation of the stage and samples it over the span the input below it does "
+                         "(not another take's).",
 }
 VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "SkeletonArrays": ["UsdSkelSkeleton"],
                           "SkeletonUnits": ["UsdSkelSkeleton"], "SkeletonUpAxis": ["UsdSkelSkeleton"],

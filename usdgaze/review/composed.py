@@ -242,10 +242,11 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     # Every SkelRoot whose animation the layer overrides (or the one named).
     roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
     touched = {str(p.path) for p in _prim_specs(gaze_layer)}
+    animated = overridden_animations(stage, gaze_layer)
     read = _Reader(stage, gaze_layer, source, layer_file, record, from_record(record, layer_file))
     for root in roots:
         for skel in skeletons_under(root):
-            if not skel_root and not _may_touch(skel, touched):  # another character: its problems are not this review's
+            if not skel_root and str(skel.GetPath()) not in animated:  # another character: not this review's
                 continue
             character = read.character(skel, root, touched)
             if character is not None:
@@ -253,12 +254,33 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     review.attention = read_attention(stage, source)
     if not review.characters:
         if skel_root:
-            animated = sorted({str(r.GetPath()) for r in skel_roots(stage)
-                               for s in skeletons_under(r) if _may_touch(s, touched)})
+            elsewhere = sorted({str(r.GetPath()) for r in skel_roots(stage)
+                                for s in skeletons_under(r) if _may_touch(s, touched)})
             raise UsdGazeError(f"{layer_file}: --skel-root {skel_root}: the layer animates no skeleton of it"
-                               + (f" (it animates {', '.join(animated)})" if animated else ""))
-        raise UsdGazeError(f"{layer_file}: overrides no SkelAnimation of {source}; is it a usdgaze layer for this input?")
+                               + (f" (it animates {', '.join(elsewhere)})" if elsewhere else ""))
+        raise UsdGazeError(f"{layer_file}: {not_for_input(source)}")
     return review
+
+
+def overridden_animations(stage, layer) -> dict[str, str]:
+    """Skeleton path -> the SkelAnimation bound to it on ``stage`` that ``layer`` holds a prim spec
+    for: the skeletons plot and preview review. Empty: a layer made for another input (another take's
+    animation has another name), which they refuse and validate flags."""
+    from usdgaze.usd.skelio import animation_of, skel_roots, skeletons_under
+
+    touched = {str(p.path) for p in _prim_specs(layer)}
+    out = {}
+    for root in skel_roots(stage):
+        for skel in skeletons_under(root):
+            anim = animation_of(skel)
+            if anim is not None and str(anim.GetPath()) in touched:
+                out[str(skel.GetPath())] = str(anim.GetPath())
+    return out
+
+
+def not_for_input(source: str) -> str:
+    """What plot, preview and validate say of a layer that overrides none of ``source``'s animations."""
+    return f"overrides no SkelAnimation of {source}; is it a usdgaze layer for this input?"
 
 
 class _Reader:

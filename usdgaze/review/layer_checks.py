@@ -50,7 +50,22 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
                                            f"{name}: customLayerData usdgaze.characters names {path}, which is not a "
                                            f"SkelRoot on this stage"))
         errors += _other_take(stage, layer, record.get("characters", []))
+        errors += _other_input(stage, layer)
     return errors
+
+
+def _other_input(stage, layer) -> list:
+    """A layer none of whose overrides lands on a SkelAnimation of the stage: made for another input
+    (another take's animation has another name), so plot and preview refuse it, and :func:`_other_take`,
+    which compares only the animations the layer samples, finds nothing. A stage with no SkelRoot (the
+    layer alone) is left to ``MissingCharacter``."""
+    from usdgaze.review.composed import not_for_input, overridden_animations
+    from usdgaze.usd.skelio import skel_roots
+
+    if not skel_roots(stage) or overridden_animations(stage, layer):
+        return []
+    return [_stage_error(stage, "OtherTake", f"{layer.GetDisplayName()}: {not_for_input(stage.GetRootLayer().identifier)} "
+                                             "(plot and preview refuse it); validate it over the input it was made for")]
 
 
 def _other_take(stage, layer, characters) -> list:

@@ -32,11 +32,11 @@ from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
 from usdgaze.usd.checks import arc_units_problem, arc_up_axis_problem
 from usdgaze.usd.skelio import animation_of
 from usdgaze.review.sample_checks import first_bad
+from usdgaze.review.skel_checks import ill_formed_joints, not_authored
 
 PLUGIN = "usdgaze.review.validators"
 """The Python plugin's name in plugInfo.json (= this module); validator names are ``PLUGIN:Name``."""
 KEYWORD = "UsdGazeValidators"
-
 
 
 def declared() -> dict[str, dict]:
@@ -191,7 +191,7 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
     joints = anim.GetJointsAttr().Get()
     if joints is None:
         return []
-    n, errors = len(joints), []
+    n, errors = len(joints), not_authored(anim)
     for attr, width in ((anim.GetRotationsAttr(), 4), (anim.GetTranslationsAttr(), 3), (anim.GetScalesAttr(), 3)):
         if not attr or not attr.HasAuthoredValue():
             continue
@@ -228,7 +228,7 @@ def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
             errors.append(_error(prim, attr.GetPath(), "Length", f"{attr.GetName()}: {len(m)} entries, expected {n} (one per joint)"))
         elif not np.isfinite(m).all():
             errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values"))
-    return errors + _joint_names_length(skel, joints) + _sparse_without_rest(skel, joints)
+    return errors + ill_formed_joints(skel, joints) + _joint_names_length(skel, joints) + _sparse_without_rest(skel, joints)
 
 
 def _joint_names_length(skel: UsdSkel.Skeleton, joints) -> list:

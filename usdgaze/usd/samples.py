@@ -125,6 +125,10 @@ def _read_sdf(samples: Samples, times: np.ndarray, rows: _Rows) -> None:
         rows.put(i, samples.attr.Get(float(times[i])))
 
 
+NOT_AUTHORED = "not authored (UsdSkel needs translations, rotations and scales for every animated joint)"
+"""Why an animation array missing (no value, no samples) is refused: UsdSkel poses nothing without all three."""
+
+
 def read_array(samples: Samples, times: np.ndarray, dtype, width: int, count: int, where: str) -> np.ndarray:
     """Values of an array attribute at ``times`` as ``(F, count, width)``; a default is broadcast.
 
@@ -132,9 +136,7 @@ def read_array(samples: Samples, times: np.ndarray, dtype, width: int, count: in
     """
     attr = samples.attr
     if not attr or not attr.HasAuthoredValue():
-        raise UsdGazeError(
-            f"{where}: not authored (UsdSkel needs translations, rotations and scales for every animated joint)"
-        )
+        raise UsdGazeError(f"{where}: {NOT_AUTHORED}")
     if samples.found is None and attr.GetNumTimeSamples() == 0:
         value = np.asarray(attr.Get(), dtype=dtype)
         if value.shape != (count, width):

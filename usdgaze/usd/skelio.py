@@ -78,6 +78,15 @@ def check_not_shared(others: dict[str, str], animation: str, source: str) -> Non
                            "an override of it would move both alike: give each character its own SkelAnimation")
 
 
+def ill_formed_joint(joint: str) -> str | None:
+    """Why UsdSkel cannot place the joint token ``joint`` (apply refuses it; validate says it too), or None."""
+    if Sdf.Path.IsValidPathString(joint) and not Sdf.Path(joint).IsAbsolutePath():
+        return None
+    # UsdSkel parses joint tokens as relative paths; it reads an ill-formed one as a root joint.
+    return (f"'{joint}' is not a valid joint path (UsdSkel reads an ill-formed joint as a root); use letters, "
+            "digits and '_' in joint names, as exporters write 'mixamorig:Hips' as 'mixamorig_Hips'")
+
+
 def _joint_parents(joints: list[str], where: str) -> np.ndarray:
     index = {j: i for i, j in enumerate(joints)}
     if len(index) < len(joints):
@@ -85,12 +94,9 @@ def _joint_parents(joints: list[str], where: str) -> np.ndarray:
         raise UsdGazeError(f"{where}.joints: joint '{twice}' is listed twice")
     parents = np.full(len(joints), -1, dtype=int)
     for i, j in enumerate(joints):
-        if not Sdf.Path.IsValidPathString(j) or Sdf.Path(j).IsAbsolutePath():
-            # UsdSkel parses joint tokens as relative paths; it reads an ill-formed one as a root joint.
-            raise UsdGazeError(
-                f"{where}.joints: '{j}' is not a valid joint path (UsdSkel reads an ill-formed joint as a root); "
-                f"use letters, digits and '_' in joint names, as exporters write 'mixamorig:Hips' as 'mixamorig_Hips'"
-            )
+        problem = ill_formed_joint(j)
+        if problem:
+            raise UsdGazeError(f"{where}.joints: {problem}")
         parent = j.rsplit("/", 1)[0] if "/" in j else None
         if parent is not None:
             if parent not in index or index[parent] >= i:

@@ -1,0 +1,40 @@
+"""Checks behind the ``AnimationArrays`` and ``SkeletonArrays`` validators for what ``apply`` refuses of
+a SkelAnimation's or a Skeleton's authoring (beside their values' lengths and finiteness): an animation
+array left unauthored, a joint token that is no path. Each says what apply's refusal says, one line."""
+
+from __future__ import annotations
+
+from pxr import Usd, UsdSkel, UsdValidation
+
+from usdgaze.usd.samples import NOT_AUTHORED
+from usdgaze.usd.skelio import ill_formed_joint
+
+
+def _error(prim: Usd.Prim, path, name: str, message: str) -> UsdValidation.ValidationError:
+    site = UsdValidation.ValidationErrorSite(prim.GetStage(), path)
+    return UsdValidation.ValidationError(name, UsdValidation.ValidationErrorType.Error, [site], message)
+
+
+def not_authored(anim: UsdSkel.Animation) -> list:
+    """Each of rotations, translations and scales with neither a default nor time samples, on an
+    animation with joints: UsdSkel poses nothing without all three (``ComputeJointLocalTransforms``
+    gives an empty pose), so apply refuses it. A default alone (a constant scale) is a value."""
+    joints = anim.GetJointsAttr().Get()
+    if not joints:
+        return []
+    prim = anim.GetPrim()
+    return [_error(prim, attr.GetPath(), "NotAuthored", f"{attr.GetName()}: {NOT_AUTHORED}")
+            for attr in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
+            if not attr or not attr.HasAuthoredValue()]
+
+
+def ill_formed_joints(skel: UsdSkel.Skeleton, joints) -> list:
+    """The Skeleton's joint tokens that are no relative path (``mixamorig:Hips``, ``Hips/Spine.001``):
+    UsdSkel reads such a joint as a root and apply refuses the skeleton. One line per skeleton: the
+    first, with how many there are."""
+    bad = [str(j) for j in (joints or []) if ill_formed_joint(str(j))]
+    if not bad:
+        return []
+    more = f"; {len(bad)} of the skeleton's {len(joints)} joints are ill-formed" if len(bad) > 1 else ""
+    attr = skel.GetJointsAttr()
+    return [_error(skel.GetPrim(), attr.GetPath(), "IllFormedJoint", f"joints: {ill_formed_joint(bad[0])}{more}")]
