@@ -51,6 +51,9 @@ class DirectiveRequest:
     blend_seconds: bool = False
     origin: str | None = field(default=None, compare=False, repr=False)
     """Where an authored directive comes from (``FILE:PRIM.ATTRIBUTE entry K``), for messages; flags have none."""
+    written: str | None = field(default=None, compare=False, repr=False)
+    """The flag's value as the user typed it (``240.960:10:0``, which :func:`str` spells ``240.96:10:0``),
+    for messages; a schedule's directives have none."""
 
     def time_s(self, start_time: float, time_codes_per_second: float) -> float:
         return self.time if self.seconds else (self.time - start_time) / time_codes_per_second
@@ -76,6 +79,13 @@ class DirectiveRequest:
     @property
     def flag(self) -> str:
         return f"{FLAGS[self.kind]} {self}"
+
+    @property
+    def said(self) -> str:
+        """How a message names it: the flag as typed, or where in the schedule it is and what it says."""
+        if self.origin:
+            return f"{self.origin} ({self.flag})"
+        return f"{FLAGS[self.kind]} {self.written.strip()}" if self.written is not None else self.flag
 
 
 def _time(text: str, flag: str, whole: str) -> tuple[float, bool]:
@@ -126,7 +136,8 @@ def parse_shift(text: str, label=None) -> DirectiveRequest:
         head = text
     shift = ShiftRequest.parse(head, lambda key, value: where)
     return DirectiveRequest("shift", shift.time, shift.seconds, shift.yaw, shift.pitch,
-                            **_options(options, "--shift", text, ("weight", "blend")))
+                            **_options(options, "--shift", text, ("weight", "blend")),
+                            written=text if isinstance(text, str) else None)
 
 
 def parse_look(text: str) -> DirectiveRequest:
@@ -142,18 +153,19 @@ def parse_look(text: str) -> DirectiveRequest:
         point = tuple(float(v) for v in m.groups())
         if not np.isfinite(point).all():
             raise UsdGazeError(f"--look-at '{text}': the point must be finite")
-        return DirectiveRequest("look", time, seconds, point=point, **options)
+        return DirectiveRequest("look", time, seconds, point=point, **options, written=text)
     target = what.strip()
     if not target.startswith("/"):
         raise UsdGazeError(f"--look-at '{text}': '{target}' is neither an absolute prim path nor a point X,Y,Z")
-    return DirectiveRequest("look", time, seconds, target=target, **options)
+    return DirectiveRequest("look", time, seconds, target=target, **options, written=text)
 
 
 def parse_release(text: str) -> DirectiveRequest:
     """``TIME[:blend=B]``."""
     parts = text.split(":")
     time, seconds = _time(parts[0], "--release", text)
-    return DirectiveRequest("release", time, seconds, **_options(parts[1:], "--release", text, ("blend",)))
+    return DirectiveRequest("release", time, seconds, **_options(parts[1:], "--release", text, ("blend",)),
+                            written=text)
 
 
 def check_directives(shifts, look_at, release, look, label=None) -> list[DirectiveRequest]:
