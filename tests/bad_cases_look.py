@@ -113,3 +113,15 @@ def b_look_and_release_one_frame(d):
 def b_schedule_directives_one_frame(d):
     return apply_argv(d, _with_schedule(d, time=Vt.DoubleArray([10.2, 10.7]), kind=Vt.TokenArray(["release", "release"])),
                       shifts=[])
+
+
+def b_shift_yaw_not_a_number(d):
+    return apply_argv(d, rig(d).path, shifts=["--shift", "5s:abc:0"])
+
+
+def b_look_at_time_not_a_time(d):
+    return apply_argv(d, rig(d).path, shifts=["--look-at", "0,1.6,3@soon"])
+
+
+def b_release_blend_not_a_time(d):
+    return apply_argv(d, rig(d).path, shifts=["--release", "10:blend=long"])

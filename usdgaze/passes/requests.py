@@ -88,10 +88,15 @@ class DirectiveRequest:
         return f"{FLAGS[self.kind]} {self.written.strip()}" if self.written is not None else self.flag
 
 
-def _time(text: str, flag: str, whole: str) -> tuple[float, bool]:
+FORMS = {"--shift": "TIME:YAW:PITCH[:weight=W][:blend=B]", "--look-at": "TARGET@TIME[:weight=W][:blend=B]",
+         "--release": "TIME[:blend=B]"}
+
+
+def _time(text: str, flag: str, whole: str, name: str = "TIME") -> tuple[float, bool]:
     m = _TIME.match(text)
     if not m:
-        raise UsdGazeError(f"{flag} '{whole}': '{text}' is not a time (a time code, or seconds with an 's' suffix)")
+        raise UsdGazeError(f"{flag} '{whole}': {name} '{text}' is not a time code (or seconds with an 's' suffix); "
+                           f"expected {FORMS[flag]}")
     value = float(m.group(1))
     if not np.isfinite(value):
         raise UsdGazeError(f"{flag} '{whole}': the time must be finite")
@@ -115,7 +120,7 @@ def _options(parts: list[str], flag: str, whole: str, allowed: tuple[str, ...]) 
                 raise UsdGazeError(f"{flag} '{whole}': weight must be a number in [0, 1]")
             out["weight"] = w
         else:
-            b, in_seconds = _time(value, flag, whole)
+            b, in_seconds = _time(value, flag, whole, "blend B")
             if b < 0:
                 raise UsdGazeError(f"{flag} '{whole}': blend must be >= 0")
             out["blend"], out["blend_seconds"] = b, in_seconds
