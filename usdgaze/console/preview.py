@@ -41,7 +41,7 @@ def preview(input_path, layer, out, sheet, camera, layout, fps, size, sheet_coun
     is_sheet = out_path.suffix.lower() == ".png"
     pv.check_output(out_path, "sheet" if is_sheet else "animation", fps)
     if sheet is not None:
-        pv.check_output(sheet, "sheet")
+        pv.check_output(sheet, "sheet", flag="--sheet")
     opts = pv.PreviewOptions(camera=camera, layout=layout, fps=fps, size=size, sheet_count=sheet_count)
     review = read_review(input_path, layer, skel_root)
     stage, _ = composed_stage(input_path, layer)
