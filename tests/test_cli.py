@@ -269,3 +269,21 @@ def test_every_option_has_help_and_its_units():
     for flag in ("--shift", "--look-at", "--release"):
         assert "B time codes (or seconds with 's')" in helps["apply", flag], flag
     assert "root prim path" in helps["dump-map", "--prim"]
+
+
+def test_readme_synopses_of_apply_and_validate_name_every_option():
+    """README's `## Command line` block left out apply's --bind/--forward and validate's --only-usdgaze."""
+    text = (ROOT / "README.md").read_text()
+    block = text[text.index("## Command line"):]
+    block = block[block.index("```") + 3:]
+    block = block[:block.index("```")]
+    synopses: dict[str, str] = {}
+    name = None
+    for line in block.splitlines():
+        if line.startswith("usdgaze "):
+            name = line.split()[1]
+        if name is not None:
+            synopses[name] = synopses.get(name, "") + " " + line.split("#")[0]
+    for command in ("apply", "validate"):
+        named = set(re.findall(r"--[a-z][a-z-]*", synopses[command]))
+        assert [o for c, o, _ in _options() if c == command and o not in named | {"-h"}] == [], command
