@@ -397,12 +397,3 @@ def b_preview_input_missing_sublayer(d):
 
 def b_validate_layer_input_missing_sublayer(d):
     return _review_of_a_broken_input(d, "validate")
-
-
-def b_preview_command_sheet_bad_extension(d):
-    return ["preview", str(rig(d).path), "--layer", str(d / "gaze.usdc"), "--out", str(d / "x.gif"),
-            "--sheet", str(d / "y.gif")]
-
-
-def b_preview_command_out_bad_extension(d):
-    return ["preview", str(rig(d).path), "--layer", str(d / "gaze.usdc"), "--out", str(d / "x.avi")]
