@@ -97,3 +97,31 @@ def b_schedule_bad_kind(d):
 def b_schedule_target_index(d):
     return apply_argv(d, _with_schedule(d, time=Vt.DoubleArray([10.0]), kind=Vt.TokenArray(["look"]),
                                     target=Vt.IntArray([3])), shifts=[])
+
+
+def b_two_shifts_one_frame(d):
+    # At 120.48 time codes per second 2 s is time code 240.96: 0.3 ms before 241, both start on frame 241.
+    return apply_argv(d, rig(d, time_codes_per_second=120.48, frames=300).path,
+                      shifts=["--shift", "241:60:0", "--shift", "2s:10:0"])
+
+
+def b_look_and_release_one_frame(d):
+    # Time codes 10.2 and 10.7 fall between frames 10 and 11: both start on frame 11.
+    return apply_argv(d, rig(d).path, shifts=["--look-at", "0,1.6,3@10.2", "--release", "10.7"])
+
+
+def b_schedule_directives_one_frame(d):
+    return apply_argv(d, _with_schedule(d, time=Vt.DoubleArray([10.2, 10.7]), kind=Vt.TokenArray(["release", "release"])),
+                      shifts=[])
+
+
+def b_shift_yaw_not_a_number(d):
+    return apply_argv(d, rig(d).path, shifts=["--shift", "5s:abc:0"])
+
+
+def b_look_at_time_not_a_time(d):
+    return apply_argv(d, rig(d).path, shifts=["--look-at", "0,1.6,3@soon"])
+
+
+def b_release_blend_not_a_time(d):
+    return apply_argv(d, rig(d).path, shifts=["--release", "10:blend=long"])

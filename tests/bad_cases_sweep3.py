@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pxr import Gf, Sdf, Vt
 
-from .bad_common import apply_argv, edited, remove
+from .bad_common import apply_argv, edited, remove, rig
 
 
 def b_sparse_animation_without_rest_transforms(d):
@@ -88,3 +88,12 @@ def b_physics_skelroot_squashed(d):
         Sdf.AttributeSpec(root, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
                           Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:scale"])
     return ["physics-model", str(edited(d, squash)), "--out", str(d / "body.xml")]
+
+
+def b_preview_command_sheet_bad_extension(d):
+    return ["preview", str(rig(d).path), "--layer", str(d / "gaze.usdc"), "--out", str(d / "x.gif"),
+            "--sheet", str(d / "y.gif")]
+
+
+def b_preview_command_out_bad_extension(d):
+    return ["preview", str(rig(d).path), "--layer", str(d / "gaze.usdc"), "--out", str(d / "x.avi")]

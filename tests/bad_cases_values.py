@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pxr import Sdf, Vt
 
-from .bad_common import JOB, apply_argv, manifest, map_edit, rig, sheet
+from .bad_common import JOB, ROOT, apply_argv, manifest, map_edit, rig, sheet
 
 T = Sdf.ValueTypeNames
 
@@ -270,3 +270,11 @@ def b_batch_input_composes_a_later_out(d):
 
 def b_batch_look_at_empty(d):
     return manifest(d, '[[job]]\ninput = "in.usda"\nout = "gaze.usdc"\nlook_at = []\n')
+
+
+def b_build_map_trial_missing(d):
+    # The example sheet's layout: trial files in trials/ beside the sheet, spelled relative to it.
+    (d / "trials").mkdir()
+    (d / "sheet.csv").write_text("trial,file,yaw,pitch\nA,trials/A.c3d,36,0\n")
+    return ["build-map", str(d / "sheet.csv"), "--markers", str(ROOT / "pipeline" / "examples" / "markerset.toml"),
+            "--out", str(d / "map.usda"), "--min-trials", "1", "--quiet"]

@@ -242,3 +242,48 @@ def test_an_option_of_one_value_given_twice_is_refused(tmp_path, capsys):
     assert capsys.readouterr().err == "usdgaze: error: --skel-root is given 2 times; it takes one value\n"
     assert not (tmp_path / "g.usda").exists()
     assert main(args + ["--skel-root", "/Crowd/CrowdA/Body", "--shift", "2s:0:0"]) == 0  # repeatable options repeat
+
+
+def _options():
+    """(command, option name, help) of every option of every command (and subcommand)."""
+    import importlib
+
+    import click
+
+    from usdgaze.console.main import _COMMANDS
+
+    for name, (module, attr) in sorted(_COMMANDS.items()):
+        command = getattr(importlib.import_module(module), attr)
+        subs = list(command.commands.items()) if isinstance(command, click.Group) else []
+        for label, cmd in [(name, command)] + [(f"{name} {n}", c) for n, c in subs]:
+            for p in cmd.params:
+                if isinstance(p, click.Option):
+                    yield label, p.opts[0], p.help or ""
+
+
+def test_every_option_has_help_and_its_units():
+    """preview --layout and --sheet-count had no help; --release's and --shift's B gave no unit while
+    --look-at's did; dump-map --prim did not say it must be a root prim path."""
+    helps = {(c, o): h for c, o, h in _options()}
+    assert [k for k, h in helps.items() if not h.strip()] == []
+    for flag in ("--shift", "--look-at", "--release"):
+        assert "B time codes (or seconds with 's')" in helps["apply", flag], flag
+    assert "root prim path" in helps["dump-map", "--prim"]
+
+
+def test_readme_synopses_of_apply_and_validate_name_every_option():
+    """README's `## Command line` block left out apply's --bind/--forward and validate's --only-usdgaze."""
+    text = (ROOT / "README.md").read_text()
+    block = text[text.index("## Command line"):]
+    block = block[block.index("```") + 3:]
+    block = block[:block.index("```")]
+    synopses: dict[str, str] = {}
+    name = None
+    for line in block.splitlines():
+        if line.startswith("usdgaze "):
+            name = line.split()[1]
+        if name is not None:
+            synopses[name] = synopses.get(name, "") + " " + line.split("#")[0]
+    for command in ("apply", "validate"):
+        named = set(re.findall(r"--[a-z][a-z-]*", synopses[command]))
+        assert [o for c, o, _ in _options() if c == command and o not in named | {"-h"}] == [], command

@@ -117,7 +117,8 @@ def test_a_clip_trial_or_a_batch_input_that_is_a_named_pipe_is_one_line(tmp_path
         code = main(["build-map", str(tmp_path / "sheet.toml"), "--out", str(tmp_path / "map.usda"), "--min-trials", "1"])
         err = capsys.readouterr().err.splitlines()
         assert (code, err) == (2, ["usdgaze: error: only 0 of 1 trials gave an example, a map needs at least 1; first "
-                                   "failure: trial t (in.usda): is a named pipe, not a regular file"])
+                                   f"failure: trial t (in.usda): {pipe}: is a named pipe, not a regular file (the sheet's 'in.usda', "
+                                   "relative to the sheet's folder)"])
         assert snapshot(tmp_path) == before
         code = main(["batch", str(tmp_path / "jobs.toml")])
     [shot] = json.loads((tmp_path / "jobs.summary.json").read_text())["shots"]

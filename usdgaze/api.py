@@ -92,7 +92,7 @@ def _claim_outputs(tx: Outputs, req: ApplyRequest) -> None:
                 tx.make_folder(Path(path).parent)
     tx.claim(check_output_path(req.out), "--out")
     if req.preview is not None:
-        tx.claim(check_output_path(req.preview), "--preview")
+        tx.claim(check_output_path(req.preview, "--preview"), "--preview")
     if req.plot is not None:
         from usdgaze.review.plotting import check_plot_path
 

@@ -258,4 +258,26 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
                     names.append(",".join(f"{v:g}" for v in r.point))
             index = index_of[key]
         directives.append(Directive(t, r.kind, r.yaw, r.pitch, index, r.weight, r.blend_s(tcps)))
+    _check_frames(clip, requests, directives)
     return directives, targets, names
+
+
+def _check_frames(clip: SkelClip, requests: list[DirectiveRequest], directives: list[Directive]) -> None:
+    """Refuse two directives that start on the same frame: the look pass starts each on the first frame
+    at or after its time, so the earlier one would never be seen (2 s and time code 241 at 120.48 per
+    second, 0.3 ms apart, both started on frame 241 and the first was silently dropped)."""
+    order = sorted(range(len(directives)), key=lambda k: directives[k].time_s)  # stable, as the pass sorts
+    frames = np.searchsorted(clip.seconds, [directives[k].time_s for k in order])
+    for (a, fa), (b, fb) in zip(zip(order, frames), zip(order[1:], frames[1:])):
+        if fa != fb:
+            continue
+        ra, rb = requests[a], requests[b]
+        first = ra.said if ra.origin else f"{clip.where()}: {ra.said}"
+        second = rb.said
+        if ra.origin and rb.origin:  # one schedule: name the second by its entry only
+            head, _, entry = rb.origin.rpartition(": ")
+            if ra.origin.startswith(head + ": "):
+                second = f"{entry} ({rb.flag})"
+        f = min(int(fa), len(clip.times) - 1)
+        raise UsdGazeError(f"{first} and {second} start on the same frame (time code {clip.times[f]:g}), so "
+                           "the first would never be seen; put them at least a frame apart")

@@ -33,6 +33,27 @@ _SHIFT = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)(s?)\s*:\s*(
                     r"\s*:\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*$")
 
 
+SHIFT_FORM = "expected TIME:YAW:PITCH, e.g. 48:60:-10 or 2.5s:60:-10"
+_NUMBER = re.compile(r"^\s*[-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?\s*$")
+_TIME_FIELD = re.compile(r"^\s*[-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?s?\s*$")
+
+
+def _bad_field(text: object) -> str:
+    """Which field of a ``TIME:YAW:PITCH`` text that :data:`_SHIFT` refuses is wrong, as the start of the
+    message (``YAW 'abc' is not a number; ``, ``PITCH missing; ``), or nothing where there is no one to name."""
+    fields = text.split(":") if isinstance(text, str) and text.strip() else []
+    names = ("TIME", "YAW", "PITCH")
+    if 0 < len(fields) < 3:
+        return f"{' and '.join(names[len(fields):])} missing; "
+    if len(fields) != 3:
+        return ""
+    for name, value, form in zip(names, fields, (_TIME_FIELD, _NUMBER, _NUMBER)):
+        if not form.match(value):
+            what = "a time code (or seconds with an 's' suffix)" if name == "TIME" else "a number"
+            return f"{name} '{value}' is not {what}; "
+    return ""
+
+
 def cli_label(key: str, value: object) -> str:
     return f"--{key.replace('_', '-')} {value}"
 
@@ -52,7 +73,7 @@ class ShiftRequest:
         where = label("shift", repr(text)) if label else f"--shift '{text}'"
         m = _SHIFT.match(text) if isinstance(text, str) else None
         if not m:
-            raise UsdGazeError(f"{where}: expected TIME:YAW:PITCH, e.g. 48:60:-10 or 2.5s:60:-10")
+            raise UsdGazeError(f"{where}: {_bad_field(text)}{SHIFT_FORM}")
         shift = cls(float(m.group(1)), m.group(2) == "s", float(m.group(3)), float(m.group(4)))
         if not all(math.isfinite(v) for v in (shift.time, shift.yaw, shift.pitch)):
             raise UsdGazeError(f"{where}: values must be finite")

@@ -14,14 +14,15 @@ import numpy as np
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option("--shift", "shifts", multiple=True, metavar="TIME:YAW:PITCH[:weight=W][:blend=B]",
               help="A gaze shift: TIME a time code, or seconds from the stage start with an 's' suffix; "
-                   "YAW (+ toward the character's left) and PITCH (+ up) in degrees. Repeatable.")
+                   "YAW (+ toward the character's left) and PITCH (+ up) in degrees; W in [0, 1] the gaze weight, "
+                   "eased in over B time codes (or seconds with 's'). Repeatable.")
 @click.option("--look-at", "look_at", multiple=True, metavar="TARGET@TIME[:weight=W][:blend=B]",
               help="Look at TARGET from TIME on: a prim path (an Xformable's pivot, a Boundable's bounding-box "
                    "centre, animated or not) or a world point X,Y,Z. W in [0, 1] is the gaze weight, eased in "
                    "over B time codes (or seconds with 's'). Repeatable.")
 @click.option("--release", "release", multiple=True, metavar="TIME[:blend=B]",
               help="Return to the base motion's own gaze at TIME: a gaze shift, or with a blend a fade of the "
-                   "gaze weight to 0 over B. Repeatable.")
+                   "gaze weight to 0 over B time codes (or seconds with 's'). Repeatable.")
 @click.option("--eye-timing", default="saccade", show_default=True, type=click.Choice(["saccade", "model"]),
               help="saccade: the eyes move on the main sequence and pursue; model: the paper's coupled eye timing.")
 @click.option("--no-guides", is_flag=True, help="Do not author the guide-purpose lines of sight and point of sight.")

@@ -18,11 +18,13 @@ from usdgaze.console.types import FiniteRange
               help="Also write a contact sheet of --sheet-count frames.")
 @click.option("--camera", default="front", show_default=True, metavar="front|side|top|PRIM",
               help="A named camera following the character, or a Camera prim of the stage.")
-@click.option("--layout", default="side-by-side", show_default=True, type=click.Choice(["side-by-side", "overlay"]))
+@click.option("--layout", default="side-by-side", show_default=True, type=click.Choice(["side-by-side", "overlay"]),
+              help="side-by-side: the base and the gaze animation in two panels; overlay: both in one panel.")
 @click.option("--fps", default=24.0, show_default=True, type=FiniteRange(1.0, 240.0),
               help="Frames per second of the animation.")
 @click.option("--size", default=360, show_default=True, type=click.IntRange(64, 2048), help="Panel size in pixels.")
-@click.option("--sheet-count", default=12, show_default=True, type=click.IntRange(1, 200))
+@click.option("--sheet-count", default=12, show_default=True, type=click.IntRange(1, 200),
+              help="Frames on a contact sheet (--sheet, or a .png --out), spread evenly over the animation.")
 @click.option("--skel-root", default=None, help="Only this SkelRoot (default: every one the layer animates).")
 def preview(input_path, layer, out, sheet, camera, layout, fps, size, sheet_count, skel_root) -> None:
     """Draw INPUT without (base) and with (gaze) LAYER: shaded capsule figures, the head's direction
@@ -41,7 +43,7 @@ def preview(input_path, layer, out, sheet, camera, layout, fps, size, sheet_coun
     is_sheet = out_path.suffix.lower() == ".png"
     pv.check_output(out_path, "sheet" if is_sheet else "animation", fps)
     if sheet is not None:
-        pv.check_output(sheet, "sheet")
+        pv.check_output(sheet, "sheet", flag="--sheet")
     opts = pv.PreviewOptions(camera=camera, layout=layout, fps=fps, size=size, sheet_count=sheet_count)
     review = read_review(input_path, layer, skel_root)
     stage, _ = composed_stage(input_path, layer)

@@ -8,6 +8,7 @@ session, its windows 0.1% longer in seconds), because k and m count frames.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from usdgaze.ingest.markers import MarkerSet, SkeletonBinding, load_markerset
 from usdgaze.ingest.series import TrialSeries, read_marker_series
 from usdgaze.ingest.settings import BuildSettings
 from usdgaze.ingest.sheet import Sheet, Trial, load_sheet
-from usdgaze.files.kinds import require_file
+from usdgaze.files.kinds import not_a_file
 
 
 LANDMARK_NAMES = ("pelvis", "lowerSpine", "upperSpine", "head")
@@ -123,9 +124,21 @@ class BuildResult:
         return [r for r in self.reports if r.status == "ok"]
 
 
+def _require_trial_file(trial: Trial, where: str) -> None:
+    """A one-line error unless the trial's file is a regular file: it names the full path looked at and,
+    for a relative one, the sheet's spelling (``trial A (A.c3d): no such file`` left both to guess)."""
+    problem = not_a_file(trial.file)
+    if not problem:
+        return
+    spelled = trial.written
+    said = (f" (the sheet's '{spelled}', relative to the sheet's folder)"
+            if spelled is not None and not Path(spelled).is_absolute() else "")
+    raise TrialError(f"{where}: {os.path.abspath(trial.file)}: {problem}{said}")
+
+
 def load_series(trial: Trial, markerset: MarkerSet | None, binding: SkeletonBinding, where: str) -> TrialSeries:
     """Read one trial's file into a :class:`TrialSeries` (C3D markers or a UsdSkel clip)."""
-    require_file(trial.file, TrialError, where)
+    _require_trial_file(trial, where)
     if trial.is_skeletal:
         from usdgaze.ingest.skelclips import read_skeleton_series  # pxr only for skeletal sessions
 

@@ -40,6 +40,8 @@ class Trial:
     pitch: float
     crop: tuple[int, int] | None = None
     skeleton: str | None = None
+    written: str | None = field(default=None, compare=False)
+    """The file as the sheet spells it (``trials/A.c3d``), for messages; ``file`` is it resolved."""
 
     @property
     def is_skeletal(self) -> bool:
@@ -124,7 +126,7 @@ def _trial(row: dict, index: int, base: Path, where: str, seen: set[str]) -> Tri
         if crop[1] <= crop[0]:
             raise SheetError(f"{where}: crop_end {crop[1]} is not after crop_start {crop[0]}")
     skeleton = row.get("skeleton") or None
-    return Trial(name=name, file=file, yaw=yaw, pitch=pitch, crop=crop, skeleton=skeleton)
+    return Trial(name=name, file=file, yaw=yaw, pitch=pitch, crop=crop, skeleton=skeleton, written=str(row["file"]))
 
 
 def _csv_lines(path: Path) -> list[tuple[int, str]]:

@@ -51,6 +51,9 @@ class DirectiveRequest:
     blend_seconds: bool = False
     origin: str | None = field(default=None, compare=False, repr=False)
     """Where an authored directive comes from (``FILE:PRIM.ATTRIBUTE entry K``), for messages; flags have none."""
+    written: str | None = field(default=None, compare=False, repr=False)
+    """The flag's value as the user typed it (``240.960:10:0``, which :func:`str` spells ``240.96:10:0``),
+    for messages; a schedule's directives have none."""
 
     def time_s(self, start_time: float, time_codes_per_second: float) -> float:
         return self.time if self.seconds else (self.time - start_time) / time_codes_per_second
@@ -77,11 +80,23 @@ class DirectiveRequest:
     def flag(self) -> str:
         return f"{FLAGS[self.kind]} {self}"
 
+    @property
+    def said(self) -> str:
+        """How a message names it: the flag as typed, or where in the schedule it is and what it says."""
+        if self.origin:
+            return f"{self.origin} ({self.flag})"
+        return f"{FLAGS[self.kind]} {self.written.strip()}" if self.written is not None else self.flag
 
-def _time(text: str, flag: str, whole: str) -> tuple[float, bool]:
+
+FORMS = {"--shift": "TIME:YAW:PITCH[:weight=W][:blend=B]", "--look-at": "TARGET@TIME[:weight=W][:blend=B]",
+         "--release": "TIME[:blend=B]"}
+
+
+def _time(text: str, flag: str, whole: str, name: str = "TIME") -> tuple[float, bool]:
     m = _TIME.match(text)
     if not m:
-        raise UsdGazeError(f"{flag} '{whole}': '{text}' is not a time (a time code, or seconds with an 's' suffix)")
+        raise UsdGazeError(f"{flag} '{whole}': {name} '{text}' is not a time code (or seconds with an 's' suffix); "
+                           f"expected {FORMS[flag]}")
     value = float(m.group(1))
     if not np.isfinite(value):
         raise UsdGazeError(f"{flag} '{whole}': the time must be finite")
@@ -105,7 +120,7 @@ def _options(parts: list[str], flag: str, whole: str, allowed: tuple[str, ...]) 
                 raise UsdGazeError(f"{flag} '{whole}': weight must be a number in [0, 1]")
             out["weight"] = w
         else:
-            b, in_seconds = _time(value, flag, whole)
+            b, in_seconds = _time(value, flag, whole, "blend B")
             if b < 0:
                 raise UsdGazeError(f"{flag} '{whole}': blend must be >= 0")
             out["blend"], out["blend_seconds"] = b, in_seconds
@@ -126,7 +141,8 @@ def parse_shift(text: str, label=None) -> DirectiveRequest:
         head = text
     shift = ShiftRequest.parse(head, lambda key, value: where)
     return DirectiveRequest("shift", shift.time, shift.seconds, shift.yaw, shift.pitch,
-                            **_options(options, "--shift", text, ("weight", "blend")))
+                            **_options(options, "--shift", text, ("weight", "blend")),
+                            written=text if isinstance(text, str) else None)
 
 
 def parse_look(text: str) -> DirectiveRequest:
@@ -142,18 +158,19 @@ def parse_look(text: str) -> DirectiveRequest:
         point = tuple(float(v) for v in m.groups())
         if not np.isfinite(point).all():
             raise UsdGazeError(f"--look-at '{text}': the point must be finite")
-        return DirectiveRequest("look", time, seconds, point=point, **options)
+        return DirectiveRequest("look", time, seconds, point=point, **options, written=text)
     target = what.strip()
     if not target.startswith("/"):
         raise UsdGazeError(f"--look-at '{text}': '{target}' is neither an absolute prim path nor a point X,Y,Z")
-    return DirectiveRequest("look", time, seconds, target=target, **options)
+    return DirectiveRequest("look", time, seconds, target=target, **options, written=text)
 
 
 def parse_release(text: str) -> DirectiveRequest:
     """``TIME[:blend=B]``."""
     parts = text.split(":")
     time, seconds = _time(parts[0], "--release", text)
-    return DirectiveRequest("release", time, seconds, **_options(parts[1:], "--release", text, ("blend",)))
+    return DirectiveRequest("release", time, seconds, **_options(parts[1:], "--release", text, ("blend",)),
+                            written=text)
 
 
 def check_directives(shifts, look_at, release, look, label=None) -> list[DirectiveRequest]:

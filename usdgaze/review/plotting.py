@@ -35,11 +35,12 @@ def pyplot():
     return plt
 
 
-def check_plot_path(path: str | os.PathLike):
-    """matplotlib's pyplot if ``path`` can be drawn to, else a one-line error (call before any work)."""
+def check_plot_path(path: str | os.PathLike, flag: str = "--plot"):
+    """matplotlib's pyplot if ``path`` can be drawn to, else a one-line error naming ``flag`` (call
+    before any work)."""
     path = Path(path)
     if path.suffix.lower() not in _FORMATS:
-        raise UsdGazeError(f"{path}: plot must end in .png, .pdf or .svg")
+        raise UsdGazeError(f"{flag} {path}: must end in .png, .pdf or .svg")
     if not path.parent.is_dir():
         raise UsdGazeError(f"{path}: folder {path.parent} does not exist")
     try:

@@ -35,8 +35,9 @@ GIF_MAX_FPS = 50.0
 second at most (at 240 the delays were 0, and it played at about 10)."""
 
 
-def check_output(path: str | os.PathLike, kind: str, fps: float | None = None) -> Path:
-    """An animation (.gif/.mp4, at ``fps``) or a contact sheet (.png) path, or a one-line error."""
+def check_output(path: str | os.PathLike, kind: str, fps: float | None = None, flag: str = "--out") -> Path:
+    """An animation (.gif/.mp4, at ``fps``) or a contact sheet (.png) path, or a one-line error naming
+    ``flag``, the option that gave it."""
     p = Path(path)
     try:
         import PIL  # noqa: F401
@@ -45,16 +46,16 @@ def check_output(path: str | os.PathLike, kind: str, fps: float | None = None) -
     allowed = _ANIMATIONS if kind == "animation" else {".png"}
     if p.suffix.lower() not in allowed:
         want = ".gif or .mp4 (or .png for a contact sheet)" if kind == "animation" else ".png"
-        raise UsdGazeError(f"{p}: preview output must end in {want}")
+        raise UsdGazeError(f"{flag} {p}: must end in {want}")
     if p.suffix.lower() == ".gif" and fps is not None and fps > GIF_MAX_FPS:
-        raise UsdGazeError(f"{p}: --fps {fps:g}: a GIF holds at most {GIF_MAX_FPS:g} frames per second; "
+        raise UsdGazeError(f"{flag} {p}: --fps {fps:g}: a GIF holds at most {GIF_MAX_FPS:g} frames per second; "
                            "give a lower --fps, or write an .mp4")
     if p.suffix.lower() == ".mp4":
         try:
             import imageio  # noqa: F401
             import imageio_ffmpeg  # noqa: F401
         except ImportError:
-            raise UsdGazeError(f"{p}: MP4 needs imageio-ffmpeg: pip install 'usdgaze[video]' (or write a .gif)") from None
+            raise UsdGazeError(f"{flag} {p}: MP4 needs imageio-ffmpeg: pip install 'usdgaze[video]' (or write a .gif)") from None
     return p
 
 

@@ -22,11 +22,12 @@ from usdgaze.files.transaction import Outputs, outputs_of
 USD_FORMATS = {".usda", ".usdc", ".usd"}
 
 
-def check_output_path(path: str | os.PathLike) -> Path:
-    """The output path, or a one-line error if its extension or folder is unusable."""
+def check_output_path(path: str | os.PathLike, flag: str = "--out") -> Path:
+    """The output path, or a one-line error (naming ``flag``, the option that gave it) if its extension
+    or folder is unusable."""
     p = Path(path)
     if p.suffix.lower() not in USD_FORMATS:
-        raise UsdGazeError(f"{p}: output must end in .usda, .usdc or .usd")
+        raise UsdGazeError(f"{flag} {p}: must end in .usda, .usdc or .usd")
     if not os.path.exists(p.parent):  # os.path: Path.exists() raises for a name over NAME_MAX
         raise UsdGazeError(f"{p}: folder {p.parent} does not exist")
     return p
@@ -35,7 +36,7 @@ def check_output_path(path: str | os.PathLike) -> Path:
 def atomic_export(layer: Sdf.Layer, path: str | os.PathLike, outputs: Outputs | None = None,
                   flag: str = "--out") -> None:
     """Write ``layer`` to ``path`` as part of ``outputs`` (or on its own, when none is given)."""
-    path = check_output_path(path)
+    path = check_output_path(path, flag)
     with outputs_of(outputs) as tx:
         if not tx.claimed(path):
             tx.claim(path, flag)
