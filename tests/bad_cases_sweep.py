@@ -316,6 +316,12 @@ def b_physics_range_one_frame(d):
     return _physics(d, _range(10.0, 10.0))
 
 
+def b_physics_on_a_platform(d):
+    def author(layer, r):  # the character stands 1 m up: on a raised floor the simulated ground is not
+        _translated(layer.GetPrimAtPath(r.skel_root), (0.0, 1.0, 0.0))
+    return _physics(d, author)
+
+
 def b_push_joint_time_sampled(d):
     def author(layer, r):
         root = layer.GetPrimAtPath(r.skel_root)

@@ -43,7 +43,7 @@ def test_values_are_refused_naming_manifest_job_and_key(tmp_path, extra, words):
 
 
 @pytest.mark.parametrize("defaults, job, said", [
-    ('shifts = ["2s:abc"]', "", "[defaults] shifts = '2s:abc': expected TIME:YAW:PITCH"),
+    ('shifts = ["2s:abc"]', "", "[defaults] shifts = '2s:abc': YAW 'abc' is not a number; expected TIME:YAW:PITCH"),
     ('shifts = ["1s:10:0:weight=2"]', "", "[defaults] shifts = '1s:10:0:weight=2': weight must be"),
     ("fixation = -1", 'shifts = ["1s:10:0"]', "[defaults] fixation = -1.0: must be a positive distance"),
     ('plot = "gaze.txt"', 'shifts = ["1s:10:0"]', "[defaults] plot = 'gaze.txt': must end in .png"),

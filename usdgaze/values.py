@@ -43,15 +43,13 @@ def _bad_field(text: object) -> str:
     message (``YAW 'abc' is not a number; ``, ``PITCH missing; ``), or nothing where there is no one to name."""
     fields = text.split(":") if isinstance(text, str) and text.strip() else []
     names = ("TIME", "YAW", "PITCH")
-    if 0 < len(fields) < 3:
-        return f"{' and '.join(names[len(fields):])} missing; "
-    if len(fields) != 3:
+    if not 0 < len(fields) <= 3:
         return ""
     for name, value, form in zip(names, fields, (_TIME_FIELD, _NUMBER, _NUMBER)):
-        if not form.match(value):
+        if not form.match(value):  # a field written wrong first: '2s:abc' is a bad YAW before a missing PITCH
             what = "a time code (or seconds with an 's' suffix)" if name == "TIME" else "a number"
             return f"{name} '{value}' is not {what}; "
-    return ""
+    return f"{' and '.join(names[len(fields):])} missing; " if len(fields) < 3 else ""
 
 
 def cli_label(key: str, value: object) -> str:

@@ -57,6 +57,19 @@ def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_fr
     return model, ref
 
 
+def check_on_ground(model, ref_qpos: np.ndarray, clip) -> None:
+    """One line, before minutes of simulation, for a reference no simulated ground can carry
+    (:func:`usdgaze.physics.feasible.never_on_ground`)."""
+    import mujoco
+
+    from usdgaze.physics import feasible, mjcf
+
+    mj = mujoco.MjModel.from_xml_string(mjcf.write(model))
+    why = feasible.never_on_ground(mj, model, ref_qpos, clip.seconds)
+    if why:
+        raise UsdGazeError(f"{clip.where()}: {why}")
+
+
 def write_mjcf(input_path, out, total_mass: float = 75.0, timestep: float = 0.02,
                skel_root: str | None = None) -> dict:
     """Write the MJCF model of ``input_path``'s skeleton to ``out``; a summary for the console."""

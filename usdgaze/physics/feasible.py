@@ -66,3 +66,34 @@ def scale_notes(scales: np.ndarray, joints: list[str]) -> list[str]:
     more = f" and {len(varying) - 3} more" if len(varying) > 3 else ""
     return [f"joint scales are animated ({', '.join(names)}{more}): the physics body keeps its rest proportions "
             "and the layer the input's scales, so the played-back body is not the simulated one"]
+
+
+OFF_GROUND_M = 0.10
+"""A reference whose feet never come nearer the ground (up = 0) than this stands on something else."""
+
+
+def never_on_ground(mj, model, qpos: np.ndarray, seconds: np.ndarray) -> str | None:
+    """Why the reference ``qpos`` (model coordinates, one row a frame) cannot stand on the simulated
+    ground, or None: its feet, with the model's soles, stay above ``OFF_GROUND_M`` on every frame (a
+    character on a raised floor or a platform, a rig placed up in the set). Simulated, it drops onto
+    the stage's up = 0 plane and falls (a character 1 m up fell at 0.30 s, the report blaming the
+    controller)."""
+    import mujoco
+
+    from usdgaze.physics.measures import foot_geoms, lowest_z
+
+    geoms = foot_geoms(mj, model)
+    if not len(geoms) or not len(qpos):
+        return None
+    d = mujoco.MjData(mj)
+    low = np.empty(len(qpos))
+    for k, q in enumerate(qpos):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(mj, d)
+        low[k] = lowest_z(mj, d, geoms)
+    k = int(np.argmin(low))
+    if low[k] <= OFF_GROUND_M:
+        return None
+    return (f"the reference's feet are never nearer the ground than {100 * low[k]:.1f} cm (at {seconds[k]:.2f} s); "
+            "the simulated ground is the stage's up = 0 plane, so the body would drop onto it: a raised floor is "
+            "not modelled; move the character (and its objects) down onto the ground")
