@@ -386,6 +386,29 @@ def b_push_on_the_skeleton(d):
     return _physics(d, author)
 
 
+def b_push_on_the_skelroot_parent(d):
+    def author(layer, r):  # read on the SkelRoot only: on its parent it was ignored (exit 0, "pushes": 0)
+        parent = layer.GetPrimAtPath("/World")
+        Sdf.AttributeSpec(parent, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).default = r.leaf["spine_b"]
+        Sdf.AttributeSpec(parent, "usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3).default = (150.0, 0.0, 0.0)
+    return ["attend", str(edited(d, author, root_path="/World/Character")), "--physics", "--out", str(d / "gaze.usdc")]
+
+
+def b_push_force_misspelled(d):
+    def author(layer, r):  # "pushforce": the push was left out (exit 0, "pushes": 0)
+        root = layer.GetPrimAtPath(r.skel_root)
+        Sdf.AttributeSpec(root, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).default = r.leaf["spine_b"]
+        Sdf.AttributeSpec(root, "usdgaze:physics:pushforce", Sdf.ValueTypeNames.Float3).default = (150.0, 0.0, 0.0)
+    return _physics(d, author)
+
+
+def b_push_joint_without_force(d):
+    def author(layer, r):
+        root = layer.GetPrimAtPath(r.skel_root)
+        Sdf.AttributeSpec(root, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).default = r.leaf["spine_b"]
+    return _physics(d, author)
+
+
 def _review_of_a_broken_input(d, *command):
     """An input whose sublayer is missing, reviewed with an override layer (USD's own warning about the
     sublayer went to stderr as a second line before)."""

@@ -104,3 +104,31 @@ def test_a_shot_with_stones_gets_their_window_unless_one_is_chosen(tmp_path):
     assert physics_pass.with_window(default, None) is default
     with pytest.raises(UsdGazeError, match=r"^--window 0\.01 s: expected 0\.04 to 5 s"):
         physics_pass.check_window(mpc.Options(stones_horizon_s=0.01), "--window")
+
+
+def test_a_push_names_its_joint_by_the_skeletons_joint_names_too(tmp_path):
+    """``pushJoint = "mixamorig:Spine1"``, the DCC's name (the Skeleton's jointNames), which no joint
+    token can spell: "is not a simulated joint", where ``--bind`` takes that name. It pushes the body of
+    the joint whose token is ``mixamorig_Spine1``, as the token itself does."""
+    from tests import synthetic as syn
+    from usdgaze.usd.skelio import read_clip
+
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=20, mesh=False, walk_speed=0.0)
+    stage = Usd.Stage.Open(str(rig.path))
+    root = stage.GetPrimAtPath(rig.skel_root)
+    clip = read_clip(stage, stage.GetPrimAtPath(rig.skeleton), root, str(rig.path))
+    model, _ = build.body_model(clip)
+    names = list(stage.GetPrimAtPath(rig.skeleton).GetAttribute("jointNames").Get())
+    token = rig.joint("spine_b")
+    dcc = names[rig.joints.index(token)]
+    assert ":" in dcc and not Sdf.Path.IsValidPathString(dcc)  # a name no token can be
+    force = root.CreateAttribute("usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3)
+    force.Set((150.0, 0.0, 0.0), 5.0)
+    force.Set((0.0, 0.0, 0.0), 10.0)
+    joint = root.CreateAttribute("usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token)
+    bodies = []
+    for name in (dcc, token.rsplit("/", 1)[-1]):
+        joint.Set(name)
+        (push,) = read_pushes(root, clip, model, "rig")
+        bodies.append(push.body)
+    assert bodies[0] == bodies[1] == model.body_of(rig.joints.index(token)) >= 0

@@ -40,10 +40,21 @@ def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
     return times, out
 
 
+_ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, "usdgaze:physics:catch")
+"""The physics attributes read on a SkelRoot (``usdgaze:physics:task`` is a stone's or an obstacle's)."""
+
+
 def _check_on_the_root(root, source: str) -> None:
-    """One line for a push attribute authored on a prim under the SkelRoot: only the SkelRoot's are
-    read (docs/physics.md), and one on the Skeleton was ignored without a word."""
-    for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies()):
+    """One line for a push attribute authored on a prim under the SkelRoot or above it: only the
+    SkelRoot's are read (docs/physics.md), and one on the Skeleton or on the SkelRoot's parent was
+    ignored without a word; and for a misspelled physics attribute on the SkelRoot itself (a
+    ``pushforce`` left the push out, exit 0)."""
+    ancestors = []
+    parent = root.GetParent()
+    while parent and not parent.IsPseudoRoot():
+        ancestors.append(parent)
+        parent = parent.GetParent()
+    for prim in [*Usd.PrimRange(root, Usd.TraverseInstanceProxies()), *ancestors]:
         if prim == root:
             continue
         for name in (PUSH_FORCE, PUSH_JOINT):
@@ -51,25 +62,38 @@ def _check_on_the_root(root, source: str) -> None:
             if attr and attr.HasAuthoredValue():
                 raise UsdGazeError(f"{source}:{attr.GetPath()}: a push is read on the SkelRoot only; author "
                                    f"{PUSH_FORCE} and {PUSH_JOINT} on {root.GetPath()}")
+    for attr in root.GetAuthoredAttributes():
+        name = attr.GetName()
+        if name.startswith("usdgaze:physics:") and name not in _ROOT_NAMES:
+            import difflib
+
+            near = difflib.get_close_matches(name, _ROOT_NAMES, n=1, cutoff=0.6)
+            said = f"did you mean {near[0]}?" if near else f"a SkelRoot's are {', '.join(_ROOT_NAMES)}"
+            raise UsdGazeError(f"{source}:{attr.GetPath()}: not an attribute the physics pass reads ({said})")
 
 
 def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
     """Pushes authored on the SkelRoot prim that act within the clip, in the model's world."""
     _check_on_the_root(root, clip.source)
     force = root.GetAttribute(PUSH_FORCE)
-    if not force or not force.HasAuthoredValue():
-        return ()
     joint_attr = root.GetAttribute(PUSH_JOINT)
+    if not force or not force.HasAuthoredValue():
+        if joint_attr and joint_attr.HasAuthoredValue():
+            raise UsdGazeError(f"{where}.{PUSH_JOINT}: names a pushed joint, but {PUSH_FORCE} is not authored on "
+                               f"the SkelRoot; author the force (a float3 in newtons, time-sampled)")
+        return ()
     name = ""
     if joint_attr and joint_attr.HasAuthoredValue():
         if joint_attr.Get() is None or joint_attr.GetNumTimeSamples():
             raise UsdGazeError(f"{where}.{PUSH_JOINT}: is time-sampled or has no value; name the pushed joint "
                                "as one plain value")
         name = str(joint_attr.Get())
-    leaves = [j.rsplit("/", 1)[-1] for j in clip.joints]
-    hits = [i for i, j in enumerate(clip.joints) if name in (j, leaves[i])]
+    hits = _joint_named(clip, name)
     if not hits or model.body_of(hits[0]) < 0:
-        raise UsdGazeError(f"{where}.{PUSH_JOINT}: '{name}' is not a simulated joint of {clip.skeleton}")
+        leaf = clip.joints[hits[0]].rsplit("/", 1)[-1] if hits else ""
+        why = (f"it is '{leaf}', which has no body of its own in the model" if hits else
+               "name it by its token (a leaf such as 'Spine1' or a path), or by its jointNames name")
+        raise UsdGazeError(f"{where}.{PUSH_JOINT}: '{name}' is not a simulated joint of {clip.skeleton}; {why}")
     body = model.body_of(hits[0])
     times, values = _forces(force, where)
     times = times or [clip.start_time]
@@ -82,3 +106,14 @@ def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
         start_s = (t - clip.start_time) / clip.time_codes_per_second
         pushes.append(mpc.Push(body, rot @ f, start_s, (end - t) / clip.time_codes_per_second))
     return tuple(pushes)
+
+
+def _joint_named(clip, name: str) -> list[int]:
+    """The joints ``name`` names: a token (path or leaf), or a name of the Skeleton's ``jointNames``
+    (``mixamorig:Spine1``, which a token cannot spell), as ``--bind`` reads them."""
+    leaves = [j.rsplit("/", 1)[-1] for j in clip.joints]
+    hits = [i for i, j in enumerate(clip.joints) if name in (j, leaves[i])]
+    named = clip.named_joints()
+    if not hits and named is not None:
+        hits = [i for i, j in enumerate(named) if name in (j, j.rsplit("/", 1)[-1])]
+    return hits
