@@ -78,19 +78,12 @@ def never_on_ground(mj, model, qpos: np.ndarray, seconds: np.ndarray) -> str | N
     character on a raised floor or a platform, a rig placed up in the set). Simulated, it drops onto
     the stage's up = 0 plane and falls (a character 1 m up fell at 0.30 s, the report blaming the
     controller)."""
-    import mujoco
-
-    from usdgaze.physics.measures import foot_geoms, lowest_z
+    from usdgaze.physics.measures import foot_geoms, lowest_zs
 
     geoms = foot_geoms(mj, model)
     if not len(geoms) or not len(qpos):
         return None
-    d = mujoco.MjData(mj)
-    low = np.empty(len(qpos))
-    for k, q in enumerate(qpos):
-        d.qpos[:] = q
-        mujoco.mj_kinematics(mj, d)
-        low[k] = lowest_z(mj, d, geoms)
+    low = lowest_zs(mj, qpos, geoms)
     k = int(np.argmin(low))
     if low[k] <= OFF_GROUND_M:
         return None

@@ -72,8 +72,8 @@ def foot_depth(mj, d, geoms: np.ndarray) -> float:
     return max(0.0, -lowest_z(mj, d, geoms))
 
 
-def foot_depths(mj, qpos: np.ndarray, geoms: np.ndarray) -> np.ndarray:
-    """(K,) :func:`foot_depth` at each state of ``qpos``."""
+def lowest_zs(mj, qpos: np.ndarray, geoms: np.ndarray) -> np.ndarray:
+    """(K,) :func:`lowest_z` at each state of ``qpos``."""
     import mujoco
 
     d = mujoco.MjData(mj)
@@ -81,8 +81,14 @@ def foot_depths(mj, qpos: np.ndarray, geoms: np.ndarray) -> np.ndarray:
     for k, q in enumerate(qpos):
         d.qpos[:] = q
         mujoco.mj_kinematics(mj, d)
-        out[k] = foot_depth(mj, d, geoms)
+        out[k] = lowest_z(mj, d, geoms)
     return out
+
+
+def foot_depths(mj, qpos: np.ndarray, geoms: np.ndarray) -> np.ndarray:
+    """(K,) :func:`foot_depth` at each state of ``qpos``."""
+    depth = -lowest_zs(mj, qpos, geoms)
+    return np.where(depth > 0.0, depth, 0.0)  # as max(0.0, depth): a -0.0 or a NaN is 0.0
 
 
 def start_lift(mj, d, qpos0: np.ndarray) -> float:
