@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from pxr import Gf
 
 from usdgaze.console.main import main
 from usdgaze.ingest.sheet import SheetError, load_sheet
@@ -49,6 +50,10 @@ def test_build_map_exits_2_on_a_non_string_skeleton_and_writes_nothing(tmp_path,
     ("gaze:synthesis:samples", "Float", 50.5, "float", "int"),
     ("gaze:binding:forward", "Float2", (0.0, 1.0), "Vec2f", "float3"),
     ("gaze:binding:head", "String", "Head", "str", "token[]"),
+    # a string or a pair where a number is compared with its range: validate's internal error (exit 1)
+    ("gaze:synthesis:neighbors", "String", "4", "str", "int"),
+    ("gaze:synthesis:neckShare", "String", "0.5", "str", "float"),
+    ("gaze:synthesis:refine", "Int2", Gf.Vec2i(1, 2), "Vec2i", "int"),
 ])
 def test_validate_names_a_map_setting_binding_or_forward_of_the_wrong_type(tmp_path, name, type_name, value, authored,
                                                                            expected):

@@ -143,8 +143,8 @@ def gaze_map_ranges(prim: Usd.Prim, time_range=None) -> list:
                                  f"{YAW_ATTR}: (yaw, pitch) = ({yaw[i]:g}, {pitch[i]:g}) appears more than once"))
     for field, name in SETTING_ATTRS.items():
         _, value = _values(prim, name)
-        if value is None:
-            continue
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            continue  # unauthored, or of another type: WrongType says so (a string here was an internal error)
         low_ok = value >= 0.0 and value <= 1.0 if field == "neck_share" else value >= _SETTING_MINIMA.get(field, value)
         if not low_ok:
             expected = "in [0, 1]" if field == "neck_share" else f">= {_SETTING_MINIMA[field]}"
