@@ -104,3 +104,25 @@ def test_clips_of_a_character_on_a_slope_build_the_level_map(tmp_path):
     for field in ("offsets", "timing"):
         a, b = getattr(level.motions, field), getattr(sloped.motions, field)
         np.testing.assert_allclose(b, a, atol=1e-6, err_msg=field)
+
+
+def test_clips_of_a_scaled_rig_build_the_map_of_the_same_motion_in_metres(tmp_path):
+    """The same clips with the rig scaled 100 under its SkelRoot in a stage of centimetres, as a
+    centimetre rig is often brought into a metre scene and back: the motion in metres is the same, so
+    is the map. The Skeleton's own scale was ignored: its rest was found in the wrong units (crops 2-4
+    frames early, durations 0.13 s off, exit 0)."""
+    from pxr import Usd, UsdGeom
+
+    from usdgaze.ingest import build
+
+    plain = build(_clips(tmp_path / "plain", "Z"), None).definition
+    sheet = _clips(tmp_path / "scaled", "Z")
+    for path in sheet.parent.glob("*.usda"):
+        stage = Usd.Stage.Open(str(path))
+        UsdGeom.SetStageMetersPerUnit(stage, UsdGeom.GetStageMetersPerUnit(stage) / 100.0)
+        UsdGeom.Xformable(stage.GetPrimAtPath("/Rig")).AddScaleOp().Set((100.0, 100.0, 100.0))
+        stage.Save()
+    scaled = build(sheet, None).definition
+    np.testing.assert_array_equal(scaled.params, plain.params)
+    for field in ("offsets", "timing"):
+        np.testing.assert_allclose(getattr(scaled.motions, field), getattr(plain.motions, field), atol=1e-6, err_msg=field)

@@ -137,15 +137,18 @@ def _virtual_markers(world: np.ndarray, chain_world: np.ndarray, pelvis: int, me
     return points.reshape(len(world), -1, 3) - world[:, pelvis, :3, 3][:, None, :]
 
 
-def _skeleton_up(stage: Usd.Stage, skel: UsdSkel.Skeleton, binding: SkeletonBinding, time: float,
-                 where: str) -> np.ndarray:
+def _to_world(skel: UsdSkel.Skeleton, time: float) -> np.ndarray:
+    """The Skeleton's skeleton-to-world matrix ``(4, 4)`` (column vectors) at ``time``."""
+    return rot.matrices_from_usd(np.array(
+        UsdGeom.Xformable(skel.GetPrim()).ComputeLocalToWorldTransform(Usd.TimeCode(float(time))), dtype=float))
+
+
+def _skeleton_up(stage: Usd.Stage, to_world: np.ndarray, binding: SkeletonBinding, where: str) -> np.ndarray:
     """Up in skeleton space: the binding's, else the stage's up axis through the Skeleton's transform."""
     if binding.up_axis:
         return parse_axis(binding.up_axis, where)  # given in skeleton space
-    # The stage's up axis carried into skeleton space (a rig may sit under a rotating Xform).
-    to_world = rot.matrices_from_usd(np.array(
-        UsdGeom.Xformable(skel.GetPrim()).ComputeLocalToWorldTransform(Usd.TimeCode(float(time))), dtype=float))
-    # Snapped to the skeleton's axis, as apply takes it: a rig on a slope is upright in its own space.
+    # The stage's up axis carried into skeleton space (a rig may sit under a rotating Xform);
+    # snapped to the skeleton's axis, as apply takes it: a rig on a slope is upright in its own space.
     return snap_up(np.linalg.solve(to_world[:3, :3], parse_axis(str(UsdGeom.GetStageUpAxis(stage)), where)))
 
 
@@ -179,9 +182,14 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     )
     chain_world = world[:, landmarks]
     orientations = rot.from_matrix(chain_world[..., :3, :3])
-    meters = float(UsdGeom.GetStageMetersPerUnit(stage))
+    to_world = _to_world(skel, times[0])
+    # Metres per skeleton unit: the stage's unit times the Skeleton's own scale in the world (a rig
+    # scaled 0.01 under its SkelRoot in a metre stage was read in metres, its rest found in the wrong units).
+    meters = float(UsdGeom.GetStageMetersPerUnit(stage)) * float(abs(np.linalg.det(to_world[:3, :3]))) ** (1.0 / 3.0)
+    if not (np.isfinite(meters) and meters > 0.0):
+        raise SkeletonClipError(f"{where}: the Skeleton's transform to the world is degenerate (scale {meters:g} m a unit)")
     points = _virtual_markers(world, chain_world, chain.pelvis, meters)
-    up = _skeleton_up(stage, skel, binding, times[0], where)
+    up = _skeleton_up(stage, to_world, binding, where)
     _check_up(world[:, chain.head, :3, 3] - world[:, chain.pelvis, :3, 3], up, stage, binding, where)
     forward = None if binding.forward is None else np.asarray(binding.forward, dtype=float)
     return TrialSeries(
