@@ -333,6 +333,16 @@ def b_map_malformed(d):
     return _apply(d, _rig(d).path, "--map", str(d / "map.usda"))
 
 
+def b_map_zero_duration(d):
+    """A 0 s example (accepted: the shift it gave was the head jumping 10 deg in one frame)."""
+    dump_map(d / "map.usda")
+    layer = Sdf.Layer.FindOrOpen(str(d / "map.usda"))
+    spec = layer.GetAttributeAtPath("/GazeMap.gaze:examples:duration")
+    spec.default = Vt.FloatArray([0.0] * len(spec.default))
+    layer.Save()
+    return _apply(d, _rig(d).path, "--map", str(d / "map.usda"))
+
+
 def b_map_file_garbage(d):
     (d / "map.usda").write_text("no map here\n")
     return _apply(d, _rig(d).path, "--map", str(d / "map.usda"))

@@ -90,7 +90,7 @@ UNIT_TOLERANCE = 1e-3
 
 _TIMING_RANGES = {
     # field: (low, low inclusive, high, high inclusive, unit)
-    "duration": (0.0, True, np.inf, False, " s"),
+    "duration": (0.0, False, np.inf, False, " s"),  # a 0 s shift is a jump of the head in one frame
     "pelvisStart": (0.0, True, 1.0, False, ""),
     "lowerSpineStart": (0.0, True, 1.0, False, ""),
     "upperSpineStart": (0.0, True, 1.0, False, ""),
