@@ -195,9 +195,10 @@ def test_a_ball_from_the_front_is_watched_and_the_hand_goes_to_it(tmp_path):
     fwd = measure.character_forward_skel(posed, "LeftHip", "RightHip")
     head_off = measure.angle_between(posed.axis("Head", measure.local_forward(posed, "Head", fwd)),
                                      to_ball / np.linalg.norm(to_ball, axis=1, keepdims=True))
-    # The eyes point at the ball, much more closely than the head does (measured 9.5 against 24.0 deg
-    # median over the flight; the eyes fall behind in the last, fast part of the approach).
-    assert np.median(off[flying]) < 12.0 and np.median(off[flying]) < 0.5 * np.median(head_off[flying])
+    # The eyes point at the ball, much more closely than the head does: a median 3.3 against 14.3 deg
+    # over the flight. With look-at proposals every 100 ms (not every step) the eyes drifted off it
+    # between them: 9.5 against 24.0 deg (docs/physics.md, "The eyes on a thrown ball").
+    assert np.median(off[flying]) < 5.0 and np.median(off[flying]) < 0.5 * np.median(head_off[flying])
     ref = cs.catch_measures(src, src, tmp_path, throw[2])  # the reference itself: arms down
     assert m["at_arrival"] < 0.10 and ref["at_arrival"] > 0.3  # the bar's 10 cm (measured 5.3 cm)
     # The report says the catch (it said nothing of a shot without a problem), its nearest palm as
