@@ -233,13 +233,19 @@ def test_a_signal_during_the_cleanup_waits_for_it_and_is_not_lost(tmp_path, monk
     assert isinstance(caught.value.__cause__, UsdGazeError) == (how == "failed")
 
 
-@pytest.mark.parametrize("workers", ["1", "2"])
-def test_sigterm_in_a_batch_keeps_finished_shots_and_says_so(tmp_path, big, workers):
+@pytest.mark.parametrize("workers, earlier", [("1", False), ("2", False), ("1", True)])
+def test_sigterm_in_a_batch_keeps_finished_shots_and_says_so(tmp_path, big, workers, earlier):
+    """``earlier``: an earlier run's summary is beside the manifest. It is left as it is (an interrupted
+    command writes nothing of its own), and the line says whose it is: a dashboard reading it took
+    that run's exit code 0 for this one's."""
     rig(tmp_path)
     os.link(big.path, tmp_path / "big.usdc")
     (tmp_path / "m.toml").write_text(
         '[[job]]\nname = "small"\ninput = "in.usda"\nout = "small.usdc"\nshifts = ["0.5s:30:0"]\n'
         '[[job]]\nname = "big"\ninput = "big.usdc"\nout = "big_gaze.usdc"\nplot = "big.png"\nshifts = ["0.5s:30:0"]\n')
+    old_summary = '{"started": "2026-01-02T03:04:05+00:00", "exit_code": 0, "shots": []}\n'
+    if earlier:
+        (tmp_path / "m.summary.json").write_text(old_summary)
     proc = subprocess.Popen([*CLI, "batch", str(tmp_path / "m.toml"), "--workers", workers],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
@@ -249,12 +255,16 @@ def test_sigterm_in_a_batch_keeps_finished_shots_and_says_so(tmp_path, big, work
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 128 + signal.SIGTERM, err
     # The small shot may be between its renames and its report when the signal comes: 0 or 1 reported.
+    said = (rf" \({re.escape(str(tmp_path / 'm.summary.json'))} is an earlier run's, started 2026-01-02T03:04:05\+00:00\)"
+            if earlier else "")
     assert re.fullmatch(r"usdgaze: error: interrupted by SIGTERM; [01] of 2 shots were reported finished; finished "
                         r"shots keep their outputs \(a rerun skips them\), no shot is half-written, no summary was "
-                        r"written", err.splitlines()[-1]), err
+                        r"written" + said, err.splitlines()[-1]), err
     assert "Traceback" not in err
     left = sorted(p.name for p in tmp_path.iterdir())
-    assert left == ["big.usdc", "in.usda", "m.toml", "small.usdc"], left
+    assert left == sorted(["big.usdc", "in.usda", "m.toml", "small.usdc"] + (["m.summary.json"] if earlier else [])), left
+    if earlier:
+        assert (tmp_path / "m.summary.json").read_text() == old_summary
 
 
 def test_sigkill_while_writing_leaves_the_target_and_the_next_run_sweeps(tmp_path, big):

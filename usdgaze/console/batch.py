@@ -68,14 +68,14 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
             if not 0 <= task_index < len(shots):
                 raise UsdGazeError(f"{manifest}: --task-index {task_index} out of range (0..{len(shots) - 1})")
             shots = [shots[task_index]]
-        report = _run(shots, manifest, workers, dask_address, force, task_index)
+        report = _run(shots, manifest, workers, dask_address, force, task_index, summary)
         tx.stage_text(summary, json.dumps(report, indent=2) + "\n")
     counts = ", ".join(f"{n} {status}" for status, n in report["counts"].items() if n)
     click.echo(f"{_shots(len(shots))} in {report['seconds']:.2f} s ({report['mode']}): {counts}; summary {summary}")
     ctx.exit(report["exit_code"])
 
 
-def _run(shots, manifest, workers, dask_address, force, task_index) -> dict:
+def _run(shots, manifest, workers, dask_address, force, task_index, summary: Path) -> dict:
     from usdgaze.batch import engine
     from usdgaze.batch.progress import Progress
 
@@ -89,11 +89,21 @@ def _run(shots, manifest, workers, dask_address, force, task_index) -> dict:
         # A shot may finish between its last rename and its report: the count is of the reported ones.
         were = "was" if len(shots) == 1 else "were"
         exc.detail = (f"{progress.done} of {_shots(len(shots))} {were} reported finished; finished shots keep their "
-                      "outputs (a rerun skips them), no shot is half-written, no summary was written")
+                      f"outputs (a rerun skips them), no shot is half-written, no summary was written{_earlier(summary)}")
         raise
     finally:
         progress.close()
     return engine.summary(records, manifest, mode, time.perf_counter() - t0, started, task_index)
+
+
+def _earlier(summary: Path) -> str:
+    """Where an earlier run's summary is left at ``summary``: said, since a dashboard reading it would
+    take that run's "exit_code": 0 for this one's."""
+    try:
+        started = json.loads(summary.read_text()).get("started")
+    except (OSError, ValueError, AttributeError):
+        return ""
+    return f" ({summary} is an earlier run's, started {started})" if started else ""
 
 
 def _shots(n: int) -> str:
