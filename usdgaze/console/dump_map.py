@@ -9,7 +9,8 @@ from usdgaze import __version__
 
 @click.command("dump-map")
 @click.argument("out", type=click.Path(dir_okay=False))
-@click.option("--prim", default="/GazeMap", show_default=True, help="Prim path of the map in the new file: a root prim path (one name under /, e.g. /GazeMap), "
+@click.option("--prim", default="/GazeMap", show_default=True,
+              help="Prim path of the map in the new file: a root prim path (one name under /, e.g. /GazeMap), "
                    "made the file's default prim.")
 @click.option("--no-clobber", is_flag=True, help="Refuse to replace an existing file.")
 def dump_map(out, prim, no_clobber) -> None:
