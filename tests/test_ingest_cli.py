@@ -101,3 +101,20 @@ def test_bad_options_exit_2(session, tmp_path, capsys, args, message):
     assert code == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "m.usda").exists()
+
+
+def test_quiet_still_says_which_trial_was_skipped_and_why(session, tmp_path, capsys):
+    """``--quiet`` leaves the table out; a skipped trial was left out with it ("6 examples (1 trial
+    skipped)" and nothing saying which one or why)."""
+    sheet = tmp_path / "sheet.csv"
+    rows = session.sheet.read_text().splitlines()
+    rows.append("Gone,gone.c3d,72,0,,")
+    sheet.write_text("\n".join(rows) + "\n")
+    for t in session.trials:  # the sheet names its trials relative to its own folder
+        (tmp_path / t.file.name).symlink_to(t.file)
+    out = tmp_path / "map.usda"
+    assert main(["build-map", str(sheet), "--markers", str(session.markerset), "--out", str(out), "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert "(1 trial skipped)" in captured.out and out.exists()
+    (line,) = captured.err.strip().splitlines()
+    assert line.startswith("usdgaze: warning: trial Gone skipped: ") and "no such file" in line, line

@@ -51,7 +51,7 @@ _DEFAULTS = BuildSettings()
                    "threshold crossing, which lags the real onset by several frames).")
 @click.option("--min-trials", default=_DEFAULTS.min_trials, show_default=True, type=int,
               help="Fewest good trials to build a map from.")
-@click.option("--quiet", is_flag=True, help="Do not print the report table.")
+@click.option("--quiet", is_flag=True, help="Do not print the report table (a skipped trial is still said on stderr).")
 @click.option("--no-clobber", is_flag=True, help="Refuse to replace an existing output file.")
 def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_merge, min_rest, speed_span,
               velocity_k, peak_window_m, pose_window, start_speed, start_hold, start_refine, min_trials, quiet,
@@ -81,6 +81,10 @@ def build_map(sheet, markers, out, report_path, series_dir, rest_speed, rest_mer
             write_series(series_dir, result, tx)
         require_definition(result)
         write_map(result, parsed, out, tx)
+    if quiet:  # the table is left out, not why a trial was (a map that cannot be built says its first)
+        for r in result.reports:
+            if r.status != "ok":
+                click.echo(f"usdgaze: warning: trial {r.trial} skipped: {r.error}", err=True)
     failed = len(result.reports) - len(result.good)
     note = f" ({failed} trial{'s' if failed != 1 else ''} skipped)" if failed else ""
     click.echo(f"wrote {out}: {len(result.good)} examples{note}")
