@@ -227,7 +227,7 @@ def died(shot: Shot, seconds: float, why: str = "its worker process ended abrupt
     """The record of a shot whose worker process died while running it alone (or its dask task failed)."""
     return {"index": shot.index, "name": shot.name, "input": shot.values["input"], "out": shot.out,
             "status": INTERNAL, "exit_code": EXIT_CODES[INTERNAL], "seconds": round(seconds, 4),
-            "message": f"{why}; the other shots ran"}
+            "message": f"{why}; none of its outputs was written (a rerun redoes it)"}
 
 
 _states = None
