@@ -91,6 +91,11 @@ def test_emitted_jobs_ask_for_the_cores_of_the_shot_with_the_most_threads(tmp_pa
     manifest.write_text('[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\nshifts = ["0.2s:30:0"]\n')
     slurm, cores, job = _emitted(manifest, tmp_path / "one")
     assert "#SBATCH --cpus-per-task=1" in slurm and cores == "1"
+    # ... and half an hour a task, where the attend manifest's physics shots get four hours (the whole
+    # stones sample simulates 33 CPU minutes; every task was asked 30 minutes, and a farm kills it there)
+    assert "#SBATCH --time=00:30:00" in slurm
+    attend, _, _ = _emitted(ROOT / "pipeline" / "manifests" / "attend_shots.toml", tmp_path / "attend_again")
+    assert "#SBATCH --time=04:00:00" in attend and "#SBATCH --time=00:30:00" not in attend
     assert any("(1 shot)" in l for l in slurm) and "(1 shot), each up to 1 thread" in job["Comment"], job
 
 

@@ -17,7 +17,7 @@ import shlex
 import shutil
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import NamedTuple, TYPE_CHECKING, Sequence
 from xml.sax.saxutils import escape
 
 from usdgaze.errors import UsdGazeError
@@ -40,20 +40,31 @@ def _token(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "usdgaze"
 
 
-def task_cores(shots: Sequence["Shot"]) -> int:
-    """The cores one farm task asks for: the most ``threads`` any shot sets (1 when none does). An
-    array job makes one resource request for all its tasks, so the biggest shot sets it."""
-    return max((int(s.values.get("threads", 1)) for s in shots), default=1)
+class Request(NamedTuple):
+    """What one farm task asks for: an array job makes one request for all its tasks, so the biggest
+    shot sets it (:func:`task_request`)."""
+
+    cores: int = 1
+    time_limit: str = "00:30:00"  # SLURM's --time
 
 
-def _deadline(manifest: Path, count: int, name: str, extra: Sequence[str], cores: int) -> dict[str, str]:
+def task_request(shots: Sequence["Shot"]) -> Request:
+    """The most ``threads`` any shot sets (1 when none does), and half an hour a task, or four hours
+    where a shot simulates physics: the whole 8.3 s stones sample took 33 CPU minutes, and a farm
+    kills a task at its limit (30 minutes were asked for every shot)."""
+    cores = max((int(s.values.get("threads", 1)) for s in shots), default=1)
+    physics = any(s.values.get("command") == "attend" and s.values.get("physics") for s in shots)
+    return Request(cores, "04:00:00" if physics else "00:30:00")
+
+
+def _deadline(manifest: Path, count: int, name: str, extra: Sequence[str], ask: Request) -> dict[str, str]:
     exe, *pre = usdgaze_command()
     args = " ".join([*pre, "batch", f"<QUOTE>{manifest}<QUOTE>", *extra, "--task-index", "<STARTFRAME>"])
     job_info = "\n".join([
         "Plugin=CommandLine",
         f"Name={name}",
         f"Comment=usdgaze batch {manifest.name}: one task per shot ({_count(count)}), "
-        f"each up to {_count(cores, 'thread')}",
+        f"each up to {_count(ask.cores, 'thread')}",
         f"Frames=0-{count - 1}",
         "ChunkSize=1",
         # Deadline has no per-task core request: one task at a time on a worker leaves the shot that
@@ -72,7 +83,7 @@ def _deadline(manifest: Path, count: int, name: str, extra: Sequence[str], cores
     return {"job_info.job": job_info, "plugin_info.job": plugin_info, "submit.sh": submit}
 
 
-def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str], cores: int) -> dict[str, str]:
+def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str], ask: Request) -> dict[str, str]:
     cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), *extra, "--task-index"]) + " #IFRAME#"
     user = _token(os.environ.get("USER") or getpass.getuser())
     spec = f"""<?xml version="1.0"?>
@@ -90,7 +101,7 @@ def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str], cores:
         <range>0-{count - 1}</range>
         <chunk>1</chunk>
         <!-- one request for every frame (shot): the most threads any shot of the manifest sets -->
-        <cores>{cores}</cores>
+        <cores>{ask.cores}</cores>
         <services>
           <service>shell</service>
         </services>
@@ -102,16 +113,17 @@ def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str], cores:
     return {f"{name}.xml": spec}
 
 
-def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str], cores: int) -> dict[str, str]:
+def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str], ask: Request) -> dict[str, str]:
     cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), *extra, "--task-index"])
     script = f"""#!/usr/bin/env bash
 # usdgaze batch {manifest.name}: one array task per shot ({_count(count)}). Submit: sbatch usdgaze.sbatch
-# --cpus-per-task: one request for every array task, so the most threads any shot sets ({cores}).
+# --cpus-per-task: one request for every array task, so the most threads any shot sets ({ask.cores});
+# --time: half an hour a shot, four hours where one simulates physics (edit both to your shots).
 #SBATCH --job-name={name}
 #SBATCH --array=0-{count - 1}
-#SBATCH --cpus-per-task={cores}
+#SBATCH --cpus-per-task={ask.cores}
 #SBATCH --mem=2G
-#SBATCH --time=00:30:00
+#SBATCH --time={ask.time_limit}
 #SBATCH --output=usdgaze_%A_%a.log
 # Exit codes: 0 done or skipped, 2 bad input (do not retry), 1 internal error (worth a retry).
 exec {cmd} "$SLURM_ARRAY_TASK_ID"
@@ -146,10 +158,10 @@ def check_inputs(manifest: str | os.PathLike, shots: Sequence["Shot"]) -> None:
 
 
 def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike,
-         force: bool = False, cores: int = 1) -> list[Path]:
+         force: bool = False, ask: Request = Request()) -> list[Path]:
     """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths.
-    ``force``: every task redoes its shot (``--force``); ``cores``: what each task asks for
-    (:func:`task_cores`)."""
+    ``force``: every task redoes its shot (``--force``); ``ask``: what each task asks for
+    (:func:`task_request`)."""
     from usdgaze.files.transaction import Outputs
 
     if kind not in _EMITTERS:
@@ -161,7 +173,7 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
     files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), ["--force"] if force else [],
-                           cores)
+                           ask)
     with Outputs() as tx:
         tx.read(manifest, "manifest")
         tx.make_folder(folder)

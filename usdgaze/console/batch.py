@@ -58,10 +58,10 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         shots = load_manifest(manifest)
         register(tx.ids, Path(manifest), shots)
         if emit:
-            from usdgaze.batch.emit import check_inputs, emit as write_jobs, task_cores
+            from usdgaze.batch.emit import check_inputs, emit as write_jobs, task_request
 
             check_inputs(manifest, shots)
-            for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force, cores=task_cores(shots)):
+            for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force, ask=task_request(shots)):
                 click.echo(f"wrote {path}")
             return
         if task_index is not None:
