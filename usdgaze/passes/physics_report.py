@@ -76,6 +76,14 @@ def heading_problems(result: mpc.Result) -> list[str]:
             f"(over {HEADING_TOLERANCE_DEG:.0f} deg on {int(np.sum(turned > HEADING_TOLERANCE_DEG))} step(s))"]
 
 
+def stone_contacts(distances) -> list[tuple[int, int, float]]:
+    """Each contact of a foot on a stone in its per-step ``stoneDistanceM`` (finite while on one):
+    its steps ``[a, b)`` and its mean distance to the stone's centre (m)."""
+    distances = np.asarray(distances, dtype=float)
+    edges = np.flatnonzero(np.diff(np.r_[0, np.isfinite(distances).astype(int), 0]))
+    return [(int(a), int(b), float(np.mean(distances[a:b]))) for a, b in zip(edges[::2], edges[1::2])]
+
+
 def task_problems(result: mpc.Result) -> list[str]:
     """What a task failed to do, in words: stones missed (a contact's mean distance over 5 cm, or no
     touchdown near the reference's: ``StoneTask.problems``) and obstacles touched (first time and the
@@ -83,10 +91,7 @@ def task_problems(result: mpc.Result) -> list[str]:
     out = []
     for key, values in result.task_terms.items():
         if key.endswith(".stoneDistanceM"):
-            on = np.isfinite(values)
-            edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
-            for a, b in zip(edges[::2], edges[1::2]):
-                miss = float(np.mean(values[a:b]))
+            for a, b, miss in stone_contacts(values):
                 if miss > STONE_TOLERANCE_M:
                     foot = key.split(".")[1]
                     out.append(f"{foot} {miss * 100:.1f} cm from its stone over {result.seconds[a]:.2f}-{result.seconds[b - 1]:.2f} s")
@@ -114,9 +119,7 @@ def task_outcomes(result: mpc.Result) -> list[str]:
             out.append(f"{task}: smallest gap to an obstacle {100 * values[k]:.1f} cm at {seconds[k]:.2f} s"
                        + (" (touched)" if values[k] < 0 else ""))
         elif measure == "stoneDistanceM":
-            on = np.isfinite(values)
-            edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
-            misses = [float(np.mean(values[a:b])) for a, b in zip(edges[::2], edges[1::2])]
+            misses = [miss for _, _, miss in stone_contacts(values)]
             out.append(f"{task}: {len(misses)} contact(s) on stones, mean distance to the stone's centre at most "
                        f"{100 * max(misses):.1f} cm")
     return out

@@ -241,8 +241,8 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     review.fixation_m = float(record["fixation"]) if "fixation" in record else None
     # Every SkelRoot whose animation the layer overrides (or the one named).
     roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
-    touched = {str(p.path) for p in _prim_specs(gaze_layer)}
-    animated = overridden_animations(stage, gaze_layer)
+    touched = touched_paths(gaze_layer)
+    animated = overridden_animations(stage, touched)
     read = _Reader(stage, gaze_layer, source, layer_file, record, from_record(record, layer_file))
     for root in roots:
         for skel in skeletons_under(root):
@@ -262,13 +262,18 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     return review
 
 
-def overridden_animations(stage, layer) -> dict[str, str]:
-    """Skeleton path -> the SkelAnimation bound to it on ``stage`` that ``layer`` holds a prim spec
-    for: the skeletons plot and preview review. Empty: a layer made for another input (another take's
-    animation has another name), which they refuse and validate flags."""
+def touched_paths(layer) -> set[str]:
+    """The paths of every prim spec ``layer`` holds."""
+    return {str(p.path) for p in _prim_specs(layer)}
+
+
+def overridden_animations(stage, touched: set[str]) -> dict[str, str]:
+    """Skeleton path -> the SkelAnimation bound to it on ``stage`` that a layer holds a prim spec for
+    (``touched``: its :func:`touched_paths`): the skeletons plot and preview review. Empty: a layer
+    made for another input (another take's animation has another name), which they refuse and
+    validate flags."""
     from usdgaze.usd.skelio import animation_of, skel_roots, skeletons_under
 
-    touched = {str(p.path) for p in _prim_specs(layer)}
     out = {}
     for root in skel_roots(stage):
         for skel in skeletons_under(root):

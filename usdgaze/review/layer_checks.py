@@ -59,10 +59,10 @@ def _other_input(stage, layer) -> list:
     (another take's animation has another name), so plot and preview refuse it, and :func:`_other_take`,
     which compares only the animations the layer samples, finds nothing. A stage with no SkelRoot (the
     layer alone) is left to ``MissingCharacter``."""
-    from usdgaze.review.composed import not_for_input, overridden_animations
+    from usdgaze.review.composed import not_for_input, overridden_animations, touched_paths
     from usdgaze.usd.skelio import skel_roots
 
-    if not skel_roots(stage) or overridden_animations(stage, layer):
+    if not skel_roots(stage) or overridden_animations(stage, touched_paths(layer)):
         return []
     return [_stage_error(stage, "OtherTake", f"{layer.GetDisplayName()}: {not_for_input(stage.GetRootLayer().identifier)} "
                                              "(plot and preview refuse it); validate it over the input it was made for")]
