@@ -8,6 +8,11 @@
   ``validate``, whatever times the planner samples.
 - An inactive prim is not in the scene: ``--objects`` and ``--look-at`` refuse it.
 - A physics obstacle's radius is more than 0 and at most 10 m; other objects' sizes are not bounded.
+- A transform USD cannot evaluate (an op of the wrong type, an unknown op, a named op that is not
+  there), on the object or a parent, in ``attend`` or on a ``--physics`` stone, is one line naming the
+  prim and attribute, exit 2 (an internal error, exit 1, before).
+- An instancing prototype's prim, an abstract class prim and the character's own Skeleton are not
+  objects (one line each); an instance's prim (an instance proxy) is.
 """
 
 from __future__ import annotations
@@ -173,3 +178,104 @@ def test_a_point_instancer_prototype_is_not_an_object(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "/Props/Prototypes/Ball: is a prototype of the PointInstancer /Props" in err[0], err
     assert not out.exists()
+
+
+_N = Sdf.ValueTypeNames
+
+
+def _retyped(prim_type: str, name: str, type_name, value, sampled: bool = False, on: str = "/Obj/Ball"):
+    """An edit for ``_rig_with_ball``: the object a ``prim_type`` whose xformOpOrder is ``[name]``, that op
+    authored at the Sdf level (USD's own Set refuses a value of another type) on the prim ``on``."""
+    def edit(ball, layer):
+        ball.AddAppliedSchema("GazeObjectAPI")
+        ball.SetTypeName(prim_type)
+        spec = layer.GetPrimAtPath(on)
+        if on != "/Obj/Ball":  # a parent: made transformable (Define made it a typeless def)
+            spec.typeName = "Xform"
+        for old in ("xformOp:translate", "xformOpOrder"):
+            if old in spec.properties:
+                spec.RemoveProperty(spec.properties[old])
+        Sdf.AttributeSpec(spec, "xformOpOrder", _N.TokenArray, variability=Sdf.VariabilityUniform).default = [name]
+        if type_name is None:  # the op named but never authored
+            return
+        attr = Sdf.AttributeSpec(spec, name, type_name)
+        for t in (0.0, 30.0) if sampled else ():
+            layer.SetTimeSample(attr.path, t, value)
+        if not sampled:
+            attr.default = value
+    return edit
+
+
+@pytest.mark.parametrize("edit, physics, want", [
+    (_retyped("Sphere", "xformOp:translate", _N.Double, 1.0), False,
+     "/Obj/Ball.xformOp:translate: is a double, expected a float3, double3 or half3 (a translate op)"),
+    (_retyped("Sphere", "xformOp:translate", _N.Double, 1.0, sampled=True), False, "xformOp:translate: is a double,"),
+    (_retyped("Sphere", "xformOp:translate", _N.Double4, Gf.Vec4d(0, 1.6, 2, 1)), False, "is a double4, expected"),
+    (_retyped("Sphere", "xformOp:translate", _N.Double3Array, [Gf.Vec3d(0, 1.6, 2)]), False,
+     "is a double3[], expected"),
+    (_retyped("Xform", "xformOp:translate", _N.String, "a"), False, "is a string, expected"),
+    (_retyped("Xform", "xformOp:translate", _N.Double2, Gf.Vec2d(1, 2), sampled=True), False, "is a double2, expected"),
+    (_retyped("Xform", "xformOp:rotateY", _N.Double3, Gf.Vec3d(0, 90, 0)), False,
+     "/Obj/Ball.xformOp:rotateY: is a double3, expected a float, double or half (a rotateY op)"),
+    (_retyped("Xform", "xformOp:foo", _N.Double3, Gf.Vec3d(0, 1, 2)), False,
+     "/Obj/Ball.xformOpOrder: 'xformOp:foo' is no transform op USD evaluates (Invalid xform opType token 'foo'.)"),
+    (_retyped("Sphere", "xformOp:translate", None, None), False,
+     "/Obj/Ball.xformOpOrder: names xformOp:translate, which the prim does not have"),
+    # A parent's op: USD evaluates it for the object's world transform.
+    (_retyped("Sphere", "xformOp:scale", _N.Double, 2.0, on="/Obj"), False, "/Obj.xformOp:scale: is a double"),
+    # The physics pass reads its stones through the same reader.
+    (_retyped("Sphere", "xformOp:translate", _N.Double, 1.0), True, "/Obj/Ball.xformOp:translate: is a double,"),
+])
+def test_a_transform_usd_cannot_evaluate_is_one_line(tmp_path, capsys, edit, physics, want):
+    """A wrongly typed or unknown transform op stopped attend with an internal error (exit 1: numpy's
+    ValueError, USD's Tf.ErrorException); a double3[] translate was read as its first element."""
+    def stone(ball, layer):
+        edit(ball, layer)
+        if physics:  # a stone only, read by the physics pass's task reader
+            ball.RemoveAppliedSchema("GazeObjectAPI")
+            ball.CreateAttribute("usdgaze:physics:task", _N.Token).Set("stone")
+
+    r = _rig_with_ball(tmp_path, stone)
+    before = r.path.read_bytes()
+    out = tmp_path / "out.usda"
+    assert main(["attend", str(r.path), "--out", str(out)] + (["--physics"] if physics else [])) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and want in err[0] and "internal error" not in err[0], err
+    assert not out.exists() and r.path.read_bytes() == before
+
+
+def _instanced(ball, layer):
+    """A class prim /Proto holding a Ball, and an instanceable /Props/A referencing it."""
+    proto = Sdf.CreatePrimInLayer(layer, "/Proto")
+    proto.specifier, proto.typeName = Sdf.SpecifierClass, "Xform"
+    Sdf.CopySpec(layer, "/Obj/Ball", layer, "/Proto/Ball")
+    prop = Sdf.CreatePrimInLayer(layer, "/Props/A")
+    layer.GetPrimAtPath("/Props").specifier = Sdf.SpecifierDef
+    prop.specifier, prop.typeName, prop.instanceable = Sdf.SpecifierDef, "Xform", True
+    prop.referenceList.Prepend(Sdf.Reference("", "/Proto"))
+
+
+@pytest.mark.parametrize("case", ["prototype", "class", "own skeleton", "instance proxy"])
+def test_an_object_drawn_nowhere_or_on_the_character_is_one_line(tmp_path, capsys, case):
+    """An instancing prototype's prim, an abstract class prim and the character's own Skeleton were
+    accepted as objects (exit 0): the first two are drawn nowhere at their own place, the third moves
+    with the eyes that look. The instance's own prim (an instance proxy) is drawn, and is an object."""
+    r = _rig_with_ball(tmp_path, _instanced)
+    stage = Usd.Stage.Open(str(r.path))
+    proto = stage.GetPrimAtPath("/Props/A").GetPrototype().GetPath()  # named by USD: /__Prototype_1
+    path, want = {"prototype": (f"{proto}/Ball", f"{proto}/Ball: lies in the instancing prototype {proto}, drawn only "
+                                "as the prims of its instances, such as /Props/A/Ball; make one of those the object"),
+                  "class": ("/Proto/Ball", "/Proto/Ball: is an abstract class prim (or lies under one)"),
+                  "own skeleton": (r.skeleton, f"{r.skeleton}: lies inside the character {r.skel_root}; an object"),
+                  "instance proxy": ("/Props/A/Ball", None)}[case]
+    out = tmp_path / "out.usda"
+    code = main(["attend", str(r.path), "--objects", path, "--out", str(out), "--window", "0.3"])
+    err = capsys.readouterr().err.strip().splitlines()
+    if want is None:
+        assert code == 0 and out.exists(), err
+        return
+    assert code == 2 and len(err) == 1 and want in err[0], err
+    assert not out.exists()
+    if case != "own skeleton":  # a look-at target is refused the same way
+        assert main(["apply", str(r.path), "--look-at", f"{path}@0.2s", "--out", str(out)]) == 2
+        assert path in capsys.readouterr().err and not out.exists()

@@ -1,12 +1,13 @@
 """Object positions read from the translate op's time samples at the Sdf level equal USD's own
 per-time answer (UsdGeom ComputeLocalToWorldTransform), through layer offsets, still parents, held
-interpolation and times between and beyond the samples; other transforms take the per-time path."""
+interpolation and times between and beyond the samples; other transforms take the per-time path.
+An animated mesh is at the centre of its world bounds (UsdGeom.BBoxCache) at every time."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from usdgaze.usd import objects
 
@@ -90,3 +91,32 @@ def test_a_blocked_translate_sample_reads_as_usd_does(tmp_path):
     want = _usd_positions(stage, "/World/Ball", CODES)
     assert np.abs(got - want).max() < 1e-6
     assert np.ptp(want, 0).max() > 1.0  # the ball moves: the comparison can fail
+
+
+@pytest.mark.parametrize("extent", [False, True])
+def test_an_animated_mesh_is_at_its_bounds_centre_at_every_time(tmp_path, extent):
+    """Baked points centred on the mesh's origin at the first frame, then flying off it: whether the
+    mesh was off-centre was decided once, at the first time, and it was read at its origin for the
+    whole shot (2.7 m off at the end here). Measured against UsdGeom.BBoxCache's world bounds per time,
+    under a turned, moved parent and the mesh's own translate."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "mesh.usda"))
+    parent = UsdGeom.Xform.Define(stage, "/World")
+    parent.AddTranslateOp().Set(Gf.Vec3d(0.5, 0.0, -1.0))
+    parent.AddRotateYOp().Set(30.0)
+    mesh = UsdGeom.Mesh.Define(stage, "/World/Baked")
+    mesh.AddTranslateOp().Set(Gf.Vec3d(0.0, 1.0, 0.0))
+    mesh.CreateFaceVertexCountsAttr([4, 4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3, 4, 5, 6, 7])
+    corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)])
+    for f in range(1, 73):
+        s = (f - 1) / 24.0
+        pts = corners + [0.6 * s, 0.6 * s, 0.8 * s]  # centred on the origin at frame 1 only
+        mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(pts.astype(np.float32)), f)
+        if extent:
+            mesh.GetExtentAttr().Set(UsdGeom.Boundable.ComputeExtentFromPlugins(mesh, Usd.TimeCode(f)), f)
+    codes = np.arange(1.0, 72.0, 0.7)
+    got = objects.read_objects(stage, "mesh.usda", [mesh.GetPrim()], codes, 1.0)[0].positions
+    want = np.array([UsdGeom.BBoxCache(Usd.TimeCode(float(t)), [UsdGeom.Tokens.default_], useExtentsHint=True)
+                     .ComputeWorldBound(mesh.GetPrim()).ComputeCentroid() for t in codes])
+    assert np.abs(got - want).max() < 1e-5
+    assert np.linalg.norm(want[-1] - want[0]) > 2.0  # it flies: reading it still would fail

@@ -218,7 +218,8 @@ def _typeless(layer):
     spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
 
 
-@pytest.mark.parametrize("case", ["no objects", "no transform", "alpha", "window", "window inf", "missing prim"])
+@pytest.mark.parametrize("case", ["no objects", "no transform", "alpha", "alpha huge", "window", "window inf",
+                                  "missing prim"])
 def test_bad_inputs_one_line_exit_2_nothing_written(tmp_path, capsys, case):
     stage, extra = ATTEND / "ball_throw.usda", []
     if case == "no objects":
@@ -229,6 +230,8 @@ def test_bad_inputs_one_line_exit_2_nothing_written(tmp_path, capsys, case):
         want = "/Objects/Marker: is a Scope without a transform"
     elif case == "alpha":
         extra, want = ["--alpha", "-0.1"], "--alpha -0.1: the process noise must be >= 0"
+    elif case == "alpha huge":  # ran to exit 0 under 30 lines of numpy overflow warnings
+        extra, want = ["--alpha", "1e300"], "--alpha 1e+300: over 100 an unwatched object's position spreads"
     elif case == "window":
         extra, want = ["--window", "0.03"], "--window 0.03 s: shorter than two planner steps"
     elif case == "window inf":  # was called shorter than two planner steps

@@ -144,3 +144,51 @@ def test_characters_whose_paths_spell_the_same_name_both_get_inspection_prims(tm
         to = ball - 0.5 * (g.position(eye_l) + g.position(eye_r))
         off = measure.angle_between(line, to / np.linalg.norm(to, axis=1, keepdims=True))
         assert off[-6:].max() < 5.0, (root, off)
+
+
+def test_two_characters_look_at_each_other(tmp_path, capsys):
+    """GazeObjectAPI on both SkelRoots, facing each other 3 m apart: each character looks at the other
+    (refused before: "is the character /B or holds it", as if B's own object were A's too). Where the
+    eyes end is measured by UsdSkel FK on the composed result, against the other's world bounds
+    (UsdGeom.BBoxCache on the input), the object's position as a --look-at target takes it: 0.1-1.5 deg
+    off over the last 6 frames, from 14.5 deg at the start. That centre is mid-body: the eyes end 14 deg
+    below the other's head joint (3 m apart)."""
+    from pxr import Usd, UsdGeom
+
+    stage, rig = _stage(tmp_path)
+    layer = Sdf.Layer.FindOrOpen(str(stage))
+    layer.GetPrimAtPath("/B").attributes["xformOp:rotateY"].default = 180.0  # turned to face A
+    for name in ("/A", "/B"):
+        layer.GetPrimAtPath(name).SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    layer.Save()
+    out = tmp_path / "attend.usda"
+    assert main(["attend", str(stage), "--out", str(out), "--window", "0.3", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert {c["skel_root"]: [o["path"] for o in c["objects"]] for c in report["characters"]} == {
+        "/A": ["/B"], "/B": ["/A"]}
+    composed, source = compose(tmp_path, stage, out), Usd.Stage.Open(str(stage))
+    eye_l, eye_r = rig.leaf["eye_l"], rig.leaf["eye_r"]
+    for me, other in (("/A", "/B"), ("/B", "/A")):
+        g = measure.posed(str(composed), f"{me}/Skel")
+        line = measure.sight_line(g, eye_l, eye_r, measure.local_forward(g, eye_l, rig.forward),
+                                  measure.local_forward(g, eye_r, rig.forward))
+        centre = np.array([UsdGeom.BBoxCache(Usd.TimeCode(float(t)), [UsdGeom.Tokens.default_], useExtentsHint=True)
+                           .ComputeWorldBound(source.GetPrimAtPath(other)).ComputeCentroid() for t in g.times])
+        to = centre - 0.5 * (g.position(eye_l) + g.position(eye_r))
+        off = measure.angle_between(line, to / np.linalg.norm(to, axis=1, keepdims=True))
+        assert off[0] > 10.0 and off[-6:].max() < 3.0, (me, off)  # it turns to the other
+
+
+def test_a_character_left_nothing_to_look_at_is_one_line(tmp_path, capsys):
+    """B the only object: A looks at B, B has nothing to look at (it is not its own object)."""
+    stage, _ = _stage(tmp_path)
+    layer = Sdf.Layer.FindOrOpen(str(stage))
+    layer.GetPrimAtPath("/B").SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    layer.Save()
+    out = tmp_path / "attend.usda"
+    assert main(["attend", str(stage), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith("two.usda:/B: has nothing to look at: every object is this character or "
+                                             "holds it; give it another object, or leave it out with --skel-root"), err
+    assert not out.exists()
+    assert main(["attend", str(stage), "--out", str(out), "--skel-root", "/A", "--window", "0.3"]) == 0

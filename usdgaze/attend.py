@@ -15,6 +15,7 @@ from usdgaze.errors import UsdGazeError
 from usdgaze.vision import loop
 from usdgaze.vision.costs import Weights
 from usdgaze.files.kinds import require_file
+from usdgaze.values import MAX_ALPHA
 
 if TYPE_CHECKING:
     from usdgaze.core.hints import BindHints
@@ -46,6 +47,9 @@ class AttendSettings:
     def check(self) -> None:
         if not np.isfinite(self.alpha) or self.alpha < 0:
             raise UsdGazeError(f"--alpha {self.alpha:g}: the process noise must be >= 0")
+        if self.alpha > MAX_ALPHA:  # values.MAX_ALPHA says why; batch manifests have the same bound
+            raise UsdGazeError(f"--alpha {self.alpha:g}: over {MAX_ALPHA:g} an unwatched object's position spreads by "
+                               "over 1 m in a second, a belief that knows nothing (the paper uses 0.2)")
         if self.cost not in loop.MODES:
             raise UsdGazeError(f"--cost {self.cost}: expected one of {', '.join(loop.MODES)}")
         if not np.isfinite(self.h) or not 0.005 <= self.h <= 0.1:
@@ -109,19 +113,20 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     from usdgaze.passes.take import cut_to_range, through_take, with_ahead
     from usdgaze.usd.attendio import add_inspection
     from usdgaze.usd.layers import AnimOverride, build_override, composed_override_notes, layer_info
-    from usdgaze.usd.objects import check_apart, object_prims, read_objects
+    from usdgaze.usd.objects import object_prims, objects_of, read_objects
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
 
     prims = object_prims(stage, source, objects)
     roots = select_roots(stage, source, skel_root)
     others = animations_elsewhere(stage, roots)
-    check_apart(prims, roots, source)  # the character's own SkelRoot, or a prim holding it, moves with it
+    # A character's own SkelRoot (or a prim holding it) moves with it: the others look at it, it does not.
+    per_root = objects_of(prims, roots, source)
     report = AttendReport(output=str(out_path))
     report.warnings.extend(composed_override_notes(stage, source))
     overrides, inspections, info = [], [], None
     t_start, cpu_start = time.perf_counter(), time.process_time()
     steps = frames = 0
-    for root in roots:
+    for root, mine in zip(roots, per_root):
         skels = skeletons_under(root)
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
@@ -141,7 +146,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         h = settings.h
         t_plan = planner_times(clip.seconds, h)
         codes = clip.start_time + t_plan * clip.time_codes_per_second
-        objs = read_objects(stage, source, prims, codes, clip.meters_per_unit)
+        objs = read_objects(stage, source, mine, codes, clip.meters_per_unit)
         things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
         # Windows near a shot's end see the take go on, not the shot's last pose held.
         result = apply_attend(with_ahead(clip, ahead, take), chain, frame, things, settings.loop_options(), progress,
@@ -150,7 +155,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         frames += len(clip.times)
         written = result
         if settings.realize == "map":
-            written = _realize_map(stage, source, root, clip, chain, frame, prims, result, settings.h)
+            written = _realize_map(stage, source, root, clip, chain, frame, mine, result, settings.h)
         # A realized map moves the pelvis like apply does: its leg roots' translations come with it.
         override = AnimOverride.of(clip, written, move_roots=settings.realize == "map" and bool(chain.leg_roots))
         overrides.append(override if take is None else through_take(override, take, clip))  # the take's own outside

@@ -23,6 +23,10 @@ MAX_FIXATION_M = 1e6
 MAX_TARGET_DISTANCE_M = 1e9
 """Beyond this a look target, object, stone or obstacle is only a direction; its distance in stage units
 would overflow squared."""
+MAX_ALPHA = 100.0
+"""Largest ``attend --alpha``, the belief's process noise per second in (0.1 m)^2: at 100 an unwatched object's
+position spreads by 1 m (one standard deviation) in a second, a belief that knows nothing it is not
+looking at (the paper uses 0.2). 1e300 overflowed the covariances: exit 0 under 30 lines of numpy warnings."""
 MAX_OBSTACLE_RADIUS_M = 10.0
 """Largest ``gaze:object:radius`` of a physics obstacle (``usdgaze:physics:task = "obstacle"``). Its cost
 reaches radius + 0.1 m from the body and the planner sees 1.6 s (about 2 m of walking) ahead: past

@@ -32,6 +32,7 @@ from usdgaze.batch.checks import (
     Label, _as_given, _binding, _choice, _directives, _fixation, _flag, _integer, _map, _number, _path, _prim_path,
     _prims, _shifts, _text)
 from usdgaze.errors import UsdGazeError
+from usdgaze.values import MAX_ALPHA
 
 # The value checks, (value, label, folder) -> normalized value, are in :mod:`usdgaze.batch.checks`.
 
@@ -78,7 +79,7 @@ KEYS: dict[str, Key] = {
     "no_clobber": Key(_flag("no_clobber"), "no_clobber", keyed=False),
     # usdgaze attend (docs/attend.md, docs/physics.md): the command's options under the same names
     "objects": Key(_prims, "objects", commands=_ATTEND),
-    "alpha": Key(_number("alpha", 0.0, 100.0), "settings.alpha", commands=_ATTEND),
+    "alpha": Key(_number("alpha", 0.0, MAX_ALPHA), "settings.alpha", commands=_ATTEND),
     "cost": Key(_choice("cost", ("uncertainty", "distance", "sequential")), "settings.cost", commands=_ATTEND),
     "window": Key(_number("window", 0.05, 5.0), "settings.window_s", commands=_ATTEND),
     "seed": Key(_integer("seed", 0, 2**32 - 1), "settings.seed", commands=_ATTEND),

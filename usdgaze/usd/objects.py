@@ -2,8 +2,9 @@
 
 An object's true state is the translation of its local-to-world transform, sampled at the planner's
 times (for a Boundable whose geometry is not centred on its origin, a mesh baked in world space, the
-centre of its world bounds, as ``--look-at`` takes it); positions come back in metres (the stage's
-metersPerUnit applied).
+centre of its world bounds, as ``--look-at`` takes it; for animated geometry, baked points or a posed
+character, that centre at every time); positions come back in metres (the stage's metersPerUnit
+applied). A transform USD cannot evaluate is refused first (``usdgaze.usd.xformops``).
 
 Reading: where an object's transform is one translate op whose value resolves to time samples of one
 layer (any layer offset applied) under ancestors that do not move, its samples are read once at the Sdf
@@ -17,12 +18,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom
 
-from usdgaze.errors import UsdGazeError
+from usdgaze.errors import UsdGazeError, usd_failure
 from usdgaze.usd.checks import authored_type
 from usdgaze.usd.plugin import has_api
-from usdgaze.usd.targets import PURPOSES, prototype_instancer, sample_target
+from usdgaze.usd.targets import PURPOSES, bounds_vary, drawn_problem, prototype_instancer, sample_target
+from usdgaze.usd.xformops import check_transform
 from usdgaze.values import MAX_OBSTACLE_RADIUS_M, MAX_TARGET_DISTANCE_M
 
 API_NAME = "GazeObjectAPI"
@@ -175,24 +177,40 @@ def _off_centre(prim: Usd.Prim, time_code: float) -> bool:
     position is the centre of its bounds, as a --look-at target's, not its transform's translation."""
     if not prim.IsA(UsdGeom.Boundable):
         return False
-    cache = UsdGeom.BBoxCache(Usd.TimeCode(time_code), PURPOSES, useExtentsHint=True)
-    box = cache.ComputeUntransformedBound(prim)
-    if box.GetRange().IsEmpty():
-        return False
-    size = np.asarray(box.GetRange().GetSize(), float)
-    centre = np.asarray(box.ComputeCentroid(), float)
+    centre, size = _own_centre(prim, time_code)
     return bool(np.linalg.norm(centre) > 1e-6 * max(1.0, float(np.linalg.norm(size))))
 
 
+def _own_centre(prim: Usd.Prim, time_code: float) -> tuple[np.ndarray, np.ndarray]:
+    """The centre and size of a Boundable's bounds in its own space at ``time_code`` (zeros where
+    they are empty: it is then at its origin)."""
+    # A cache per time: BBoxCache.SetTime keeps computed extents (see targets.sample_target).
+    cache = UsdGeom.BBoxCache(Usd.TimeCode(time_code), PURPOSES, useExtentsHint=True)
+    box = cache.ComputeUntransformedBound(prim)
+    if box.GetRange().IsEmpty():
+        return np.zeros(3), np.zeros(3)
+    return np.asarray(box.ComputeCentroid(), float), np.asarray(box.GetRange().GetSize(), float)
+
+
 def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches, source: str) -> np.ndarray:
+    if prim.IsA(UsdGeom.Boundable) and bounds_vary(prim):
+        # Animated geometry (baked points, a character's posed body): the centre of its bounds at each
+        # time. Decided once at the first time, a mesh centred there was read at its origin for the shot.
+        centres = np.array([np.append(_own_centre(prim, float(t))[0], 1.0) for t in time_codes])
+        return np.einsum("ki,kij->kj", centres, _world_matrices(prim, time_codes, caches)[:, :, :3])
     if _off_centre(prim, float(time_codes[0])):
         return sample_target(prim.GetStage(), str(prim.GetPath()), time_codes, source)
     fast = _fast_positions(prim, time_codes)
     if fast is not None:
         return fast
+    return _world_matrices(prim, time_codes, caches)[:, 3, :3]
+
+
+def _world_matrices(prim: Usd.Prim, time_codes: np.ndarray, caches: list) -> np.ndarray:
+    """(K, 4, 4) local-to-world matrices (row vectors), from per-time caches shared by every object."""
     if not caches:
         caches.extend(UsdGeom.XformCache(Usd.TimeCode(float(t))) for t in time_codes)
-    return np.array([np.array(c.GetLocalToWorldTransform(prim))[3, :3] for c in caches])
+    return np.array([np.array(c.GetLocalToWorldTransform(prim)) for c in caches])
 
 
 def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list[Usd.Prim]:
@@ -224,6 +242,9 @@ def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list
         if instancer is not None:  # it was an object where no instance is drawn
             raise UsdGazeError(f"{source}:{prim.GetPath()}: is a prototype of the PointInstancer {instancer.GetPath()}, "
                                "drawn only where its instances are; make the PointInstancer the object")
+        problem = drawn_problem(prim)
+        if problem:
+            raise UsdGazeError(f"{source}:{prim.GetPath()}: {problem}; make one of those the object")
     return prims
 
 
@@ -263,12 +284,42 @@ def check_apart(prims: list[Usd.Prim], roots: list[Usd.Prim], source: str, role:
     and with ``inside`` for one within the character too (a stone or an obstacle on the body)."""
     for prim in prims:
         for root in roots:
-            if root.GetPath().HasPrefix(prim.GetPath()):
-                raise UsdGazeError(f"{source}:{prim.GetPath()}: is the character {root.GetPath()} or holds it; "
-                                   f"{role} must be another prim")
-            if inside and prim.GetPath().HasPrefix(root.GetPath()):
-                raise UsdGazeError(f"{source}:{prim.GetPath()}: lies inside the character {root.GetPath()}; "
-                                   f"{role} must be another prim")
+            problem = _apart_problem(prim, root, role, inside)
+            if problem:
+                raise UsdGazeError(f"{source}:{prim.GetPath()}: {problem}")
+
+
+def _holds(prim: Usd.Prim, root: Usd.Prim) -> bool:
+    return root.GetPath().HasPrefix(prim.GetPath())
+
+
+def _apart_problem(prim: Usd.Prim, root: Usd.Prim, role: str, inside: bool) -> str | None:
+    if _holds(prim, root):
+        return f"is the character {root.GetPath()} or holds it; {role} must be another prim"
+    if inside and prim.GetPath().HasPrefix(root.GetPath()):
+        return f"lies inside the character {root.GetPath()}; {role} must be another prim"
+    return None
+
+
+def objects_of(prims: list[Usd.Prim], roots: list[Usd.Prim], source: str) -> list[list[Usd.Prim]]:
+    """Per planned character (SkelRoot of ``roots``), the objects it looks at: all but one that is it or
+    holds it, which the others look at (two characters look at each other; before, any object that was
+    or held any planned character was refused). One line for an object inside a planned character (its
+    Skeleton, a prop below its SkelRoot: it moves with that body), for one that is or holds every
+    planned character, and for a character left nothing to look at."""
+    for prim in prims:
+        problems = [_apart_problem(prim, root, "an object to look at", True) for root in roots]
+        within = [p for p, root in zip(problems, roots) if p and not _holds(prim, root)]
+        if within or all(problems):
+            raise UsdGazeError(f"{source}:{prim.GetPath()}: {(within or problems)[0]}")
+    out = []
+    for root in roots:
+        own = [p for p in prims if not _holds(p, root)]
+        if not own:
+            raise UsdGazeError(f"{source}:{root.GetPath()}: has nothing to look at: every object is this character "
+                               "or holds it; give it another object, or leave it out with --skel-root")
+        out.append(own)
+    return out
 
 
 def _check_obstacle_radius(prim: Usd.Prim, radius: float, where: str) -> None:
@@ -301,8 +352,13 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
             raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g}, expected a finite number >= 0 (m)")
         if kind not in KINDS:
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
-        with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below
-            pos = _positions(prim, time_codes, caches, source) * meters_per_unit
+        check_transform(prim, source)
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below
+                pos = _positions(prim, time_codes, caches, source) * meters_per_unit
+        except Tf.ErrorException as exc:  # what check_transform cannot see: USD's own word, in one line
+            raise UsdGazeError(f"{where}.xformOpOrder: USD cannot evaluate this transform "
+                               f"({usd_failure(exc)})") from None
         if not np.all(np.isfinite(pos)):
             raise UsdGazeError(f"{where}: its world transform is not finite at some time")
         if np.abs(pos).max(initial=0.0) > MAX_TARGET_DISTANCE_M:

@@ -39,7 +39,25 @@ def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
     if instancer is not None:
         raise UsdGazeError(f"{source}:{path}: is a prototype of the PointInstancer {instancer.GetPath()}, drawn only "
                            "where its instances are; look at the PointInstancer or at a point X,Y,Z")
+    problem = drawn_problem(prim)
+    if problem:
+        raise UsdGazeError(f"{source}:{path}: {problem}; look at one of those or at a point X,Y,Z")
     return prim
+
+
+def drawn_problem(prim: Usd.Prim) -> str | None:
+    """Why USD draws ``prim`` nowhere at its own place, or None: a prim of an instancing prototype
+    (``/__Prototype_1/Ball``) or an abstract class prim was looked at where nothing is."""
+    if prim.IsInPrototype() or prim.IsPrototype():
+        proto = prim
+        while not proto.IsPrototype():
+            proto = proto.GetParent()
+        instances = proto.GetInstances()
+        such = f", such as {prim.GetPath().ReplacePrefix(proto.GetPath(), instances[0].GetPath())}" if instances else ""
+        return f"lies in the instancing prototype {proto.GetPath()}, drawn only as the prims of its instances{such}"
+    if prim.IsAbstract():
+        return "is an abstract class prim (or lies under one), which USD does not draw, only the prims inheriting it"
+    return None
 
 
 def prototype_instancer(prim: Usd.Prim) -> Usd.Prim | None:
@@ -65,17 +83,25 @@ def _varying(prim: Usd.Prim, boundable: bool) -> bool:
             return True
         p = p.GetParent()
     if boundable:
-        for q in Usd.PrimRange(prim):
-            # A Skeleton's bounds are its posed joints: they move with the animation it binds, which
-            # need not lie below it (another character's Skeleton was looked at where it was at the start).
-            anim = UsdSkel.BindingAPI(q).GetInheritedAnimationSource() if q.IsA(UsdSkel.Skeleton) else None
-            for attr in q.GetAttributes() + (anim.GetAttributes() if anim else []):
-                if attr.GetNumTimeSamples() > 1 or attr.ValueMightBeTimeVarying():
-                    return True
-    else:
-        pivot = _pivot(prim)
-        if pivot is not None and pivot.ValueMightBeTimeVarying():
-            return True
+        return bounds_vary(prim)
+    pivot = _pivot(prim)
+    return pivot is not None and pivot.ValueMightBeTimeVarying()
+
+
+def bounds_vary(prim: Usd.Prim) -> bool:
+    """Whether the prim's bounds in its own space can change over time: an attribute of it or of a
+    prim below it is animated (baked points, an extent, a child's transform), its own transform ops and
+    usdgaze's own attributes (an animated importance) aside."""
+    for q in Usd.PrimRange(prim):
+        # A Skeleton's bounds are its posed joints: they move with the animation it binds, which
+        # need not lie below it (another character's Skeleton was looked at where it was at the start).
+        anim = UsdSkel.BindingAPI(q).GetInheritedAnimationSource() if q.IsA(UsdSkel.Skeleton) else None
+        for attr in q.GetAttributes() + (anim.GetAttributes() if anim else []):
+            name = attr.GetName()
+            if name.startswith(("gaze:", "usdgaze:")) or (q == prim and name.startswith("xformOp")):
+                continue
+            if attr.GetNumTimeSamples() > 1 or attr.ValueMightBeTimeVarying():
+                return True
     return False
 
 
