@@ -28,10 +28,12 @@ class EyeAim:
 
 def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarray, limits: EyeRange,
              side: np.ndarray | None = None, seconds: np.ndarray | None = None,
-             positions: np.ndarray | None = None) -> EyeAim:
+             positions: np.ndarray | None = None,
+             max_deg_s: float | np.ndarray = saccade.MAX_SACCADE_DEG_S) -> EyeAim:
     """Point each eye at the point of sight (Listing's law: no torsion), within the eye range; a point
     behind the head on the side ``side (F,)`` says (see :func:`held_side`). With the frames'
-    ``seconds``, no eye turns faster than the seed's bound (:func:`capped_speed`).
+    ``seconds``, no eye turns faster than ``max_deg_s`` (the seed's bound, or one per frame interval:
+    :func:`capped_speed`).
 
     Both eyes are computed together, as arrays ``(2, F, ...)``; ``positions`` are the eyes' own, where
     the caller has them.
@@ -54,7 +56,7 @@ def aim_eyes(rig: Rig, frame: CharacterFrame, moved: Pose, sight_point: np.ndarr
     yaw = np.clip(held_side(np.degrees(np.arctan2(along(left_h), along(fwd_h))), side), -limits.yaw, limits.yaw)
     yaw = yaw * toward_the_pole(raw_pitch)
     if seconds is not None:
-        yaw, pitch = capped_speed(np.stack([yaw, pitch], axis=-1), seconds).transpose(2, 0, 1)
+        yaw, pitch = capped_speed(np.stack([yaw, pitch], axis=-1), seconds, max_deg_s).transpose(2, 0, 1)
     y, pc = np.radians(yaw)[..., None], np.radians(pitch)[..., None]
     cos_pc = np.cos(pc)
     u_h = (cos_pc * np.sin(y)) * left_h[:, None] + (cos_pc * np.cos(y)) * fwd_h[:, None] + np.sin(pc) * up_h[:, None]
@@ -174,9 +176,11 @@ def _own_scale_turn(rig: Rig, rest_eye: np.ndarray, fwd_h: np.ndarray, shown_at_
     return np.broadcast_to(turn, (len(scales), frames, 4)) if still else turn
 
 
-def capped_speed(angles: np.ndarray, seconds: np.ndarray, max_deg_s: float = saccade.MAX_SACCADE_DEG_S) -> np.ndarray:
+def capped_speed(angles: np.ndarray, seconds: np.ndarray,
+                 max_deg_s: float | np.ndarray = saccade.MAX_SACCADE_DEG_S) -> np.ndarray:
     """Eye-in-head (yaw, pitch) ``(E, F, 2)`` turning no faster than ``max_deg_s`` (the seed's bound on
-    the eyes, 800 deg/s): where the aim runs ahead, the eye follows it at that speed until it is back on.
+    the eyes, 800 deg/s, or one per frame interval, ``(F - 1,)``): where the aim runs ahead, the eye
+    follows it at that speed until it is back on.
 
     The clamped aim of a goal the eyes cannot reach jumps where the goal's side is undefined (it passes
     behind the head or near its pole, or the base's own line of sight passes the zenith) or where the

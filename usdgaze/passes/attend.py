@@ -158,9 +158,13 @@ def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local,
     scale = np.cbrt(np.abs(np.linalg.det(clip.skel_to_world[:, :3, :3])))
     dist = eyemod.distance(e[:, 2])[0] / clip.meters_per_unit / scale
     sight_skel = mid + dist[:, None] * direction
-    # Each eye within the seed's 800 deg/s: the planner bounds the cyclopean direction, and vergence on
-    # a near object took one eye to 856 deg/s on top of it.
-    eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP, seconds=clip.seconds)
+    # Each eye within the bound of the planner's window (800 deg/s in a saccade window, 100 in recharge,
+    # counted from the clip's first frame): the planner bounds the cyclopean direction only, and
+    # vergence on a near object took one eye to 856 deg/s on top of it, or to 132-161 deg/s in a
+    # recharge window (focus from 2 m to 0.5 m in a frame).
+    t = clip.seconds - clip.seconds[0]
+    bound = np.degrees(np.maximum(eyemod.speed_bound(t[:-1]), eyemod.speed_bound(t[1:])))
+    eyes = aim_eyes(rig, frame, moved, sight_skel, _EYE_CLAMP, seconds=clip.seconds, max_deg_s=bound)
     return eyes.rotations, _world(clip.skel_to_world, sight_skel)
 
 
