@@ -300,11 +300,14 @@ def _register(ids, path: Path, shots: list[Shot]) -> None:
     for s in shots:
         # Another shot must not write a layer this one composes: on a farm it would read it half-made.
         # A layer not there yet counts too: on the first run it is another shot's output to come.
-        source = os.path.realpath(s.values["input"])
+        # The path as given, links unresolved: USD anchors a symlinked input's sublayers at the link's
+        # folder (as batch.keys.shot_key reads them); realpath only to know the input among them.
+        source = os.path.abspath(s.values["input"])
         if source not in composed:
             with without_usd_warnings():  # USD's multi-line warning for each layer not there yet
                 found = layer_dependencies(source, missing=True)
-            composed[source] = [f for f in found if os.path.realpath(f) != source]
+            real = os.path.realpath(source)
+            composed[source] = [f for f in found if os.path.realpath(f) != real]
         for f in composed[source]:
             ids.read(f, f"layer composed by the input of {s.label}")
     for s in shots:
