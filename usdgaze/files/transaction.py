@@ -5,9 +5,9 @@ name, ``--no-clobber``, and identity against every file read, see :mod:`.identit
 files it reads, stages each output (a USD layer, a plot, text) into a temporary folder
 ``.usdgaze-tmp-<host>-<pid>-<token>`` beside the output, and commits at the end. The commit renames
 every staged file over its target, and if one rename fails, puts back what the earlier ones
-replaced; a SIGTERM or SIGINT that arrives during the renames, or during the cleanup after them
-or after a failure, waits for them. Otherwise, on any
-error, SIGTERM or SIGINT nothing of the command remains, USD's own temporaries included (they go
+replaced; a stopping signal (SIGTERM, SIGINT, SIGHUP, SIGQUIT: :data:`.signals.STOPS`) that arrives
+during the renames, or during the cleanup after them or after a failure, waits for them. Otherwise,
+on any error or stopping signal nothing of the command remains, USD's own temporaries included (they go
 into the same folder). After SIGKILL the targets are untouched and the leftover
 folder is removed by the next run that writes into that folder.
 
@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Callable
 
 from usdgaze.errors import Interrupted, UsdGazeError, usd_failure
-from usdgaze.files.signals import later_if_importing
+from usdgaze.files.signals import later_if_importing, stops_to_handle
 from usdgaze.files.identity import Identities, real_path
 from usdgaze.files.paths import (TMP_PREFIX, _foreign_layer, _host, _name_max, _special_kind, _text_usd, _unfollowed,
                                  sweep)
@@ -94,7 +94,7 @@ class Outputs:
     # -- context: signals and cleanup --------------------------------------------------------------
     def __enter__(self) -> "Outputs":
         if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGTERM, signal.SIGINT):
+            for sig in stops_to_handle():
                 self._old_handlers[sig] = signal.signal(sig, self._on_signal)
         return self
 
