@@ -84,6 +84,8 @@ class Outputs:
         self._mode = 0o666 & ~current_umask()
         self._old_handlers: dict[int, object] = {}
         self._made: list[Path] = []
+        self._wanted: set[str] = set()
+        """Real paths of the folders ``make_folder`` was asked for (see ``_rewanted``)."""
         self._done = False
         self._committing = False
         self._closing = False
@@ -153,6 +155,7 @@ class Outputs:
         shown = Path(path)
         target = real_path(path) if follow else _unfollowed(path)
         folder = target.parent
+        self._rewanted(folder)
         if not os.path.exists(folder):  # os.path: Path.exists() raises for a name over NAME_MAX
             if follow and os.path.islink(shown):  # a dangling link: its target's folder, not the link's
                 raise UsdGazeError(f"{shown}: links to {target}, whose folder {folder} does not exist")
@@ -226,6 +229,7 @@ class Outputs:
     def make_folder(self, path: str | os.PathLike) -> None:
         """Create a missing output folder; it is removed again if the command fails."""
         folder = Path(path)
+        self._wanted.add(os.path.realpath(folder))
         # os.path, not pathlib: Path.is_dir()/exists() raise for a name over NAME_MAX (ENAMETOOLONG);
         # here it is a folder to make, whose mkdir says why it cannot be.
         if os.path.isdir(folder):
@@ -250,6 +254,13 @@ class Outputs:
         finally:
             self._made.extend(reversed(made))  # deepest first
 
+    def _rewanted(self, folder: Path) -> None:
+        """Make again a folder ``make_folder`` was asked for and that is gone. Two parallel shots writing
+        into one new folder: A made it, B found it there (not B's to remove), A failed and removed it
+        (empty then), and B's claim said it does not exist. Once B's temporary is in it, it stays."""
+        if str(folder) in self._wanted and not os.path.isdir(folder):
+            self.make_folder(folder)
+
     def stage_text(self, path: str | os.PathLike, text: str) -> None:
         def write(temp: str) -> None:
             with open(temp, "w", newline="", encoding="utf-8") as f:
@@ -263,7 +274,13 @@ class Outputs:
             tmpdir = folder / f"{TMP_PREFIX}{_host()}-{os.getpid()}-{secrets.token_hex(4)}"
             self._tmpdirs[folder] = tmpdir  # first: a signal right after the mkdir still finds it to remove
             try:
-                tmpdir.mkdir(mode=0o700)
+                for _ in range(3):  # the folder removed again between the two lines: made again
+                    self._rewanted(folder)
+                    with contextlib.suppress(FileNotFoundError):
+                        tmpdir.mkdir(mode=0o700)
+                        break
+                else:
+                    tmpdir.mkdir(mode=0o700)
             except OSError as exc:
                 del self._tmpdirs[folder]
                 raise UsdGazeError(f"{shown}: cannot write into {Path(shown).parent} ({os_reason(exc)})") from None
