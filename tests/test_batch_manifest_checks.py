@@ -30,6 +30,8 @@ def _manifest(tmp_path, extra: str):
     ('shifts = ["2s:abc"]\n', ["job 0 'w': shifts = '2s:abc'", "expected TIME:YAW:PITCH"]),
     ('shifts = ["1s:10:0"]\nplot = "gaze.txt"\n', ["job 0 'w': plot = 'gaze.txt'", "must end in .png, .pdf or .svg"]),
     ('shifts = ["1s:10:0"]\nskel_root = "Body"\n', ["job 0 'w': skel_root = 'Body'", "absolute prim path"]),
+    ('shifts = ["1s:10:0"]\nskel_root = "/a b"\n', ["job 0 'w': skel_root = '/a b'", "absolute prim path"]),
+    ('shifts = ["1s:10:0"]\nmap = "in.usda:/Bad Prim"\n', ["job 0 'w': map = 'in.usda:/Bad Prim'", "absolute prim path"]),
 ])
 def test_values_are_refused_naming_manifest_job_and_key(tmp_path, extra, words):
     path = _manifest(tmp_path, extra)
@@ -204,3 +206,23 @@ def test_a_symlinked_inputs_layers_are_found_where_usd_finds_them(tmp_path):
         assert word in message, (word, message)
     manifest.write_text(jobs + 'out = "assets/anim.usda"\n')
     assert [s.name for s in load_manifest(manifest)] == ["a", "b"]
+
+
+@pytest.mark.parametrize("table", ["job", "defaults"])
+def test_a_value_refused_as_the_shot_runs_names_the_job_and_key(tmp_path, capsys, table):
+    """A shift after the animation's end is found only once the shot reads the animation: it was said
+    with the CLI's flag (``--shift 9999:30:0 lies outside the animation``), which the manifest lacks."""
+    from . import synthetic as syn
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    shifts = 'shifts = ["9999:30:0"]\n'
+    manifest = tmp_path / "m.toml"
+    manifest.write_text(('[defaults]\n' + shifts if table == "defaults" else "")
+                        + '[[job]]\nname = "w"\ninput = "rig.usda"\nout = "gaze.usdc"\n'
+                        + (shifts if table == "job" else ""))
+    assert main(["batch", str(manifest)]) == 2
+    message = json.loads((tmp_path / "m.summary.json").read_text())["shots"][0]["message"]
+    key = "[defaults] shifts" if table == "defaults" else "shifts"
+    assert message.startswith(f"{manifest}: job 0 'w': "), message
+    assert f"{key} 9999:30:0 lies outside the animation" in message and "--" not in message, message
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.summary.json", "m.toml", "rig.usda"]

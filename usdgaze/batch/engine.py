@@ -108,7 +108,7 @@ def run_shot(shot: Shot, force: bool = False, limit: bool = False) -> dict:
             record.update(status=DONE, **_run(shot, {KEY_FIELD: key}))
             del opened
     except UsdGazeError as exc:
-        record.update(status=BAD, message=str(exc))
+        record.update(status=BAD, message=shot.said(str(exc)))
     except Exception as exc:  # a bug: report it and let the other shots run
         record.update(status=INTERNAL, message=f"{type(exc).__name__}: {' '.join(str(exc).split())}",
                       traceback=traceback.format_exc())

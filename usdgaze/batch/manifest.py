@@ -24,6 +24,7 @@ apply option to the manifest is one row there.
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -101,6 +102,8 @@ _COMBINED: dict[str, Callable[[dict, Callable[[str], str]], Any]] = {"options.bi
 # The shared checks name some values as the CLI's flags do (parse_shift: "shift"); a manifest's
 # messages name the key as written there.
 _AS_WRITTEN = {"shift": "shifts", "fixation_m": "fixation"}
+_FLAG = re.compile(r"(?<![\w-])--([a-z][a-z-]*[a-z])( ')?")
+"""A CLI flag in a message (``--skel-root``), and the quote of a value given after it."""
 
 
 def _key_name(manifest: str, where: str, inherited: frozenset, key: str, job: bool = True) -> str:
@@ -139,6 +142,19 @@ class Shot:
     def value_label(self, key: str, value: object) -> str:
         """``label(key, value)`` of the shared checks for this job's values."""
         return f"{self.name_of(key)} = {value}"
+
+    def said(self, message: str) -> str:
+        """A message of the shot's command as the manifest names things: the command's checks at run
+        time name the CLI's flags (``--shift 9999:30:0 lies outside the animation``, ``--skel-root``),
+        which a manifest's author did not write. Those become this job's keys, after the job."""
+        def key(found: re.Match) -> str:
+            name = _AS_WRITTEN.get(found[1].replace("-", "_"), found[1].replace("-", "_"))
+            if name not in KEYS:  # a flag with no manifest key (--workers): as it was
+                return found[0]
+            return ("[defaults] " if name in self.inherited else "") + name + (" = '" if found[2] else "")
+
+        rewritten = _FLAG.sub(key, message)
+        return message if rewritten == message else f"{self.where}: {rewritten}"
 
     @property
     def out(self) -> str:
