@@ -11,9 +11,9 @@ on any error or stopping signal nothing of the command remains, USD's own tempor
 into the same folder). After SIGKILL the targets are untouched and the leftover
 folder is removed by the next run that writes into that folder.
 
-New files get mode ``0666 & ~umask``; a replaced file keeps its mode. Symlinks are written through
-(the target changes, the link stays). OS failures are one-line :class:`UsdGazeError` naming the path
-and the OS's reason, exit 2: they are the user's to fix.
+New files get mode ``0666 & ~umask``; a replaced file keeps its mode and group (and owner, as root).
+Symlinks are written through (the target changes, the link stays). OS failures are one-line
+:class:`UsdGazeError` naming the path and the OS's reason, exit 2: they are the user's to fix.
 
 The temporaries' names, the sweep and the checks of a claimed path are in :mod:`.paths`.
 """
@@ -60,10 +60,12 @@ def current_umask() -> int:
 
 
 class _Staged:
-    def __init__(self, target: Path, flag: str, keep_mode: int | None) -> None:
+    def __init__(self, target: Path, flag: str, keep_mode: int | None, owner: tuple[int, int] | None = None) -> None:
         self.target = target
         self.flag = flag
         self.keep_mode = keep_mode
+        self.owner = owner
+        """(uid, gid) of the file replaced; None for a new file."""
         self.temp: Path | None = None
         self.foreign: str | None = None
         """The first prim of the USD layer at ``target`` when usdgaze did not write it."""
@@ -169,10 +171,10 @@ class Outputs:
         kind = _special_kind(target)
         if kind:  # the rename would put a plain file where a device, pipe or socket was
             raise UsdGazeError(f"{shown}: {flag} names {kind}, not a regular file")
-        keep_mode = None
+        keep_mode = owner = None
         if target.exists() and not target.is_symlink():
             st = target.stat()
-            keep_mode = st.st_mode & 0o7777
+            keep_mode, owner = st.st_mode & 0o7777, (st.st_uid, st.st_gid)
             if edit and not (st.st_mode & 0o222 and os.access(target, os.W_OK)):
                 raise UsdGazeError(f"{shown}: {flag} names a read-only file; refusing to replace it (make it writable first)")
             if self.no_clobber and not edit:
@@ -181,7 +183,7 @@ class Outputs:
             raise UsdGazeError(f"{shown}: no such file for {flag} to edit")
         self.ids.write(path if follow else target, flag, follow=follow)
         self._tmpdir(folder, shown)  # a folder we cannot write into is found now, before any work
-        item = self._claims[target] = _Staged(target, flag, keep_mode)
+        item = self._claims[target] = _Staged(target, flag, keep_mode, owner)
         if keep_mode is not None and not edit:
             item.foreign = _foreign_layer(target)
             item.shown = shown
@@ -209,6 +211,7 @@ class Outputs:
             write(str(temp))
             with open(temp, "rb+") as f:
                 os.fsync(f.fileno())
+            _keep_owner(temp, item.owner)  # before the mode: a chown clears setuid and setgid
             os.chmod(temp, self._mode if item.keep_mode is None else item.keep_mode)
         except UsdGazeError:
             raise
@@ -341,6 +344,17 @@ class Outputs:
                 with contextlib.suppress(OSError):
                     folder.rmdir()
         self._made.clear()
+
+
+def _keep_owner(temp: Path, owner: tuple[int, int] | None) -> None:
+    """Give the staged replacement the group of the file it replaces, and its owner where we may (root):
+    a rename puts a new inode in place, made ours, and a show's shared group lost write access to the
+    override it shared. Where the group is not ours to give, the file is ours as any new one is."""
+    if owner is None or not hasattr(os, "chown"):
+        return
+    uid, gid = owner
+    with contextlib.suppress(PermissionError):
+        os.chown(temp, uid if os.geteuid() == 0 else -1, gid)
 
 
 @contextlib.contextmanager
