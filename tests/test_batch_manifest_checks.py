@@ -30,6 +30,8 @@ def _manifest(tmp_path, extra: str):
     ('shifts = ["2s:abc"]\n', ["job 0 'w': shifts = '2s:abc'", "expected TIME:YAW:PITCH"]),
     ('shifts = ["1s:10:0"]\nplot = "gaze.txt"\n', ["job 0 'w': plot = 'gaze.txt'", "must end in .png, .pdf or .svg"]),
     ('shifts = ["1s:10:0"]\nskel_root = "Body"\n', ["job 0 'w': skel_root = 'Body'", "absolute prim path"]),
+    ('shifts = ["1s:10:0"]\nskel_root = "/a b"\n', ["job 0 'w': skel_root = '/a b'", "absolute prim path"]),
+    ('shifts = ["1s:10:0"]\nmap = "in.usda:/Bad Prim"\n', ["job 0 'w': map = 'in.usda:/Bad Prim'", "absolute prim path"]),
 ])
 def test_values_are_refused_naming_manifest_job_and_key(tmp_path, extra, words):
     path = _manifest(tmp_path, extra)
@@ -172,3 +174,55 @@ def test_an_output_folder_name_too_long_is_bad_input(tmp_path, capsys):
     assert main(["apply", str(tmp_path / "rig.usda"), "--out", str(tmp_path / long / "a.usdc"), "--shift", "0.2s:30:0"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "internal error" not in err, err
+
+
+def _symlinked_input(tmp_path):
+    """shots/a.usda links to assets/a.usda, whose sublayers are relative: USD finds them beside the
+    link (shots/), not beside the file it links to."""
+    from . import synthetic as syn
+
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "shots").mkdir()
+    syn.make_rig(tmp_path / "shots" / "anim.usda", frames=48)
+    (tmp_path / "assets" / "a.usda").write_text('#usda 1.0\n(\n    metersPerUnit = 1\n    upAxis = "Y"\n'
+                                                '    subLayers = [@./gaze.usda@, @./anim.usda@]\n)\n')
+    (tmp_path / "shots" / "a.usda").symlink_to("../assets/a.usda")
+    manifest = tmp_path / "m.toml"
+    job_a = '[defaults]\nshifts = ["0.2s:30:0"]\n[[job]]\nname = "a"\ninput = "shots/a.usda"\nout = "out/a.usdc"\n'
+    return manifest, job_a + '[[job]]\nname = "b"\ninput = "shots/anim.usda"\n'
+
+
+def test_a_symlinked_inputs_layers_are_found_where_usd_finds_them(tmp_path):
+    """The check resolved the link first and looked for the sublayers in assets/: job b writing the
+    shots/gaze.usda that job a composes ran (a read it half-made on a farm), while b writing
+    assets/anim.usda, which a does not compose, was refused."""
+    manifest, jobs = _symlinked_input(tmp_path)
+    manifest.write_text(jobs + 'out = "shots/gaze.usda"\n')
+    with pytest.raises(UsdGazeError) as info:
+        load_manifest(manifest)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{manifest}: ")
+    for word in (str(tmp_path / "shots" / "gaze.usda"), "job 1 'b' out", "job 0 'a'"):
+        assert word in message, (word, message)
+    manifest.write_text(jobs + 'out = "assets/anim.usda"\n')
+    assert [s.name for s in load_manifest(manifest)] == ["a", "b"]
+
+
+@pytest.mark.parametrize("table", ["job", "defaults"])
+def test_a_value_refused_as_the_shot_runs_names_the_job_and_key(tmp_path, capsys, table):
+    """A shift after the animation's end is found only once the shot reads the animation: it was said
+    with the CLI's flag (``--shift 9999:30:0 lies outside the animation``), which the manifest lacks."""
+    from . import synthetic as syn
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    shifts = 'shifts = ["9999:30:0"]\n'
+    manifest = tmp_path / "m.toml"
+    manifest.write_text(('[defaults]\n' + shifts if table == "defaults" else "")
+                        + '[[job]]\nname = "w"\ninput = "rig.usda"\nout = "gaze.usdc"\n'
+                        + (shifts if table == "job" else ""))
+    assert main(["batch", str(manifest)]) == 2
+    message = json.loads((tmp_path / "m.summary.json").read_text())["shots"][0]["message"]
+    key = "[defaults] shifts" if table == "defaults" else "shifts"
+    assert message.startswith(f"{manifest}: job 0 'w': "), message
+    assert f"{key} 9999:30:0 lies outside the animation" in message and "--" not in message, message
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.summary.json", "m.toml", "rig.usda"]

@@ -128,3 +128,30 @@ def test_ctrl_c_while_the_command_imports_is_one_line(tmp_path, module, form):
     assert (p.returncode, p.stderr.splitlines()) == (130, ["usdgaze: error: interrupted by SIGINT; nothing was written"])
     assert list(work.iterdir()) == []
 
+
+
+def test_nohup_keeps_sighup_ignored(tmp_path):
+    """Under nohup (SIGHUP ignored) the command must outlive its terminal: neither the CLI's handlers
+    nor the writer's may take SIGHUP over; where it is not ignored, the writer handles it."""
+    from usdgaze.errors import UsdGazeError
+    from usdgaze.files.transaction import Outputs
+
+    seen = []
+
+    def look(*args, **kwargs):  # the handler in place while a writer holds outputs
+        with Outputs():
+            handler = signal.getsignal(signal.SIGHUP)
+            seen.append(handler if handler is signal.SIG_IGN else type(getattr(handler, "__self__", None)))
+        raise UsdGazeError("stop here")
+
+    saved = signal.getsignal(signal.SIGHUP)
+    try:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(api, "check_request", look)
+            for disposition in (signal.SIG_IGN, signal.SIG_DFL):
+                signal.signal(signal.SIGHUP, disposition)
+                assert main(_apply(tmp_path)) == 2
+                assert signal.getsignal(signal.SIGHUP) is disposition  # given back
+    finally:
+        signal.signal(signal.SIGHUP, saved)
+    assert seen == [signal.SIG_IGN, Outputs]

@@ -149,3 +149,31 @@ def test_standard_output_that_cannot_take_the_report(tmp_path):
         os.close(write)
     assert run.returncode == 141 and run.stderr == "", (run.returncode, run.stderr)
     assert (tmp_path / "b.usdc").is_file()
+
+
+def test_a_working_folder_that_is_not_utf8_with_a_relative_input_is_one_line_exit_2(tmp_path):
+    """OpenUSD anchors a relative input at the working folder: one whose name is not UTF-8 made apply
+    and attend an internal error (exit 1, a UnicodeDecodeError reading a layer's real path), and a
+    batch shot said Python's codec message."""
+    from . import synthetic as syn
+
+    folder = os.path.join(os.fsencode(tmp_path), b"shot\xff")
+    os.mkdir(folder)
+    syn.make_rig(tmp_path / "a.usda", frames=48)  # USD cannot write there either
+    os.rename(tmp_path / "a.usda", os.path.join(folder, b"a.usda"))
+    with open(os.path.join(folder, b"m.toml"), "w") as f:
+        f.write(f'[[job]]\ninput = "a.usda"\nout = "{tmp_path / "b.usda"}"\nshifts = ["0.2s:30:0"]\n')
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    for argv in (["apply", "a.usda", "--shift", "0.2s:30:0", "--out", str(tmp_path / "g.usda")],
+                 ["attend", "a.usda", "--out", str(tmp_path / "g.usda")]):
+        run = subprocess.run([sys.executable, "-m", "usdgaze", *argv], capture_output=True, cwd=folder, env=env,
+                             timeout=120)
+        err = run.stderr.decode(errors="replace")
+        assert run.returncode == 2, err
+        assert err.count("\n") == 1 and "not UTF-8" in err and "a.usda" in err, err
+    run = subprocess.run([sys.executable, "-m", "usdgaze", "batch", "m.toml"], capture_output=True, cwd=folder,
+                         env=env, timeout=120)
+    assert run.returncode == 2, run.stderr
+    assert b"not UTF-8" in run.stderr and b"codec" not in run.stderr, run.stderr
+    assert sorted(os.listdir(folder)) == [b"a.usda", b"m.summary.json", b"m.toml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [os.fsdecode(b"shot\xff")]  # no output written

@@ -148,6 +148,13 @@ def big(tmp_path_factory):
     return syn.make_rig(d / "in.usdc", frames=12000, mesh=False)
 
 
+def _stops_default() -> None:
+    """The stopping signals at their default action in the command, as a terminal starts it: a suite
+    run under nohup or in a background job would hand them down ignored."""
+    for sig in (signal.SIGINT, signal.SIGHUP, signal.SIGQUIT):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _start_and_catch_writing(src: Path, d: Path) -> subprocess.Popen:
     """Start an apply and return once its override is being written in the temporary folder.
 
@@ -155,7 +162,7 @@ def _start_and_catch_writing(src: Path, d: Path) -> subprocess.Popen:
     loaded machine still catches it between the first staged byte and the commit."""
     proc = subprocess.Popen([*CLI, "apply", str(src), *SHIFT, "--out", str(d / "gaze.usdc"),
                              "--plot", str(d / "plot.png")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_stops_default)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
         staged = [p for p in d.glob(f"{transaction.TMP_PREFIX}*/gaze.usdc")]
@@ -166,8 +173,11 @@ def _start_and_catch_writing(src: Path, d: Path) -> subprocess.Popen:
     raise AssertionError(f"never caught the write in progress (exit {proc.returncode}): {proc.communicate()}")
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_sigterm_or_sigint_while_writing_leaves_nothing(tmp_path, big, sig):
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGQUIT],
+                         ids=lambda s: signal.Signals(s).name)
+def test_a_stopping_signal_while_writing_leaves_nothing(tmp_path, big, sig):
+    """SIGHUP (a closed terminal, a dropped ssh) and SIGQUIT left the temporary folder and the partial
+    override behind: only SIGTERM and SIGINT were handled."""
     src = tmp_path / "in.usdc"
     os.link(big.path, src)
     before = snapshot(tmp_path)
@@ -233,11 +243,13 @@ def test_a_signal_during_the_cleanup_waits_for_it_and_is_not_lost(tmp_path, monk
     assert isinstance(caught.value.__cause__, UsdGazeError) == (how == "failed")
 
 
-@pytest.mark.parametrize("workers, earlier", [("1", False), ("2", False), ("1", True)])
-def test_sigterm_in_a_batch_keeps_finished_shots_and_says_so(tmp_path, big, workers, earlier):
+@pytest.mark.parametrize("workers, earlier, sig", [("1", False, signal.SIGTERM), ("2", False, signal.SIGTERM),
+                                                   ("1", True, signal.SIGTERM), ("2", False, signal.SIGHUP)])
+def test_a_stop_in_a_batch_keeps_finished_shots_and_says_so(tmp_path, big, workers, earlier, sig):
     """``earlier``: an earlier run's summary is beside the manifest. It is left as it is (an interrupted
     command writes nothing of its own), and the line says whose it is: a dashboard reading it took
-    that run's exit code 0 for this one's."""
+    that run's exit code 0 for this one's. SIGHUP goes to the whole process group, as a closed
+    terminal sends it: it left the shots' temporary folders behind."""
     rig(tmp_path)
     os.link(big.path, tmp_path / "big.usdc")
     (tmp_path / "m.toml").write_text(
@@ -247,19 +259,23 @@ def test_sigterm_in_a_batch_keeps_finished_shots_and_says_so(tmp_path, big, work
     if earlier:
         (tmp_path / "m.summary.json").write_text(old_summary)
     proc = subprocess.Popen([*CLI, "batch", str(tmp_path / "m.toml"), "--workers", workers],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_stops_default,
+                            start_new_session=True)
     deadline = time.monotonic() + 120
     while not (tmp_path / "small.usdc").exists() and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.005)
-    proc.send_signal(signal.SIGTERM)
+    if sig == signal.SIGHUP:
+        os.killpg(proc.pid, sig)  # the workers too
+    else:
+        proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 128 + signal.SIGTERM, err
+    assert proc.returncode == 128 + sig, err
     # The small shot may be between its renames and its report when the signal comes: 0 or 1 reported.
     said = (rf" \({re.escape(str(tmp_path / 'm.summary.json'))} is an earlier run's, started 2026-01-02T03:04:05\+00:00\)"
             if earlier else "")
-    assert re.fullmatch(r"usdgaze: error: interrupted by SIGTERM; [01] of 2 shots were reported finished; finished "
-                        r"shots keep their outputs \(a rerun skips them\), no shot is half-written, no summary was "
-                        r"written" + said, err.splitlines()[-1]), err
+    assert re.fullmatch(rf"usdgaze: error: interrupted by {signal.Signals(sig).name}; [01] of 2 shots were "
+                        r"reported finished; finished shots keep their outputs \(a rerun skips them\), no shot is "
+                        r"half-written, no summary was written" + said, err.splitlines()[-1]), err
     assert "Traceback" not in err
     left = sorted(p.name for p in tmp_path.iterdir())
     assert left == sorted(["big.usdc", "in.usda", "m.toml", "small.usdc"] + (["m.summary.json"] if earlier else [])), left

@@ -1,7 +1,8 @@
 """An output name that names a USD layer usdgaze did not write (another shot's stage: a typo for
 ``shot_02_gaze.usdc``) is refused, one line, exit 2, the file's bytes and mode as they were and
-nothing left beside it. usdgaze's own outputs (a rerun), layers with no prims (a pipeline's
-placeholder) and non-USD files are replaced as before."""
+nothing left beside it; so is a shot's root of sublayers and no prims. usdgaze's own outputs (a
+rerun, previews included), truly empty layers (a pipeline's placeholder) and non-USD files are
+replaced as before."""
 
 from __future__ import annotations
 
@@ -51,6 +52,26 @@ def test_a_rerun_replaces_its_own_outputs_and_a_placeholder(tmp_path):
     code, _, err = run_inprocess(argv, tmp_path)
     assert code == 0, err
     assert (tmp_path / "gaze.usda").read_bytes() != first
+
+
+_SHOT_ROOT = ('#usda 1.0\n(\n    doc = "Shot 010 root"\n    upAxis = "Y"\n'
+              '    subLayers = [@./lighting.usda@, @./layout.usda@]\n)\n')
+
+
+@pytest.mark.parametrize("flag", ["--out", "--preview"])
+def test_a_shot_root_of_sublayers_only_is_not_replaced(tmp_path, flag):
+    """No prims, only sublayers: a shot's root (its lighting and layout), not a placeholder."""
+    src = rig(tmp_path, "in.usda").path
+    (tmp_path / "shot_root.usda").write_text(_SHOT_ROOT)
+    before = snapshot(tmp_path)
+    names = {"--out": "gaze.usda", "--preview": "preview.usda", flag: "shot_root.usda"}
+    argv = ["apply", str(src), *SHIFT, "--out", names["--out"], "--preview", names["--preview"]]
+    code, _, err = run_inprocess(argv, tmp_path)
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "shot_root.usda" in lines[0] and flag in lines[0], err
+    assert "./lighting.usda" in lines[0]  # names what is in it
+    assert snapshot(tmp_path) == before
 
 
 def test_preview_edited_by_hand_is_not_replaced(tmp_path):

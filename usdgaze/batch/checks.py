@@ -38,9 +38,17 @@ def _path(key: str, layer: bool = False, suffixes: tuple[str, ...] = ()):
     return check
 
 
+def _is_prim_path(text: str) -> bool:
+    """An absolute prim path as USD parses one: a leading slash is not enough ('/a b' failed only once
+    the shot ran, said with the CLI's flag)."""
+    from pxr import Sdf
+
+    return Sdf.Path.IsValidPathString(text) and Sdf.Path(text).IsAbsolutePath() and Sdf.Path(text).IsPrimPath()
+
+
 def _prim_path(key: str):
     def check(value: Any, label: Label, base: Path) -> str:
-        if not _text(key)(value, label, base).startswith("/"):
+        if not _is_prim_path(_text(key)(value, label, base)):
             raise UsdGazeError(f"{label(key, repr(value))}: expected an absolute prim path such as /Character")
         return value
     return check
@@ -56,6 +64,8 @@ def _flag(key: str):
 
 def _map(value: Any, label: Label, base: Path) -> str:
     file, sep, prim = _text("map")(value, label, base).partition(":/")
+    if sep and not _is_prim_path(f"/{prim}"):
+        raise UsdGazeError(f"{label('map', repr(value))}: '/{prim}' is not an absolute prim path such as /GazeMap")
     return _path("map")(file, label, base) + (f":/{prim}" if sep else "")
 
 
@@ -124,7 +134,7 @@ def _prims(value: Any, label: Label, base: Path) -> list[str]:
     if isinstance(value, (str, bytes)) or not isinstance(value, list) or not value:
         raise UsdGazeError(f"{label('objects', repr(value))}: expected a list of prim paths such as \"/World/Ball\"")
     for text in value:
-        if not isinstance(text, str) or not text.startswith("/"):
+        if not isinstance(text, str) or not _is_prim_path(text):
             raise UsdGazeError(f"{label('objects', repr(text))}: expected an absolute prim path such as /World/Ball")
     return list(value)
 

@@ -19,6 +19,7 @@ from typing import Callable, Generator, Iterator
 
 from usdgaze.batch.manifest import Shot, apply_kwargs, attend_kwargs
 from usdgaze.batch.progress import step_lines
+from usdgaze.files.signals import STOPS
 
 DONE, SKIPPED, BAD, INTERNAL = "done", "skipped", "bad input", "internal error"
 EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
@@ -26,7 +27,7 @@ EXIT_CODES = {DONE: 0, SKIPPED: 0, BAD: 2, INTERNAL: 1}
 _limited = False
 STOP_GRACE_S = 10.0
 """How long a stopped pool worker has to clean up before it is killed."""
-_STOP_SIGNALS = {signal.SIGTERM, signal.SIGINT}
+_STOP_SIGNALS = set(STOPS)
 
 
 def limit_threads(forked: bool = False) -> None:
@@ -107,7 +108,7 @@ def run_shot(shot: Shot, force: bool = False, limit: bool = False) -> dict:
             record.update(status=DONE, **_run(shot, {KEY_FIELD: key}))
             del opened
     except UsdGazeError as exc:
-        record.update(status=BAD, message=str(exc))
+        record.update(status=BAD, message=shot.said(str(exc)))
     except Exception as exc:  # a bug: report it and let the other shots run
         record.update(status=INTERNAL, message=f"{type(exc).__name__}: {' '.join(str(exc).split())}",
                       traceback=traceback.format_exc())
@@ -253,22 +254,23 @@ def _pool_shot(shot: Shot, force: bool, slot: int | None = None) -> dict:
 
 def _pool_worker(forked: bool, states=None) -> None:
     """A pool worker's start: its threads (``limit_threads``), and between shots SIGTERM ends it at
-    once and SIGINT is the parent's to handle (a shot's writer handles both while it runs).
+    once and SIGINT, SIGHUP and SIGQUIT are the parent's to handle (it stops the workers with SIGTERM).
 
-    The worker starts with both signals blocked (``_signals_held``): until this runs it has the
+    The worker starts with them blocked (``_signals_held``): until this runs it has the
     parent's handlers, which would raise the parent's interruption in it."""
     global _states
     _states = states
     limit_threads(forked)
     signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for sig in _STOP_SIGNALS - {signal.SIGTERM}:  # a terminal's Ctrl-C or hangup reaches the whole group
+        signal.signal(sig, signal.SIG_IGN)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
 
 
 @contextmanager
 def _signals_held() -> Iterator[None]:
-    """SIGTERM and SIGINT blocked in this thread while the block runs, then delivered: processes
+    """The stopping signals blocked in this thread while the block runs, then delivered: processes
     forked (or spawned) meanwhile inherit the mask."""
     if not hasattr(signal, "pthread_sigmask"):  # Windows: no fork, no inherited handlers
         yield

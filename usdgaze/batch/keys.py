@@ -39,6 +39,7 @@ def composed_files(root: str) -> tuple[list[str], list[str], list]:
     from pxr import Ar, UsdUtils
 
     from usdgaze.errors import usd_failure
+    from usdgaze.files.transaction import os_reason
     from usdgaze.usd.stage import without_usd_warnings
 
     require_file(root)
@@ -47,6 +48,8 @@ def composed_files(root: str) -> tuple[list[str], list[str], list]:
         # multi-line warning about it here was noise in a farm log.
         with without_usd_warnings():
             layers, _assets, unresolved = UsdUtils.ComputeAllDependencies(root)
+    except UnicodeError as exc:  # a name (or the folder it is in) that is not UTF-8
+        raise UsdGazeError(f"{root}: cannot read its layers ({os_reason(exc)})") from None
     except Exception as exc:  # pxr raises Tf.ErrorException with multi-line text
         raise UsdGazeError(f"{root}: cannot read its layers ({usd_failure(exc)})") from None
     if not layers:

@@ -24,6 +24,7 @@ apply option to the manifest is one row there.
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -102,6 +103,8 @@ _COMBINED: dict[str, Callable[[dict, Callable[[str], str]], Any]] = {"options.bi
 # The shared checks name some values as the CLI's flags do (parse_shift: "shift"); a manifest's
 # messages name the key as written there.
 _AS_WRITTEN = {"shift": "shifts", "fixation_m": "fixation"}
+_FLAG = re.compile(r"(?<![\w-])--([a-z][a-z-]*[a-z])( ')?")
+"""A CLI flag in a message (``--skel-root``), and the quote of a value given after it."""
 
 
 def _key_name(manifest: str, where: str, inherited: frozenset, key: str, job: bool = True) -> str:
@@ -140,6 +143,19 @@ class Shot:
     def value_label(self, key: str, value: object) -> str:
         """``label(key, value)`` of the shared checks for this job's values."""
         return f"{self.name_of(key)} = {value}"
+
+    def said(self, message: str) -> str:
+        """A message of the shot's command as the manifest names things: the command's checks at run
+        time name the CLI's flags (``--shift 9999:30:0 lies outside the animation``, ``--skel-root``),
+        which a manifest's author did not write. Those become this job's keys, after the job."""
+        def key(found: re.Match) -> str:
+            name = _AS_WRITTEN.get(found[1].replace("-", "_"), found[1].replace("-", "_"))
+            if name not in KEYS:  # a flag with no manifest key (--workers): as it was
+                return found[0]
+            return ("[defaults] " if name in self.inherited else "") + name + (" = '" if found[2] else "")
+
+        rewritten = _FLAG.sub(key, message)
+        return message if rewritten == message else f"{self.where}: {rewritten}"
 
     @property
     def out(self) -> str:
@@ -301,11 +317,14 @@ def _register(ids, path: Path, shots: list[Shot]) -> None:
     for s in shots:
         # Another shot must not write a layer this one composes: on a farm it would read it half-made.
         # A layer not there yet counts too: on the first run it is another shot's output to come.
-        source = os.path.realpath(s.values["input"])
+        # The path as given, links unresolved: USD anchors a symlinked input's sublayers at the link's
+        # folder (as batch.keys.shot_key reads them); realpath only to know the input among them.
+        source = os.path.abspath(s.values["input"])
         if source not in composed:
             with without_usd_warnings():  # USD's multi-line warning for each layer not there yet
                 found = layer_dependencies(source, missing=True)
-            composed[source] = [f for f in found if os.path.realpath(f) != source]
+            real = os.path.realpath(source)
+            composed[source] = [f for f in found if os.path.realpath(f) != real]
         for f in composed[source]:
             ids.read(f, f"layer composed by the input of {s.label}")
     for s in shots:

@@ -16,7 +16,7 @@ import click
 
 from usdgaze import __version__
 from usdgaze.errors import Interrupted, UsdGazeError
-from usdgaze.files.signals import later_if_importing
+from usdgaze.files.signals import later_if_importing, stops_to_handle
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
@@ -102,14 +102,11 @@ def cli() -> None:
     """Add realistic gaze shifts to UsdSkel animation as a non-destructive override layer."""
 
 
-_STOPS = (signal.SIGTERM, signal.SIGINT)
-
-
 class _Stops:
-    """SIGTERM and SIGINT while a command runs, wherever no writer's transaction handles them: one line
-    and 128 + the signal (the process ends at once with ``hold``, else :class:`Interrupted` is raised),
-    and nothing once the command's outputs are in place (all that is left is its report). ``hold``: the
-    process ends after the command, so both are ignored from its end on (Python puts back the default
+    """Stopping signals (:data:`usdgaze.files.signals.STOPS`) while a command runs, wherever no writer's
+    transaction handles them: one line and 128 + the signal (the process ends at once with ``hold``, else
+    :class:`Interrupted` is raised), and nothing once the command's outputs are in place (all that is left is its report). ``hold``: the
+    process ends after the command, so they are ignored from its end on (Python puts back the default
     action, a kill, for its own handlers while it shuts down, and any thread, USD's included, may
     receive the signal)."""
 
@@ -126,7 +123,7 @@ class _Stops:
 
     def __enter__(self) -> "_Stops":
         if threading.current_thread() is threading.main_thread():  # Python's signal handlers live there
-            for sig in _STOPS:
+            for sig in stops_to_handle():
                 self.saved[sig] = signal.signal(sig, self._on_signal)
         return self
 

@@ -87,22 +87,41 @@ _USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
 
 def _foreign_layer(path: Path) -> str | None:
-    """The first root prim of an existing USD layer that usdgaze did not write (no ``usdgaze`` or
-    ``usdgaze:...`` entry in its customLayerData), else None: ours, one with no prims (a placeholder),
-    or one not readable as USD (replaced as any file is)."""
+    """What an existing USD layer that usdgaze did not write holds (its first root prim, else its first
+    sublayer, else its metadata), else None: ours, a truly empty layer (a placeholder), or a file not
+    readable as USD (replaced as any file is). Ours: a ``usdgaze`` or ``usdgaze:...`` entry in its
+    customLayerData; for a preview, whose entry says so, only while it holds no prims (an animator may
+    save edits into it).
+
+    A layer of sublayers and no prims is a shot's root (lighting, layout): it was replaced silently.
+    Previews written before they carried the entry are not told apart from one: a root sublayering
+    [override, input] is also what an artist writes by hand, and the cost of refusing an old preview
+    (remove it once) is small beside that of losing a shot's root."""
     if path.suffix.lower() not in _USD_SUFFIXES:
         return None
     from pxr import Sdf
 
     try:
         layer = Sdf.Layer.OpenAsAnonymous(str(path), metadataOnly=True)
-        if layer is None or any(k == "usdgaze" or k.startswith("usdgaze:") for k in layer.customLayerData):
+        if layer is None:
+            return None
+        marks = {k: v for k, v in layer.customLayerData.items() if k == "usdgaze" or k.startswith("usdgaze:")}
+        preview = isinstance(marks.get("usdgaze"), dict) and bool(marks["usdgaze"].get("preview"))
+        if marks and not preview:
             return None
         layer = Sdf.Layer.OpenAsAnonymous(str(path))
     except Exception:  # pxr raises Tf.ErrorException for a file that is no layer
         return None
-    roots = layer.rootPrims if layer is not None else []
-    return str(roots[0].path) if roots else None
+    if layer is None:
+        return None
+    if layer.rootPrims:
+        return str(layer.rootPrims[0].path)
+    if preview:
+        return None
+    if layer.subLayerPaths:
+        return f"sublayer @{layer.subLayerPaths[0]}@"
+    keys = [k for k in layer.pseudoRoot.ListInfoKeys() if k != "subLayerOffsets"]
+    return f"layer metadata {', '.join(keys)}" if keys else None
 
 
 def _unfollowed(path: str | os.PathLike) -> Path:

@@ -6,9 +6,22 @@ later, when the import is done."""
 from __future__ import annotations
 
 import os
+import signal
 import threading
 
 AGAIN_S = 0.05
+
+STOPS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGINT", "SIGHUP", "SIGQUIT") if hasattr(signal, name))
+"""The signals that stop a command: a kill, Ctrl-C, a closed terminal or dropped ssh, Ctrl-\\ (the last two
+left temporary folders and partial files behind). Each ends it with 128 + its number."""
+
+
+def stops_to_handle() -> list[int]:
+    """:data:`STOPS` but for SIGHUP and SIGQUIT where ignored: ``nohup`` ignores SIGHUP so that the
+    command outlives its terminal, and a handler would undo that. SIGTERM and SIGINT are always
+    handled, as they were before."""
+    keep = (signal.SIGTERM, signal.SIGINT)
+    return [sig for sig in STOPS if sig in keep or signal.getsignal(sig) is not signal.SIG_IGN]
 
 
 def in_import(frame) -> bool:
@@ -54,8 +67,6 @@ def quiet_stops_while_starting() -> None:
     """In the usdgaze command, a Ctrl-C before the CLI's own handlers are set (while Python imports
     OpenUSD, ~0.2 s) ends it as one after does: one line and 130, not a KeyboardInterrupt traceback.
     Nothing is written yet. A library import (no command) keeps Python's handler."""
-    import signal
-
     if not is_cli_process() or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
         return  # a host that ignores SIGINT (a background job) keeps ignoring it
 

@@ -5,15 +5,15 @@ name, ``--no-clobber``, and identity against every file read, see :mod:`.identit
 files it reads, stages each output (a USD layer, a plot, text) into a temporary folder
 ``.usdgaze-tmp-<host>-<pid>-<token>`` beside the output, and commits at the end. The commit renames
 every staged file over its target, and if one rename fails, puts back what the earlier ones
-replaced; a SIGTERM or SIGINT that arrives during the renames, or during the cleanup after them
-or after a failure, waits for them. Otherwise, on any
-error, SIGTERM or SIGINT nothing of the command remains, USD's own temporaries included (they go
+replaced; a stopping signal (SIGTERM, SIGINT, SIGHUP, SIGQUIT: :data:`.signals.STOPS`) that arrives
+during the renames, or during the cleanup after them or after a failure, waits for them. Otherwise,
+on any error or stopping signal nothing of the command remains, USD's own temporaries included (they go
 into the same folder). After SIGKILL the targets are untouched and the leftover
 folder is removed by the next run that writes into that folder.
 
-New files get mode ``0666 & ~umask``; a replaced file keeps its mode. Symlinks are written through
-(the target changes, the link stays). OS failures are one-line :class:`UsdGazeError` naming the path
-and the OS's reason, exit 2: they are the user's to fix.
+New files get mode ``0666 & ~umask``; a replaced file keeps its mode and group (and owner, as root).
+Symlinks are written through (the target changes, the link stays). OS failures are one-line
+:class:`UsdGazeError` naming the path and the OS's reason, exit 2: they are the user's to fix.
 
 The temporaries' names, the sweep and the checks of a claimed path are in :mod:`.paths`.
 """
@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Callable
 
 from usdgaze.errors import Interrupted, UsdGazeError, usd_failure
-from usdgaze.files.signals import later_if_importing
+from usdgaze.files.signals import later_if_importing, stops_to_handle
 from usdgaze.files.identity import Identities, real_path
 from usdgaze.files.paths import (TMP_PREFIX, _foreign_layer, _host, _name_max, _special_kind, _text_usd, _unfollowed,
                                  sweep)
@@ -60,10 +60,12 @@ def current_umask() -> int:
 
 
 class _Staged:
-    def __init__(self, target: Path, flag: str, keep_mode: int | None) -> None:
+    def __init__(self, target: Path, flag: str, keep_mode: int | None, owner: tuple[int, int] | None = None) -> None:
         self.target = target
         self.flag = flag
         self.keep_mode = keep_mode
+        self.owner = owner
+        """(uid, gid) of the file replaced; None for a new file."""
         self.temp: Path | None = None
         self.foreign: str | None = None
         """The first prim of the USD layer at ``target`` when usdgaze did not write it."""
@@ -84,6 +86,8 @@ class Outputs:
         self._mode = 0o666 & ~current_umask()
         self._old_handlers: dict[int, object] = {}
         self._made: list[Path] = []
+        self._wanted: set[str] = set()
+        """Real paths of the folders ``make_folder`` was asked for (see ``_rewanted``)."""
         self._done = False
         self._committing = False
         self._closing = False
@@ -94,7 +98,7 @@ class Outputs:
     # -- context: signals and cleanup --------------------------------------------------------------
     def __enter__(self) -> "Outputs":
         if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGTERM, signal.SIGINT):
+            for sig in stops_to_handle():
                 self._old_handlers[sig] = signal.signal(sig, self._on_signal)
         return self
 
@@ -153,6 +157,7 @@ class Outputs:
         shown = Path(path)
         target = real_path(path) if follow else _unfollowed(path)
         folder = target.parent
+        self._rewanted(folder)
         if not os.path.exists(folder):  # os.path: Path.exists() raises for a name over NAME_MAX
             if follow and os.path.islink(shown):  # a dangling link: its target's folder, not the link's
                 raise UsdGazeError(f"{shown}: links to {target}, whose folder {folder} does not exist")
@@ -166,10 +171,10 @@ class Outputs:
         kind = _special_kind(target)
         if kind:  # the rename would put a plain file where a device, pipe or socket was
             raise UsdGazeError(f"{shown}: {flag} names {kind}, not a regular file")
-        keep_mode = None
+        keep_mode = owner = None
         if target.exists() and not target.is_symlink():
             st = target.stat()
-            keep_mode = st.st_mode & 0o7777
+            keep_mode, owner = st.st_mode & 0o7777, (st.st_uid, st.st_gid)
             if edit and not (st.st_mode & 0o222 and os.access(target, os.W_OK)):
                 raise UsdGazeError(f"{shown}: {flag} names a read-only file; refusing to replace it (make it writable first)")
             if self.no_clobber and not edit:
@@ -178,7 +183,7 @@ class Outputs:
             raise UsdGazeError(f"{shown}: no such file for {flag} to edit")
         self.ids.write(path if follow else target, flag, follow=follow)
         self._tmpdir(folder, shown)  # a folder we cannot write into is found now, before any work
-        item = self._claims[target] = _Staged(target, flag, keep_mode)
+        item = self._claims[target] = _Staged(target, flag, keep_mode, owner)
         if keep_mode is not None and not edit:
             item.foreign = _foreign_layer(target)
             item.shown = shown
@@ -206,6 +211,7 @@ class Outputs:
             write(str(temp))
             with open(temp, "rb+") as f:
                 os.fsync(f.fileno())
+            _keep_owner(temp, item.owner)  # before the mode: a chown clears setuid and setgid
             os.chmod(temp, self._mode if item.keep_mode is None else item.keep_mode)
         except UsdGazeError:
             raise
@@ -226,6 +232,7 @@ class Outputs:
     def make_folder(self, path: str | os.PathLike) -> None:
         """Create a missing output folder; it is removed again if the command fails."""
         folder = Path(path)
+        self._wanted.add(os.path.realpath(folder))
         # os.path, not pathlib: Path.is_dir()/exists() raise for a name over NAME_MAX (ENAMETOOLONG);
         # here it is a folder to make, whose mkdir says why it cannot be.
         if os.path.isdir(folder):
@@ -250,6 +257,13 @@ class Outputs:
         finally:
             self._made.extend(reversed(made))  # deepest first
 
+    def _rewanted(self, folder: Path) -> None:
+        """Make again a folder ``make_folder`` was asked for and that is gone. Two parallel shots writing
+        into one new folder: A made it, B found it there (not B's to remove), A failed and removed it
+        (empty then), and B's claim said it does not exist. Once B's temporary is in it, it stays."""
+        if str(folder) in self._wanted and not os.path.isdir(folder):
+            self.make_folder(folder)
+
     def stage_text(self, path: str | os.PathLike, text: str) -> None:
         def write(temp: str) -> None:
             with open(temp, "w", newline="", encoding="utf-8") as f:
@@ -263,7 +277,13 @@ class Outputs:
             tmpdir = folder / f"{TMP_PREFIX}{_host()}-{os.getpid()}-{secrets.token_hex(4)}"
             self._tmpdirs[folder] = tmpdir  # first: a signal right after the mkdir still finds it to remove
             try:
-                tmpdir.mkdir(mode=0o700)
+                for _ in range(3):  # the folder removed again between the two lines: made again
+                    self._rewanted(folder)
+                    with contextlib.suppress(FileNotFoundError):
+                        tmpdir.mkdir(mode=0o700)
+                        break
+                else:
+                    tmpdir.mkdir(mode=0o700)
             except OSError as exc:
                 del self._tmpdirs[folder]
                 raise UsdGazeError(f"{shown}: cannot write into {Path(shown).parent} ({os_reason(exc)})") from None
@@ -324,6 +344,17 @@ class Outputs:
                 with contextlib.suppress(OSError):
                     folder.rmdir()
         self._made.clear()
+
+
+def _keep_owner(temp: Path, owner: tuple[int, int] | None) -> None:
+    """Give the staged replacement the group of the file it replaces, and its owner where we may (root):
+    a rename puts a new inode in place, made ours, and a show's shared group lost write access to the
+    override it shared. Where the group is not ours to give, the file is ours as any new one is."""
+    if owner is None or not hasattr(os, "chown"):
+        return
+    uid, gid = owner
+    with contextlib.suppress(PermissionError):
+        os.chown(temp, uid if os.geteuid() == 0 else -1, gid)
 
 
 @contextlib.contextmanager

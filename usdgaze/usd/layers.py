@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Sdf, Vt
 
+from usdgaze import __version__
 from usdgaze.core import rotations as rot
 from usdgaze.errors import UsdGazeError
 from usdgaze.files.transaction import Outputs, outputs_of
@@ -333,6 +334,9 @@ def write_preview(preview: str | os.PathLike, override: str | os.PathLike, input
         layer.subLayerPaths.append(relative_asset_path(input_path, preview))
         if default_prim:
             layer.defaultPrim = default_prim
+        # usdgaze's mark: the next run may replace this root, which holds no prims of its own
+        # (a shot's root of sublayers looks the same and is refused, see files.paths._foreign_layer)
+        layer.customLayerData = {"usdgaze": {"preview": True, "version": __version__}}
     atomic_export(layer, preview, outputs, flag="--preview")
 
 

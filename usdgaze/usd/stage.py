@@ -23,7 +23,20 @@ def open_stage(path: str | os.PathLike, where: str | None = None,
     path = os.fspath(path)
     where = where or path
     require_file(path, error, where)
+    _require_utf8(path, error)
     return _opened(lambda: Usd.Stage.Open(path), where, error)
+
+
+def _require_utf8(path: str, error: type[UsdGazeError]) -> None:
+    """OpenUSD anchors a relative name at the working folder: a folder name that is not UTF-8 failed
+    later, reading the layers' real paths (an internal error). Named absolute, as USD sees it."""
+    from usdgaze.files.transaction import os_reason
+
+    full = os.path.abspath(path)
+    try:
+        full.encode("utf-8")
+    except UnicodeError as exc:
+        raise error(f"{full}: cannot open as a USD stage ({os_reason(exc)})") from None
 
 
 def open_root(root: Sdf.Layer, where: str, error: type[UsdGazeError] = UsdGazeError) -> Usd.Stage:
