@@ -97,3 +97,36 @@ def b_preview_command_sheet_bad_extension(d):
 
 def b_preview_command_out_bad_extension(d):
     return ["preview", str(rig(d).path), "--layer", str(d / "gaze.usdc"), "--out", str(d / "x.avi")]
+
+
+def _physics_model(d, author, **kw):
+    return ["physics-model", str(edited(d, author, **kw)), "--out", str(d / "body.xml")]
+
+
+def b_physics_body_too_small(d):
+    """A rig in metres on a stage that says centimetres: 1.9 cm tall (an MJCF MuJoCo refuses, 'inertia
+    must satisfy A + B >= C', was written with exit 0; attend --physics failed with exit 1)."""
+    def centimetres(layer, r):
+        layer.pseudoRoot.SetInfo("metersPerUnit", 0.01)
+    return _physics_model(d, centimetres)
+
+
+def b_physics_body_too_tall(d):
+    """A SkelRoot scaled 4 by one factor: a 7.8 m body, no person's size."""
+    def giant(layer, r):
+        root = layer.GetPrimAtPath(r.skel_root)
+        Sdf.AttributeSpec(root, "xformOp:scale", Sdf.ValueTypeNames.Float3).default = Gf.Vec3f(4.0)
+        Sdf.AttributeSpec(root, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                          Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:scale"])
+    return _physics_model(d, giant)
+
+
+def b_mesh_index_on_an_added_eye(d):
+    """An eyeless rig whose mesh is skinned by index J on a J-joint skeleton (out of range): the eyes
+    apply adds became joints J and J + 1, and the mesh silently followed the left eye."""
+    def past_the_joints(layer, r):
+        attr = layer.GetAttributeAtPath(r.mesh + ".primvars:skel:jointIndices")
+        indices = list(attr.default)
+        indices[0] = len(r.joints)
+        attr.default = Vt.IntArray(indices)
+    return apply_argv(d, edited(d, past_the_joints, eyes=False, mesh=True))

@@ -151,6 +151,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         # Windows near a shot's end see the take go on, not the shot's last pose held.
         result = apply_attend(with_ahead(clip, ahead, take), chain, frame, things, settings.loop_options(), progress,
                               frames=None if ahead is None else len(clip.times))
+        report.warnings.extend(result.warnings)
         steps += len(result.planner_times)
         frames += len(clip.times)
         written = result

@@ -16,6 +16,7 @@ from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes.directives import Directive
+from usdgaze.passes.hidden import held_world
 from usdgaze.passes.requests import DirectiveRequest
 from usdgaze.usd import schema
 
@@ -83,8 +84,9 @@ def built_map(definition: GazeMapDefinition) -> ParametricGazeMap:
 
 
 def _stage_up(clip: SkelClip) -> np.ndarray:
-    """The stage's up carried into skeleton space at the first frame (unit; a scaled skeleton too)."""
-    up = np.linalg.solve(clip.skel_to_world[0, :3, :3], clip.world_up)
+    """The stage's up carried into skeleton space at the first frame the character is not scaled to
+    nothing on (unit; a scaled skeleton too): the reader refused a clip without one."""
+    up = np.linalg.solve(held_world(clip.skel_to_world)[0, :3, :3], clip.world_up)
     return up / np.linalg.norm(up)
 
 

@@ -58,6 +58,9 @@ class SkelClip:
     binds), and the arrays hold the rest pose at every frame of the stage's range."""
     notes: list[str] = field(default_factory=list)
     """What the reader noticed and the reports say (joints of the animation the skeleton lacks)."""
+    stray_influences: list[tuple[str, int]] = field(default_factory=list)
+    """``(mesh primvar, index)`` per mesh skinned by a joint index past the skeleton's joints, the smallest:
+    an eye joint added there would take those vertices (see :mod:`usdgaze.usd.skinning`)."""
     owns_arrays: bool = False
     """The animation arrays belong to this clip alone (a fresh read nobody else holds), so a pass may
     write its result into them instead of into copies: one copy of the animation less at the peak."""

@@ -20,6 +20,7 @@ from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.passes.aim import aim_eyes
 from usdgaze.passes.assemble import assemble
 from usdgaze.passes.chain import with_eyes
+from usdgaze.passes.hidden import hold_visible, restore
 from usdgaze.passes.options import EyeRange, PassOptions
 from usdgaze.planning.kinbody import BaseChain
 from usdgaze.vision import eye as eyemod
@@ -46,6 +47,7 @@ class AttendResult:
     eye_pose: np.ndarray  # (F, 3) theta, psi (deg), zeta (mm)
     loop: loop.LoopResult = field(repr=False, default=None)
     planner_times: np.ndarray | None = None
+    warnings: list[str] = field(default_factory=list)
 
 
 def _spine_neck(chain: Chain) -> tuple[int, int]:
@@ -103,6 +105,7 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
 
     ``frames``: the shot is the clip's first ``frames`` frames; the rest (the take after a shot cut
     from it) only the planner's windows see, and the result holds the shot's frames."""
+    clip, hidden = hold_visible(clip, chain)
     rig = with_eyes(clip, chain, frame, PassOptions())
     spine, neck = _spine_neck(chain)
     base = forward(with_ancestors(list(chain.path) + list(rig.eyes), rig.parents), rig.parents, rig.local)
@@ -137,7 +140,7 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
     if rig.added:
         out.added_rest_local = rig.rest_local[-2:]
         out.added_bind_world = clip.bind_world[chain.head] @ rig.rest_local[-2:]
-    return out
+    return restore(out, hidden, clip)
 
 
 def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local, e: np.ndarray

@@ -78,6 +78,18 @@ def _free_path(path: str, taken: set[str]) -> str:
     return out
 
 
+def _check_no_stray_influence(clip: SkelClip) -> None:
+    """The eyes are added as the skeleton's next two joints: a mesh skinned by one of those indices
+    (an index past its joints, which UsdSkel cannot skin by) would have its vertices follow an eye."""
+    n = len(clip.joints)
+    for where, index in clip.stray_influences:
+        if index < n + 2:
+            raise UsdGazeError(
+                f"{clip.source}:{where}: index {index} is out of range for the {n} joints of {clip.skeleton}, and the "
+                f"eye joints this adds would be joints {n} and {n + 1}, so the mesh would follow an eye; fix the "
+                "mesh's joint indices, or bind the rig's own eye joints (--bind leftEye=JOINT --bind rightEye=JOINT)")
+
+
 def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Rig:
     """The rig with its eye joints: existing ones, or a left and a right added under the head."""
     rest_world = clip.neutral()
@@ -89,6 +101,7 @@ def with_eyes(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: Pass
     if chain.eyes is not None:
         return Rig(clip, list(clip.joints), clip.parents, clip.rest_local, rest_q, chain.eyes, [], {}, chain.head)
     head = chain.head
+    _check_no_stray_influence(clip)
     # Eye placement scales with the character: the head joint (skull base) of an adult stands ~1.5 m up.
     height = (rest_world[head, :3, 3] - rest_world[:, :3, 3]) @ frame.up
     units_per_m = max(float(height.max()), 1e-9) / 1.5

@@ -40,6 +40,7 @@ from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes.aim import OVER_THE_POLE, reach_warnings
 from usdgaze.passes.assemble import finish
 from usdgaze.passes.chain import move_body, prepare
+from usdgaze.passes.hidden import held_world, hold_visible, restore
 from usdgaze.passes.options import PassOptions, PassResult, Shift
 from usdgaze.passes.schedule import Schedule, Scheduler, schedule
 from usdgaze.passes.sight import azimuth_elevation, direction_from
@@ -85,7 +86,8 @@ def to_world(clip: SkelClip, p: np.ndarray) -> np.ndarray:
 
 
 def to_skel(clip: SkelClip, p: np.ndarray) -> np.ndarray:
-    inv = np.linalg.inv(clip.skel_to_world)
+    # A frame the character is scaled to nothing on maps as the pass held it (see passes.hidden).
+    inv = np.linalg.inv(held_world(clip.skel_to_world))
     return np.einsum("fij,fj->fi", np.broadcast_to(inv[:, :3, :3], (len(p), 3, 3)), p) + np.broadcast_to(
         inv[:, :3, 3], p.shape)
 
@@ -234,6 +236,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     targets = [np.asarray(t, dtype=float) for t in (targets or [])]
     directives = sorted(directives, key=lambda d: d.time_s)
     _check(clip, directives, targets, look)
+    clip, hidden = hold_visible(clip, chain)
     seconds = clip.seconds
     base = prepare(clip, chain, frame, options)
     rig, up = base.rig, base.up
@@ -286,7 +289,7 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     for d, end in _shift_spans(directives):  # frames at full gaze weight only: a partial weight asks for less
         result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
     result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [], too_near, up)
-    return result
+    return restore(result, hidden, clip)
 
 
 def _base_shown(directives: list[Directive], seconds: np.ndarray, plan: Schedule) -> np.ndarray:

@@ -230,7 +230,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     aside -= set(seg.subtree_of(children, head)) if head is not None else set()
     extent = sorted(set(range(n)) - attached - aside)
     height = float(np.ptp(pos[extent, 2])) * 1.08 or 1.0
-    seg.check_biped(roles, pos, height, where, extent)
+    seg.check_biped(roles, pos, height, where, extent, meters_per_unit)
     far = {b for b in aside if np.linalg.norm(offset[b]) > 0.25 * height}  # longer than a thigh: no bone of it
     seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges, head, attached)
     lengths = np.linalg.norm(seg_vec, axis=1)

@@ -333,12 +333,20 @@ def segment_masses(roles: list[str], lengths: np.ndarray, total_mass: float, tip
     return masses * total_mass
 
 
-def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str, extent=None) -> None:
+HEIGHT_M = (0.25, 5.0)
+"""Standing heights (m) the physics body is built for: de Leva's person, scaled. A rig in metres on a
+stage that says centimetres (1.8 cm tall) made inertias MuJoCo refuses, and attend --physics failed."""
+
+
+def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str, extent=None,
+                meters_per_unit: float = 1.0) -> None:
     """The body is de Leva's human standing: a skeleton lying down or upside down in the stage at rest
     (its head not above its pelvis, or its feet not below), and one whose hands are on the ground at
     rest (a quadruped's front feet), would be simulated as a person in a pose it cannot hold (a lying
     rig was said to have 'stayed up' at 247% of its pelvis height), so they are refused, as is one
-    without feet. ``extent``: the bodies that size it (not a camera joint hung from the hips)."""
+    without feet, or of no person's height (``height`` in metres, :data:`HEIGHT_M`; ``meters_per_unit``:
+    the stage's, said where it is not). ``extent``: the bodies that size it (not a camera joint hung
+    from the hips)."""
     body = pos if extent is None else pos[list(extent)]
     size = float(np.linalg.norm(np.ptp(body, axis=0)))
     heads = [b for b, r in enumerate(roles) if r == "head"]
@@ -358,6 +366,11 @@ def check_biped(roles: list[str], pos: np.ndarray, height: float, where: str, ex
     if low < 0.2 * height:
         raise UsdGazeError(f"{where}: its hands are on the ground at rest ({low / height:.0%} of its height up): "
                            "the physics body is a biped (de Leva's human segments); quadrupeds are not supported")
+    # Last: a body lying down (or on all fours) is as tall as it is thick, and its stance is what to say.
+    if not HEIGHT_M[0] <= height <= HEIGHT_M[1]:
+        raise UsdGazeError(f"{where}: the body stands {height:.3g} m tall in the stage (metersPerUnit "
+                           f"{meters_per_unit:g}), not {HEIGHT_M[0]:g} to {HEIGHT_M[1]:g} m: the physics body is a "
+                           "person's size; check the stage's metersPerUnit or the SkelRoot's scale")
 
 
 def inertials(roles: list[str], seg_vec: np.ndarray, mass: np.ndarray):

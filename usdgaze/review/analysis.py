@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.core import rotations as rot
+from usdgaze.core.zero_scale import singular
 from usdgaze.passes.sight import azimuth_elevation, line_of_sight
 
 MAIN_SEQUENCE_VMAX = 500.0
@@ -32,8 +33,13 @@ def _apply(m: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _solve(m: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Directions in a frame's own axes: ``m^-1 v``, normalized (scales and all)."""
-    return rot.normalize(np.linalg.solve(m, v[..., None])[..., 0])
+    """Directions in a frame's own axes: ``m^-1 v``, normalized (scales and all); NaN on a frame whose
+    map has no inverse (a character or joint scaled to nothing, as animators hide one: nothing to see)."""
+    gone = singular(m)
+    if not gone.any():
+        return rot.normalize(np.linalg.solve(m, v[..., None])[..., 0])
+    out = rot.normalize(np.linalg.solve(np.where(gone[..., None, None], np.eye(3), m), v[..., None])[..., 0])
+    return np.where(gone[..., None], np.nan, out)
 
 
 def eye_local_axes(c) -> list[np.ndarray]:

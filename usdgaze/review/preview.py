@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.passes.hidden import held_world
 from usdgaze.review import analysis, render
 
 CAMERAS = ("front", "side", "top")
@@ -116,7 +117,7 @@ def _units_per_m(c) -> float:
     A figure that does not stand (laid down or tilted by its parent's transform) has no height above
     the floor to go by (~0: no bone was drawn and preview failed): the head's reach to the farthest
     joint stands for it where the height is under half of that."""
-    s2w = c.skel_to_world[0]
+    s2w = held_world(c.skel_to_world)[0]  # as it stands where it is seen (not scaled to nothing)
     rest = np.einsum("ij,kjl->kil", s2w, c.neutral_world)[:, :3, 3]
     offsets = rest[c.chain.head] - rest
     height, reach = float((offsets @ c.up).max()), float(np.linalg.norm(offsets, axis=1).max())

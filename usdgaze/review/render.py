@@ -102,7 +102,9 @@ def named_camera(kind: str, figures: list[Figure], up: np.ndarray, width: int, h
     """An orthographic front/side/top camera that follows the figures' pelvis over the floor and
     frames everything any figure draws, on every frame, at one scale."""
     f = figures[0].positions.shape[0]
-    forward = figures[0].head_forward[0]
+    # Its first frame with a forward: a character scaled to nothing (hidden) at the start has none.
+    seen = np.flatnonzero(np.linalg.norm(figures[0].head_forward, axis=-1) > 0.5)  # unit, not 0 or NaN
+    forward = figures[0].head_forward[seen[0] if len(seen) else 0]
     r, u, d = _basis(kind, forward, up)
     root = np.mean([fig.positions[:, fig.focus] for fig in figures], axis=0)
     # A figure with no bone drawn (none short enough) is framed by its joints.

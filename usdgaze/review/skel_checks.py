@@ -1,6 +1,7 @@
 """Checks behind the ``AnimationArrays`` and ``SkeletonArrays`` validators for what ``apply`` refuses of
 a SkelAnimation's or a Skeleton's authoring (beside their values' lengths and finiteness): an animation
-array left unauthored, a joint token that is no path. Each says what apply's refusal says, one line."""
+array left unauthored, a joint token that is no path, a mesh skinned by joint indices UsdSkel cannot
+use. Each says what apply's refusal says, one line."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pxr import Usd, UsdSkel, UsdValidation
 
 from usdgaze.usd.samples import NOT_AUTHORED
 from usdgaze.usd.skelio import ill_formed_joint
+from usdgaze.usd.skinning import influence_problems
 
 
 def _error(prim: Usd.Prim, path, name: str, message: str) -> UsdValidation.ValidationError:
@@ -38,3 +40,11 @@ def ill_formed_joints(skel: UsdSkel.Skeleton, joints) -> list:
     more = f"; {len(bad)} of the skeleton's {len(joints)} joints are ill-formed" if len(bad) > 1 else ""
     attr = skel.GetJointsAttr()
     return [_error(skel.GetPrim(), attr.GetPath(), "IllFormedJoint", f"joints: {ill_formed_joint(bad[0])}{more}")]
+
+
+def skinned_influences(skel: UsdSkel.Skeleton) -> list:
+    """Each mesh the Skeleton skins whose jointIndices UsdSkel cannot skin by (an index out of range,
+    jointWeights of another length; see :mod:`usdgaze.usd.skinning`): one line per mesh, on the primvar.
+    apply warns of the same, and refuses to add eye joints that an index out of range would land on."""
+    return [_error(p.prim, p.prim.GetPath().AppendProperty(p.attribute), "JointIndices", f"{p.attribute}: {p.problem}")
+            for p in influence_problems(skel.GetPrim())]

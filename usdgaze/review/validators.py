@@ -32,7 +32,7 @@ from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
 from usdgaze.usd.checks import arc_units_problem, arc_up_axis_problem
 from usdgaze.usd.skelio import animation_of
 from usdgaze.review.sample_checks import first_bad
-from usdgaze.review.skel_checks import ill_formed_joints, not_authored
+from usdgaze.review.skel_checks import ill_formed_joints, not_authored, skinned_influences
 
 PLUGIN = "usdgaze.review.validators"
 """The Python plugin's name in plugInfo.json (= this module); validator names are ``PLUGIN:Name``."""
@@ -212,7 +212,7 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
 def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
     """A Skeleton's bind and rest transforms, where authored, one finite matrix per joint (a layer that
     adds eyes writes all three: a short or broken one passed validate and failed every reader); its
-    jointNames one name per joint."""
+    jointNames one name per joint; the meshes it skins, joint indices UsdSkel can skin by."""
     skel = UsdSkel.Skeleton(prim)
     joints = skel.GetJointsAttr().Get()
     n = 0 if joints is None else len(joints)
@@ -228,7 +228,8 @@ def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
             errors.append(_error(prim, attr.GetPath(), "Length", f"{attr.GetName()}: {len(m)} entries, expected {n} (one per joint)"))
         elif not np.isfinite(m).all():
             errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values"))
-    return errors + ill_formed_joints(skel, joints) + _joint_names_length(skel, joints) + _sparse_without_rest(skel, joints)
+    return (errors + ill_formed_joints(skel, joints) + _joint_names_length(skel, joints)
+            + _sparse_without_rest(skel, joints) + skinned_influences(skel))
 
 
 def _joint_names_length(skel: UsdSkel.Skeleton, joints) -> list:

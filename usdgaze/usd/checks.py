@@ -11,6 +11,7 @@ import math
 import numpy as np
 from pxr import Pcp, Usd, UsdGeom
 
+from usdgaze.core.zero_scale import singular, time_code_spans
 from usdgaze.errors import UsdGazeError
 
 ANIMATION_TYPES = {"joints": "token[]", "rotations": "quatf[]", "translations": "float3[]", "scales": "half3[]"}
@@ -200,6 +201,37 @@ def check_matrices(mats: np.ndarray | None, joints: list[str], where: str) -> No
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise UsdGazeError(f"{where}: entry {i} (joint '{joints[i]}') is singular (a zero scale); it has no inverse")
+
+
+def check_scaled_away(skel: Usd.Prim, times: np.ndarray, skel_to_world: np.ndarray, source: str) -> list[str]:
+    """The Skeleton's world transform ``skel_to_world`` (one, or one per frame of ``times``) scaled to
+    nothing, as animators hide a character: refused where it holds on every frame (there is no head to
+    aim); else one note naming the transform and its time codes, whose frames the passes leave as the
+    base motion (see :mod:`usdgaze.passes.hidden`)."""
+    gone = singular(skel_to_world[:, :3, :3])
+    if not gone.any():
+        return []
+    first = float(times[int(np.argmax(gone))]) if len(gone) > 1 else float(times[0]) if len(times) else None
+    prim, op = _scaled_away_by(skel, Usd.TimeCode(first) if first is not None else Usd.TimeCode.Default())
+    where = f"{source}:{prim.GetPath()}.{op}"
+    if gone.all():
+        when = "at every time" if len(gone) == 1 else f"on every frame (time codes {time_code_spans(times, gone)})"
+        raise UsdGazeError(f"{where}: scales the character to nothing (a zero scale) {when}, so it has no head "
+                           "to aim; give it a scale other than 0 on the frames to add gaze to")
+    return [f"{where}: scales the character to nothing (a zero scale) at time codes {time_code_spans(times, gone)}; "
+            "those frames keep the base motion (no gaze offset), and the gaze goes on after them"]
+
+
+def _scaled_away_by(skel: Usd.Prim, time: Usd.TimeCode) -> tuple[Usd.Prim, str]:
+    """The prim, from the Skeleton up, and its xformOp whose transform at ``time`` has no inverse."""
+    prim = skel
+    while prim and not prim.IsPseudoRoot():
+        x = UsdGeom.Xformable(prim)
+        for op in (x.GetOrderedXformOps() if x else []):
+            if singular(np.array(op.GetOpTransform(time), dtype=float)[None, :3, :3])[0]:
+                return prim, op.GetName()
+        prim = prim.GetParent()
+    return skel, "xformOpOrder"  # no one op is singular, only their product: the order says which make it
 
 
 def check_scales(scales: np.ndarray, where: str) -> None:

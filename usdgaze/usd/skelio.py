@@ -8,9 +8,11 @@ from pxr import Sdf, Usd, UsdGeom, UsdSkel
 from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import world_matrices
+from usdgaze.core.zero_scale import singular
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd import checks
 from usdgaze.usd.samples import Samples, check_values, read_array
+from usdgaze.usd.skinning import influence_problems
 
 
 def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:
@@ -120,10 +122,7 @@ def bind_problem(bind_world: np.ndarray | None, joints: list[str]) -> str | None
         return f"bindTransforms has {len(bind_world)} entries, expected {len(joints)}"
     if not np.all(np.isfinite(bind_world)):
         return "bindTransforms holds NaN or infinite values"
-    m = bind_world[:, :3, :3]
-    det = np.abs(np.linalg.det(m))
-    scale = np.linalg.norm(m, axis=(1, 2)) ** 3 / 5.196  # |det| of a uniform scaling, for that norm
-    bad = np.flatnonzero(det <= 1e-9 * np.maximum(scale, 1e-300))
+    bad = np.flatnonzero(singular(bind_world[:, :3, :3]))
     if len(bad):
         return f"bindTransforms is singular at joint '{joints[bad[0]].rsplit('/', 1)[-1]}'"
     pos = bind_world[:, :3, 3]
@@ -349,6 +348,10 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         times, rotations, translations, scales = _rest_pose_samples(stage, rest_local, where_skel)
         held = True
     joint_names = _joint_names(skeleton)
+    skel_to_world = _skel_to_world(skel, times)
+    notes.extend(checks.check_scaled_away(skel, times, skel_to_world, source))
+    skinned = influence_problems(skel)
+    notes.extend(f"{source}:{p.prim.GetPath()}.{p.attribute}: {p.problem}" for p in skinned)
     return SkelClip(
         source=source,
         skel_root=str(root.GetPath()),
@@ -370,7 +373,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         rotations=rotations,
         translations=translations,
         scales=scales,
-        skel_to_world=_skel_to_world(skel, times),
+        skel_to_world=skel_to_world,
         up_axis=str(UsdGeom.GetStageUpAxis(stage)),
         meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
         time_codes_per_second=float(stage.GetTimeCodesPerSecond()),
@@ -378,4 +381,5 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         start_time=float(stage.GetStartTimeCode()),
         end_time=float(stage.GetEndTimeCode()),
         joint_names=joint_names,
+        stray_influences=[(f"{p.prim.GetPath()}.{p.attribute}", p.beyond) for p in skinned if p.beyond is not None],
     )
