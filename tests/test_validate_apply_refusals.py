@@ -94,3 +94,105 @@ def test_scales_authored_as_a_default_only_stay_clean_for_apply_and_validate(tmp
     capsys.readouterr()
     assert main(["validate", str(r.path), "--only-usdgaze"]) == 0
     assert capsys.readouterr().out == ""
+
+
+def _broken_override(tmp_path: Path, capsys) -> tuple[syn.Rig, Path, int]:
+    """A rig, apply's layer for it, and that layer's rotations broken at the Sdf level: a short array
+    at the 5th sample, NaN at the 6th and 8th (the input below it stays sound). Returns the layer's
+    sample count too."""
+    from pxr import Gf, Sdf, Vt
+
+    r = syn.make_rig(tmp_path / "in.usda", frames=20, mesh=False)
+    out = tmp_path / "in_gaze.usda"
+    assert main(["apply", str(r.path), "--shift", "0.1s:20:0", "--out", str(out)]) == 0
+    capsys.readouterr()
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    path = Sdf.Path(r.animation).AppendProperty("rotations")
+    times = layer.ListTimeSamplesForPath(path)
+    layer.SetTimeSample(path, times[5], Vt.QuatfArray(list(layer.QueryTimeSample(path, times[5]))[:-2]))
+    for t in (times[6], times[8]):
+        v = list(layer.QueryTimeSample(path, t))
+        v[0] = Gf.Quatf(float("nan"), 0, 0, 0)
+        layer.SetTimeSample(path, t, Vt.QuatfArray(v))
+    layer.Save()
+    return r, out, len(times)
+
+
+def test_each_kind_of_bad_sample_is_one_line_naming_the_layer_that_authored_it(tmp_path, capsys):
+    """A wrong length at one time and NaN at two others: two lines, not the first alone; each names
+    the override layer (which holds the bad samples), not the input, as FILE; apply on a stage that
+    sublayers them refuses the same array."""
+    r, out, count = _broken_override(tmp_path, capsys)
+    n = len(r.anim_joints)
+    assert main(["validate", str(r.path), "--layer", str(out), "--only-usdgaze"]) == 3
+    lines = capsys.readouterr().out.splitlines()
+    where = f"{out}:{r.animation}.rotations: error: rotations:"
+    assert lines == [f"{where} {n - 2} entries at time {r.times[5]:g}, expected {n} (one per joint); 1 of {count} samples "
+                     "(usdgaze.review.validators:AnimationArrays.Length)",
+                     f"{where} NaN or infinite values at time {r.times[6]:g}; 2 of {count} samples "
+                     "(usdgaze.review.validators:AnimationArrays.NotFinite)"]
+    shot = tmp_path / "shot.usda"  # the same layers as a shot's sublayers: FILE is still the layer
+    stage = Usd.Stage.CreateNew(str(shot))
+    stage.GetRootLayer().subLayerPaths = [str(out), str(r.path)]
+    for key in ("timeCodesPerSecond", "framesPerSecond", "upAxis", "metersPerUnit"):
+        stage.GetRootLayer().pseudoRoot.SetInfo(key, Usd.Stage.Open(str(r.path)).GetRootLayer().pseudoRoot.GetInfo(key))
+    stage.GetRootLayer().Save()
+    assert main(["validate", str(shot), "--only-usdgaze"]) == 3
+    assert [line.split(":", 1)[0] for line in capsys.readouterr().out.splitlines()] == [str(out), str(out)]
+    assert main(["apply", str(shot), "--shift", "0.1s:20:0", "--out", str(tmp_path / "again.usdc")]) == 2
+    assert f"{r.animation}.rotations: {n - 2} entries at time {r.times[5]:g}" in capsys.readouterr().err
+
+
+def _wrong_typed_map(tmp_path: Path) -> tuple[Path, dict[str, str]]:
+    """A map file (dump-map's) with two attributes re-authored in other types: name -> the type
+    authored, as Sdf.ValueTypeNames spells it."""
+    from pxr import Sdf
+
+    from usdgaze.gaze.defaults import default_definition
+    from usdgaze.usd.schema import dump_map
+
+    path = tmp_path / "map.usda"
+    dump_map(default_definition(), path)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    prim = layer.GetPrimAtPath("/GazeMap")
+    retyped = {"gaze:synthesis:blendSize": (Sdf.ValueTypeNames.String, "six"),
+               "gaze:examples:yaw": (Sdf.ValueTypeNames.DoubleArray, list(prim.attributes["gaze:examples:yaw"].default))}
+    for name, (type_name, value) in retyped.items():
+        prim.RemoveProperty(prim.attributes[name])
+        Sdf.AttributeSpec(prim, name, type_name, Sdf.VariabilityUniform).default = value
+    layer.Save()
+    return path, {name: str(type_name) for name, (type_name, _) in retyped.items()}
+
+
+def test_a_wrong_typed_attribute_is_one_line_spelling_types_as_usd_does(tmp_path, capsys):
+    """OpenUSD's AttributeTypeMismatch (sited on the layer, printed at '/') and usdgaze's WrongType both
+    caught each attribute: one line each now, usdgaze's (prim and attribute named), the authored type
+    spelled as Sdf.ValueTypeNames does, as apply's refusal spells it."""
+    path, authored = _wrong_typed_map(tmp_path)
+    capsys.readouterr()
+    assert main(["validate", str(path)]) == 3
+    lines = capsys.readouterr().out.splitlines()
+    for name, type_name in authored.items():
+        (line,) = [x for x in lines if name in x]
+        assert line.startswith(f"{path}:/GazeMap.{name}: error: {name}: authored as {type_name}, expected "), line
+        assert line.endswith("GazeMapArrays.WrongType)")
+    assert not any("AttributeTypeMismatch" in x for x in lines), lines
+    r = syn.make_rig(tmp_path / "rig.usda", frames=20, mesh=False)
+    assert main(["apply", str(r.path), "--map", str(path), "--shift", "0.1s:20:0", "--out", str(tmp_path / "o.usdc")]) == 2
+    assert f"authored as {authored['gaze:examples:yaw']}" in capsys.readouterr().err
+
+
+def test_usds_type_mismatch_stays_where_usdgaze_says_nothing(tmp_path, capsys):
+    """Only a duplicate is dropped: a wrong-typed attribute of another schema (a Sphere's radius
+    authored as float, its schema's is double) is still USD's line."""
+    from pxr import Sdf
+
+    path = tmp_path / "ball.usda"
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.ImportFromString('#usda 1.0\n(\n    defaultPrim = "Ball"\n    metersPerUnit = 1\n    upAxis = "Y"\n)\n'
+                           'def Sphere "Ball"\n{\n    float radius = 2\n}\n')
+    layer.Save()
+    capsys.readouterr()
+    assert main(["validate", str(path)]) == 3
+    (line,) = capsys.readouterr().out.splitlines()
+    assert "AttributeTypeMismatch" in line and "</Ball.radius>" in line, line
