@@ -196,3 +196,78 @@ def test_usds_type_mismatch_stays_where_usdgaze_says_nothing(tmp_path, capsys):
     assert main(["validate", str(path)]) == 3
     (line,) = capsys.readouterr().out.splitlines()
     assert "AttributeTypeMismatch" in line and "</Ball.radius>" in line, line
+
+
+def _edit_knee(r: syn.Rig, frame: int) -> float:
+    """Turn the left knee (a joint no gaze chain drives) a little at one frame of the input, at the Sdf
+    level, as a later edit of the take would; returns that time code."""
+    from pxr import Gf, Sdf, Vt
+
+    layer = Sdf.Layer.FindOrOpen(str(r.path))
+    path = Sdf.Path(r.animation).AppendProperty("rotations")
+    t = layer.ListTimeSamplesForPath(path)[frame]
+    v = list(layer.QueryTimeSample(path, t))
+    k = r.anim_joints.index(r.joint("knee_l"))
+    v[k] = (Gf.Quatf(v[k]) * Gf.Quatf(0.9961947, 0.0871557, 0.0, 0.0)).GetNormalized()  # 10 deg more bend
+    layer.SetTimeSample(path, t, Vt.QuatfArray(v))
+    layer.Save()
+    return t
+
+
+def test_a_layer_made_before_the_input_was_edited_is_flagged_by_validate_and_plot(tmp_path, capsys):
+    """apply writes every joint's rotations; composed over the edited input the layer plays the old
+    knee. validate says which joint differs and when (exit 3), plot draws it with a warning saying so;
+    the layer made again over the edited input is clean."""
+    r = syn.make_rig(tmp_path / "in.usda", frames=24, time_codes_per_second=24, mesh=False)
+    old = tmp_path / "old.usda"
+    assert main(["apply", str(r.path), "--shift", "0.2s:30:0", "--out", str(old)]) == 0
+    t = _edit_knee(r, 17)
+    capsys.readouterr()
+    assert main(["validate", str(r.path), "--layer", str(old), "--only-usdgaze"]) == 3
+    (line,) = capsys.readouterr().out.splitlines()
+    assert f"old.usda: the layer was made from another version of the input: joint '{r.leaf['knee_l']}' of " \
+           f"{r.animation} differs at time code {t:g} (rotations;" in line and line.endswith("GazeLayerSchedule.OtherVersion)")
+    assert main(["plot", str(r.path), "--layer", str(old), "--out", str(tmp_path / "plots")]) == 0
+    (warning,) = [w for w in capsys.readouterr().err.splitlines() if w.startswith("usdgaze: warning:")]
+    assert f"joint '{r.leaf['knee_l']}'" in warning and f"time code {t:g}" in warning
+    assert main(["apply", str(r.path), "--shift", "0.2s:30:0", "--out", str(tmp_path / "new.usda")]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(r.path), "--layer", str(tmp_path / "new.usda"), "--only-usdgaze"]) == 0
+
+
+def test_a_layer_for_another_take_of_the_same_span_is_flagged(tmp_path, capsys):
+    """Same animation path, same time codes, another motion (another seed and turn): the span check
+    (OtherTake) found nothing and plot drew a gaze the request never asked for."""
+    a = syn.make_rig(tmp_path / "a.usda", frames=24, time_codes_per_second=24, mesh=False)
+    b = syn.make_rig(tmp_path / "b.usda", frames=24, time_codes_per_second=24, mesh=False, seed=3, turn_deg_per_s=40.0)
+    assert main(["apply", str(a.path), "--shift", "0.2s:30:0", "--out", str(tmp_path / "a_gaze.usda")]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(b.path), "--layer", str(tmp_path / "a_gaze.usda"), "--only-usdgaze"]) == 3
+    (line,) = capsys.readouterr().out.splitlines()
+    assert "a_gaze.usda: the layer was made from another version of the input" in line
+
+
+def test_layers_of_apply_attend_physics_and_batch_are_clean_over_their_input(tmp_path, capsys):
+    """No joint the chain does not drive differs in what apply, attend and batch write; attend
+    --physics moves every joint, so an edit of its input is not called another version (its record's
+    command says what it was)."""
+    from .test_attend_binding import _scene
+
+    r = syn.make_rig(tmp_path / "in.usda", frames=12, time_codes_per_second=24, mesh=False)
+    scene, _ = _scene(tmp_path, r)
+    (tmp_path / "m.toml").write_text(f'[[job]]\nname = "s"\ninput = "{r.path}"\nout = "{tmp_path / "b.usdc"}"\n'
+                                     'shifts = ["0.2s:30:0"]\n')
+    runs = {"a.usda": (r.path, ["apply", str(r.path), "--shift", "0.2s:30:0"]),
+            "t.usda": (scene, ["attend", str(scene), "--window", "0.3"]),
+            "p.usda": (scene, ["attend", str(scene), "--physics", "--window", "0.1"])}
+    for name, (source, argv) in runs.items():
+        assert main([*argv, "--out", str(tmp_path / name)]) == 0
+    assert main(["batch", str(tmp_path / "m.toml")]) == 0
+    runs["b.usdc"] = (r.path, [])
+    capsys.readouterr()
+    for name, (source, _) in runs.items():
+        assert main(["validate", str(source), "--layer", str(tmp_path / name), "--only-usdgaze"]) == 0, name
+    assert capsys.readouterr().out == ""
+    _edit_knee(r, 5)
+    assert main(["validate", str(scene), "--layer", str(tmp_path / "p.usda"), "--only-usdgaze"]) == 0
+    assert main(["validate", str(scene), "--layer", str(tmp_path / "t.usda"), "--only-usdgaze"]) == 3

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 
-from usdgaze.errors import UsdGazeError
 from usdgaze.files.kinds import require_file
 
 _SEVERITY = {"Error": "error", "Warn": "warning", "Info": "info"}
