@@ -65,7 +65,8 @@ VALIDATORS = {
     "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift, look-at and release parses and "
                          "starts inside the stage's time range, every character it names is a SkelRoot there, and the layer "
                          "overrides a SkelAnimation of the stage and samples it over the span the input below it does "
-                         "(not another take's).",
+                         "(not another take's), and the joints it writes but its gaze chain does not drive are the "
+                         "input's below it (not another version's).",
 }
 VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "SkeletonArrays": ["UsdSkelSkeleton"],
                           "SkeletonUnits": ["UsdSkelSkeleton"], "SkeletonUpAxis": ["UsdSkelSkeleton"],

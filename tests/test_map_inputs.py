@@ -48,12 +48,12 @@ def test_build_map_exits_2_on_a_non_string_skeleton_and_writes_nothing(tmp_path,
 
 @pytest.mark.parametrize("name, type_name, value, authored, expected", [
     ("gaze:synthesis:samples", "Float", 50.5, "float", "int"),
-    ("gaze:binding:forward", "Float2", (0.0, 1.0), "Vec2f", "float3"),
-    ("gaze:binding:head", "String", "Head", "str", "token[]"),
+    ("gaze:binding:forward", "Float2", (0.0, 1.0), "float2", "float3"),
+    ("gaze:binding:head", "String", "Head", "string", "token[]"),
     # a string or a pair where a number is compared with its range: validate's internal error (exit 1)
-    ("gaze:synthesis:neighbors", "String", "4", "str", "int"),
-    ("gaze:synthesis:neckShare", "String", "0.5", "str", "float"),
-    ("gaze:synthesis:refine", "Int2", Gf.Vec2i(1, 2), "Vec2i", "int"),
+    ("gaze:synthesis:neighbors", "String", "4", "string", "int"),
+    ("gaze:synthesis:neckShare", "String", "0.5", "string", "float"),
+    ("gaze:synthesis:refine", "Int2", Gf.Vec2i(1, 2), "int2", "int"),
 ])
 def test_validate_names_a_map_setting_binding_or_forward_of_the_wrong_type(tmp_path, name, type_name, value, authored,
                                                                            expected):

@@ -10,7 +10,7 @@ import numpy as np
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.hints import BindHints
 from usdgaze.core.kinematics import snap_up
-from usdgaze.core.names import names_not_read
+from usdgaze.core.names import names_not_read, spelled_with_names
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
 from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.gaze.definition import GazeMapDefinition
@@ -120,15 +120,15 @@ def _tilt_note(where: str, frame: CharacterFrame, up_s: np.ndarray, stage_up: np
             f"If it stands upright in the world instead, give --forward {spelled}")
 
 
-def _by_names_too(clip: SkelClip, fn):
+def _by_names_too(joints: list[str], parents, joint_names, fn):
     """``fn(joints)`` on the joint paths, and where their words tell nothing (a RigError) on the
     paths spelled with the skeleton's jointNames (generic tokens such as ``j0/j1`` named Hips and
     Spine); the first error when neither serves."""
     try:
-        return fn(clip.joints)
+        return fn(joints)
     except RigError as first:
-        named = clip.named_joints()
-        note = names_not_read(clip.joints, clip.joint_names)
+        named = spelled_with_names(joints, parents, joint_names)
+        note = names_not_read(joints, joint_names)
         if note:
             raise RigError(f"{first}{note}") from None
         if named is None:
@@ -159,15 +159,33 @@ def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints 
     """Chain and character frame of a clip: the user's hints first, then the SkelRoot's map's
     bindings (``definition``), then those of ``shared`` (a ``--map`` file, named ``shared_name`` in
     messages) for roles the SkelRoot leaves unbound, then names."""
+    where = f"{clip.source}:{clip.skeleton}"
+    bindings, labels, forward, label = _bindings(definition, hints, shared, shared_name)
+    chain = _by_names_too(clip.joints, clip.parents, clip.joint_names,
+                          lambda joints: bind_chain(joints, clip.parents, bindings, where=where, labels=labels))
+    frame = _by_names_too(clip.joints, clip.parents, clip.joint_names,
+                          lambda joints: _character_frame(clip, joints, forward, label))
+    return chain, frame
+
+
+def chain_of(joints: list[str], parents, joint_names, definition: GazeMapDefinition | None,
+             hints: BindHints | None, where: str) -> Chain:
+    """The chain :func:`bind` binds, from the skeleton's joints alone (no samples read): what a review
+    of a layer needs to know which joints the pass drove."""
+    bindings, labels, _, _ = _bindings(definition, hints, None, "")
+    return _by_names_too(joints, parents, joint_names,
+                         lambda named: bind_chain(named, parents, bindings, where=where, labels=labels))
+
+
+def _bindings(definition, hints: BindHints | None, shared, shared_name: str) -> tuple[dict, dict, tuple | None, str]:
+    """Roles, labels, forward and its label: the user's hints over the SkelRoot's map over ``shared``'s."""
     hints = hints or BindHints()
     bindings, labels, forward, label = _map_bindings([(shared, shared_name), (definition, "")])
     for role, joints in hints.bindings:
         bindings[role], labels[role] = joints, f"{hints.bind_label} {role}={'+'.join(joints)}"
     if hints.forward is not None:
         forward, label = hints.forward, hints.forward_label
-    where = f"{clip.source}:{clip.skeleton}"
-    chain = _by_names_too(clip, lambda joints: bind_chain(joints, clip.parents, bindings, where=where, labels=labels))
-    return chain, _by_names_too(clip, lambda joints: _character_frame(clip, joints, forward, label))
+    return bindings, labels, forward, label
 
 
 def root_directives(root, source: str, requests: list[DirectiveRequest]) -> list[DirectiveRequest]:

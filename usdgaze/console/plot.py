@@ -25,6 +25,8 @@ def plot(input_path, layer, out_dir, skel_root) -> None:
 
     pyplot()  # a missing matplotlib fails before any work
     review = read_review(input_path, layer, skel_root)
+    for w in review.warnings:  # drawn all the same: what the composed stage plays, which is not this input's gaze
+        click.echo(f"usdgaze: warning: {w}", err=True)
     with Outputs() as outputs:
         outputs.read(input_path)
         outputs.read(layer, "--layer")

@@ -108,6 +108,7 @@ class Review:
     """False for layers written before the limits were recorded (the defaults are shown then)."""
     fixation_m: float | None = None
     attention: list[Attention] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # a layer made from another version of the input
 
     @property
     def shifts(self) -> list[tuple[float, float, float]]:
@@ -231,6 +232,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     """Every skeleton the layer animates, base (layer muted) and gaze (composed), posed for every frame."""
     from usdgaze import api
     from usdgaze.core.hints import from_record
+    from usdgaze.review.layer_versions import review_warnings
     from usdgaze.usd.skelio import skel_roots, skeletons_under
 
     stage, gaze_layer = composed_stage(input_path, layer_path)
@@ -252,6 +254,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
             if character is not None:
                 review.characters.append(character)
     review.attention = read_attention(stage, source)
+    review.warnings = review_warnings(stage, gaze_layer, layer_file, record, review.characters)
     if not review.characters:
         if skel_root:
             elsewhere = sorted({str(r.GetPath()) for r in skel_roots(stage)

@@ -49,8 +49,8 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
                 errors.append(_stage_error(stage, "MissingCharacter",
                                            f"{name}: customLayerData usdgaze.characters names {path}, which is not a "
                                            f"SkelRoot on this stage"))
-        errors += _other_take(stage, layer, record.get("characters", []))
-        errors += _other_input(stage, layer)
+        other = _other_take(stage, layer, record.get("characters", [])) + _other_input(stage, layer)
+        errors += other or _other_version(stage, layer, record)  # another take differs everywhere: said once
     return errors
 
 
@@ -66,6 +66,23 @@ def _other_input(stage, layer) -> list:
         return []
     return [_stage_error(stage, "OtherTake", f"{layer.GetDisplayName()}: {not_for_input(stage.GetRootLayer().identifier)} "
                                              "(plot and preview refuse it); validate it over the input it was made for")]
+
+
+def _other_version(stage, layer, record: dict) -> list:
+    """Each named character's animation whose joints the layer writes but its gaze does not drive are
+    not the input's (:mod:`usdgaze.review.layer_versions`): the layer was made from another version
+    of the input, and composed over this one plays that version's motion."""
+    from usdgaze.review.layer_versions import driven_joints, moves_every_joint, other_version, stale_joint
+
+    if moves_every_joint(record):
+        return []
+    errors, name = [], layer.GetDisplayName()
+    for root, skel, anim in _bound(stage, record.get("characters", [])):
+        driven = driven_joints(skel, root, record, stage.GetRootLayer().identifier, name)
+        found = None if driven is None else stale_joint(layer, anim, driven)
+        if found is not None:
+            errors.append(_stage_error(stage, "OtherVersion", other_version(name, anim.GetPath(), found)))
+    return errors
 
 
 def _other_take(stage, layer, characters) -> list:
@@ -119,6 +136,12 @@ def _looks_and_releases(stage, record: dict, name: str, clock, span) -> list:
 
 def _animations(stage, characters):
     """The SkelAnimation bound to each Skeleton under each named character that is a SkelRoot."""
+    for _, _, anim in _bound(stage, characters):
+        yield anim
+
+
+def _bound(stage, characters):
+    """(SkelRoot prim, Skeleton, its bound SkelAnimation) under each named character that is a SkelRoot."""
     for path in characters:
         prim = stage.GetPrimAtPath(str(path)) if Sdf.Path.IsValidPathString(str(path)) else None
         if not prim or not prim.IsA(UsdSkel.Root):
@@ -126,7 +149,7 @@ def _animations(stage, characters):
         for skel in (p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)):
             anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
             if anim:
-                yield UsdSkel.Animation(anim)
+                yield prim, UsdSkel.Skeleton(skel), UsdSkel.Animation(anim)
 
 
 def _span(spec, offset) -> tuple[float, float]:

@@ -9,7 +9,7 @@ from contextlib import contextmanager
 import numpy as np
 from pxr import Usd
 
-_CHECKED: dict[tuple, tuple[str, str, int] | None] | None = None
+_CHECKED: dict[tuple, list] | None = None
 """While :func:`shared_samples` is on: (layer, spec path, joints, width) -> :func:`_check_rows`'
 answer for samples read from that layer spec. A crowd's instances of one asset share them, and each
 instance is validated (checked once each, a 100-character crowd's validate took 3.1 s)."""
@@ -27,8 +27,15 @@ def shared_samples():
         _CHECKED = None
 
 
-def first_bad(attr: Usd.Attribute, n: int, width: int) -> tuple[str, str, int] | None:
-    """(kind, "time T" or "default", entries) of the first sample that fails, or None."""
+Finding = tuple[str, str, int, int, int]
+"""(kind, "time T" or "default" of its first sample, how many samples, of how many, entries in that
+first sample): one kind of problem of one attribute."""
+
+
+def bad_samples(attr: Usd.Attribute, n: int, width: int) -> list[Finding]:
+    """Each kind of problem the attribute's samples have (Length, NotFinite, NotUnit, in that order),
+    or []: a layer with a wrong length at one time and a NaN at another has two problems to fix, and
+    reporting the first alone hid the second until the first was fixed."""
     from usdgaze.usd.samples import Samples
 
     samples = Samples(attr)
@@ -43,20 +50,29 @@ def first_bad(attr: Usd.Attribute, n: int, width: int) -> tuple[str, str, int] |
     return answer
 
 
-def _check_rows(times: list, values: list[np.ndarray], n: int, width: int) -> tuple[str, str, int] | None:
-    """The first sample at which any check fails, in the order length, finite, unit."""
-    wrong = next((i for i, v in enumerate(values) if len(v) != n * width), len(values))
-    a = np.asarray(values[:wrong], dtype=float).reshape(wrong, n, width)
-    bad_finite = ~np.isfinite(a).all(axis=(1, 2))
-    bad_unit = np.zeros(wrong, dtype=bool) if width != 4 else \
-        np.any(np.abs(np.linalg.norm(np.nan_to_num(a), axis=2) - 1.0) > 1e-2, axis=1) & ~bad_finite
-    first = np.flatnonzero(bad_finite | bad_unit)
-    i = int(first[0]) if len(first) else wrong
-    if i >= len(values):
-        return None
-    at = "default" if times[i] is None else f"time {times[i]:g}"
-    kind = "Length" if i == wrong else "NotFinite" if bad_finite[i] else "NotUnit"
-    return kind, at, len(values[i]) // width
+def _check_rows(times: list, values: list[np.ndarray], n: int, width: int) -> list[Finding]:
+    """Per kind, the samples that fail it: a wrong length; NaN or infinite entries (in a sample of any
+    length); a quaternion off unit length (in samples of the right length that are finite)."""
+    lengths = np.fromiter(map(len, values), dtype=np.int64, count=len(values))
+    right = lengths == n * width
+    good = np.flatnonzero(right)
+    # The right-length samples as one array (the common case is all of them): one check, not one a sample.
+    a = np.asarray(values if len(good) == len(values) else [values[i] for i in good], dtype=float)
+    a = a.reshape(len(good), n, width)
+    finite = np.ones(len(values), dtype=bool)
+    finite[good] = np.isfinite(a).all(axis=(1, 2))
+    finite[~right] = [np.isfinite(values[i]).all() for i in np.flatnonzero(~right)]
+    off_unit = np.zeros(len(values), dtype=bool)
+    if width == 4:
+        off_unit[good] = np.any(np.abs(np.linalg.norm(np.nan_to_num(a), axis=2) - 1.0) > 1e-2, axis=1) & finite[good]
+    out = []
+    for kind, bad in (("Length", ~right), ("NotFinite", ~finite), ("NotUnit", off_unit)):
+        hits = np.flatnonzero(bad)
+        if len(hits):
+            i = int(hits[0])
+            at = "default" if times[i] is None else f"time {times[i]:g}"
+            out.append((kind, at, len(hits), len(values), len(values[i]) // width))
+    return out
 
 
 def _all_samples(samples) -> tuple[list, list[np.ndarray]]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pxr import Usd, UsdSkel, UsdValidation
 
+from usdgaze.review.sample_checks import bad_samples
 from usdgaze.usd.samples import NOT_AUTHORED
 from usdgaze.usd.skelio import ill_formed_joint
 from usdgaze.usd.skinning import influence_problems
@@ -28,6 +29,26 @@ def not_authored(anim: UsdSkel.Animation) -> list:
     return [_error(prim, attr.GetPath(), "NotAuthored", f"{attr.GetName()}: {NOT_AUTHORED}")
             for attr in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
             if not attr or not attr.HasAuthoredValue()]
+
+
+def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
+    """The ``AnimationArrays`` validator: the three arrays authored, and per array each kind of bad
+    sample (a wrong length, NaN or infinite values, quaternions off unit length) one line, with its
+    first time code and how many samples have it."""
+    anim = UsdSkel.Animation(prim)
+    joints = anim.GetJointsAttr().Get()
+    if joints is None:
+        return []
+    n, errors = len(joints), not_authored(anim)
+    for attr, width in ((anim.GetRotationsAttr(), 4), (anim.GetTranslationsAttr(), 3), (anim.GetScalesAttr(), 3)):
+        if not attr or not attr.HasAuthoredValue():
+            continue
+        for kind, at, count, total, entries in bad_samples(attr, n, width):
+            what = {"Length": f"{entries} entries at {at}, expected {n} (one per joint)",
+                    "NotFinite": f"NaN or infinite values at {at}",
+                    "NotUnit": f"not unit quaternions at {at}"}[kind]
+            errors.append(_error(prim, attr.GetPath(), kind, f"{attr.GetName()}: {what}; {count} of {total} samples"))
+    return errors
 
 
 def ill_formed_joints(skel: UsdSkel.Skeleton, joints) -> list:

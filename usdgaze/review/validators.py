@@ -29,10 +29,9 @@ from usdgaze.gaze.definition import (
 )
 from usdgaze.gaze.motion import TIMING_FIELDS
 from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
-from usdgaze.usd.checks import arc_units_problem, arc_up_axis_problem
+from usdgaze.usd.checks import arc_units_problem, arc_up_axis_problem, authored_type
 from usdgaze.usd.skelio import animation_of
-from usdgaze.review.sample_checks import first_bad
-from usdgaze.review.skel_checks import ill_formed_joints, not_authored, skinned_influences
+from usdgaze.review.skel_checks import animation_arrays, ill_formed_joints, skinned_influences
 
 PLUGIN = "usdgaze.review.validators"
 """The Python plugin's name in plugInfo.json (= this module); validator names are ``PLUGIN:Name``."""
@@ -79,7 +78,7 @@ def gaze_map_arrays(prim: Usd.Prim, time_range=None) -> list:
         if attr.GetNumTimeSamples():
             errors.append(_error(prim, path, "Animated", f"{name}: has time samples; gaze map attributes are uniform"))
         if not isinstance(value, _TYPES[name][1]):
-            errors.append(_error(prim, path, "WrongType", f"{name}: authored as {type(value).__name__}, expected {_TYPES[name][0]}"))
+            errors.append(_error(prim, path, "WrongType", f"{name}: authored as {authored_type(attr)}, expected {_TYPES[name][0]}"))
             continue
         lengths[name] = len(value)
     # The settings, bindings and forward: read_map refuses a wrong type too, so say so here.
@@ -91,7 +90,7 @@ def gaze_map_arrays(prim: Usd.Prim, time_range=None) -> list:
         if attr.GetNumTimeSamples():
             errors.append(_error(prim, path, "Animated", f"{name}: has time samples; gaze map attributes are uniform"))
         if not isinstance(value, _TYPES[name][1]) or isinstance(value, bool):
-            errors.append(_error(prim, path, "WrongType", f"{name}: authored as {type(value).__name__}, expected {_TYPES[name][0]}"))
+            errors.append(_error(prim, path, "WrongType", f"{name}: authored as {authored_type(attr)}, expected {_TYPES[name][0]}"))
     if lengths:
         counts = np.array(list(lengths.values()))
         values, freq = np.unique(counts, return_counts=True)
@@ -183,29 +182,6 @@ def gaze_map_role_joints(prim: Usd.Prim, time_range=None) -> list:
                 errors.append(_error(prim, prim.GetPath().AppendProperty(name), "UnknownJoint",
                                      f"{name}: '{missing[0]}'{f' (+{len(missing) - 1} more)' if len(missing) > 1 else ''} "
                                      f"is not a joint of {skel.GetPath()}"))
-    return errors
-
-
-def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
-    anim = UsdSkel.Animation(prim)
-    joints = anim.GetJointsAttr().Get()
-    if joints is None:
-        return []
-    n, errors = len(joints), not_authored(anim)
-    for attr, width in ((anim.GetRotationsAttr(), 4), (anim.GetTranslationsAttr(), 3), (anim.GetScalesAttr(), 3)):
-        if not attr or not attr.HasAuthoredValue():
-            continue
-        found = first_bad(attr, n, width)
-        if found is None:
-            continue
-        kind, at, entries = found
-        if kind == "Length":
-            errors.append(_error(prim, attr.GetPath(), "Length",
-                                 f"{attr.GetName()}: {entries} entries at {at}, expected {n} (one per joint)"))
-        elif kind == "NotFinite":
-            errors.append(_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values at {at}"))
-        else:
-            errors.append(_error(prim, attr.GetPath(), "NotUnit", f"{attr.GetName()}: not unit quaternions at {at}"))
     return errors
 
 

@@ -155,10 +155,22 @@ def _arc_nodes(node, root_layer, arc: str | None):
         yield from _arc_nodes(child, root_layer, here)
 
 
+def value_spec(attr: Usd.Attribute):
+    """The strongest spec that authors the attribute's value (a default or time samples), or None: a
+    stronger spec that only declares the attribute (an ``over`` with no value) holds neither the value
+    nor the type it was authored with, and names the wrong file for a bad value."""
+    for spec in attr.GetPropertyStack(Usd.TimeCode.Default()):
+        if spec.HasDefaultValue() or spec.layer.GetNumTimeSamplesForPath(spec.path):
+            return spec
+    return None
+
+
 def authored_type(attr: Usd.Attribute) -> str:
-    """The type an attribute's strongest opinion is authored with (``float``, ``string``, ...): where a
-    registered schema defines the attribute, USD reports the schema's type whatever was authored."""
-    stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+    """The type an attribute's value is authored with, as ``Sdf.ValueTypeNames`` spell it (``float``,
+    ``string``, ``double[]``): where a registered schema defines the attribute, USD reports the schema's
+    type whatever was authored."""
+    spec = value_spec(attr)
+    stack = [spec] if spec is not None else attr.GetPropertyStack(Usd.TimeCode.Default())
     return str(stack[0].typeName) if stack else str(attr.GetTypeName())
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdSkel, Vt
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.usd.checks import authored_type
 from usdgaze.usd.plugin import has_api
 from usdgaze.passes.requests import DirectiveRequest
 
@@ -72,7 +73,7 @@ def _array(prim: Usd.Prim, name: str, where: str, count: int | None, found: _Fou
     value = attr.Get()
     sdf_type, python_type, _ = ATTRS[name]
     if not isinstance(value, python_type):
-        found(f"{where}.{name}: authored as {type(value).__name__}, expected {sdf_type}")
+        found(f"{where}.{name}: authored as {authored_type(attr)}, expected {sdf_type}")
         return None
     if count is not None and len(value) != count:
         found(f"{where}.{name}: {len(value)} entries, expected {count} (one per directive)")

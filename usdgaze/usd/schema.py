@@ -20,6 +20,7 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdSkel, Vt
 
 from usdgaze.usd import plugin as _plugin
+from usdgaze.usd.checks import authored_type
 from usdgaze.usd.stage import composed_files, open_stage
 from usdgaze.gaze.definition import (
     API_NAME,
@@ -246,14 +247,6 @@ def _type_name(prim: Usd.Prim) -> str:
     return prim.GetTypeName() or "(none)"
 
 
-def _authored_type(attr: Usd.Attribute, value: Any) -> str:
-    """The type someone actually authored (the schema's type is what GetTypeName reports)."""
-    for spec in attr.GetPropertyStack():
-        if spec.HasDefaultValue():
-            return str(spec.typeName)
-    return type(value).__name__
-
-
 def _get(prim: Usd.Prim, name: str, where: str, required: bool = False) -> Any:
     """Composed value of ``name``, type-checked; None when unset and not ``required``."""
     attr = prim.GetAttribute(name)
@@ -266,7 +259,7 @@ def _get(prim: Usd.Prim, name: str, where: str, required: bool = False) -> Any:
         return None
     sdf_type, python_type = _TYPES[name]
     if not isinstance(value, python_type) or isinstance(value, bool):
-        raise GazeMapError(f"{where}.{name}: authored as {_authored_type(attr, value)}, expected {sdf_type}")
+        raise GazeMapError(f"{where}.{name}: authored as {authored_type(attr)}, expected {sdf_type}")
     return value
 
 

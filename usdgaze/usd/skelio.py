@@ -89,7 +89,9 @@ def ill_formed_joint(joint: str) -> str | None:
             "digits and '_' in joint names, as exporters write 'mixamorig:Hips' as 'mixamorig_Hips'")
 
 
-def _joint_parents(joints: list[str], where: str) -> np.ndarray:
+def joint_parents(joints: list[str], where: str) -> np.ndarray:
+    """Each joint's parent index (-1 for a root), from the joint tokens' paths; a joint listed twice
+    or a token that is no path is a one-line error naming ``where``."""
     index = {j: i for i, j in enumerate(joints)}
     if len(index) < len(joints):
         twice = next(j for i, j in enumerate(joints) if index[j] != i)
@@ -159,7 +161,7 @@ def _skeleton_joints(skeleton: UsdSkel.Skeleton, where_skel: str) -> tuple[list[
     joints = [str(j) for j in (skeleton.GetJointsAttr().Get() or [])]
     if not joints:
         raise UsdGazeError(f"{where_skel}.joints: the skeleton has no joints")
-    return joints, _joint_parents(joints, where_skel)
+    return joints, joint_parents(joints, where_skel)
 
 
 NEW_ANIMATION = "gazeAnimation"  # the child of an unanimated Skeleton that the layer defines and binds
