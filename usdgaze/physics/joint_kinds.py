@@ -31,10 +31,12 @@ def hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
                 kind[b] = "hinge"
                 a /= np.linalg.norm(a)
                 axis[b] = rmat[b].T @ a
-                # 5 deg past straight to 150 deg flexed, measured from the straight limb, not from the
-                # rest pose: a rest pose with bent knees (CMU's, 48 deg) would shift the range by that.
+                # From 5 deg past straight, measured from the straight limb, not from the rest pose (CMU's
+                # rest knees are bent 48 deg), to 5 deg more flexed than at rest: the reference widens it
+                # (``fit_to_reference``). Not to an anatomical 150 deg: with that the planner let a knee
+                # buckle where it dodged an obstacle (the pelvis under 80% at 0.30 s).
                 bent = _flexion(rmat[bparent[b]] @ seg_vec[bparent[b]], bone, a)
-                range_deg[b] = (-5.0 - bent, 150.0 - bent)
+                range_deg[b] = (-5.0 - bent, 5.0)
         elif is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
             # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
             kind[b] = "hinge"
