@@ -35,7 +35,7 @@ written layer by UsdSkel FK: the nearer palm's distance to the true ball at its 
 10 cm in at least 4 of 5), and for the throw from behind the gaze and hand before the ball enters
 the field of view.
 
-    python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h 0.02]
+    python benchmarks/bench_physics.py [--tasks track,push] [--seconds S] [--cores 1,2] [--h H]
         [--horizon S] [--iterations 1] [--stride 1] [--reuse 1] [--speed] [--fk]
 
 ``--speed``: every task once per core count, timed alone, with frames/s per wall second, per CPU
@@ -172,12 +172,19 @@ def _options(a, **kw) -> mpc.Options:
     return with_window(mpc.Options(**{"fd_stride": a.stride, "fd_reuse": a.reuse, **kw}), a.horizon)
 
 
+def _step(a, task: str) -> float:
+    """``--h``, else the command's step for the task: the catch's (a ball to catch) or the default."""
+    return a.h if a.h is not None else (mpc.Options.moving_h if task == "catch" else mpc.Options.h)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--tasks", default="track,push")
     ap.add_argument("--seconds", type=float, default=8.3)
     ap.add_argument("--cores", default="1,2")
-    ap.add_argument("--h", type=float, default=0.02)
+    ap.add_argument("--h", type=float, default=None,
+                    help="the step of track, push, catch, stones-bar, stones-walk (default: the command's by task, "
+                    "0.03 s for the catch, 0.02 s for the others)")
     ap.add_argument("--horizon", type=float, default=None,
                     help="the window of every shot (default: the command's, 0.6 s and 1.0 s with stepping stones)")
     ap.add_argument("--iterations", type=int, default=1)
@@ -203,7 +210,7 @@ def main() -> None:
 
     obstacles.FORM = a.obstacle_form
     if a.throw is not None:
-        print(json.dumps(catch_one(a.throw, _options(a, h=a.h, iterations=a.iterations))))
+        print(json.dumps(catch_one(a.throw, _options(a, h=_step(a, "catch"), iterations=a.iterations))))
         return
     if a.obstacle_scene is not None:
         opts = _options(a, h=0.03, iterations=a.iterations)
@@ -218,7 +225,7 @@ def main() -> None:
     rows = []
     for task in a.tasks.split(","):
         if task == "catch":
-            run_catch(_options(a, h=a.h, iterations=a.iterations))
+            run_catch(_options(a, h=_step(a, task), iterations=a.iterations))
             continue
         if task == "stones-fk":
             opts = _options(a, h=0.03, iterations=a.iterations)
@@ -231,7 +238,7 @@ def main() -> None:
                 print(json.dumps(run_stones_gaze(opts, (4.0, 6.0), until_lift, task_on)), flush=True)
             continue
         if task == "stones-bar":  # the whole bar in one coupled shot (the test's scene, four directions)
-            opts = _options(a, h=a.h, iterations=a.iterations)
+            opts = _options(a, h=_step(a, task), iterations=a.iterations)
             for seed in [int(s_) for s_ in (a.seeds or "0").split(",")]:
                 for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):  # the stage's +X, +Z, -X, -Z
                     shift = {"Stone10": 0.15 * np.array([np.cos(turn), 0.0, np.sin(turn)])}
@@ -239,7 +246,7 @@ def main() -> None:
                           flush=True)
             continue
         if task == "stones-walk":  # the walk itself, 4.0-5.5 s: the left foot's 0.67 s landing displaced
-            opts = _options(a, h=a.h, iterations=a.iterations)
+            opts = _options(a, h=_step(a, task), iterations=a.iterations)
             for turn in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):
                 print(json.dumps(run_stones(opts, {"LeftAnkle": 0.15}, turn, (4.0, 5.5))), flush=True)
             continue
@@ -259,7 +266,7 @@ def main() -> None:
             continue
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
-            opts = _options(a, h=a.h, iterations=a.iterations, workers=cores)
+            opts = _options(a, h=_step(a, task), iterations=a.iterations, workers=cores)
             with threadpool_limits(1):
                 row = run_task(task, a.seconds, opts, a.fk) | {"cores": cores}
             rows.append(row)
@@ -284,7 +291,7 @@ def speed_table(a, cpus: list[int]) -> None:
     for task in tasks:
         for cores in (int(c) for c in a.cores.split(",")):
             os.sched_setaffinity(0, cpus[:cores])
-            h = 0.03 if task.startswith(("stones", "obstacles")) else a.h  # as the task runs above
+            h = 0.03 if task.startswith(("stones", "obstacles")) else _step(a, task)  # as the task runs above
             opts = _options(a, h=h, iterations=a.iterations, workers=cores)
             with threadpool_limits(1):
                 rows.append(speed.run(task, cores, opts, a.seconds, sys.modules[__name__]))

@@ -78,7 +78,7 @@ def phases(st: pstats.Stats, total: float) -> dict[str, float]:
 def run(task: str, seconds: float, stride: int, profile: bool, reuse: int = 1) -> dict:
     from threadpoolctl import threadpool_limits
 
-    h = 0.03 if task.startswith(("stones", "obstacles")) else 0.02
+    h = 0.03 if task.startswith(("stones", "obstacles")) else (mpc.Options.moving_h if task == "catch" else mpc.Options.h)
     opts = mpc.Options(h=h, workers=1, fd_stride=stride, fd_reuse=reuse)
     model, qpos, secs, things, tasks, pushes = speed.scene(task, h, seconds, bench)
     if task == "catch" and seconds < secs[-1]:

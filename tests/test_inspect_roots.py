@@ -40,15 +40,19 @@ def test_inspect_lists_every_skel_root_with_its_own_problem(tmp_path, capsys):
     map_line = capsys.readouterr().err.strip().removeprefix("usdgaze: error: ")
     assert "/Mapped.gaze:examples:yaw" in map_line
 
-    assert main(["inspect", str(path), "--json"]) == 0
-    roots = {r["path"]: r for r in json.loads(capsys.readouterr().out)["skel_roots"]}
+    # Everything is printed, and the exit says a skeleton cannot bind (a pre-flight check must see it).
+    assert main(["inspect", str(path), "--json"]) == 2
+    printed = capsys.readouterr()
+    err = printed.err.strip().splitlines()
+    assert len(err) == 1 and "1 of 2 skeleton(s) cannot bind (/Mapped/" in err[0], err
+    roots = {r["path"]: r for r in json.loads(printed.out)["skel_roots"]}
     assert sorted(roots) == ["/Character", "/Empty", "/Mapped"]
     assert roots["/Character"]["skeletons"][0]["chain"]["head"] == ["mixamorig_Head"]
     assert roots["/Empty"]["skeletons"] == []
     assert map_line in roots["/Mapped"]["map"]
     assert roots["/Mapped"]["skeletons"][0]["error"] == map_line
 
-    assert main(["inspect", str(path)]) == 0
+    assert main(["inspect", str(path)]) == 2
     text = capsys.readouterr().out.splitlines()
     empty = text.index("SkelRoot /Empty  gaze map: none (the built-in map is used)")
     assert text[empty + 1] == "  no Skeleton under this SkelRoot"

@@ -265,8 +265,8 @@ def test_a_ue_style_character_catches_a_ball_on_its_right_with_its_right_hand(tm
     1.08 s; in the same scene through the command, the left palm ended 8.9 cm off, the right 84 cm)."""
     rig, arrival = cs.rig_throw_stage(tmp_path, "ue", -0.2)
     out = tmp_path / "sim.usdc"
-    report = physics_pass.run(rig.path, out, mpc.Options(h=0.02, horizon_s=0.6))[0]  # the command's h
-    assert not report.fell
+    report = physics_pass.run(rig.path, out, mpc.Options(horizon_s=0.6))[0]  # the command's step: 0.03 for a catch
+    assert not report.fell and report.timestep_s == 0.03
     composed = cs.composed(rig.path, out, tmp_path / "composed.usda")
     k = int(round(1.2 * 30))  # the first frame the ball is at its arrival
     for stage, near in ((composed, True), (rig.path, False)):

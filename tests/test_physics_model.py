@@ -124,6 +124,7 @@ def test_model_is_physically_plausible(case):
     limbs = [n for n in hinges if any(w in n.lower() for w in ("knee", "leg", "elbow", "forearm"))]
     toes = [n for n in hinges if "toe" in n.lower()]
     assert len(limbs) == 4 and len(toes) <= 2 and len(limbs) + len(toes) == len(hinges)
+    _hinges_flex_forward(mj, [names.index(n) for n in limbs])
     assert kinds[0] == mujoco.mjtJoint.mjJNT_FREE and mj.nu == mj.nv - 6
     # Standing at rest, the centre of mass is laterally between the feet and at 45-65% of the height.
     d = mujoco.MjData(mj)
@@ -378,3 +379,38 @@ def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and all(line.startswith("usdgaze: error:") for line in err)
     assert list(tmp_path.iterdir()) == []
+
+
+def _hinges_flex_forward(mj, limbs: list[int]) -> None:
+    """A positive angle at a knee or elbow flexes it, by MuJoCo's kinematics: 30 deg more from the rest
+    pose bends the limb about 30 deg more, flexion measured between the bones, signed by the knee's ankle
+    behind and the elbow's wrist in front of the line of the bone above (forward = left x up, left from
+    the thighs' sides); at the range's ends the limb is flexed at least 5 deg more than at rest and
+    over-straightened at most 45 deg (the synthetic clip's own knees go 38 deg past straight; a knee
+    could bend 150 deg backwards before)."""
+    d = mujoco.MjData(mj)
+    body = lambda k: mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_BODY, int(mj.jnt_bodyid[k])).lower()  # noqa: E731
+    knees = [k for k in limbs if any(w in body(k) for w in ("knee", "leg"))]
+    side = {("left" in body(k) or body(k).startswith("l")): k for k in knees}
+    mujoco.mj_kinematics(mj, d)
+    thigh = {s: d.xpos[mj.body_parentid[mj.jnt_bodyid[k]]] for s, k in side.items()}
+    forward = np.cross(thigh[True] - thigh[False], [0.0, 0.0, 1.0])
+    forward /= np.linalg.norm(forward)
+    for k in limbs:
+        b = int(mj.jnt_bodyid[k])
+        parent, child = int(mj.body_parentid[b]), int(np.flatnonzero(mj.body_parentid == b)[0])
+        sense = -1.0 if k in knees else 1.0  # a knee flexes backwards, an elbow forwards
+
+        def flexion(angle: float) -> float:
+            d.qpos[:] = mj.qpos0
+            d.qpos[mj.jnt_qposadr[k]] = angle
+            mujoco.mj_kinematics(mj, d)
+            u, v = d.xpos[b] - d.xpos[parent], d.xpos[child] - d.xpos[b]
+            u, v = u / np.linalg.norm(u), v / np.linalg.norm(v)
+            bent = np.degrees(np.arccos(np.clip(u @ v, -1.0, 1.0)))
+            return bent * np.sign(sense * ((v - (v @ u) * u) @ forward))
+
+        rest, more = flexion(0.0), flexion(np.radians(30.0))
+        assert 25.0 < more - rest < 35.0, (body(k), rest, more)
+        lo, hi = (flexion(end) for end in mj.jnt_range[k])
+        assert hi >= rest + 4.9 and lo >= -45.0, (body(k), lo, hi)

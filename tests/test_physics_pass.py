@@ -224,7 +224,7 @@ def test_attend_physics_says_a_fall_and_discards_it_when_told(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["crushed.usda"]
     assert main(["attend", str(src), "--out", str(out), "--physics", "--window", "0.3", *once]) == 0
     printed = capsys.readouterr().out
-    assert "fell at" in printed and "(window 0.3 s)" in printed and out.is_file()
+    assert "fell at" in printed and "(step 0.02 s, window 0.3 s)" in printed and out.is_file()
     layer = Sdf.Layer.FindOrOpen(str(out))
     assert "fell at" in list(layer.customLayerData["usdgaze:physics"][SKEL]["problems"])[0]
     again = tmp_path / "again.usda"  # deterministic, and threads split the work without changing it

@@ -84,10 +84,12 @@ def test_a_push_outside_the_shot_is_not_a_push_of_the_shot(walk):
     assert starts == [90.0, 150.0]
 
 
-def test_a_shot_with_stones_gets_their_window_unless_one_is_chosen(tmp_path):
-    """The paper sets the window by task: a shot with stepping stones is simulated with
-    ``stones_horizon_s`` (1.0 s), any other with ``horizon_s`` (0.6 s); a window the user chooses
-    (``--window``, a manifest's ``window``) is every shot's. A bad stones' window is one line naming it."""
+def test_a_shot_gets_its_tasks_window_and_step_unless_they_are_chosen(tmp_path):
+    """The paper sets the window and the step by task: a shot with stepping stones is simulated with
+    ``stones_horizon_s`` (1.0 s), any other with ``horizon_s`` (0.6 s); one with a ball to catch or
+    obstacles and no stones at ``moving_h`` (0.03 s), any other at ``h`` (0.02 s); a window or step the
+    user chooses (``--window``, ``--timestep``, a manifest's keys) is every shot's. A bad stones' window is
+    one line naming it."""
     from usdgaze.errors import UsdGazeError
     from usdgaze.physics import mpc
 
@@ -102,8 +104,17 @@ def test_a_shot_with_stones_gets_their_window_unless_one_is_chosen(tmp_path):
     chosen = physics_pass.with_window(default, 0.7)
     assert physics_pass.shot_options(chosen, found).horizon_s == 0.7 == physics_pass.shot_options(chosen, bare).horizon_s
     assert physics_pass.with_window(default, None) is default
-    with pytest.raises(UsdGazeError, match=r"^--window 0\.01 s: expected 0\.04 to 5 s"):
-        physics_pass.check_window(mpc.Options(stones_horizon_s=0.01), "--window")
+    # The step by task (the paper's 0.02 or 0.03 s): a ball to catch or obstacles without stones get 0.03.
+    moving = {"stone": [], "obstacle": ["an obstacle"]}
+    assert physics_pass.shot_options(default, moving).h == 0.03 == physics_pass.shot_options(default, bare, True).h
+    assert physics_pass.shot_options(default, found, True).h == 0.02 == physics_pass.shot_options(default, bare).h
+    fixed = physics_pass.with_timestep(default, 0.025)  # --timestep: every shot's
+    assert physics_pass.shot_options(fixed, moving).h == 0.025 == physics_pass.shot_options(fixed, found).h
+    assert physics_pass.with_timestep(default, None) is default
+    # A window holds two of the longest step a shot may get.
+    with pytest.raises(UsdGazeError, match=r"^--window 0\.05 s: expected 0\.06 to 5 s"):
+        physics_pass.check_window(mpc.Options(stones_horizon_s=0.05), "--window")
+    physics_pass.check_window(physics_pass.with_timestep(mpc.Options(stones_horizon_s=0.05), 0.02), "--window")
 
 
 def test_a_push_names_its_joint_by_the_skeletons_joint_names_too(tmp_path):

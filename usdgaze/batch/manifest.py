@@ -229,14 +229,14 @@ def attend_kwargs(shot: Shot) -> dict:
     extra = sorted(set(v) & set(KINEMATIC_ONLY))
     if extra:  # the coupled loop reads every GazeObjectAPI prim and its own belief settings
         raise UsdGazeError(f"{shot.name_of(extra[0])}: not taken by physics jobs (docs/physics.md)")
-    from usdgaze.passes.physics import check_window, with_window
+    from usdgaze.passes.physics import check_window, with_timestep, with_window
     from usdgaze.physics.mpc import Options
 
-    options = with_window(Options(h=v.get("timestep", Options.h), workers=v.get("threads", 1),
-                                  fd_stride=v.get("fd_stride", 1), fd_reuse=v.get("fd_reuse", 1),
-                                  iterations=v.get("iterations", Options.iterations),
-                                  retry_iterations=v.get("retry_iterations", Options.retry_iterations),
-                                  ground_feet=not v.get("raw_contacts", False)), settings.get("window_s"))
+    options = Options(workers=v.get("threads", 1), fd_stride=v.get("fd_stride", 1), fd_reuse=v.get("fd_reuse", 1),
+                      iterations=v.get("iterations", Options.iterations),
+                      retry_iterations=v.get("retry_iterations", Options.retry_iterations),
+                      ground_feet=not v.get("raw_contacts", False))
+    options = with_window(with_timestep(options, v.get("timestep")), settings.get("window_s"))
     check_window(options, f"{shot.name_of('window')} =")
     return {**common, "physics": True, "options": options, "seed": settings.get("seed", 0), "binding": binding,
             "keep_failed": not v.get("discard_failed", False), "total_mass": v.get("mass", 75.0)}

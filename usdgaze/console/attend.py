@@ -48,8 +48,10 @@ from usdgaze.console.types import FiniteRange
 @click.option("--fd-stride", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: MuJoCo derivatives every N planner steps, interpolated between (faster; "
                    "2 roughly halves the time, docs/physics.md).")
-@click.option("--timestep", default=0.02, show_default=True, type=FiniteRange(0.01, 0.05),
-              help="With --physics: the simulation's and the planner's step h, seconds (the paper: 0.02-0.03).")
+@click.option("--timestep", default=None, type=FiniteRange(0.01, 0.05),
+              help="With --physics: the simulation's and the planner's step h, seconds, for every shot (the paper: "
+                   "0.02-0.03 by task).  [default: 0.02; 0.03 for a shot with a ball to catch or moving obstacles "
+                   "and no stepping stones]")
 @click.option("--fd-reuse", default=1, show_default=True, type=click.IntRange(1, 8),
               help="With --physics: keep a step's MuJoCo derivatives for up to N solves while its contacts "
                    "stay the same (faster; 3 saves about a quarter, feet sink deeper, docs/physics.md).")
@@ -75,12 +77,12 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
 
     _check_combination(ctx, physics)
     if physics:
-        from usdgaze.passes.physics import with_window
+        from usdgaze.passes.physics import with_timestep, with_window
         from usdgaze.physics.mpc import Options
 
-        options = with_window(Options(h=timestep, workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse,
-                                      iterations=iterations, retry_iterations=retry_iterations,
-                                      ground_feet=not raw_contacts), window_s)
+        options = with_window(with_timestep(Options(workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse,
+                                                    iterations=iterations, retry_iterations=retry_iterations,
+                                                    ground_feet=not raw_contacts), timestep), window_s)
         return _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
                         parse_hints(bind, forward), mass)
     from usdgaze.attend import AttendSettings, attend as run
@@ -166,7 +168,7 @@ def _physics(input_path, out, options, skel_root, discard_failed, as_json, seed,
         click.echo(f"{r.skeleton}: {state}; pelvis >= {r.min_pelvis_ratio:.0%} of the reference, mean joint error "
                    f"{r.mean_joint_error_deg:.1f} deg, feet <= {100 * r.max_foot_below_ground_m:.1f} cm below ground{_sank(r)}, "
                    f"root <= {100 * r.max_root_drift_m:.1f} cm from the reference's across the ground, "
-                   f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s (window {r.window_s:g} s)")
+                   f"{r.simulated_s:.2f} s simulated in {r.wall_s:.1f} s (step {r.timestep_s:g} s, window {r.window_s:g} s)")
         for line in r.tasks:
             click.echo(f"  {line}")
     click.echo(f"wrote {out}")

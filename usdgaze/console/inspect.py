@@ -14,14 +14,27 @@ import click
 @click.option("--forward", default=None, metavar="X,Y,Z", help="Try a character forward (skeleton space).")
 @click.option("--json", "as_json", is_flag=True, help="Print as JSON.")
 def inspect(input_path, bind, forward, as_json) -> None:
-    """Print the skeletons of INPUT, the gaze chain found on each and why, maps present and the time range."""
+    """Print the skeletons of INPUT, the gaze chain found on each and why, maps present and the time range.
+
+    Exits 2 after printing where a skeleton cannot bind (apply and attend would refuse it)."""
     from usdgaze.core.hints import parse_hints
     from usdgaze.review.inspection import inspect_stage
 
     info = inspect_stage(input_path, parse_hints(bind, forward))
     if as_json:
         click.echo(json.dumps(info, indent=2))
-        return
+    else:
+        _print(info)
+    skeletons = [s for root in info["skel_roots"] for s in root["skeletons"]]
+    failed = [s for s in skeletons if s.get("error")]
+    if failed:  # a pre-flight check must tell a rig apply refuses from one it takes
+        from usdgaze.errors import UsdGazeError
+
+        raise UsdGazeError(f"{info['file']}: {len(failed)} of {len(skeletons)} skeleton(s) cannot bind "
+                           f"({failed[0]['path']} first, said above): apply and attend refuse them")
+
+
+def _print(info: dict) -> None:
     click.echo(f"{info['file']}: upAxis {info['up_axis']}, metersPerUnit {info['meters_per_unit']:g}, "
                + (f"time codes {info['start']:g}..{info['end']:g}" if info["start"] is not None else "no time range authored")
                + f" at {info['time_codes_per_second']:g}/s")

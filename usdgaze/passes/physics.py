@@ -226,7 +226,7 @@ def _simulate_shot(attempt, options: mpc.Options) -> tuple:
     different shots of the chaotic loop (docs/physics-log.md, "A third simulation"); each is spent
     only where the one kept before it failed."""
     kept = attempt(options)
-    kept[0].iterations, kept[0].window_s = options.iterations, options.horizon_s
+    kept[0].iterations, kept[0].window_s, kept[0].timestep_s = options.iterations, options.horizon_s, options.h
     others, wall = [], kept[0].wall_s
     # Ties go by the deepest foot: the whole CMU walk's retry (2 iterations) had one problem as the
     # first did, a foot 3.6 cm deep against 2.2, and was kept.
@@ -235,7 +235,7 @@ def _simulate_shot(attempt, options: mpc.Options) -> tuple:
         if not set(kept[0].problems) - set(kept[0].unmendable):
             break
         again = attempt(replace(options, iterations=iterations))
-        again[0].iterations, again[0].window_s = iterations, options.horizon_s
+        again[0].iterations, again[0].window_s, again[0].timestep_s = iterations, options.horizon_s, options.h
         wall += again[0].wall_s
         kept, other = (again, kept) if rank(again[0]) <= rank(kept[0]) else (kept, again)
         others.append(other[0])
@@ -264,7 +264,8 @@ def _planner_record(options: mpc.Options) -> dict:
     import mujoco
 
     return {"mujoco": mujoco.__version__,
-            "timestep": options.h, "window": options.horizon_s,
+            "timestep": options.h, **({} if options.moving_h is None else {"movingTimestep": options.moving_h}),
+            "window": options.horizon_s,
             **({} if options.stones_horizon_s is None else {"stonesWindow": options.stones_horizon_s}),
             "iterations": options.iterations,
             "retryIterations": options.retry_iterations, "firstIterations": options.first_iterations,
@@ -273,9 +274,10 @@ def _planner_record(options: mpc.Options) -> dict:
 
 def check_window(options: mpc.Options, label: str) -> None:
     """The planner windows must hold two steps and stay under 5 s; ``label`` names where they were set."""
+    h = max(options.h, options.moving_h or 0.0)  # the longest step a shot may get
     for window in (options.horizon_s, options.stones_horizon_s):
-        if window is not None and not (np.isfinite(window) and 2 * options.h - 1e-9 <= window <= 5.0):
-            raise UsdGazeError(f"{label} {window:g} s: expected {2 * options.h:g} to 5 s (the paper uses 0.6-1.2 s)")
+        if window is not None and not (np.isfinite(window) and 2 * h - 1e-9 <= window <= 5.0):
+            raise UsdGazeError(f"{label} {window:g} s: expected {2 * h:g} to 5 s (the paper uses 0.6-1.2 s)")
 
 
 def with_window(options: mpc.Options, window_s: float | None) -> mpc.Options:
@@ -284,10 +286,19 @@ def with_window(options: mpc.Options, window_s: float | None) -> mpc.Options:
     return options if window_s is None else replace(options, horizon_s=window_s, stones_horizon_s=None)
 
 
-def shot_options(options: mpc.Options, prims: dict[str, list]) -> mpc.Options:
-    """The options one shot is simulated with: a shot with stepping stones (``task_prims``) gets their window."""
-    if prims["stone"] and options.stones_horizon_s is not None:
-        return replace(options, horizon_s=options.stones_horizon_s)
+def with_timestep(options: mpc.Options, timestep: float | None) -> mpc.Options:
+    """``options`` with the step a user chose (``--timestep``, a manifest's ``timestep``) for every shot;
+    None: the defaults, the step by task (``mpc.Options.moving_h``)."""
+    return options if timestep is None else replace(options, h=timestep, moving_h=None)
+
+
+def shot_options(options: mpc.Options, prims: dict[str, list], catches: bool = False) -> mpc.Options:
+    """The options one shot is simulated with: a shot with stepping stones (``task_prims``) gets their
+    window; one without them but with a ball to catch (``catches``) or moving obstacles, their step."""
+    if prims["stone"]:
+        return options if options.stones_horizon_s is None else replace(options, horizon_s=options.stones_horizon_s)
+    if (catches or prims["obstacle"]) and options.moving_h is not None:
+        return replace(options, h=options.moving_h)
     return options
 
 
@@ -343,12 +354,12 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
     others = animations_elsewhere(stage, roots)
     for root in roots:
         tasks = task_prims(stage, source, str(root.GetPath()))
-        opts = shot_options(options, tasks)
+        scene = visuomotor.read_scene(root, source)
+        opts = shot_options(options, tasks, bool(scene[2]))
         for skel in skeletons_under(root):
             ahead_s = opts.horizon_s + 2 * opts.h  # the planner's last window, past the shot
             clip, ahead, take = cut_to_range(read_clip(stage, skel, root, source), stage, ahead_s)
             check_not_shared(others, clip.animation, source)
-            scene = visuomotor.read_scene(root, clip, source, opts.h)
             chain_frame = bind_root(clip, root, binding)
             # Its body too (a few ms): a skeleton the model refuses (lying, no feet, squashed) was found only
             # after the characters before it had been simulated.

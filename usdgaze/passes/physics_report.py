@@ -35,6 +35,7 @@ class ShotReport:
     diverged: bool = False  # cut short by MuJoCo's step blowing up (``fell`` too: the shot failed)
     iterations: int = 1  # the solver's iterations a step of the simulation kept
     window_s: float = 0.6  # its planner window (a shot with stepping stones has theirs: ``shot_options``)
+    timestep_s: float = 0.02  # its step h (a shot with a ball to catch or obstacles has theirs: ``shot_options``)
     # A retried shot (``physics._simulate_shot``): the problems of the attempt not kept, each with its iterations.
     other_attempt: list[str] = field(default_factory=list)
     # Problems another simulation cannot mend (a ball never within reach in time, a foot the shot ends

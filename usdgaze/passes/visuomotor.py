@@ -30,7 +30,7 @@ CATCH = "usdgaze:physics:catch"
 CATCH_TOLERANCE_M = 0.1  # a ball the hand came no nearer than this to is a problem of the shot
 
 
-def read_scene(root, clip, source: str, h: float):
+def read_scene(root, source: str):
     """(object prims, their paths, catch indices) of the stage, or ([], [], []) where it has none."""
     from usdgaze.usd.objects import API_NAME, check_apart, object_prims, scene_prims
     from usdgaze.usd.plugin import has_api

@@ -9,7 +9,10 @@ from usdgaze.core import rotations as rot
 from usdgaze.physics import segments as seg
 
 _STILL_DEG = 0.5
-_HINGES = {"shank": 1.0, "forearm": -1.0}  # flexion axis = sign * (bone direction x forward)
+# Flexion axis = sign * (bone direction x forward): a turn about bone x forward moves the bone's tip
+# forward, which flexes an elbow and hyperextends a knee (the signs were the other way round until
+# 2026-12-07: every knee and elbow could bend 150 deg backwards and 5 deg past the reference forwards).
+_HINGES = {"shank": -1.0, "forearm": 1.0}
 
 
 def hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
@@ -26,8 +29,14 @@ def hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
             a = np.cross(bone / np.linalg.norm(bone), forward) * _HINGES[roles[b]]
             if np.linalg.norm(a) > 0.2:
                 kind[b] = "hinge"
-                axis[b] = rmat[b].T @ (a / np.linalg.norm(a))
-                range_deg[b] = (-5.0, 150.0)
+                a /= np.linalg.norm(a)
+                axis[b] = rmat[b].T @ a
+                # From 5 deg past straight, measured from the straight limb, not from the rest pose (CMU's
+                # rest knees are bent 48 deg), to 5 deg more flexed than at rest: the reference widens it
+                # (``fit_to_reference``). Not to an anatomical 150 deg: with that the planner let a knee
+                # buckle where it dodged an obstacle (the pelvis under 80% at 0.30 s).
+                bent = _flexion(rmat[bparent[b]] @ seg_vec[bparent[b]], bone, a)
+                range_deg[b] = (-5.0 - bent, 5.0)
         elif is_toe(roles, bparent, b) and kind[b] == "ball" and forward is not None:
             # The toes bend at the metatarsophalangeal joints: one flexion axis, across the foot.
             kind[b] = "hinge"
@@ -35,6 +44,14 @@ def hinges(kind: list[str], roles, bparent, children, rmat, seg_vec, forward):
             axis[b] = rmat[b].T @ (left / np.linalg.norm(left))
             range_deg[b] = (-40.0, 60.0)
     return axis, range_deg
+
+
+def _flexion(parent_bone: np.ndarray, bone: np.ndarray, axis: np.ndarray) -> float:
+    """Degrees a hinge is flexed at rest: ``bone``'s turn from ``parent_bone``'s direction about ``axis``
+    (0 where the parent has no segment to measure from)."""
+    if not np.any(parent_bone):
+        return 0.0
+    return float(np.degrees(np.arctan2(np.cross(parent_bone, bone) @ axis, parent_bone @ bone)))
 
 
 def is_toe(roles: list[str], bparent: np.ndarray, b: int) -> bool:
@@ -67,9 +84,10 @@ def welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -
 
 
 def fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray,
-                      weldable: set[int]) -> None:
-    """Hinge axes along the reference's dominant rotation; ranges widened to what the motion uses;
-    the ``weldable`` bodies the reference holds at rest welded."""
+                      weldable: set[int], seg_vec: np.ndarray) -> None:
+    """Hinge axes along the reference's dominant swing (its turn about the bone itself, a forearm's
+    pronation keyed on the elbow, left out); ranges widened to what the motion uses; the ``weldable``
+    bodies the reference holds at rest welded."""
     for b in range(1, len(kind)):
         if kind[b] not in ("ball", "hinge"):
             continue
@@ -84,8 +102,10 @@ def fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np
         if kind[b] == "ball":
             rng[b, 1] = min(180.0, max(rng[b, 1], float(ang.max()) + 10.0))
             continue
-        if ang.max() > 10.0:
-            _, _, vt = np.linalg.svd(rv, full_matrices=False)
+        along = seg_vec[b] / (np.linalg.norm(seg_vec[b]) or 1.0)
+        swing = rv - np.outer(rv @ along, along)  # a hinge about the bone would be a twist, not an elbow
+        if np.degrees(np.linalg.norm(swing, axis=1)).max() > 10.0:
+            _, _, vt = np.linalg.svd(swing, full_matrices=False)
             a = vt[0] * np.sign(vt[0] @ axis[b] or 1.0)
             axis[b] = a / np.linalg.norm(a)
         theta = np.degrees(rv @ axis[b])

@@ -53,6 +53,10 @@ class Push:
 @dataclass
 class Options:
     h: float = 0.02
+    # A shot with a ball to catch or moving obstacles and no stepping stones: its step (None: ``h``). The
+    # paper sets h to 0.02 or 0.03 s by task; the catch keeps its bar at 0.03 at about 1.5x the frames/s,
+    # the stones do not (docs/physics.md, "The step by task").
+    moving_h: float | None = 0.03
     horizon_s: float = 0.6
     # A shot with stepping stones: its window (None: ``horizon_s``); the paper's varies by task, 0.6-1.2 s.
     # 1.0 landed 12 of 12 bar shots, 0.6 landed 11 (``physics.lookahead``; docs/physics-log.md).
