@@ -149,9 +149,9 @@ def test_a_zero_scale_on_every_frame_is_one_line(tmp_path, hide):
     lines = [line for line in err.splitlines() if line.strip() and not line.startswith("Warning")]
     assert code == 2 and len(lines) == 1 and said in lines[0] and "every" in lines[0], (code, err)
     assert bad.snapshot(tmp_path) == before  # nothing written
-    if hide == "root":  # inspect says it for the skeleton, and goes on
+    if hide == "root":  # inspect says it for the skeleton, and exits 2 as apply does
         code, out, err = bad.run_inprocess(["inspect", str(rig.path)], tmp_path)
-        assert code == 0 and f"cannot bind: {rig.path}:{said}" in out, (code, out, err)
+        assert code == 2 and f"cannot bind: {rig.path}:{said}" in out and "cannot bind" in err, (code, out, err)
 
 
 def test_hidden_from_the_first_frame_applies_and_previews(tmp_path):
