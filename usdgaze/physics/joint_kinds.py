@@ -8,7 +8,7 @@ import numpy as np
 from usdgaze.core import rotations as rot
 from usdgaze.physics import segments as seg
 
-_STILL_DEG = 0.5
+STILL_DEG = 0.5  # a joint turned less than this on every frame is held still
 # Flexion axis = sign * (bone direction x forward): a turn about bone x forward moves the bone's tip
 # forward, which flexes an elbow and hyperextends a knee (the signs were the other way round until
 # 2026-12-07: every knee and elbow could bend 150 deg backwards and 5 deg past the reference forwards).
@@ -84,17 +84,19 @@ def welded(name: str, roles: list[str], bparent: np.ndarray, b: int, children) -
 
 
 def fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np.ndarray, rng: np.ndarray,
-                      weldable: set[int], seg_vec: np.ndarray) -> None:
+                      weldable: set[int], seg_vec: np.ndarray, bparent: np.ndarray) -> None:
     """Hinge axes along the reference's dominant swing (its turn about the bone itself, a forearm's
     pronation keyed on the elbow, left out); ranges widened to what the motion uses; the ``weldable``
-    bodies the reference holds at rest welded."""
+    bodies the reference holds at rest welded, but not a child of a hinge that loses more than that of
+    the reference's turn: it takes the rest (``retarget.to_qpos``)."""
+    weldable = set(weldable)
     for b in range(1, len(kind)):
         if kind[b] not in ("ball", "hinge"):
             continue
         q = rot.multiply(rot.conjugate(rel[b])[None], ref[:, b])
         rv = rot.to_rotvec(q)
         ang = np.degrees(np.linalg.norm(rv, axis=1))
-        if ang.max() < _STILL_DEG and b in weldable:
+        if ang.max() < STILL_DEG and b in weldable:
             # A joint the motion holds at rest throughout (CMU's hip and collar joints) is welded:
             # no degrees of freedom the controller would have to hold still.
             kind[b] = "weld"
@@ -110,3 +112,5 @@ def fit_to_reference(ref: np.ndarray, rel: np.ndarray, kind: list[str], axis: np
             axis[b] = a / np.linalg.norm(a)
         theta = np.degrees(rv @ axis[b])
         rng[b] = (min(rng[b, 0], float(theta.min()) - 5.0), max(rng[b, 1], float(theta.max()) + 5.0))
+        if np.degrees(np.linalg.norm(rv - np.outer(rv @ axis[b], axis[b]), axis=1)).max() > STILL_DEG:
+            weldable -= set(np.flatnonzero(bparent == b).tolist())

@@ -253,7 +253,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
         legs = {b for b in range(n) if roles[b] in ("thigh", "shank", "foot") and not is_toe(roles, bparent, b)}
         still = set(range(n)) - legs if weld_still else seg.pelvis_bones(roles, bparent)
         fit_to_reference(np.asarray(reference, dtype=float)[:, idx], rel, kind, axis, range_deg, set(still),
-                         seg_vec)
+                         seg_vec, bparent)
 
     com, inertia, iquat = seg.inertials(roles, seg_vec, mass)
     radius = shapes.radii(mass, lengths, roles, height)

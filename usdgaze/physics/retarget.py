@@ -18,6 +18,7 @@ import numpy as np
 from usdgaze.core import rotations as rot
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.kinematics import world_matrices
+from usdgaze.physics.joint_kinds import STILL_DEG
 from usdgaze.physics.model import BodyModel
 
 
@@ -68,16 +69,30 @@ def to_qpos(m: BodyModel, ref: Reference) -> np.ndarray:
     qpos = np.zeros((len(world), nq))
     qpos[:, 0:3] = world[:, 0, :3, 3] @ m.to_model.T
     qpos[:, 3:7] = _wxyz(orient[:, 0])
+    # Where a hinge cannot take the reference's turn (its part off the axis: a forearm's pronation keyed
+    # on the elbow), the ball joint below it takes that part, so the hand and its fingers stay where the
+    # reference has them (the synthetic Mixamo rig's round trip moved a fingertip 2.9 cm otherwise). The
+    # bodies below such a hinge, until a ball, are placed as the model's joints turn them; any other body
+    # is where the reference has it, bit for bit as before (the simulation is chaotic).
+    placed: dict[int, np.ndarray] = {}
     for b in range(1, len(m.bodies)):
+        p = m.body_parent[b]
+        above = placed.get(p, orient[:, p])
+        local = rot.relative(above, orient[:, b])
         if m.kind[b] == "weld":
+            if p in placed:  # as the layer writes it: the reference's own turn, on its placed parent
+                placed[b] = rot.multiply(above, rot.relative(orient[:, p], orient[:, b]))
             continue
-        local = rot.relative(orient[:, m.body_parent[b]], orient[:, b])
-        q = rot.relative(np.broadcast_to(m.rel_quat[b], local.shape), local)
+        rel = np.broadcast_to(m.rel_quat[b], local.shape)
+        q = rot.relative(rel, local)
         if m.kind[b] == "ball":
             qpos[:, qadr[b]:qadr[b] + 4] = _wxyz(rot.positive_w(q))
-        else:
-            q = rot.positive_w(q)
-            qpos[:, qadr[b]] = 2.0 * np.arctan2(q[:, :3] @ m.axis[b], q[:, 3])
+            continue
+        q = rot.positive_w(q)
+        qpos[:, qadr[b]] = 2.0 * np.arctan2(q[:, :3] @ m.axis[b], q[:, 3])
+        kept = rot.from_axis_angle(m.axis[b], qpos[:, qadr[b]])
+        if p in placed or np.degrees(rot.angle(rot.relative(kept, q))).max() > STILL_DEG:
+            placed[b] = rot.multiply(rot.multiply(above, rel), kept)
     return qpos
 
 
