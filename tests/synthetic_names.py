@@ -69,6 +69,14 @@ SCHEMES = {
         "ankle": "Ankle_{s}", "toe": "Toes_{s}", "clav": "Scapula_{s}", "arm": "Shoulder_{s}", "forearm": "Elbow_{s}",
         "hand": "Wrist_{s}",
     }, "L", "R"),
+    # Maya's naming: a side or centre prefix (C_, L_, R_) and a _jnt suffix around a camelCase word.
+    "maya": _sided({
+        "root": "C_root_jnt", "pelvis": "C_pelvis_jnt", "spine_a": "C_spine01_jnt", "spine_b": "C_spine02_jnt",
+        "spine_c": "C_chest_jnt", "neck": "C_neck01_jnt", "head": "C_head_jnt", "head_end": "C_headEnd_jnt",
+        "eye": "{s}_eye_jnt", "thigh": "{s}_hip_jnt", "knee": "{s}_knee_jnt", "ankle": "{s}_ankle_jnt",
+        "toe": "{s}_ball_jnt", "toe_end": "{s}_toeEnd_jnt", "clav": "{s}_clavicle_jnt", "arm": "{s}_shoulder_jnt",
+        "forearm": "{s}_elbow_jnt", "hand": "{s}_wrist_jnt",
+    }, "L", "R"),
     # A quadruped (use with body="quadruped"): Blender-style .L/.R, spine and neck numbered.
     "quadruped": _sided({
         "root": "root", "pelvis": "Pelvis", "spine_a": "Spine.001", "spine_b": "Spine.002", "spine_c": "Spine.003",

@@ -7,17 +7,24 @@ naming it. The model's base is the joint where legs and spine part, found from t
 
 The body's segments (legs, arms, head) come from the skeleton's shape where names say nothing: the
 CMU walk with every joint renamed ``j0``, ``j1``, ... builds the model its names build, and the
-simulated walk is the same to the bit."""
+simulated walk is the same to the bit. Names wrapped in a DCC's prefixes and suffixes (Maya's
+``C_head_jnt``, AdvancedSkeleton's ``Head_M``) are read as the binding reads them, and ``physics-model``
+binds as ``attend --physics`` does, so both build one model."""
 
 from __future__ import annotations
 
+import dataclasses
+
+import mujoco
 import numpy as np
+import pytest
 
 import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
 from usdgaze.console.main import main
 
 from . import synthetic as syn
 from .test_attend_binding import _scene
+from .test_physics_model import model_at_rest
 
 
 def _rig(tmp_path):
@@ -81,9 +88,9 @@ def test_the_floating_base_is_where_the_legs_meet_when_no_name_says_pelvis(tmp_p
     assert _base_joint(["root", "a", "b", "Pelvis", *names[4:]], parents, heights) == 3
 
 
-def _renamed_cmu(path, start_s: float, end_s: float, names: bool = False):
+def _renamed_cmu(path, start_s: float, end_s: float, names: bool = False, rename: dict | None = None):
     """CMU 131_01 cropped to ``[start_s, end_s]`` (every 4th sample), its joints renamed ``j<i>``
-    unless ``names``; returns (path, original leaf name -> new leaf name)."""
+    unless ``names``, and those in ``rename`` as it says; returns (path, original leaf name -> new leaf name)."""
     from pathlib import Path
 
     from pxr import Sdf, Vt
@@ -95,6 +102,7 @@ def _renamed_cmu(path, start_s: float, end_s: float, names: bool = False):
     src = Sdf.Layer.FindOrOpen(str(cmu))
     joints = list(src.GetAttributeAtPath(skel + ".joints").default)
     leaf = {j.rsplit("/", 1)[-1]: (j.rsplit("/", 1)[-1] if names else f"j{i}") for i, j in enumerate(joints)}
+    leaf.update(rename or {})
     renamed = {j: "/".join(leaf[p] for p in j.split("/")) for j in joints}
     tcps = src.timeCodesPerSecond
     first = src.startTimeCode + 4.0 * round(start_s * tcps / 4.0)
@@ -140,6 +148,23 @@ def test_segments_from_the_skeletons_shape_are_the_ones_names_give(tmp_path):
     assert np.degrees(np.arccos(np.clip(alone.forward @ by_names.forward, -1, 1))) < 12.0
 
 
+def test_a_neck_no_name_calls_so_is_the_head_segment_as_by_its_names(tmp_path):
+    """CMU's lowerneck and Neck renamed (no name says neck) below its named Head and above the joint its
+    arms hang from: the head segment's neck, as by their names, where the arms come from names too.
+    Before: only a rig whose arms came from its shape had them; here each was 2.7 kg of trunk with a
+    300 N m motor (by their names: 1.35 kg of head each, 40 N m)."""
+    from usdgaze.physics import build
+
+    named = build.load_clip(_renamed_cmu(tmp_path / "named.usda", 1.0, 1.6, names=True)[0])
+    rename = {"lowerneck": "CervicalLow", "Neck": "CervicalHigh"}
+    path, _ = _renamed_cmu(tmp_path / "cervical.usda", 1.0, 1.6, names=True, rename=rename)
+    by_names, _ = build.body_model(named)
+    by_place, _ = build.body_model(build.load_clip(path))
+    assert by_place.role == by_names.role and by_place.kind == by_names.kind
+    np.testing.assert_array_equal(by_place.mass, by_names.mass)
+    np.testing.assert_array_equal(by_place.strength, by_names.strength)
+
+
 def test_a_rig_whose_names_say_nothing_walks_as_the_named_one(tmp_path):
     from pxr import Sdf
 
@@ -172,3 +197,69 @@ def test_a_rig_whose_names_say_nothing_walks_as_the_named_one(tmp_path):
     up = ref.up
     ratio = (sim.position(leaf["Hips"]) @ up) / (ref.position(leaf["Hips"]) @ up)
     assert ratio.min() > 0.9, ratio.min()
+
+
+def _head_and_neck(tmp_path, convention: str, up: str, mpu: float):
+    """On MuJoCo's reading of the MJCF ``physics-model`` writes, posed at rest: the neck's subtree's share
+    of the mass, how far above the head end joint (by UsdSkel FK) the head's shapes reach along their
+    bones and with their radius, the head's radius, and the neck's motor gear."""
+    rig = syn.make_rig(tmp_path / f"{convention}.usda", convention=convention, up_axis=up, meters_per_unit=mpu,
+                       frames=6, mesh=False, walk_speed=0.0)
+    (tmp_path / convention).mkdir()
+    mj, d, posed, rest = model_at_rest(tmp_path / convention, rig, up, mpu)
+    def body(key: str) -> int:
+        return mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key].removeprefix("mixamorig_"))
+
+    neck, head = body("neck"), body("head")
+    # Stood where the model stands (it is lifted onto the ground).
+    end = rest[posed.index(rig.leaf["head_end"])] - rest[posed.index(rig.leaf["pelvis"])] + d.xpos[body("pelvis")]
+    above = [g for g in range(mj.ngeom) if head in (mj.geom_bodyid[g], mj.body_parentid[mj.geom_bodyid[g]])]
+    half = np.where(mj.geom_type[above] == mujoco.mjtGeom.mjGEOM_CAPSULE, mj.geom_size[above, 1], 0.0)
+    reach = d.geom_xpos[above, 2] + np.abs(d.geom_xmat[above].reshape(-1, 3, 3)[:, 2, 2]) * half
+    motors = [a for a in range(mj.nu) if mj.jnt_bodyid[mj.actuator_trnid[a, 0]] == neck]
+    gear = np.abs(mj.actuator_gear[motors, :3]).max()
+    return (mj.body_subtreemass[neck] / mj.body_subtreemass[0], reach.max() - end[2],
+            (reach + mj.geom_size[above, 0]).max() - end[2], mj.geom_size[above, 0].max(), gear)
+
+
+@pytest.mark.parametrize("convention, up, mpu", [("maya", "Z", 1.0), ("advanced", "Y", 0.01)])
+def test_dcc_prefixes_and_suffixes_give_the_head_neck_and_end_site_the_mixamo_rig_has(tmp_path, convention, up, mpu):
+    """Maya's ``C_neck01_jnt > C_head_jnt > C_headEnd_jnt`` and AdvancedSkeleton's ``Neck_M > Head_M >
+    HeadEnd_M``: head and neck weigh de Leva's 6.94% of the mass, the head's bones end at the head end
+    joint (its shapes reach it with their radius, as Mixamo's HeadTop_End), the neck's motor is the
+    Mixamo rig's neck's. Before: the suffixes hid the head and the end site from whole-name patterns,
+    and the head end was a 2.8 kg head, a 6.2 cm sphere centred 11.5 cm above the skull top, the neck
+    4.4 kg of trunk with a 300 N m motor (head and neck 12.8%)."""
+    share, reach, surface, radius, gear = _head_and_neck(tmp_path, convention, up, mpu)
+    assert share == pytest.approx(0.0694, abs=0.015)
+    assert abs(reach) < 0.03, reach
+    assert surface <= radius + 1e-6, (surface, radius)
+    assert gear == _head_and_neck(tmp_path, "mixamo", "Y", 0.01)[4]
+
+
+def test_physics_model_writes_the_model_attend_simulates(tmp_path):
+    """An unnamed rig bound by the GazeMapAPI on its SkelRoot: ``physics-model`` writes the MJCF of the body
+    ``attend --physics`` builds, the map's eyes welded, without mass or shape of their own. Before: it read
+    no binding, and each eye was a 1.7 kg body of the head with a sphere of its own."""
+    from pxr import Usd
+
+    from usdgaze.gaze.defaults import default_definition
+    from usdgaze.passes.physics import _read_shots
+    from usdgaze.physics import mjcf, mpc
+    from usdgaze.usd import schema
+
+    rig = _rig(tmp_path)
+    keys = {"pelvis": "pelvis", "head": "head", "leftEye": "eye_l", "rightEye": "eye_r"}
+    d = dataclasses.replace(default_definition(), forward=tuple(float(v) for v in rig.forward),
+                            bindings={role: (rig.joint(k),) for role, k in keys.items()})
+    stage = Usd.Stage.Open(str(rig.path))
+    schema.write_map(stage.GetPrimAtPath(rig.skel_root), d)
+    stage.GetRootLayer().Save()
+    xml = tmp_path / "model.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
+    shot, = _read_shots(Usd.Stage.Open(str(rig.path)), str(rig.path), None, mpc.Options(), None)
+    assert xml.read_text() == mjcf.write(shot.body[0])
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    for key in ("eye_l", "eye_r"):
+        b = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key])
+        assert mj.body_mass[b] < 0.1 and mj.body_geomnum[b] == 0 and mj.body_jntnum[b] == 0, key

@@ -151,6 +151,11 @@ def is_eye(joint: str) -> int:
     return side(joint)
 
 
+_UPPER_TRUNK = frozenset({"chest", "thorax", "ribcage", "ribs"})
+_LOWER_TRUNK = frozenset({"abdomen", "waist", "belly", "stomach", "back"})
+_SPINE = frozenset({"spine", "back", "torso"})
+
+
 def spine_part(joint: str) -> str | None:
     """What a joint between pelvis and head says it is: ``neck``, ``lowerSpine``, ``upperSpine``,
     ``spine`` (a spine word, or no word at all: its place on the chain decides) or None (not a chain
@@ -160,11 +165,35 @@ def spine_part(joint: str) -> str | None:
         return None
     if "neck" in words:
         return "neck"
-    if words & {"chest", "thorax", "ribcage", "ribs"} or ("upper" in words and words & {"spine", "back", "torso"}):
+    if words & _UPPER_TRUNK or ("upper" in words and words & _SPINE):
         return "upperSpine"
-    if words & {"abdomen", "waist", "belly", "stomach", "back"} or ("lower" in words and "spine" in words):
+    if words & _LOWER_TRUNK or ("lower" in words and "spine" in words):
         return "lowerSpine"
     return "spine"
+
+
+def says_trunk(joint: str) -> bool:
+    """A trunk word in the name (``spine``, ``chest``, ``back``, ...; not ``neck``): what the name says
+    outweighs the joint's place on the chain, where :func:`spine_part` lets the place decide."""
+    return bool(set(tokens(joint)) & (_UPPER_TRUNK | _LOWER_TRUNK | _SPINE))
+
+
+# What DCCs and exporters put after a joint's own words: side and centre letters (AdvancedSkeleton's
+# HeadEnd_M, Maya's C_/L_/R_ ... _jnt), joint and deform tags (_JNT, _bind, _def) and numbering
+# (b_HeadEnd_06). Read at a name's end only, so no word inside a name is dropped.
+_SUFFIXES = LEFT_WORDS | RIGHT_WORDS | {"c", "m", "ctr", "jnt", "jj", "jt", "joint", "bind", "bnd", "def", "drv",
+                                        "skin"}
+_END_SITE = re.compile(r"(end|top|nub|site|tip)$")
+
+
+def is_end_site(joint: str) -> bool:
+    """An exporter's end site by name: its last word but the suffixes ends in end, top, nub, site or tip
+    (``HeadTop_End``, ``LeftToe_End``, ``Bip01 HeadNub``, ``headtop``; ``C_headEnd_jnt``, ``HeadEnd_M``).
+    Whole names were matched before: a suffix made Maya's and AdvancedSkeleton's head ends a 2.8 kg head."""
+    words = list(tokens(joint))
+    while words and (words[-1] in _SUFFIXES or words[-1].isdigit()):
+        words.pop()
+    return bool(words) and bool(_END_SITE.search(words[-1]))
 
 
 _RIGIFY = re.compile(r"^(?:(?:def|org)\.)?spine(?:\.(\d+))?$")

@@ -7,11 +7,17 @@ from pathlib import Path
 
 import numpy as np
 
-from usdgaze.errors import UsdGazeError
+from usdgaze.errors import RigError, UsdGazeError
 
 
 def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outputs=None):
     """The one skeleton's clip of ``input_path`` (or the one under ``skel_root``); ``outputs`` is told every file read."""
+    return _read(input_path, skel_root, outputs)[0]
+
+
+def _read(input_path, skel_root: str | None, outputs, bound: bool = False):
+    """:func:`load_clip`'s clip and, where ``bound``, its gaze binding (:func:`_binding`), read while the
+    stage is open: the SkelRoot's GazeMapAPI is read from it."""
     from usdgaze.api import select_roots
     from usdgaze.usd.skelio import read_clip, skeletons_under
     from usdgaze.usd.stage import composed_files, open_stage
@@ -27,7 +33,8 @@ def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outpu
     skels = skeletons_under(roots[0])
     if not skels:
         raise UsdGazeError(f"{source}:{roots[0].GetPath()}: no Skeleton under the SkelRoot")
-    return read_clip(stage, skels[0], roots[0], source)
+    clip = read_clip(stage, skels[0], roots[0], source)
+    return clip, (_binding(clip, roots[0]) if bound else None)
 
 
 MIN_MASS_KG, MAX_MASS_KG = 1.0, 500.0
@@ -55,6 +62,19 @@ def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_fr
                   clip.meters_per_unit, total_mass=total_mass, reference=ref.rotations, where=clip.where(),
                   weld_still=weld_still, hints=hints)
     return model, ref
+
+
+def _binding(clip, root):
+    """The gaze binding ``attend --physics`` builds its body with (the SkelRoot's GazeMapAPI, else names),
+    so that both build one model: without it, the head, eyes and forward a GazeMapAPI binds on a rig whose
+    names say nothing were not read here (its eyes were 1.7 kg bodies of the head). None where no chain
+    is found (the skeleton's shape tells, as before)."""
+    from usdgaze.characters import bind_root
+
+    try:
+        return bind_root(clip, root)
+    except RigError:
+        return None
 
 
 def check_on_ground(model, ref_qpos: np.ndarray, clip) -> None:
@@ -85,8 +105,8 @@ def write_mjcf(input_path, out, total_mass: float = 75.0, timestep: float = 0.02
         if Path(input_path).is_file():
             tx.read(input_path)
         tx.claim(out, "--out")
-        clip = load_clip(input_path, skel_root, tx)
-        model, _ = body_model(clip, total_mass)
+        clip, chain_frame = _read(input_path, skel_root, tx, bound=True)
+        model, _ = body_model(clip, total_mass, chain_frame=chain_frame)
         tx.stage_text(out, mjcf.write(model, timestep=timestep))
     return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
             "mass": model.total_mass, "skeleton": clip.skeleton}

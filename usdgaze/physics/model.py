@@ -206,7 +206,8 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     n = len(idx)
     hints = hints or Hints()
     head = body_of.get(hints.head) if hints.head is not None else None
-    roles = shape.shape_roles(seg.assign_roles([joints[j] for j in idx], bparent), bparent, pos, head)
+    names = [joints[j] for j in idx]
+    roles = shape.shape_roles(seg.assign_roles(names, bparent), bparent, pos, head, names)
     # The binding's eyes where it names them: eyelids and brows named "eye..." beside them moved the
     # eyes' midpoint, where the vision sees from.
     eyes = ({body_of[e] for e in hints.eyes if e in body_of}
@@ -215,18 +216,18 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     # An end site marks where its parent's segment ends, and an eye is a point in the head: neither
     # has a length, mass or shape of its own.
     if head is None:  # the head joint by name (the gaze binding's otherwise)
-        head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(joints[idx[b]])), None)
+        head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(names[b])), None)
     if head is None:  # a head segment of one end joint (a rig whose neck ends it) is the head, no aside leaf
         alone = [b for b in range(1, n) if roles[b] == "head" and not children[b] and roles[bparent[b]] != "head"]
         head = alone[0] if len(alone) == 1 else None
-    tips, phalanges = seg.leaf_ends([joints[j] for j in idx], roles, bparent, children, head, pos)
+    tips, phalanges = seg.leaf_ends(names, roles, bparent, children, head, pos)
     tips |= {b for b in eyes if not children[b]}
-    attached = seg.attachments(roles, bparent, children, head, tips, [joints[j] for j in idx], pos)
+    attached = seg.attachments(roles, bparent, children, head, tips, names, pos)
     passive = tips | attached  # no segment, mass or degrees of freedom of their own
     # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
     # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
     # height (feet 5.9 cm thick), a marker 30 cm below the ground stood the model 34 cm up (a capsule to it).
-    aside = seg.asides([joints[j] for j in idx], roles, bparent, children, head, pos)
+    aside = seg.asides(names, roles, bparent, children, head, pos)
     aside -= set(seg.subtree_of(children, head)) if head is not None else set()
     extent = sorted(set(range(n)) - attached - aside)
     height = float(np.ptp(pos[extent, 2])) * 1.08 or 1.0
@@ -243,8 +244,7 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     rest4 = np.concatenate([np.concatenate([np.eye(3)[None].repeat(n, 0), pos[:, :, None]], 2),
                             np.tile([0, 0, 0, 1.0], (n, 1, 1))], 1)
     feet = [b for b in range(1, n) if roles[b] == "foot" and roles[bparent[b]] != "foot"]  # topmost foot bodies
-    forward = _forward([joints[j] for j in idx], rest4, feet, bparent, pos, hints,
-                       to_model @ skel_to_world0[:3, :3], where)
+    forward = _forward(names, rest4, feet, bparent, pos, hints, to_model @ skel_to_world0[:3, :3], where)
     axis, range_deg = hinges(kind, roles, bparent, children, rmat, seg_vec, forward)
     if reference is not None:
         # Without weld_still the pelvis's own bones still weld where held: the pelvis is one rigid segment.

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdgaze.core import rotations as rot
-from usdgaze.core.names import is_control, is_prop
+from usdgaze.core.names import is_control, is_end_site, is_head, is_prop, rigify_number, spine_part
 from usdgaze.core.rig import leaf
 from usdgaze.errors import UsdGazeError
 
@@ -60,9 +60,6 @@ STRENGTH = {"head": 40.0, "trunk": 300.0, "upperArm": 80.0, "forearm": 60.0, "ha
 
 _FOOT = re.compile(r"(foot|ankle)", re.I)
 _HAND = re.compile(r"(hand|wrist)", re.I)
-_HEAD = re.compile(r"^head$|^(bip\d*)?head$|^defspine006$|^orgspine006$|^spine006$", re.I)
-_NECK = re.compile(r"neck", re.I)
-_END = re.compile(r"(end|top|nub|site|tip)$", re.I)
 
 
 def _key(name: str) -> str:
@@ -111,10 +108,10 @@ def assign_roles(joints: list[str], parents: np.ndarray) -> list[str]:
                     roles[p] = role
                 p = int(parents[p])
     for j in range(n):
-        if roles[j] == "other" and _HEAD.search(keys[j]):
+        if roles[j] == "other" and is_head_joint(joints[j]):
             _mark(roles, children, j, "head")
             p = int(parents[j])
-            while p >= 0 and _NECK.search(keys[p]) and roles[p] == "other":
+            while p >= 0 and spine_part(joints[p]) == "neck" and roles[p] == "other":
                 roles[p] = "head"  # de Leva's head segment includes the neck
                 p = int(parents[p])
     return roles
@@ -157,13 +154,15 @@ def _ancestors(j: int, parents: np.ndarray) -> list[int]:
 
 
 def is_head_joint(name: str) -> bool:
-    """The head joint by name (``Head``, ``mixamorig:Head``, ``Bip01 Head``, Rigify's ``spine.006``)."""
-    return bool(_HEAD.search(_key(name)))
+    """The head joint by name, read as the gaze binding reads it (``Head``, ``mixamorig:Head``, ``Bip01 Head``,
+    ``C_head_jnt``, ``Head_M``, ``CC_Base_Head``; Rigify's ``spine.006``). A whole-name match missed the
+    suffixed ones: Maya's and AdvancedSkeleton's heads came from the shape, their necks stayed trunk."""
+    return is_head(name) or rigify_number(name) == 6
 
 
 def is_end_joint(name: str) -> bool:
-    """Exporter end sites (``HeadTop_End``, ``LeftToe_End``, ``..._nub``): no degrees of freedom."""
-    return bool(_END.search(_key(name)))
+    """Exporter end sites (``HeadTop_End``, ``LeftToe_End``, ``..._nub``, ``C_headEnd_jnt``): no degrees of freedom."""
+    return is_end_site(name)
 
 
 # A leaf this many joints below its limb's first foot or hand joint marks the limb's tip (Mixamo's

@@ -1,18 +1,22 @@
 """Segment roles from the skeleton's shape at rest, where no name says foot, hand or head (pure numpy):
 legs reach the ground from the base, the head tops the highest end joint, arms are the two longest
-branches off the spine. Only limbs with no named role are filled in, so a named rig is unchanged."""
+branches off the spine, the neck lies between the arms and the head. Only what no name says is filled in:
+a joint named as a limb, the head, the neck or the trunk keeps its name's role."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from usdgaze.core.names import says_trunk
 from usdgaze.physics.segments import _ancestors, _mark, children_of, subtree_of
 
 
-def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: int | None = None) -> list[str]:
+def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: int | None = None,
+                names: list[str] | None = None) -> list[str]:
     """Roles the names left out, from the tree and the rest positions ``pos (J, 3)`` (z up; joint 0
     the floating base): legs, arms, head (``head``: the bound head joint, else the parent of the
-    highest end joint). Only limbs with no named role are filled in, so a named rig is unchanged."""
+    highest end joint) and neck (:func:`_neck`; ``names``: the joints' names). Only what no name
+    placed is filled in, so a named rig is unchanged."""
     roles = list(roles)
     n = len(roles)
     children = children_of(parents)
@@ -30,15 +34,38 @@ def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: in
                 if roles[k] == "other":
                     roles[k] = "head"
     heads = [j for j in range(n) if roles[j] == "head"]
-    if "hand" not in roles and heads:
+    if heads:
         spine = _ancestors(min(heads, key=lambda j: len(_ancestors(j, parents))), parents)
-        branch_points = _shape_arms(roles, children, pos, spine, float(np.ptp(z)))
-        # de Leva's head segment starts at C7: the spine joints above the shoulders are the neck.
-        if branch_points:
-            for j in spine[:spine.index(max(branch_points, key=lambda j: z[j]))]:
-                if roles[j] == "other":
-                    roles[j] = "head"
+        if "hand" not in roles:
+            _shape_arms(roles, children, pos, spine, float(np.ptp(z)))
+        _neck(roles, parents, spine, z, names)
     return roles
+
+
+_ARM = ("upperArm", "forearm", "hand")
+
+
+def _neck(roles: list[str], parents: np.ndarray, spine: list[int], z: np.ndarray, names: list[str] | None) -> None:
+    """de Leva's head segment starts at C7: the spine joints above the arms' branch point (the highest
+    spine joint an arm hangs from; ``spine``: the head's ancestors, nearest first) are its neck, whether
+    the head and arms came from names or from the shape, unless a name says trunk (``spine``, ``chest``:
+    Rigify's ``DEF-spine.004``). Only rigs whose arms came from the shape had it: named wrists left a neck
+    no name calls one (CMU's renamed ``Cervical...``) 2.7 kg of trunk a joint with 300 N m motors, where
+    by their names they are 1.35 kg of head each with 40."""
+    on_spine = set(spine)
+    branch_points = set()
+    for b, role in enumerate(roles):
+        if role in _ARM:
+            a = b
+            while a >= 0 and a not in on_spine:
+                a = int(parents[a])
+            if a > 0:  # an arm off the base is no shoulder
+                branch_points.add(a)
+    if not branch_points:
+        return
+    for j in spine[:spine.index(max(branch_points, key=lambda j: z[j]))]:
+        if roles[j] == "other" and not (names is not None and says_trunk(names[j])):
+            roles[j] = "head"
 
 
 def _shape_head(roles: list[str], parents: np.ndarray, children: list[list[int]], leaves: list[int],
@@ -82,14 +109,13 @@ def _shape_legs(roles: list[str], children: list[list[int]], z: np.ndarray) -> l
     return grounded
 
 
-def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: float) -> list[int]:
+def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: float) -> None:
     """The two longest branches off the spine (below the head, above the base) are arms. Along each,
     the upper arm and forearm are the most distal two consecutive bones of at least 0.6 of the
     branch's longest (a clavicle can be as long as a forearm: 19 vs 18.5 cm on CMU's left arm; hand
     and finger bones are shorter); the hand is where they end. Where no two long bones follow each
     other and the longest ends the branch, the arm has no hand joint: that bone is the upper arm and
-    its end the forearm (a handless rig's shoulder became a hinge elbow, its elbow a wrist). Returns
-    the spine joints the arms hang from."""
+    its end the forearm (a handless rig's shoulder became a hinge elbow, its elbow a wrist)."""
     def reach(k: int, start: int) -> float:
         return max(float(np.linalg.norm(pos[i] - pos[start])) for i in subtree_of(children, k))
 
@@ -112,4 +138,3 @@ def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: floa
         i = int(pairs[-1]) if len(pairs) else int(np.argmax(bones[:-1] + bones[1:]))
         _mark(roles, children, path[i + 2], "hand")
         roles[path[i + 1]], roles[path[i]] = "forearm", "upperArm"
-    return [s for _, _, s in arms]
