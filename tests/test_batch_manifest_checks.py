@@ -139,12 +139,7 @@ def test_a_shot_composing_another_shots_output_is_refused_before_that_output_exi
     manifest.write_text('[defaults]\nshifts = ["0.2s:30:0"]\n'
                         '[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\n'
                         '[[job]]\nname = "b"\ninput = "wrap.usda"\nout = "out/b.usdc"\n')
-    with pytest.raises(UsdGazeError) as info:
-        load_manifest(manifest)
-    message = str(info.value)
-    assert "\n" not in message and message.startswith(f"{manifest}: ")
-    for word in (str(tmp_path / "out" / "a.usdc"), "job 0 'a' out", "job 1 'b'"):
-        assert word in message, (word, message)
+    _refused_naming(manifest, str(tmp_path / "out" / "a.usdc"), "job 0 'a' out", "job 1 'b'")
     capsys.readouterr()
     assert main(["batch", str(manifest)]) == 2
     err = capsys.readouterr().err.strip()
@@ -198,12 +193,7 @@ def test_a_symlinked_inputs_layers_are_found_where_usd_finds_them(tmp_path):
     assets/anim.usda, which a does not compose, was refused."""
     manifest, jobs = _symlinked_input(tmp_path)
     manifest.write_text(jobs + 'out = "shots/gaze.usda"\n')
-    with pytest.raises(UsdGazeError) as info:
-        load_manifest(manifest)
-    message = str(info.value)
-    assert "\n" not in message and message.startswith(f"{manifest}: ")
-    for word in (str(tmp_path / "shots" / "gaze.usda"), "job 1 'b' out", "job 0 'a'"):
-        assert word in message, (word, message)
+    _refused_naming(manifest, str(tmp_path / "shots" / "gaze.usda"), "job 1 'b' out", "job 0 'a'")
     manifest.write_text(jobs + 'out = "assets/anim.usda"\n')
     assert [s.name for s in load_manifest(manifest)] == ["a", "b"]
 
@@ -226,3 +216,13 @@ def test_a_value_refused_as_the_shot_runs_names_the_job_and_key(tmp_path, capsys
     assert message.startswith(f"{manifest}: job 0 'w': "), message
     assert f"{key} 9999:30:0 lies outside the animation" in message and "--" not in message, message
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.summary.json", "m.toml", "rig.usda"]
+
+
+def _refused_naming(manifest, *words: str) -> None:
+    """Loading ``manifest`` is refused in one line that starts with its path and names ``words``."""
+    with pytest.raises(UsdGazeError) as info:
+        load_manifest(manifest)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{manifest}: ")
+    for word in words:
+        assert word in message, (word, message)
