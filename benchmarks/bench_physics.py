@@ -167,7 +167,7 @@ def run_catch(opts: mpc.Options, seeds=range(5)) -> list[dict]:
 def _options(a, **kw) -> mpc.Options:
     """The bench's options: ``--stride`` and ``--reuse`` for every task, ``--horizon`` for every shot
     where given, else the command's windows by task."""
-    from usdgaze.passes.physics import with_window
+    from usdgaze.passes.physics_options import with_window
 
     return with_window(mpc.Options(**{"fd_stride": a.stride, "fd_reuse": a.reuse, **kw}), a.horizon)
 

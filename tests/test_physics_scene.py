@@ -10,6 +10,7 @@ import pytest
 from pxr import Sdf, Usd, Vt
 
 from usdgaze.passes import physics as physics_pass
+from usdgaze.passes import physics_options
 from usdgaze.passes.pushes import read_pushes
 from usdgaze.physics import build, retarget, stones
 
@@ -99,22 +100,22 @@ def test_a_shot_gets_its_tasks_window_and_step_unless_they_are_chosen(tmp_path):
     bare = {"stone": [], "obstacle": []}
     default = mpc.Options()
     assert (default.horizon_s, default.stones_horizon_s) == (0.6, 1.0)
-    assert physics_pass.shot_options(default, found).horizon_s == 1.0
-    assert physics_pass.shot_options(default, bare) is default
-    chosen = physics_pass.with_window(default, 0.7)
-    assert physics_pass.shot_options(chosen, found).horizon_s == 0.7 == physics_pass.shot_options(chosen, bare).horizon_s
-    assert physics_pass.with_window(default, None) is default
+    assert physics_options.shot_options(default, found).horizon_s == 1.0
+    assert physics_options.shot_options(default, bare) is default
+    chosen = physics_options.with_window(default, 0.7)
+    assert physics_options.shot_options(chosen, found).horizon_s == 0.7 == physics_options.shot_options(chosen, bare).horizon_s
+    assert physics_options.with_window(default, None) is default
     # The step by task (the paper's 0.02 or 0.03 s): a ball to catch or obstacles without stones get 0.03.
     moving = {"stone": [], "obstacle": ["an obstacle"]}
-    assert physics_pass.shot_options(default, moving).h == 0.03 == physics_pass.shot_options(default, bare, True).h
-    assert physics_pass.shot_options(default, found, True).h == 0.02 == physics_pass.shot_options(default, bare).h
-    fixed = physics_pass.with_timestep(default, 0.025)  # --timestep: every shot's
-    assert physics_pass.shot_options(fixed, moving).h == 0.025 == physics_pass.shot_options(fixed, found).h
-    assert physics_pass.with_timestep(default, None) is default
+    assert physics_options.shot_options(default, moving).h == 0.03 == physics_options.shot_options(default, bare, True).h
+    assert physics_options.shot_options(default, found, True).h == 0.02 == physics_options.shot_options(default, bare).h
+    fixed = physics_options.with_timestep(default, 0.025)  # --timestep: every shot's
+    assert physics_options.shot_options(fixed, moving).h == 0.025 == physics_options.shot_options(fixed, found).h
+    assert physics_options.with_timestep(default, None) is default
     # A window holds two of the longest step a shot may get.
     with pytest.raises(UsdGazeError, match=r"^--window 0\.05 s: expected 0\.06 to 5 s"):
-        physics_pass.check_window(mpc.Options(stones_horizon_s=0.05), "--window")
-    physics_pass.check_window(physics_pass.with_timestep(mpc.Options(stones_horizon_s=0.05), 0.02), "--window")
+        physics_options.check_window(mpc.Options(stones_horizon_s=0.05), "--window")
+    physics_options.check_window(physics_options.with_timestep(mpc.Options(stones_horizon_s=0.05), 0.02), "--window")
 
 
 def test_a_push_names_its_joint_by_the_skeletons_joint_names_too(tmp_path):

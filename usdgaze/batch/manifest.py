@@ -229,7 +229,7 @@ def attend_kwargs(shot: Shot) -> dict:
     extra = sorted(set(v) & set(KINEMATIC_ONLY))
     if extra:  # the coupled loop reads every GazeObjectAPI prim and its own belief settings
         raise UsdGazeError(f"{shot.name_of(extra[0])}: not taken by physics jobs (docs/physics.md)")
-    from usdgaze.passes.physics import check_window, with_timestep, with_window
+    from usdgaze.passes.physics_options import check_window, with_timestep, with_window
     from usdgaze.physics.mpc import Options
 
     options = Options(workers=v.get("threads", 1), fd_stride=v.get("fd_stride", 1), fd_reuse=v.get("fd_reuse", 1),

@@ -77,7 +77,7 @@ def attend(ctx, input_path, out, objects, alpha, cost, window_s, seed, realize, 
 
     _check_combination(ctx, physics)
     if physics:
-        from usdgaze.passes.physics import with_timestep, with_window
+        from usdgaze.passes.physics_options import with_timestep, with_window
         from usdgaze.physics.mpc import Options
 
         options = with_window(with_timestep(Options(workers=threads, fd_stride=fd_stride, fd_reuse=fd_reuse,

@@ -42,6 +42,7 @@ from usdgaze.passes.physics_report import (  # noqa: F401  (the pass's names)
     FOOT_TOLERANCE_M, HEADING_TOLERANCE_DEG, STONE_TOLERANCE_M, ShotReport, foot_problems, heading_problems,
     shot_summary, task_problems)
 from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, read_pushes  # noqa: F401  (the pass's names)
+from usdgaze.passes.physics_options import check_window, shot_options
 from usdgaze.passes.take import cut_to_range, through_take
 from usdgaze.physics import mpc
 from usdgaze.usd.objects import PHYSICS_TASK as TASK
@@ -270,36 +271,6 @@ def _planner_record(options: mpc.Options) -> dict:
             "iterations": options.iterations,
             "retryIterations": options.retry_iterations, "firstIterations": options.first_iterations,
             "fdStride": options.fd_stride, "fdReuse": options.fd_reuse, "groundFeet": options.ground_feet}
-
-
-def check_window(options: mpc.Options, label: str) -> None:
-    """The planner windows must hold two steps and stay under 5 s; ``label`` names where they were set."""
-    h = max(options.h, options.moving_h or 0.0)  # the longest step a shot may get
-    for window in (options.horizon_s, options.stones_horizon_s):
-        if window is not None and not (np.isfinite(window) and 2 * h - 1e-9 <= window <= 5.0):
-            raise UsdGazeError(f"{label} {window:g} s: expected {2 * h:g} to 5 s (the paper uses 0.6-1.2 s)")
-
-
-def with_window(options: mpc.Options, window_s: float | None) -> mpc.Options:
-    """``options`` with the window a user chose (``--window``, a manifest's ``window``) for every shot,
-    stones or not; None: the defaults, the window by task (``mpc.Options.stones_horizon_s``)."""
-    return options if window_s is None else replace(options, horizon_s=window_s, stones_horizon_s=None)
-
-
-def with_timestep(options: mpc.Options, timestep: float | None) -> mpc.Options:
-    """``options`` with the step a user chose (``--timestep``, a manifest's ``timestep``) for every shot;
-    None: the defaults, the step by task (``mpc.Options.moving_h``)."""
-    return options if timestep is None else replace(options, h=timestep, moving_h=None)
-
-
-def shot_options(options: mpc.Options, prims: dict[str, list], catches: bool = False) -> mpc.Options:
-    """The options one shot is simulated with: a shot with stepping stones (``task_prims``) gets their
-    window; one without them but with a ball to catch (``catches``) or moving obstacles, their step."""
-    if prims["stone"]:
-        return options if options.stones_horizon_s is None else replace(options, horizon_s=options.stones_horizon_s)
-    if (catches or prims["obstacle"]) and options.moving_h is not None:
-        return replace(options, h=options.moving_h)
-    return options
 
 
 def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Options = mpc.Options(),
