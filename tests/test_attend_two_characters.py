@@ -146,18 +146,35 @@ def test_characters_whose_paths_spell_the_same_name_both_get_inspection_prims(tm
         assert off[-6:].max() < 5.0, (root, off)
 
 
-def test_two_characters_look_at_each_other(tmp_path, capsys):
-    """GazeObjectAPI on both SkelRoots, facing each other 3 m apart: each character looks at the other
-    (refused before: "is the character /B or holds it", as if B's own object were A's too). Where the
-    eyes end is measured by UsdSkel FK on the composed result, against the other's world bounds
-    (UsdGeom.BBoxCache on the input), the object's position as a --look-at target takes it: 0.1-1.5 deg
-    off over the last 6 frames, from 14.5 deg at the start. That centre is mid-body: the eyes end 14 deg
-    below the other's head joint (3 m apart)."""
-    from pxr import Usd, UsdGeom
-
-    stage, rig = _stage(tmp_path)
+def _facing(tmp_path) -> tuple[Path, syn.Rig]:
+    """A and B 3 m apart along z and 1 m apart sideways, B turned to face A: each one's eyes look past
+    the other's face (18 deg sideways) until it turns."""
+    stage, rig = _stage(tmp_path, place=((0.0, 0.0, 0.0), (1.0, 0.0, 3.0)))
     layer = Sdf.Layer.FindOrOpen(str(stage))
     layer.GetPrimAtPath("/B").attributes["xformOp:rotateY"].default = 180.0  # turned to face A
+    layer.Save()
+    return stage, rig
+
+
+def _off_face_deg(composed: Path, rig: syn.Rig, me: str, other: str) -> np.ndarray:
+    """Per frame, degrees between ``me``'s line of sight and the direction from its eyes' midpoint to
+    ``other``'s eyes' midpoint, both by UsdSkel FK on the composed result (where the other's face is)."""
+    g, o = measure.posed(str(composed), f"{me}/Skel"), measure.posed(str(composed), f"{other}/Skel")
+    eye_l, eye_r = rig.leaf["eye_l"], rig.leaf["eye_r"]
+    line = measure.sight_line(g, eye_l, eye_r, measure.local_forward(g, eye_l, rig.forward),
+                              measure.local_forward(g, eye_r, rig.forward))
+    to = 0.5 * (o.position(eye_l) + o.position(eye_r)) - 0.5 * (g.position(eye_l) + g.position(eye_r))
+    return measure.angle_between(line, to / np.linalg.norm(to, axis=1, keepdims=True))
+
+
+def test_two_characters_look_at_each_other(tmp_path, capsys):
+    """GazeObjectAPI on both SkelRoots, facing each other 3 m apart (1 m aside): each character looks at
+    the other's face (refused before: "is the character /B or holds it", as if B's own object were A's
+    too). Where the eyes end is measured by UsdSkel FK on the composed result, against the other's eyes'
+    midpoint: 20 deg off at the start, 0.2-0.7 deg over the last 6 frames. Before, a character object
+    was its bounds' centre, mid-body: the eyes ended 14.9-15.4 deg off the other's face (below it)."""
+    stage, rig = _facing(tmp_path)
+    layer = Sdf.Layer.FindOrOpen(str(stage))
     for name in ("/A", "/B"):
         layer.GetPrimAtPath(name).SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
     layer.Save()
@@ -166,17 +183,53 @@ def test_two_characters_look_at_each_other(tmp_path, capsys):
     report = json.loads(capsys.readouterr().out)
     assert {c["skel_root"]: [o["path"] for o in c["objects"]] for c in report["characters"]} == {
         "/A": ["/B"], "/B": ["/A"]}
-    composed, source = compose(tmp_path, stage, out), Usd.Stage.Open(str(stage))
-    eye_l, eye_r = rig.leaf["eye_l"], rig.leaf["eye_r"]
+    assert all(o["first_seen_s"] == 0.0 for o in report["objects"])  # each face is in the other's view
+    composed = compose(tmp_path, stage, out)
     for me, other in (("/A", "/B"), ("/B", "/A")):
-        g = measure.posed(str(composed), f"{me}/Skel")
-        line = measure.sight_line(g, eye_l, eye_r, measure.local_forward(g, eye_l, rig.forward),
-                                  measure.local_forward(g, eye_r, rig.forward))
-        centre = np.array([UsdGeom.BBoxCache(Usd.TimeCode(float(t)), [UsdGeom.Tokens.default_], useExtentsHint=True)
-                           .ComputeWorldBound(source.GetPrimAtPath(other)).ComputeCentroid() for t in g.times])
-        to = centre - 0.5 * (g.position(eye_l) + g.position(eye_r))
-        off = measure.angle_between(line, to / np.linalg.norm(to, axis=1, keepdims=True))
-        assert off[0] > 10.0 and off[-6:].max() < 3.0, (me, off)  # it turns to the other
+        off = _off_face_deg(composed, rig, me, other)
+        assert off[0] > 10.0 and off[-6:].max() < 3.0, (me, off)  # it turns to the other's face
+
+
+def test_look_at_another_character_ends_on_its_face(tmp_path, capsys):
+    """``apply --look-at /B@T``: A's line of sight ends on B's eyes' midpoint (UsdSkel FK on the composed
+    result): 0-1 deg over the last 6 frames, from 20 deg; before, B's bounds' centre mid-body, 14-16 deg
+    off B's face."""
+    stage, rig = _facing(tmp_path)
+    out = tmp_path / "gaze.usda"
+    start = float(Sdf.Layer.FindOrOpen(str(stage)).startTimeCode)
+    assert main(["apply", str(stage), "--skel-root", "/A", "--look-at", f"/B@{start:g}", "--out", str(out)]) == 0
+    assert "cannot be found" not in capsys.readouterr().err
+    off = _off_face_deg(compose(tmp_path, stage, out), rig, "/A", "/B")
+    assert off[0] > 10.0 and off[-6:].max() < 3.0, off
+
+
+def test_a_character_without_a_head_is_looked_at_in_its_bounds_and_said(tmp_path, capsys):
+    """B a rig whose joints no name binds (``bone_000`` ..., no eyes): no head is found, so its bounds'
+    centre stays the target (UsdGeom.BBoxCache on the input), said in one warning line naming /B."""
+    from pxr import Usd, UsdGeom
+
+    stage, rig = _facing(tmp_path)
+    syn.make_rig(tmp_path / "bones.usda", frames=24, time_codes_per_second=24, mesh=False, walk_speed=0.0,
+                 convention="generic", eyes=False, joint_names=False)
+    layer = Sdf.Layer.FindOrOpen(str(stage))
+    b = layer.GetPrimAtPath("/B")
+    b.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    b.referenceList.prependedItems = [Sdf.Reference("./bones.usda", "/Character")]
+    layer.Save()
+    out = tmp_path / "attend.usda"
+    assert main(["attend", str(stage), "--out", str(out), "--skel-root", "/A", "--window", "0.3"]) == 0
+    said = [w for w in capsys.readouterr().err.splitlines() if "cannot be found" in w]
+    assert len(said) == 1 and "two.usda:/B: a character whose eyes cannot be found" in said[0], said
+    composed, source = compose(tmp_path, stage, out), Usd.Stage.Open(str(stage))
+    g = measure.posed(str(composed), "/A/Skel")
+    eye_l, eye_r = rig.leaf["eye_l"], rig.leaf["eye_r"]
+    line = measure.sight_line(g, eye_l, eye_r, measure.local_forward(g, eye_l, rig.forward),
+                              measure.local_forward(g, eye_r, rig.forward))
+    centre = np.array([UsdGeom.BBoxCache(Usd.TimeCode(float(t)), [UsdGeom.Tokens.default_], useExtentsHint=True)
+                       .ComputeWorldBound(source.GetPrimAtPath("/B")).ComputeCentroid() for t in g.times])
+    to = centre - 0.5 * (g.position(eye_l) + g.position(eye_r))
+    off = measure.angle_between(line, to / np.linalg.norm(to, axis=1, keepdims=True))
+    assert off[-6:].max() < 3.0, off
 
 
 def test_a_character_left_nothing_to_look_at_is_one_line(tmp_path, capsys):

@@ -171,7 +171,7 @@ def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, Overrid
             report.warnings.extend(clip.notes + ([frame.note] if frame.note else []))
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
                 report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")
-            directives, targets, names = clip_directives(stage, clip, root_requests)
+            directives, targets, names = clip_directives(stage, clip, root_requests, report.warnings)
             result = apply_look(clip, chain, frame, gaze_map, directives, targets, req.options, req.look, names)
             report.warnings.extend(result.warnings)
             written.add(AnimOverride.of(clip, result, move_roots=bool(chain.leg_roots)))

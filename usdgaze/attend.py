@@ -146,7 +146,7 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         h = settings.h
         t_plan = planner_times(clip.seconds, h)
         codes = clip.start_time + t_plan * clip.time_codes_per_second
-        objs = read_objects(stage, source, mine, codes, clip.meters_per_unit)
+        objs = read_objects(stage, source, mine, codes, clip.meters_per_unit, report.warnings)
         things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
         # Windows near a shot's end see the take go on, not the shot's last pose held.
         result = apply_attend(with_ahead(clip, ahead, take), chain, frame, things, settings.loop_options(), progress,

@@ -242,9 +242,10 @@ def _check_target_prim(stage, target: str, clip: SkelClip) -> None:
                        f"the body) or at a point")
 
 
-def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
+def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest], notes: list[str] | None = None
                 ) -> tuple[list[Directive], list[np.ndarray], list[str]]:
-    """Pass directives for one clip, and the world positions per frame of what its looks look at."""
+    """Pass directives for one clip, and the world positions per frame of what its looks look at
+    (another character's eyes; ``notes`` gets a line where they cannot be found)."""
     from usdgaze.usd.targets import sample_target
 
     tcps = clip.time_codes_per_second
@@ -271,7 +272,7 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest]
                 index_of[key] = len(targets)
                 if r.target is not None:
                     _check_target_prim(stage, r.target, clip)
-                    targets.append(sample_target(stage, r.target, clip.times, clip.source))
+                    targets.append(sample_target(stage, r.target, clip.times, clip.source, notes))
                     names.append(r.target)
                 else:
                     targets.append(np.tile(np.asarray(r.point, dtype=float), (len(clip.times), 1)))

@@ -101,7 +101,7 @@ def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: l
     for kind, found in task_found.items():
         if not found:
             continue
-        objs = read_objects(stage, source, found, clip.times, clip.meters_per_unit)
+        objs = read_objects(stage, source, found, clip.times, clip.meters_per_unit, faces=False)  # bodies to walk round
         if kind == "stone":
             frames = (ref_qpos, clip.seconds - clip.seconds[0])
             factories.append(stones.factory(np.array([rot @ o.positions[0] for o in objs]), frames,

@@ -2,8 +2,8 @@
 
 An object's true state is the translation of its local-to-world transform, sampled at the planner's
 times (for a Boundable whose geometry is not centred on its origin, a mesh baked in world space, the
-centre of its world bounds, as ``--look-at`` takes it; for animated geometry, baked points or a posed
-character, that centre at every time); positions come back in metres (the stage's metersPerUnit
+centre of its world bounds, as ``--look-at`` takes it; for animated geometry, that centre at every time;
+for a character, its eyes, ``usdgaze.usd.faces``); positions come back in metres (the stage's metersPerUnit
 applied). A transform USD cannot evaluate is refused first (``usdgaze.usd.xformops``).
 
 Reading: where an object's transform is one translate op whose value resolves to time samples of one
@@ -21,6 +21,7 @@ import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.usd.faces import HEAD_RADIUS_M, eye_positions
 from usdgaze.usd.checks import authored_type
 from usdgaze.usd.plugin import has_api
 from usdgaze.usd.targets import PURPOSES, bounds_vary, drawn_problem, prototype_instancer, sample_target
@@ -43,11 +44,14 @@ class StageObject:
     sized: bool = False  # the radius is authored (not the schema's fallback)
     visible: np.ndarray | None = None
     """(K,) whether USD draws it (its and its ancestors' visibility); None: at every time."""
+    face: bool = False
+    """A character read at its eyes (``usdgaze.usd.faces``): its positions are its face's."""
 
     @property
     def view_radius(self) -> float:
-        """The size the field of view sees: the authored radius; without one a point (0)."""
-        return self.radius if self.sized else 0.0
+        """The size the field of view sees: the authored radius; without one a point (0), or for a
+        character read at its eyes its head (its face is what is seen, not the body round it)."""
+        return self.radius if self.sized else HEAD_RADIUS_M if self.face else 0.0
 
 
 _TYPES = {"gaze:object:importance": ("float", "double", "half"), "gaze:object:radius": ("float", "double", "half"),
@@ -199,7 +203,7 @@ def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches, source: str) -> n
         centres = np.array([np.append(_own_centre(prim, float(t))[0], 1.0) for t in time_codes])
         return np.einsum("ki,kij->kj", centres, _world_matrices(prim, time_codes, caches)[:, :, :3])
     if _off_centre(prim, float(time_codes[0])):
-        return sample_target(prim.GetStage(), str(prim.GetPath()), time_codes, source)
+        return sample_target(prim.GetStage(), str(prim.GetPath()), time_codes, source, faces=False)  # its bounds
     fast = _fast_positions(prim, time_codes)
     if fast is not None:
         return fast
@@ -334,8 +338,10 @@ def _check_obstacle_radius(prim: Usd.Prim, radius: float, where: str) -> None:
 
 
 def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_codes: np.ndarray,
-                 meters_per_unit: float) -> list[StageObject]:
-    """World positions of every object at ``time_codes`` plus its GazeObjectAPI attributes."""
+                 meters_per_unit: float, notes: list[str] | None = None, faces: bool = True) -> list[StageObject]:
+    """World positions of every object at ``time_codes`` plus its GazeObjectAPI attributes; with ``faces``
+    a character at its eyes, ``notes`` getting a line where they cannot be found (else its bounds' centre,
+    a body to walk round)."""
     out = []
     caches: list = []  # per-time caches, made only for an object the fast path cannot read
     for prim in prims:
@@ -354,8 +360,9 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
         check_transform(prim, source)
         try:
+            eyes = eye_positions(prim, time_codes, source, notes) if faces else None
             with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below
-                pos = _positions(prim, time_codes, caches, source) * meters_per_unit
+                pos = (_positions(prim, time_codes, caches, source) if eyes is None else eyes) * meters_per_unit
         except Tf.ErrorException as exc:  # what check_transform cannot see: USD's own word, in one line
             raise UsdGazeError(f"{where}.xformOpOrder: USD cannot evaluate this transform "
                                f"({usd_failure(exc)})") from None
@@ -365,7 +372,7 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
             raise UsdGazeError(f"{where}: lies over {MAX_TARGET_DISTANCE_M:g} m from the world's origin at some "
                                "time; a point that far is only a direction")
         out.append(StageObject(str(prim.GetPath()), pos, importance, radius, kind, authored is not None,
-                               _visibility(prim, time_codes)))
+                               _visibility(prim, time_codes), eyes is not None))
     return out
 
 

@@ -133,7 +133,7 @@ def bind_problem(bind_world: np.ndarray | None, joints: list[str]) -> str | None
     return None
 
 
-def _skel_to_world(skel: Usd.Prim, times: np.ndarray) -> np.ndarray:
+def skeleton_to_world(skel: Usd.Prim, times: np.ndarray) -> np.ndarray:
     """Skeleton-space to world matrices (column-vector): one if static, else one per frame."""
     xformable = UsdGeom.Xformable(skel)
     varying = False
@@ -350,7 +350,7 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
         times, rotations, translations, scales = _rest_pose_samples(stage, rest_local, where_skel)
         held = True
     joint_names = _joint_names(skeleton)
-    skel_to_world = _skel_to_world(skel, times)
+    skel_to_world = skeleton_to_world(skel, times)
     notes.extend(checks.check_scaled_away(skel, times, skel_to_world, source))
     skinned = influence_problems(skel)
     notes.extend(f"{source}:{p.prim.GetPath()}.{p.attribute}: {p.problem}" for p in skinned)

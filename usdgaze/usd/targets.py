@@ -1,7 +1,7 @@
 """Look-at targets from a stage: a prim's world position per time code.
 
-A Boundable prim (geometry, a Skeleton, ...) is looked at in the centre of its world bounding box;
-any other Xformable at its pivot (``xformOp:translate:pivot`` when authored, else its origin).
+A character (a SkelRoot, or a prim holding one Skeleton) is looked at in its eyes (``usdgaze.usd.faces``);
+a Boundable prim (geometry, a Skeleton, ...) in the centre of its world bounding box; any other Xformable at its pivot (``xformOp:translate:pivot`` when authored, else its origin).
 A target whose transform and extent cannot change over time is computed once; an animated one at
 each of the clip's time codes (USD's own interpolation between authored samples).
 """
@@ -12,6 +12,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.usd.faces import eye_positions
 
 PURPOSES = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
 
@@ -121,9 +122,17 @@ def _pivot(prim: Usd.Prim) -> Usd.Attribute | None:
     return None
 
 
-def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str) -> np.ndarray:
-    """World position ``(F, 3)`` of the target prim at ``path`` at each time code."""
+def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str,
+                  notes: list[str] | None = None, faces: bool = True) -> np.ndarray:
+    """World position ``(F, 3)`` of the target prim at ``path`` at each time code; with ``faces`` a
+    character's eyes, ``notes`` getting the line for one whose eyes cannot be found (looked at in its
+    bounds' centre)."""
     prim = check_target(stage, path, source)
+    eyes = eye_positions(prim, np.asarray(times, dtype=float), source, notes) if faces else None
+    if eyes is not None:
+        if not np.all(np.isfinite(eyes)):
+            raise UsdGazeError(f"{source}:{path}: world position of its eyes is not finite")
+        return eyes
     boundable = prim.IsA(UsdGeom.Boundable)
     sample_times = np.asarray(times, dtype=float) if _varying(prim, boundable) else np.asarray(times[:1], dtype=float)
     out = np.empty((len(sample_times), 3))
