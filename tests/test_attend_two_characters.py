@@ -13,10 +13,13 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Sdf
+import pytest
+from pxr import Gf, Sdf, Usd
 
 import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
 from usdgaze.console.main import main
+from usdgaze.errors import UsdGazeError
+from usdgaze.passes import visuomotor
 
 from . import measure
 from . import synthetic as syn
@@ -245,3 +248,22 @@ def test_a_character_left_nothing_to_look_at_is_one_line(tmp_path, capsys):
                                              "holds it; give it another object, or leave it out with --skel-root"), err
     assert not out.exists()
     assert main(["attend", str(stage), "--out", str(out), "--skel-root", "/A", "--window", "0.3"]) == 0
+
+
+def test_two_simulated_characters_each_see_the_other(tmp_path):
+    """``attend --physics`` reads each character's objects as ``attend`` does: with GazeObjectAPI on both
+    SkelRoots, A's coupled loop sees B and B's sees A (the physics pass refused it, "is the character /A
+    or holds it", since every object was checked against each character in turn); an object that is the
+    only character simulated is one line."""
+    stage, _ = _facing(tmp_path)
+    layer = Sdf.Layer.FindOrOpen(str(stage))
+    for name in ("/A", "/B"):
+        layer.GetPrimAtPath(name).SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["GazeObjectAPI"]))
+    layer.Save()
+    opened = Usd.Stage.Open(str(stage))
+    roots = [opened.GetPrimAtPath(p) for p in ("/A", "/B")]
+    seen = {str(r.GetPath()): visuomotor.read_scene(r, str(stage), roots)[1] for r in roots}
+    assert seen == {"/A": ["/B"], "/B": ["/A"]}
+    # Only A simulated: it sees B; A itself, an object of nobody else, is refused in one line.
+    with pytest.raises(UsdGazeError, match=r":/A: is the character /A or holds it"):
+        visuomotor.read_scene(roots[0], str(stage), roots[:1])

@@ -325,7 +325,7 @@ def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options,
     others = animations_elsewhere(stage, roots)
     for root in roots:
         tasks = task_prims(stage, source, str(root.GetPath()))
-        scene = visuomotor.read_scene(root, source)
+        scene = visuomotor.read_scene(root, source, roots)
         opts = shot_options(options, tasks, bool(scene[2]))
         for skel in skeletons_under(root):
             ahead_s = opts.horizon_s + 2 * opts.h  # the planner's last window, past the shot

@@ -30,16 +30,19 @@ CATCH = "usdgaze:physics:catch"
 CATCH_TOLERANCE_M = 0.1  # a ball the hand came no nearer than this to is a problem of the shot
 
 
-def read_scene(root, source: str):
-    """(object prims, their paths, catch indices) of the stage, or ([], [], []) where it has none."""
-    from usdgaze.usd.objects import API_NAME, check_apart, object_prims, scene_prims
+def read_scene(root, source: str, roots: list | None = None):
+    """(object prims, their paths, catch indices) of the stage for the character ``root``, or ([], [], [])
+    where it has none. ``roots``: every character the pass simulates (default: ``root``); each looks at
+    the objects but one that is it or holds it, so two characters may look at each other (as ``attend``
+    without ``--physics``: ``objects.objects_of``)."""
+    from usdgaze.usd.objects import API_NAME, object_prims, objects_of, scene_prims
     from usdgaze.usd.plugin import has_api
 
     stage = root.GetStage()
     if not any(has_api(p, API_NAME) for p in scene_prims(stage)):
         return [], [], []
-    prims = object_prims(stage, source, None)
-    check_apart(prims, [root], source)
+    roots = list(roots or [root])
+    prims = objects_of(object_prims(stage, source, None), roots, source)[roots.index(root)]
     paths = [str(p.GetPath()) for p in prims]
     rel = root.GetRelationship(CATCH)
     catches = []
