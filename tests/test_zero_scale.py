@@ -168,3 +168,25 @@ def test_hidden_from_the_first_frame_applies_and_previews(tmp_path):
     code, _, err = bad.run_inprocess(["preview", str(rig.path), "--layer", str(out), "--out",
                                       str(tmp_path / "p.png"), "--size", "64"], tmp_path)
     assert code == 0 and (tmp_path / "p.png").is_file(), err
+
+
+@pytest.mark.parametrize("scale", [0.0, 1e-5])
+def test_a_bind_transform_is_singular_by_its_shape_not_its_size(tmp_path, scale):
+    """A bind transform with a zero scale has no inverse: one exit-2 line naming the joint. One scaled
+    uniformly by 1e-5 (its determinant 1e-15, under the absolute 1e-12 the check once used) is a
+    rotation times a scale, invertible: it is not refused as singular."""
+    rig = _rig(tmp_path)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    path = Sdf.Path(rig.skeleton + ".bindTransforms")
+    mats = np.array(layer.GetAttributeAtPath(path).default)
+    head = rig.joints.index(rig.joint("head"))
+    mats[head, :3, :3] *= scale
+    layer.GetAttributeAtPath(path).default = Vt.Matrix4dArray.FromNumpy(mats)
+    layer.Save()
+    code, out, err = bad.run_inprocess(bad.apply_argv(tmp_path, rig.path), tmp_path)
+    if scale == 0.0:
+        lines = [line for line in err.splitlines() if line.strip() and not line.startswith("Warning")]
+        assert code == 2 and len(lines) == 1 and "bindTransforms" in lines[0] and rig.leaf["head"] in lines[0] \
+            and "singular" in lines[0], (code, err)
+    else:
+        assert code == 0 and "singular" not in err, (code, err)

@@ -17,7 +17,6 @@ from usdgaze.errors import UsdGazeError
 ANIMATION_TYPES = {"joints": "token[]", "rotations": "quatf[]", "translations": "float3[]", "scales": "half3[]"}
 SKELETON_TYPES = {"joints": "token[]", "restTransforms": "matrix4d[]", "bindTransforms": "matrix4d[]",
                   "jointNames": "token[]"}
-_SINGULAR = 1e-12  # |det| of a joint's 3x3 below this: a zero scale, no inverse
 
 
 def check_stage(stage: Usd.Stage, source: str) -> None:
@@ -208,8 +207,7 @@ def check_matrices(mats: np.ndarray | None, joints: list[str], where: str) -> No
     if not finite.all():
         i = int(np.flatnonzero(~finite)[0])
         raise UsdGazeError(f"{where}: entry {i} (joint '{joints[i]}') holds NaN or infinite values")
-    det = np.linalg.det(mats[:, :3, :3])
-    bad = np.abs(det) < _SINGULAR
+    bad = singular(mats[:, :3, :3])
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise UsdGazeError(f"{where}: entry {i} (joint '{joints[i]}') is singular (a zero scale); it has no inverse")
