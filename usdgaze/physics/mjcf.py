@@ -57,53 +57,70 @@ def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> s
     """The model as MJCF. Semi-implicit Euler (``integrator="Euler"``) at ``timestep``; joint damping is
     integrated implicitly by that integrator, which keeps 0.02-0.03 s steps stable; contacts are
     softened to a time constant of at least two steps, as MuJoCo requires for stability."""
-    tc = max(0.02, 2.0 * timestep)
-    out = [f'<mujoco model={quoteattr(name)}>',
-           '  <compiler angle="degree" inertiafromgeom="false" autolimits="true"/>',
-           # jacobian="sparse": MuJoCo's "auto" picks dense under 60 dofs, yet the CMU bodies' 54 take
-           # 9-17% less CPU per simulated second sparse (docs/physics-log.md, "Sparse Jacobians").
-           f'  <option timestep="{timestep:.6g}" integrator="Euler" jacobian="sparse" gravity="0 0 -9.81"/>',
-           '  <size memory="8M"/>',
-           '  <default>',
-           f'    <geom contype="1" conaffinity="0" condim="3" friction="1.0 0.05 0.01" solref="{tc:.4g} 1" rgba="0.75 0.7 0.62 1"/>',
-           '    <joint damping="2" armature="0.02" limited="true"/>',
-           '    <motor ctrllimited="false"/>',
-           '  </default>',
-           '  <worldbody>',
-           '    <light pos="0 0 4" dir="0 0 -1" directional="true"/>',
-           f'    <geom name="ground" type="plane" size="0 0 0.05" contype="0" conaffinity="1" solref="{tc:.4g} 1" '
-           f'margin="{ground_margin(m):.6g}" rgba="0.45 0.5 0.55 1"/>']
-    children = children_of(m.body_parent)
-
-    def body(b: int, depth: int) -> None:
-        pad = "  " * depth
-        if b == 0:
-            pos, quat = m.base_pos + np.array([0, 0, m.lift]), m.base_quat
-        else:
-            pos, quat = m.offset[b], m.rel_quat[b]
-        out.append(f'{pad}<body name={quoteattr(m.names[b])} pos="{_v(pos)}" quat="{_wxyz(quat)}">')
-        out.append(f'{pad}  <inertial pos="{_v(m.com[b])}" quat="{_wxyz(m.inertia_quat[b])}" '
-                   f'mass="{m.mass[b]:.6g}" diaginertia="{_v(m.inertia[b])}"/>')
-        if m.kind[b] == "free":
-            out.append(f'{pad}  <freejoint name={quoteattr(m.names[b])}/>')
-        elif m.kind[b] == "ball":
-            out.append(f'{pad}  <joint name={quoteattr(m.names[b])} type="ball" range="0 {m.range_deg[b, 1]:.4g}" '
-                       f'damping="{0.05 * m.strength[b]:.4g}"/>')
-        elif m.kind[b] == "hinge":
-            out.append(f'{pad}  <joint name={quoteattr(m.names[b])} type="hinge" axis="{_v(m.axis[b])}" '
-                       f'range="{_v(m.range_deg[b])}" damping="{0.05 * m.strength[b]:.4g}"/>')
-        foot = f' priority="1" solimp="{_v(FOOT_SOLIMP)}"' if m.role[b] == "foot" else ""
-        for g, (kind, v) in enumerate(m.geoms[b]):
-            gname = quoteattr(f"{m.names[b]}_{g}")
-            shape = f'fromto="{_v(v)}"' if kind == "capsule" else f'pos="{_v(v)}"'
-            out.append(f'{pad}  <geom name={gname} type="{kind}" {shape} size="{m.radius[b]:.4g}"{foot}/>')
-        for c in children[b]:
-            body(c, depth + 1)
-        out.append(f"{pad}</body>")
-
-    body(0, 2)
+    out = _header(m, timestep, name)
+    _body(m, 0, 2, children_of(m.body_parent), out)
     out.append("  </worldbody>")
-    out.append("  <actuator>")
+    out.extend(_actuators(m))
+    out.append("</mujoco>")
+    return "\n".join(out) + "\n"
+
+
+def _header(m: BodyModel, timestep: float, name: str) -> list[str]:
+    """Compiler, options, defaults and the ground: everything before the bodies."""
+    tc = max(0.02, 2.0 * timestep)
+    return [f'<mujoco model={quoteattr(name)}>',
+            '  <compiler angle="degree" inertiafromgeom="false" autolimits="true"/>',
+            # jacobian="sparse": MuJoCo's "auto" picks dense under 60 dofs, yet the CMU bodies' 54 take
+            # 9-17% less CPU per simulated second sparse (docs/physics-log.md, "Sparse Jacobians").
+            f'  <option timestep="{timestep:.6g}" integrator="Euler" jacobian="sparse" gravity="0 0 -9.81"/>',
+            '  <size memory="8M"/>',
+            '  <default>',
+            f'    <geom contype="1" conaffinity="0" condim="3" friction="1.0 0.05 0.01" solref="{tc:.4g} 1" rgba="0.75 0.7 0.62 1"/>',
+            '    <joint damping="2" armature="0.02" limited="true"/>',
+            '    <motor ctrllimited="false"/>',
+            '  </default>',
+            '  <worldbody>',
+            '    <light pos="0 0 4" dir="0 0 -1" directional="true"/>',
+            f'    <geom name="ground" type="plane" size="0 0 0.05" contype="0" conaffinity="1" solref="{tc:.4g} 1" '
+            f'margin="{ground_margin(m):.6g}" rgba="0.45 0.5 0.55 1"/>']
+
+
+def _joint(m: BodyModel, b: int) -> str | None:
+    """Body ``b``'s joint element (None for a weld)."""
+    name = quoteattr(m.names[b])
+    if m.kind[b] == "free":
+        return f'<freejoint name={name}/>'
+    if m.kind[b] == "ball":
+        return f'<joint name={name} type="ball" range="0 {m.range_deg[b, 1]:.4g}" damping="{0.05 * m.strength[b]:.4g}"/>'
+    if m.kind[b] == "hinge":
+        return (f'<joint name={name} type="hinge" axis="{_v(m.axis[b])}" range="{_v(m.range_deg[b])}" '
+                f'damping="{0.05 * m.strength[b]:.4g}"/>')
+    return None
+
+
+def _body(m: BodyModel, b: int, depth: int, children: list[list[int]], out: list[str]) -> None:
+    """Body ``b`` and, nested in it, its children, appended to ``out`` indented by ``depth``."""
+    pad = "  " * depth
+    pos, quat = (m.base_pos + np.array([0, 0, m.lift]), m.base_quat) if b == 0 else (m.offset[b], m.rel_quat[b])
+    out.append(f'{pad}<body name={quoteattr(m.names[b])} pos="{_v(pos)}" quat="{_wxyz(quat)}">')
+    out.append(f'{pad}  <inertial pos="{_v(m.com[b])}" quat="{_wxyz(m.inertia_quat[b])}" '
+               f'mass="{m.mass[b]:.6g}" diaginertia="{_v(m.inertia[b])}"/>')
+    joint = _joint(m, b)
+    if joint is not None:
+        out.append(f"{pad}  {joint}")
+    foot = f' priority="1" solimp="{_v(FOOT_SOLIMP)}"' if m.role[b] == "foot" else ""
+    for g, (kind, v) in enumerate(m.geoms[b]):
+        gname = quoteattr(f"{m.names[b]}_{g}")
+        shape = f'fromto="{_v(v)}"' if kind == "capsule" else f'pos="{_v(v)}"'
+        out.append(f'{pad}  <geom name={gname} type="{kind}" {shape} size="{m.radius[b]:.4g}"{foot}/>')
+    for c in children[b]:
+        _body(m, c, depth + 1, children, out)
+    out.append(f"{pad}</body>")
+
+
+def _actuators(m: BodyModel) -> list[str]:
+    """One motor per rotational axis of every ball and hinge."""
+    out = ["  <actuator>"]
     toes = set(m.toes)
     for b in range(len(m.bodies)):
         for a, (joint, gear) in enumerate(_motors(m, b)):
@@ -112,5 +129,4 @@ def write(m: BodyModel, timestep: float = 0.02, name: str = "usdgaze_body") -> s
             lim = ' ctrllimited="true" ctrlrange="-1 1"' if b in toes else ""
             out.append(f'    <motor name={quoteattr(f"{joint}_{a}")} joint={quoteattr(joint)} gear="{gear}"{lim}/>')
     out.append("  </actuator>")
-    out.append("</mujoco>")
-    return "\n".join(out) + "\n"
+    return out
