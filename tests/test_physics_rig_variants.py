@@ -530,3 +530,26 @@ def test_legs_hung_from_a_root_at_the_hips_beside_the_pelvis_are_its_legs(tmp_pa
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "hang from 'root', beside its pelvis 'pelvis'" in err[0], err
     assert not (tmp_path / "no.usda").exists()
+
+
+def _neck_share_and_gear(tmp_path, convention: str) -> tuple[float, float]:
+    """On MuJoCo's reading of the MJCF ``physics-model`` writes: the share of the mass from the rig's
+    neck joint up (head and neck) and the largest gear of that joint's motors."""
+    rig = syn.make_rig(tmp_path / f"{convention}.usda", convention=convention, up_axis="Z", meters_per_unit=1.0,
+                       frames=6, mesh=False, walk_speed=0.0)
+    xml = tmp_path / f"{convention}.xml"
+    assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
+    mj = mujoco.MjModel.from_xml_path(str(xml))
+    neck = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf["neck"].removeprefix("mixamorig_"))
+    motors = [a for a in range(mj.nu) if mj.jnt_bodyid[mj.actuator_trnid[a, 0]] == neck]
+    return float(mj.body_subtreemass[neck] / mj.body_subtreemass[0]), float(np.abs(mj.actuator_gear[motors, :3]).max())
+
+
+def test_rigify_numbered_neck_weighs_and_pulls_as_a_neck(tmp_path):
+    """Rigify's spine chain runs from the hips (``DEF-spine``) to the head (``DEF-spine.006``); its
+    ``.004`` and ``.005`` are the neck, which the word ``spine`` had made trunk: 2.2 kg each with
+    300 N m motors, head and neck 12.8% of the mass. Now head and neck weigh de Leva's 6.94%, and the
+    neck's motor is the Mixamo rig's neck's."""
+    share, gear = _neck_share_and_gear(tmp_path, "rigify")
+    assert share == pytest.approx(HEAD, abs=0.01), share
+    assert gear == _neck_share_and_gear(tmp_path, "mixamo")[1]

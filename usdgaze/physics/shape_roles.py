@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from usdgaze.core.names import says_trunk
+from usdgaze.core.names import RIGIFY_ROLES, rigify_number, says_trunk
 from usdgaze.physics.segments import _ancestors, _mark, children_of, subtree_of
 
 
@@ -48,10 +48,10 @@ _ARM = ("upperArm", "forearm", "hand")
 def _neck(roles: list[str], parents: np.ndarray, spine: list[int], z: np.ndarray, names: list[str] | None) -> None:
     """de Leva's head segment starts at C7: the spine joints above the arms' branch point (the highest
     spine joint an arm hangs from; ``spine``: the head's ancestors, nearest first) are its neck, whether
-    the head and arms came from names or from the shape, unless a name says trunk (``spine``, ``chest``:
-    Rigify's ``DEF-spine.004``). Only rigs whose arms came from the shape had it: named wrists left a neck
-    no name calls one (CMU's renamed ``Cervical...``) 2.7 kg of trunk a joint with 300 N m motors, where
-    by their names they are 1.35 kg of head each with 40."""
+    the head and arms came from names or from the shape, unless a name says trunk (``spine``, ``chest``;
+    not Rigify's numbered neck, ``DEF-spine.004``). Only rigs whose arms came from the shape had it:
+    named wrists left a neck no name calls one (CMU's renamed ``Cervical...``) 2.7 kg of trunk a joint
+    with 300 N m motors, where by their names they are 1.35 kg of head each with 40."""
     on_spine = set(spine)
     branch_points = set()
     for b, role in enumerate(roles):
@@ -64,8 +64,14 @@ def _neck(roles: list[str], parents: np.ndarray, spine: list[int], z: np.ndarray
     if not branch_points:
         return
     for j in spine[:spine.index(max(branch_points, key=lambda j: z[j]))]:
-        if roles[j] == "other" and not (names is not None and says_trunk(names[j])):
+        if roles[j] == "other" and not (names is not None and _names_trunk(names[j])):
             roles[j] = "head"
+
+
+def _names_trunk(name: str) -> bool:
+    """A trunk word in the name, but for Rigify's neck (``DEF-spine.004`` and ``.005``, whose spine
+    chain runs from the hips to the head: its numbers, not its words, say which part a bone is)."""
+    return says_trunk(name) and RIGIFY_ROLES.get(rigify_number(name)) != "neck"
 
 
 def _shape_head(roles: list[str], parents: np.ndarray, children: list[list[int]], leaves: list[int],
