@@ -14,6 +14,7 @@ binds as ``attend --physics`` does, so both build one model."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -244,7 +245,7 @@ def test_physics_model_writes_the_model_attend_simulates(tmp_path):
     from pxr import Usd
 
     from usdgaze.gaze.defaults import default_definition
-    from usdgaze.passes.physics import _read_shots
+    from usdgaze.passes.physics_shots import read_shots
     from usdgaze.physics import mjcf, mpc
     from usdgaze.usd import schema
 
@@ -257,9 +258,30 @@ def test_physics_model_writes_the_model_attend_simulates(tmp_path):
     stage.GetRootLayer().Save()
     xml = tmp_path / "model.xml"
     assert main(["physics-model", str(rig.path), "--out", str(xml)]) == 0
-    shot, = _read_shots(Usd.Stage.Open(str(rig.path)), str(rig.path), None, mpc.Options(), None)
+    shot, = read_shots(Usd.Stage.Open(str(rig.path)), str(rig.path), None, mpc.Options(), None)
     assert xml.read_text() == mjcf.write(shot.body[0])
     mj = mujoco.MjModel.from_xml_path(str(xml))
     for key in ("eye_l", "eye_r"):
         b = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, rig.leaf[key])
         assert mj.body_mass[b] < 0.1 and mj.body_geomnum[b] == 0 and mj.body_jntnum[b] == 0, key
+
+
+@pytest.mark.parametrize("name, step", [("ball_throw.usda", 0.03), ("stepping_stones_shot.usda", 0.02)])
+def test_physics_model_writes_the_shot_at_its_step(tmp_path, name, step):
+    """A shot with a ball to catch is simulated at 0.03 s, and a shot's root layer over a longer take
+    simulates the shot's frames, whose hinge ranges are fitted to them: ``physics-model`` writes that
+    body at that step, as MuJoCo reads it. Before: always 0.02 s and the whole take's ranges (the stones
+    shot's left knee -53 to 77 deg where the shot's frames give -53 to 55)."""
+    from pxr import Usd
+
+    from usdgaze.passes.physics_shots import read_shots
+    from usdgaze.physics import mjcf, mpc
+
+    src = Path(__file__).resolve().parents[1] / "sample_stages" / "attend" / name
+    xml = tmp_path / "model.xml"
+    assert main(["physics-model", str(src), "--out", str(xml)]) == 0
+    assert mujoco.MjModel.from_xml_path(str(xml)).opt.timestep == pytest.approx(step)
+    shot, = read_shots(Usd.Stage.Open(str(src)), str(src), None, mpc.Options(), None)
+    assert xml.read_text() == mjcf.write(shot.body[0], timestep=shot.options.h)
+    assert main(["physics-model", str(src), "--out", str(xml), "--timestep", "0.025"]) == 0
+    assert mujoco.MjModel.from_xml_path(str(xml)).opt.timestep == pytest.approx(0.025)

@@ -31,7 +31,6 @@ import os
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
-from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,49 +41,10 @@ from usdgaze.passes.physics_report import (  # noqa: F401  (the pass's names)
     FOOT_TOLERANCE_M, HEADING_TOLERANCE_DEG, STONE_TOLERANCE_M, ShotReport, foot_problems, heading_problems,
     shot_summary, task_problems)
 from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, read_pushes  # noqa: F401  (the pass's names)
-from usdgaze.passes.physics_options import check_window, shot_options
-from usdgaze.passes.take import cut_to_range, through_take
+from usdgaze.passes.physics_options import check_window
+from usdgaze.passes.physics_shots import TASKS, Shot, read_shots, task_prims  # noqa: F401  (the pass's names)
+from usdgaze.passes.take import through_take
 from usdgaze.physics import mpc
-from usdgaze.usd.objects import PHYSICS_TASK as TASK
-
-TASKS = ("stone", "obstacle")
-
-
-class Shot(NamedTuple):
-    """One skeleton to simulate, read and checked before any is simulated (``_read_shots``)."""
-
-    root: Any  # the Usd.Prim of its SkelRoot
-    clip: Any  # the usdgaze.core.clip.Clip, cut to the stage's playback range
-    scene: tuple  # the coupled loop's (object prims, their paths, the balls to catch)
-    chain_frame: tuple  # the gaze binding: (Chain, CharacterFrame)
-    ahead: Any  # the take's clip after the shot (None: none)
-    take: Any  # the whole take the clip was cut from (None: the clip is the take)
-    body: tuple  # its body model and the reference on it (build.body_model), built once for every attempt
-    tasks: dict[str, list]  # the stage's stone and obstacle prims (task_prims)
-    options: mpc.Options  # its options: a shot with stones has their window
-
-
-def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
-    """The stage's stone and obstacle prims (``usdgaze:physics:task``), checked: one plain value each,
-    a transformable prim, none under the SkelRoot ``skel_root``."""
-    from usdgaze.usd.objects import check_apart, require_xformable, scene_prims
-
-    prims = {kind: [] for kind in TASKS}
-    for prim in scene_prims(stage):
-        attr = prim.GetAttribute(TASK)
-        if not attr or not attr.HasAuthoredValue():
-            continue
-        kind = attr.Get()
-        if kind is None or attr.GetNumTimeSamples():
-            raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: is time-sampled or has no value; a task is "
-                               "one plain value, 'stone' or 'obstacle'")
-        if str(kind) not in TASKS:
-            raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: '{kind}' is not one of 'stone', 'obstacle'")
-        require_xformable(prim, source, f"a{'n' if kind == 'obstacle' else ''} {kind}")
-        prims[str(kind)].append(prim)
-    check_apart([p for found in prims.values() for p in found], [stage.GetPrimAtPath(skel_root)], source,
-                "a stone or an obstacle", inside=True)
-    return prims
 
 
 def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: list[str] | None = None, *,
@@ -92,7 +52,7 @@ def read_tasks(stage, clip, model, source: str, ref_qpos: np.ndarray, objects: l
     """Task factories for the stones and obstacles authored on ``stage`` (see the module docstring);
     ``ref_qpos`` is the reference at the clip's frames (stone contacts are found there); ``objects``:
     the coupled loop's object paths, whose belief the obstacle task then reads; ``task_found``: the
-    stage's task prims, as ``task_prims`` found them (once a shot, ``_read_shots``)."""
+    stage's task prims, as ``task_prims`` found them (once a shot, ``physics_shots.read_shots``)."""
     from usdgaze.physics import obstacles, stones
     from usdgaze.usd.objects import read_objects
 
@@ -301,7 +261,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
         tx.check_replaceable()  # every input recorded: before the work
-        shots = _read_shots(stage, source, skel_root, options, binding, total_mass)
+        shots = read_shots(stage, source, skel_root, options, binding, total_mass)
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)
         notes = composed_override_notes(stage, source)
@@ -309,39 +269,6 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
             r.warnings = list(notes)
         tx.stage_layer(out_path, layer)
     return reports
-
-
-def _read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding,
-                total_mass: float = 75.0) -> list[Shot]:
-    """Every skeleton's :class:`Shot`: all read, checked, bound and built before any work."""
-    from usdgaze.characters import bind_root, select_roots
-    from usdgaze.passes import visuomotor
-    from usdgaze.physics.build import body_model
-    from usdgaze.physics.catch import can_catch
-    from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
-
-    shots = []
-    roots = select_roots(stage, source, skel_root)
-    others = animations_elsewhere(stage, roots)
-    for root in roots:
-        tasks = task_prims(stage, source, str(root.GetPath()))
-        scene = visuomotor.read_scene(root, source, roots)
-        opts = shot_options(options, tasks, bool(scene[2]))
-        for skel in skeletons_under(root):
-            ahead_s = opts.horizon_s + 2 * opts.h  # the planner's last window, past the shot
-            clip, ahead, take = cut_to_range(read_clip(stage, skel, root, source), stage, ahead_s)
-            check_not_shared(others, clip.animation, source)
-            chain_frame = bind_root(clip, root, binding)
-            # Its body too (a few ms): a skeleton the model refuses (lying, no feet, squashed) was found only
-            # after the characters before it had been simulated.
-            body = body_model(clip, total_mass, weld_still=not scene[2], chain_frame=chain_frame)
-            if scene[2] and not can_catch(body[0]):  # it stopped with an internal error, exit 1
-                raise UsdGazeError(f"{source}:{root.GetPath()}.{visuomotor.CATCH}: names a ball to catch, but "
-                                   f"{clip.skeleton} has no hand (a hand joint below a forearm) to catch it with")
-            shots.append(Shot(root, clip, scene, chain_frame, ahead, take, body, tasks, opts))
-    if not shots:
-        raise UsdGazeError(f"{source}: no Skeleton to simulate")
-    return shots
 
 
 def _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed, record):

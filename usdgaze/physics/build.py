@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 
@@ -16,7 +15,7 @@ def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outpu
 
 
 def _read(input_path, skel_root: str | None, outputs, bound: bool = False):
-    """:func:`load_clip`'s clip and, where ``bound``, its gaze binding (:func:`_binding`), read while the
+    """:func:`load_clip`'s clip and, where ``bound``, its gaze binding (:func:`binding`), read while the
     stage is open: the SkelRoot's GazeMapAPI is read from it."""
     from usdgaze.api import select_roots
     from usdgaze.usd.skelio import read_clip, skeletons_under
@@ -34,7 +33,7 @@ def _read(input_path, skel_root: str | None, outputs, bound: bool = False):
     if not skels:
         raise UsdGazeError(f"{source}:{roots[0].GetPath()}: no Skeleton under the SkelRoot")
     clip = read_clip(stage, skels[0], roots[0], source)
-    return clip, (_binding(clip, roots[0]) if bound else None)
+    return clip, (binding(clip, roots[0]) if bound else None)
 
 
 MIN_MASS_KG, MAX_MASS_KG = 1.0, 500.0
@@ -64,7 +63,7 @@ def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_fr
     return model, ref
 
 
-def _binding(clip, root):
+def binding(clip, root):
     """The gaze binding ``attend --physics`` builds its body with (the SkelRoot's GazeMapAPI, else names),
     so that both build one model: without it, the head, eyes and forward a GazeMapAPI binds on a rig whose
     names say nothing were not read here (its eyes were 1.7 kg bodies of the head). None where no chain
@@ -88,25 +87,3 @@ def check_on_ground(model, ref_qpos: np.ndarray, clip) -> None:
     why = feasible.never_on_ground(mj, model, ref_qpos, clip.seconds)
     if why:
         raise UsdGazeError(f"{clip.where()}: {why}")
-
-
-def write_mjcf(input_path, out, total_mass: float = 75.0, timestep: float = 0.02,
-               skel_root: str | None = None) -> dict:
-    """Write the MJCF model of ``input_path``'s skeleton to ``out``; a summary for the console."""
-    from usdgaze.files.transaction import Outputs
-    from usdgaze.physics import mjcf
-
-    out = Path(out)
-    if out.suffix.lower() != ".xml":
-        raise UsdGazeError(f"{out}: the model is MJCF; --out must end in .xml")
-    if not 0.001 <= timestep <= 0.05:
-        raise UsdGazeError(f"--timestep {timestep}: expected 0.001 to 0.05 s")
-    with Outputs() as tx:
-        if Path(input_path).is_file():
-            tx.read(input_path)
-        tx.claim(out, "--out")
-        clip, chain_frame = _read(input_path, skel_root, tx, bound=True)
-        model, _ = body_model(clip, total_mass, chain_frame=chain_frame)
-        tx.stage_text(out, mjcf.write(model, timestep=timestep))
-    return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
-            "mass": model.total_mass, "skeleton": clip.skeleton}

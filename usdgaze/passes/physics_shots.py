@@ -1,0 +1,136 @@
+"""The shots of ``attend --physics``: each skeleton read, bound, cut to the stage's playback range and
+given its body model and planner options (by task) before any is simulated; and ``physics-model``,
+which writes the MJCF of that same body at that same step."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, NamedTuple
+
+from usdgaze.errors import UsdGazeError
+from usdgaze.passes.physics_options import shot_options
+from usdgaze.passes.take import cut_to_range
+from usdgaze.physics import mpc
+from usdgaze.usd.objects import PHYSICS_TASK as TASK
+
+TASKS = ("stone", "obstacle")
+
+
+class Shot(NamedTuple):
+    """One skeleton to simulate, read and checked before any is simulated (:func:`read_shots`)."""
+
+    root: Any  # the Usd.Prim of its SkelRoot
+    clip: Any  # the usdgaze.core.clip.Clip, cut to the stage's playback range
+    scene: tuple  # the coupled loop's (object prims, their paths, the balls to catch)
+    chain_frame: tuple  # the gaze binding: (Chain, CharacterFrame)
+    ahead: Any  # the take's clip after the shot (None: none)
+    take: Any  # the whole take the clip was cut from (None: the clip is the take)
+    body: tuple  # its body model and the reference on it (build.body_model), built once for every attempt
+    tasks: dict[str, list]  # the stage's stone and obstacle prims (task_prims)
+    options: mpc.Options  # its options: a shot with stones has their window
+
+
+def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
+    """The stage's stone and obstacle prims (``usdgaze:physics:task``), checked: one plain value each,
+    a transformable prim, none under the SkelRoot ``skel_root``."""
+    from usdgaze.usd.objects import check_apart, require_xformable, scene_prims
+
+    prims = {kind: [] for kind in TASKS}
+    for prim in scene_prims(stage):
+        attr = prim.GetAttribute(TASK)
+        if not attr or not attr.HasAuthoredValue():
+            continue
+        kind = attr.Get()
+        if kind is None or attr.GetNumTimeSamples():
+            raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: is time-sampled or has no value; a task is "
+                               "one plain value, 'stone' or 'obstacle'")
+        if str(kind) not in TASKS:
+            raise UsdGazeError(f"{source}:{prim.GetPath()}.{TASK}: '{kind}' is not one of 'stone', 'obstacle'")
+        require_xformable(prim, source, f"a{'n' if kind == 'obstacle' else ''} {kind}")
+        prims[str(kind)].append(prim)
+    check_apart([p for found in prims.values() for p in found], [stage.GetPrimAtPath(skel_root)], source,
+                "a stone or an obstacle", inside=True)
+    return prims
+
+
+
+def read_shot(stage, source: str, root, roots: list, skel, options: mpc.Options, bind: Callable,
+              total_mass: float = 75.0) -> Shot:
+    """One skeleton's :class:`Shot`: ``bind(clip, root)`` gives its gaze binding (Chain, CharacterFrame)."""
+    from usdgaze.passes import visuomotor
+    from usdgaze.physics.build import body_model
+    from usdgaze.usd.skelio import read_clip
+
+    tasks = task_prims(stage, source, str(root.GetPath()))
+    scene = visuomotor.read_scene(root, source, roots)
+    opts = shot_options(options, tasks, bool(scene[2]))
+    ahead_s = opts.horizon_s + 2 * opts.h  # the planner's last window, past the shot
+    clip, ahead, take = cut_to_range(read_clip(stage, skel, root, source), stage, ahead_s)
+    chain_frame = bind(clip, root)
+    # A ball to catch simulates every joint: a joint the reference holds still may be needed to reach.
+    body = body_model(clip, total_mass, weld_still=not scene[2], chain_frame=chain_frame)
+    return Shot(root, clip, scene, chain_frame, ahead, take, body, tasks, opts)
+
+
+def read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding,
+               total_mass: float = 75.0) -> list[Shot]:
+    """Every skeleton's :class:`Shot`: all read, checked, bound and built before any work (a skeleton
+    the model refuses, lying, without feet, squashed, was found only after the characters before it
+    had been simulated)."""
+    from usdgaze.characters import bind_root, select_roots
+    from usdgaze.passes import visuomotor
+    from usdgaze.physics.catch import can_catch
+    from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, skeletons_under
+
+    shots = []
+    roots = select_roots(stage, source, skel_root)
+    others = animations_elsewhere(stage, roots)
+    for root in roots:
+        for skel in skeletons_under(root):
+            shot = read_shot(stage, source, root, roots, skel, options,
+                             lambda clip, r: bind_root(clip, r, binding), total_mass)
+            check_not_shared(others, shot.clip.animation, source)
+            if shot.scene[2] and not can_catch(shot.body[0]):  # it stopped with an internal error, exit 1
+                raise UsdGazeError(f"{source}:{root.GetPath()}.{visuomotor.CATCH}: names a ball to catch, but "
+                                   f"{shot.clip.skeleton} has no hand (a hand joint below a forearm) to catch it with")
+            shots.append(shot)
+    if not shots:
+        raise UsdGazeError(f"{source}: no Skeleton to simulate")
+    return shots
+
+
+def write_model(input_path, out, total_mass: float = 75.0, timestep: float | None = None,
+                skel_root: str | None = None) -> dict:
+    """Write the MJCF of the body ``attend --physics`` simulates for ``input_path``'s one skeleton (or the
+    one under ``skel_root``), at its step (``timestep`` None: the step by task, as the pass takes it);
+    a summary for the console."""
+    from usdgaze.api import _open_input
+    from usdgaze.characters import select_roots
+    from usdgaze.files.kinds import require_file
+    from usdgaze.files.transaction import Outputs
+    from usdgaze.physics import mjcf
+    from usdgaze.physics.build import binding
+    from usdgaze.usd.skelio import skeletons_under
+
+    out = Path(out)
+    if out.suffix.lower() != ".xml":
+        raise UsdGazeError(f"{out}: the model is MJCF; --out must end in .xml")
+    if timestep is not None and not 0.001 <= timestep <= 0.05:
+        raise UsdGazeError(f"--timestep {timestep}: expected 0.001 to 0.05 s")
+    source = str(input_path)
+    require_file(source)
+    with Outputs() as tx:
+        tx.read(source)
+        tx.claim(out, "--out")
+        stage = _open_input(tx, source)
+        roots = select_roots(stage, source, skel_root)
+        if len(roots) > 1:
+            raise UsdGazeError(f"{source}: {len(roots)} SkelRoots; pick one with --skel-root")
+        skels = skeletons_under(roots[0])
+        if not skels:
+            raise UsdGazeError(f"{source}:{roots[0].GetPath()}: no Skeleton under the SkelRoot")
+        shot = read_shot(stage, source, roots[0], roots, skels[0], mpc.Options(), binding, total_mass)
+        model = shot.body[0]
+        tx.stage_text(out, mjcf.write(model, timestep=timestep or shot.options.h))
+    return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
+            "mass": model.total_mass, "skeleton": shot.clip.skeleton, "timestep": timestep or shot.options.h}
