@@ -43,8 +43,6 @@ _BASE = re.compile(r"^(hips|pelvis|hip|bip\d*pelvis|defspine|orgspine)$", re.I)
 # A forearm that ends its arm (a rig without hand joints) is a forearm, 0.146 of the height (Drillis and
 # Contini); continued by the 3% of other leaves it was a stump.
 _LEAF_LENGTH = {"head": 0.12, "hand": 0.06, "foot": 0.06, "forearm": 0.146, "other": 0.03}
-# An eye by name, where the gaze binding names none: not an eyelid, eyelash or eyebrow beside it.
-_EYE = re.compile(r"eye(?!_?(lid|lash|brow))", re.I)
 
 
 def stage_to_model(up_axis: str, meters_per_unit: float) -> np.ndarray:
@@ -205,35 +203,13 @@ def build(joints: list[str], parents: np.ndarray, rest_local: np.ndarray, skel_t
     pos, orient, rmat, offset, rel = _rest_frames(world[idx], bparent, to_model)
     n = len(idx)
     hints = hints or Hints()
-    head = body_of.get(hints.head) if hints.head is not None else None
     names = [joints[j] for j in idx]
-    roles = shape.shape_roles(seg.assign_roles(names, bparent), bparent, pos, head, names)
-    # The binding's eyes where it names them: eyelids and brows named "eye..." beside them moved the
-    # eyes' midpoint, where the vision sees from.
-    eyes = ({body_of[e] for e in hints.eyes if e in body_of}
-            or {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))})
-    children = seg.children_of(bparent)
-    # An end site marks where its parent's segment ends, and an eye is a point in the head: neither
-    # has a length, mass or shape of its own.
-    if head is None:  # the head joint by name (the gaze binding's otherwise)
-        head = next((b for b in range(n) if roles[b] == "head" and seg.is_head_joint(names[b])), None)
-    if head is None:  # a head segment of one end joint (a rig whose neck ends it) is the head, no aside leaf
-        alone = [b for b in range(1, n) if roles[b] == "head" and not children[b] and roles[bparent[b]] != "head"]
-        head = alone[0] if len(alone) == 1 else None
-    tips, phalanges = seg.leaf_ends(names, roles, bparent, children, head, pos)
-    tips |= {b for b in eyes if not children[b]}
-    attached = seg.attachments(roles, bparent, children, head, tips, names, pos)
+    p = shape.body_parts(joints, idx, body_of, bparent, pos, hints.head, hints.eyes, where, meters_per_unit)
+    roles, eyes, children, head, tips, attached, aside, extent, height = (
+        p.roles, p.eyes, p.children, p.head, p.tips, p.attached, p.aside, p.extent, p.height)
     passive = tips | attached  # no segment, mass or degrees of freedom of their own
-    # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
-    # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
-    # height (feet 5.9 cm thick), a marker 30 cm below the ground stood the model 34 cm up (a capsule to it).
-    aside = seg.asides(names, roles, bparent, children, head, pos)
-    aside -= set(seg.subtree_of(children, head)) if head is not None else set()
-    extent = sorted(set(range(n)) - attached - aside)
-    height = float(np.ptp(pos[extent, 2])) * 1.08 or 1.0
-    seg.check_biped(roles, pos, height, where, extent, meters_per_unit)
     far = {b for b in aside if np.linalg.norm(offset[b]) > 0.25 * height}  # longer than a thigh: no bone of it
-    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, phalanges, head, attached)
+    seg_vec = _segment_vectors(pos, rmat, offset, bparent, children, roles, height, tips, p.phalanges, head, attached)
     lengths = np.linalg.norm(seg_vec, axis=1)
     mass = _masses(roles, lengths, total_mass, passive, bparent)
 

@@ -5,10 +5,18 @@ a joint named as a limb, the head, the neck or the trunk keeps its name's role."
 
 from __future__ import annotations
 
+import re
+from typing import NamedTuple
+
 import numpy as np
 
 from usdgaze.core.names import RIGIFY_ROLES, rigify_number, says_trunk
+from usdgaze.core.rig import leaf
+from usdgaze.physics import segments as _seg
 from usdgaze.physics.segments import _ancestors, _mark, children_of, subtree_of
+
+# An eye by name, where the gaze binding names none: not an eyelid, eyelash or eyebrow beside it.
+_EYE = re.compile(r"eye(?!_?(lid|lash|brow))", re.I)
 
 
 def shape_roles(roles: list[str], parents: np.ndarray, pos: np.ndarray, head: int | None = None,
@@ -144,3 +152,53 @@ def _shape_arms(roles, children, pos: np.ndarray, spine: list[int], height: floa
         i = int(pairs[-1]) if len(pairs) else int(np.argmax(bones[:-1] + bones[1:]))
         _mark(roles, children, path[i + 2], "hand")
         roles[path[i + 1]], roles[path[i]] = "forearm", "upperArm"
+
+
+class BodyParts(NamedTuple):
+    """What each body is: its role, and which are the head, eyes, end sites and attachments."""
+
+    roles: list[str]
+    eyes: set[int]
+    children: list[list[int]]
+    head: int | None
+    tips: set[int]  # end sites and eyes with no child: no segment of their own
+    phalanges: set[int]
+    attached: set[int]  # riding along (twist, IK, control joints): no segment, mass or freedom
+    aside: set[int]  # hung beside the body: they neither size nor shape it
+    extent: list[int]  # the bodies that size it
+    height: float
+
+
+def body_parts(joints: list[str], idx: np.ndarray, body_of: dict, bparent: np.ndarray, pos: np.ndarray,
+               head_joint: int | None, eye_joints: tuple, where: str, meters_per_unit: float) -> BodyParts:
+    """Per body (``idx``: its skeleton joint; ``body_of``: the inverse), roles by names and shape, the head,
+    eyes, end sites, attachments and asides, and the height; ``head_joint`` and ``eye_joints``: the gaze
+    binding's, where it names them."""
+    n = len(idx)
+    head = body_of.get(head_joint) if head_joint is not None else None
+    names = [joints[j] for j in idx]
+    roles = shape_roles(_seg.assign_roles(names, bparent), bparent, pos, head, names)
+    # The binding's eyes where it names them: eyelids and brows named "eye..." beside them moved the
+    # eyes' midpoint, where the vision sees from.
+    eyes = ({body_of[e] for e in eye_joints if e in body_of}
+            or {b for b, j in enumerate(idx) if _EYE.search(leaf(joints[j]))})
+    children = _seg.children_of(bparent)
+    # An end site marks where its parent's segment ends, and an eye is a point in the head: neither
+    # has a length, mass or shape of its own.
+    if head is None:  # the head joint by name (the gaze binding's otherwise)
+        head = next((b for b in range(n) if roles[b] == "head" and _seg.is_head_joint(names[b])), None)
+    if head is None:  # a head segment of one end joint (a rig whose neck ends it) is the head, no aside leaf
+        alone = [b for b in range(1, n) if roles[b] == "head" and not children[b] and roles[bparent[b]] != "head"]
+        head = alone[0] if len(alone) == 1 else None
+    tips, phalanges = _seg.leaf_ends(names, roles, bparent, children, head, pos)
+    tips |= {b for b in eyes if not children[b]}
+    attached = _seg.attachments(roles, bparent, children, head, tips, names, pos)
+    # What hangs beside the body (not from the head: eyes, a skull's top) neither sizes nor shapes it: a
+    # camera joint hung from the hips 8 m ahead made a standing rig 'lying down', one 3.5 m up doubled its
+    # height (feet 5.9 cm thick), a marker 30 cm below the ground stood the model 34 cm up (a capsule to it).
+    aside = _seg.asides(names, roles, bparent, children, head, pos)
+    aside -= set(_seg.subtree_of(children, head)) if head is not None else set()
+    extent = sorted(set(range(n)) - attached - aside)
+    height = float(np.ptp(pos[extent, 2])) * 1.08 or 1.0
+    _seg.check_biped(roles, pos, height, where, extent, meters_per_unit)
+    return BodyParts(roles, eyes, children, head, tips, phalanges, attached, aside, extent, height)
