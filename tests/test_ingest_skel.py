@@ -137,3 +137,16 @@ def test_generic_joint_tokens_bind_by_joint_names(tmp_path):
     errors = _pose_errors(motions, generic)
     assert errors.max() <= 0.5
     np.testing.assert_allclose(generic.definition.motions.offsets, named.definition.motions.offsets, atol=1e-12)
+
+
+def test_colon_namespaced_joints_are_said_as_apply_says_them(tmp_path, capfd):
+    """Joint tokens with Maya's namespace colon ('mixamorig:Hips') are no paths to UsdSkel: the trial's
+    error says so, as apply does, and USD does not warn once per joint first (it said 'no pelvis above
+    head', after six 'Ill-formed SdfPath' warnings)."""
+    _, sheet = _session(tmp_path, {k: f"mixamorig:{k}" for k in CUSTOM})
+    result = build(sheet, settings=BuildSettings(min_trials=1))
+    assert result.definition is None
+    for report in result.reports:
+        assert report.error.startswith(f"trial {report.trial} ({report.trial}.usda): /"), report.error
+        assert ".joints: 'mixamorig:Hips' is not a valid joint path" in report.error
+    assert "Ill-formed SdfPath" not in capfd.readouterr().err

@@ -23,6 +23,7 @@ from pxr import Usd, UsdGeom, UsdSkel
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
+from usdgaze.usd.skelio import joint_parents
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.kinematics import snap_up
 from usdgaze.core.names import names_not_read, spelled_with_names
@@ -79,6 +80,9 @@ def _resolve(binding: SkeletonBinding, joints: list[str], where: str) -> dict[st
 
 def _skel_query(skel: UsdSkel.Skeleton, where: str) -> tuple[UsdSkel.SkeletonQuery, list[float]]:
     """The skeleton's query (through its SkelRoot where it has one) and its animation's time samples."""
+    # Joint tokens UsdSkel cannot parse ('mixamorig:Hips') are read as roots: checked as apply checks them,
+    # before USD warns once per joint and the chain is then said to have no pelvis.
+    joint_parents([str(j) for j in (skel.GetJointsAttr().Get() or [])], f"{where}: {skel.GetPath()}")
     root = UsdSkel.Root.Find(skel.GetPrim())
     cache = UsdSkel.Cache()
     if root:
