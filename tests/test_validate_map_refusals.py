@@ -1,0 +1,54 @@
+"""``usdgaze validate`` on a hand-edited gaze map says what ``apply --map`` refuses in it, in the same
+words: a setting past its upper bound, a forward that is no direction, an array keyed in time. Each
+was clean to validate (or said 'missing' for the keyed array) while apply refused the map."""
+
+from __future__ import annotations
+
+import pytest
+from pxr import Gf, Sdf
+
+from usdgaze.console.main import main
+
+from . import synthetic as syn
+
+
+def _keyed(spec: Sdf.PrimSpec, name: str) -> None:
+    attr = spec.attributes[name]
+    value = attr.default
+    attr.ClearDefaultValue()
+    spec.layer.SetTimeSample(attr.path, 1.0, value)
+
+
+def _set(name, value):
+    return lambda spec: setattr(spec.attributes[name], "default", value) if name in spec.attributes else \
+        setattr(Sdf.AttributeSpec(spec, name, Sdf.ValueTypeNames.Int if isinstance(value, int) else Sdf.ValueTypeNames.Float3,
+                                  Sdf.VariabilityUniform), "default", value)
+
+
+EDITS = {
+    "blend-size-past-its-bound": (_set("gaze:synthesis:blendSize", 99), "gaze:synthesis:blendSize"),
+    "forward-nan": (_set("gaze:binding:forward", Gf.Vec3f(float("nan"), 0.0, 0.0)), "gaze:binding:forward"),
+    "yaw-keyed-in-time": (lambda spec: _keyed(spec, "gaze:examples:yaw"), "gaze:examples:yaw"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(EDITS))
+def test_validate_says_what_apply_refuses_in_a_map(tmp_path, capsys, case):
+    edit, attr = EDITS[case]
+    map_path = tmp_path / "map.usda"
+    assert main(["dump-map", str(map_path)]) == 0
+    layer = Sdf.Layer.FindOrOpen(str(map_path))
+    (spec,) = [s for s in layer.rootPrims]
+    edit(spec)
+    layer.Save()
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=20, mesh=False)
+    capsys.readouterr()
+    assert main(["apply", str(rig.path), "--map", str(map_path), "--shift", "0.1s:20:0", "--out", str(tmp_path / "o.usda")]) == 2
+    (refusal,) = capsys.readouterr().err.strip().splitlines()
+    prefix = f"usdgaze: error: {map_path}:{spec.path}.{attr}: "
+    assert refusal.startswith(prefix), refusal
+    assert not (tmp_path / "o.usda").exists()
+    assert main(["validate", str(map_path), "--only-usdgaze"]) == 3
+    (line,) = capsys.readouterr().out.splitlines()
+    said = refusal[len(prefix):]
+    assert line.startswith(f"{map_path}:{spec.path}.{attr}: error: {attr}: {said} (usdgaze.review.validators:"), line
