@@ -52,3 +52,33 @@ def test_validate_says_what_apply_refuses_in_a_map(tmp_path, capsys, case):
     (line,) = capsys.readouterr().out.splitlines()
     said = refusal[len(prefix):]
     assert line.startswith(f"{map_path}:{spec.path}.{attr}: error: {attr}: {said} (usdgaze.review.validators:"), line
+
+
+@pytest.mark.parametrize("arc", ["references", "sublayer"])
+def test_a_bad_value_in_a_composed_map_file_is_named_in_that_file(tmp_path, capsys, arc):
+    """A map a character brings in from a map file (the shared-map workflow) or a sublayer: apply named
+    the stage, which holds no such value; it names the file that authors it, as validate does."""
+    map_path = tmp_path / "map.usda"
+    assert main(["dump-map", str(map_path)]) == 0
+    layer = Sdf.Layer.FindOrOpen(str(map_path))
+    (spec,) = layer.rootPrims
+    spec.attributes["gaze:synthesis:neckShare"].default = 2.0
+    layer.Save()
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=20, mesh=False)
+    stage_layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    if arc == "references":
+        stage_layer.GetPrimAtPath(rig.skel_root).referenceList.Prepend(Sdf.Reference("map.usda", spec.path))
+    else:  # the map's prim spec renamed to the character's SkelRoot, in a sublayer of the stage
+        spec.name = rig.skel_root.strip("/")
+        spec.specifier = Sdf.SpecifierOver
+        layer.Save()
+        stage_layer.subLayerPaths.append("map.usda")
+    stage_layer.Save()
+    capsys.readouterr()
+    assert main(["apply", str(rig.path), "--shift", "0.1s:20:0", "--out", str(tmp_path / "o.usda")]) == 2
+    (refusal,) = capsys.readouterr().err.strip().splitlines()
+    site = f"{map_path}:{rig.skel_root}.gaze:synthesis:neckShare"
+    assert refusal == f"usdgaze: error: {site}: 2.0, expected a number in [0, 1]"
+    assert main(["validate", str(rig.path), "--only-usdgaze"]) == 3
+    (line,) = capsys.readouterr().out.splitlines()
+    assert line.startswith(f"{site}: error: gaze:synthesis:neckShare: 2.0, expected a number in [0, 1] ("), line

@@ -20,7 +20,7 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdSkel, Vt
 
 from usdgaze.usd import plugin as _plugin
-from usdgaze.usd.checks import authored_type
+from usdgaze.usd.checks import authored_type, value_spec
 from usdgaze.usd.stage import composed_files, open_stage
 from usdgaze.gaze.definition import (
     API_NAME,
@@ -138,6 +138,13 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
     """
     where = _where(prim, source)
     _check_map_prim(prim, where)
+    try:
+        return _read_checked(prim, where)
+    except GazeMapError as exc:
+        raise _named_where_authored(exc, prim, where) from None
+
+
+def _read_checked(prim: Usd.Prim, where: str) -> GazeMapDefinition:
     arrays = _example_arrays(prim, where)
     params = np.stack([arrays[YAW_ATTR], arrays[PITCH_ATTR]], axis=-1).astype(float)
     offsets = np.stack([arrays[name] for name in OFFSET_ATTRS], axis=1).astype(float)
@@ -155,6 +162,21 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
     )
     validate(definition, where)
     return definition
+
+
+def _named_where_authored(exc: GazeMapError, prim: Usd.Prim, where: str) -> GazeMapError:
+    """``exc`` naming the layer that authors the attribute at fault where that is not the stage's root
+    layer (a map referenced or inherited from a map file, or a sublayer's), as ``validate`` names it:
+    ``gaze_map.usda:/Crowd/Walker1.gaze:...`` (it named the stage, which holds no such value)."""
+    text = str(exc)
+    name = next((n for n in _TYPES if text.startswith(f"{where}.{n}: ")), None)
+    spec = value_spec(prim.GetAttribute(name)) if name else None
+    layer = spec.layer if spec is not None else None
+    if layer is None or layer == prim.GetStage().GetRootLayer() or layer.anonymous or not layer.realPath:
+        return exc
+    source = where[: -len(f":{prim.GetPath()}")]
+    path = layer.realPath if os.path.isabs(source) else os.path.relpath(layer.realPath)
+    return GazeMapError(f"{path}:{prim.GetPath()}.{name}: {text[len(where) + len(name) + 3:]}")
 
 
 def write_map(prim: Usd.Prim, definition: GazeMapDefinition) -> None:
