@@ -150,3 +150,31 @@ def test_colon_namespaced_joints_are_said_as_apply_says_them(tmp_path, capfd):
         assert report.error.startswith(f"trial {report.trial} ({report.trial}.usda): /"), report.error
         assert ".joints: 'mixamorig:Hips' is not a valid joint path" in report.error
     assert "Ill-formed SdfPath" not in capfd.readouterr().err
+
+
+def test_a_rig_turned_by_its_animated_skelroot_keeps_that_turn(tmp_path):
+    """A DCC's root or world control exports as an animated transform above the Skeleton: the body turns
+    with it. Each clip here turns its SkelRoot 15 deg about the stage's up (Z) over the shift, on top of
+    the joints' known motion: the pelvis' P+ (a world displacement) holds that turn and the segments
+    above it, relative to their parents, are as they were. Measured in skeleton space alone, the turn
+    was lost (the pelvis off by 15 deg, the eyes asked to make it up)."""
+    from pxr import UsdGeom
+
+    motions, sheet = _session(tmp_path)
+    turn = 15.0
+    for i in range(len(TARGETS)):
+        stage = Usd.Stage.Open(str(tmp_path / f"t{i}.usda"))
+        op = UsdGeom.Xformable(stage.GetPrimAtPath("/Rig")).AddRotateZOp()
+        span = float(motions[i].duration) * syn.RATE
+        for frame in range(int(stage.GetEndTimeCode()) + 1):
+            u = np.clip((frame - 40) / span, 0.0, 1.0)
+            op.Set(turn * u * u * (3.0 - 2.0 * u), frame)
+        stage.Save()
+    result = build(sheet)
+    assert all(r.status == "ok" for r in result.reports), [r.error for r in result.reports]
+    built = result.definition.motions.offsets
+    yaw = rot.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(turn))  # canonical up: a turn to the left
+    expected = motions.offsets.copy()
+    expected[:, 0] = rot.multiply(yaw, expected[:, 0])
+    errors = np.degrees(rot.angle(rot.relative(expected[:, :4], built[:, :4])))
+    assert errors.max() <= 0.5, errors

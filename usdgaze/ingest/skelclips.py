@@ -11,6 +11,8 @@ positions alone would not see it), relative to the pelvis joint (the base-of-spi
 in the stage's units. Up is the stage's up axis carried into skeleton space (through the
 Skeleton's transform) unless the binding sets ``up_axis`` (skeleton space); forward comes from
 left/right-named joints at the crop's first frame, or the binding's ``forward`` (skeleton space).
+A Skeleton whose transform to the world is animated (a root control on the SkelRoot or a parent Xform)
+has that transform's turn since the first sample added to the chain, so the body turns as the world sees it.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from pxr import Usd, UsdGeom, UsdSkel
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
-from usdgaze.usd.skelio import joint_parents
+from usdgaze.usd.skelio import joint_parents, skeleton_to_world
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.kinematics import snap_up
 from usdgaze.core.names import names_not_read, spelled_with_names
@@ -196,16 +198,38 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     up = _skeleton_up(stage, to_world, binding, where)
     _check_up(world[:, chain.head, :3, 3] - world[:, chain.pelvis, :3, 3], up, stage, binding, where)
     forward = None if binding.forward is None else np.asarray(binding.forward, dtype=float)
+
+    def frame_at(i: int) -> np.ndarray:
+        frame = character_frame(joints, world[i], up, forward, f"{where} frame {i}").rotation
+        return frame if turns is None else rot.multiply(turns[i], frame)
+
+    turns = _root_turns(skel, times)
+    if turns is not None:  # the chain as the world sees it, in the skeleton's space at the first sample
+        orientations = rot.multiply(turns[:, None], orientations)
+        points = rot.rotate(turns[:, None], points)
     return TrialSeries(
         source=where,
         orientations=orientations,
         points=points,
-        frame_at=lambda i: character_frame(joints, world[i], up, forward, f"{where} frame {i}").rotation,
+        frame_at=frame_at,
         rate=rate,
         units=f"{meters:g} m",
         mm_per_unit=meters * 1000.0,
         numbering=_numbering(times),
     )
+
+
+def _root_turns(skel: UsdSkel.Skeleton, times: list[float]) -> np.ndarray | None:
+    """Each sample's turn of the Skeleton's transform to the world since the first sample, as seen in
+    skeleton space ``(F, 4)``; None where that transform is static. A rig turned by an animated SkelRoot,
+    Skeleton or parent Xform (a DCC's root or world control, an armature object's animation) turns its
+    body with it: measured in skeleton space alone that turn was lost (a clip whose joints turned the
+    head 20 deg on a root turning 10 gave a map of 20, the eyes made up the other 10)."""
+    to_world = skeleton_to_world(skel.GetPrim(), np.asarray(times, dtype=float))
+    if len(to_world) == 1:
+        return None
+    linear = to_world[:, :3, :3]
+    return rot.from_matrix(np.linalg.inv(linear[0]) @ linear)
 
 
 def _numbering(times: list[float]) -> str:
