@@ -178,3 +178,22 @@ def test_a_rig_turned_by_its_animated_skelroot_keeps_that_turn(tmp_path):
     expected[:, 0] = rot.multiply(yaw, expected[:, 0])
     errors = np.degrees(rot.angle(rot.relative(expected[:, :4], built[:, :4])))
     assert errors.max() <= 0.5, errors
+
+
+def test_a_rig_hidden_by_a_zero_scale_for_a_while_builds_as_it_was(tmp_path):
+    """A SkelRoot scaled to nothing over a clip's last frames (hidden) has no turn there: the map is the
+    one of the clip left visible (the turn of a singular transform was an internal error)."""
+    from pxr import UsdGeom
+
+    motions, sheet = _session(tmp_path)
+    before = build(sheet).definition.motions
+    for i in range(len(TARGETS)):
+        stage = Usd.Stage.Open(str(tmp_path / f"t{i}.usda"))
+        op = UsdGeom.Xformable(stage.GetPrimAtPath("/Rig")).AddScaleOp()
+        end = int(stage.GetEndTimeCode())
+        op.Set((1.0, 1.0, 1.0), end - 3)
+        op.Set((0.0, 0.0, 0.0), end - 2)
+        stage.Save()
+    after = build(sheet).definition.motions
+    np.testing.assert_allclose(after.offsets, before.offsets, atol=1e-9)
+    np.testing.assert_allclose(after.timing, before.timing, atol=1e-9)

@@ -28,6 +28,7 @@ from usdgaze.errors import RigError, UsdGazeError
 from usdgaze.usd.skelio import joint_parents, skeleton_to_world
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.kinematics import snap_up
+from usdgaze.core.zero_scale import singular
 from usdgaze.core.names import names_not_read, spelled_with_names
 from usdgaze.core.rig import bind_chain, character_frame, leaf
 from usdgaze.ingest.frames import UPRIGHT_DEG, off_upright
@@ -229,6 +230,13 @@ def _root_turns(skel: UsdSkel.Skeleton, times: list[float]) -> np.ndarray | None
     if len(to_world) == 1:
         return None
     linear = to_world[:, :3, :3]
+    # A sample scaled to nothing (a character hidden for a while) has no turn: it keeps the last one seen.
+    # The first sample is refused before this, by the unit the Skeleton's scale gives it.
+    hidden = ~np.isfinite(linear).all(axis=(-2, -1))
+    hidden[~hidden] = singular(linear[~hidden])
+    if hidden[0]:
+        return None
+    linear = linear[np.maximum.accumulate(np.where(hidden, 0, np.arange(len(linear))))]
     return rot.from_matrix(np.linalg.inv(linear[0]) @ linear)
 
 
