@@ -65,6 +65,21 @@ def has_map(prim: Usd.Prim) -> bool:
     return _plugin.has_api(prim, API_NAME, GazeMapError)
 
 
+def root_map(root: Usd.Prim, source: str) -> GazeMapDefinition | None:
+    """The gaze map of a character's SkelRoot ``root``, None where it has none. A GazeMapAPI on a prim
+    under it (a map file referenced onto the Skeleton) is refused: it went unused without a word, the
+    built-in map in its place (``validate`` says it too)."""
+    prims = iter(Usd.PrimRange(root, Usd.PrimAllPrimsPredicate))
+    next(prims)  # the root itself
+    for prim in prims:
+        if prim.IsA(UsdSkel.Root):  # another character's, with its own map
+            prims.PruneChildren()
+        elif has_map(prim):
+            raise GazeMapError(f"{source}:{prim.GetPath()}: {API_NAME} is applied to a {prim.GetTypeName() or 'typeless prim'}; "
+                               f"it applies only to SkelRoot (this character's is {root.GetPath()}): apply it there")
+    return read_map(root, source) if has_map(root) else None
+
+
 def _check_map_prim(prim: Usd.Prim, where: str) -> None:
     """Raise unless ``prim`` exists, has ``GazeMapAPI`` and is a SkelRoot (and the schema is registered)."""
     _require_schema(where)
