@@ -197,3 +197,16 @@ def test_a_rig_hidden_by_a_zero_scale_for_a_while_builds_as_it_was(tmp_path):
     after = build(sheet).definition.motions
     np.testing.assert_allclose(after.offsets, before.offsets, atol=1e-9)
     np.testing.assert_allclose(after.timing, before.timing, atol=1e-9)
+
+
+def test_a_sheet_row_naming_an_earlier_rows_file_and_crop_is_warned_of(tmp_path):
+    """A row copied and its file left unchanged stored one motion for two targets without a word (the
+    eyes made up the difference); another crop of the same file is another motion and is not warned of."""
+    _session(tmp_path)
+    (tmp_path / "sheet.csv").write_text(
+        "trial,file,yaw,pitch,crop_start,crop_end\na,t0.usda,108,12,,\nb,t0.usda,100,12,,\nc,t0.usda,90,12,30,70\n")
+    result = build(tmp_path / "sheet.csv", settings=BuildSettings(min_trials=1))
+    assert [r.status for r in result.reports] == ["ok", "ok", "ok"], [r.error for r in result.reports]
+    same = [[w for w in r.warnings if "same file and crop" in w] for r in result.reports]
+    assert same == [[], ["the same file and crop as trial a: one motion stored for two targets"], []]
+    assert result.reports[1].crop == result.reports[0].crop != result.reports[2].crop
