@@ -210,3 +210,25 @@ def test_a_sheet_row_naming_an_earlier_rows_file_and_crop_is_warned_of(tmp_path)
     same = [[w for w in r.warnings if "same file and crop" in w] for r in result.reports]
     assert same == [[], ["the same file and crop as trial a: one motion stored for two targets"], []]
     assert result.reports[1].crop == result.reports[0].crop != result.reports[2].crop
+
+
+def test_a_clip_whose_animation_usdskel_cannot_pose_is_refused_as_apply_refuses_it(tmp_path, capfd):
+    """UsdSkel poses the rest pose (with a C++ warning) where an animation lacks an array, or a sample
+    holds the wrong count: one clip was refused as 'no motion', another stored 'ok' with a frame of its
+    crop in the rest pose. Each is now the line apply gives for it."""
+    from pxr import Vt
+
+    _session(tmp_path)
+    stage = Usd.Stage.Open(str(tmp_path / "t0.usda"))
+    stage.GetPrimAtPath("/Rig/Skel/Anim").RemoveProperty("scales")
+    stage.Save()
+    stage = Usd.Stage.Open(str(tmp_path / "t1.usda"))
+    rotations = stage.GetPrimAtPath("/Rig/Skel/Anim").GetAttribute("rotations")
+    rotations.Set(Vt.QuatfArray(list(rotations.Get(60))[:5]), 60)
+    stage.Save()
+    reports = build(tmp_path / "sheet.toml", settings=BuildSettings(min_trials=1)).reports
+    assert [r.status for r in reports] == ["failed", "failed", "ok"]
+    assert reports[0].error == (f"trial t0 (t0.usda): {tmp_path / 't0.usda'}:/Rig/Skel/Anim.scales: not authored "
+                                "(UsdSkel needs translations, rotations and scales for every animated joint)")
+    assert reports[1].error.startswith(f"trial t1 (t1.usda): {tmp_path / 't1.usda'}:/Rig/Skel/Anim.rotations: 5 entries at time 60")
+    assert "Warning" not in capfd.readouterr().err

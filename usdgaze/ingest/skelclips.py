@@ -25,7 +25,7 @@ from pxr import Usd, UsdGeom, UsdSkel
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
-from usdgaze.usd.skelio import joint_parents, skeleton_to_world
+from usdgaze.usd.skelio import check_animation, joint_parents, skeleton_to_world
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.kinematics import snap_up
 from usdgaze.core.zero_scale import singular
@@ -179,6 +179,10 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     stage = _open(path, where)
     skel = _skeleton(stage, skeleton or binding.skeleton, where)
     query, times = _skel_query(skel, where)
+    try:  # as apply checks it: UsdSkel poses the rest pose where a sample is unusable, and warns
+        check_animation(skel.GetPrim(), str(path))
+    except UsdGazeError as exc:
+        raise SkeletonClipError(f"{where}: {exc}") from None
     joints, chain = _bound_chain(query, binding, where)
     landmarks = [chain.roles["pelvis"][-1], chain.roles["lowerSpine"][-1], chain.roles["upperSpine"][-1], chain.head]
     times, rate = _frame_times(stage, times, where)
