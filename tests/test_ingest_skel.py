@@ -232,3 +232,20 @@ def test_a_clip_whose_animation_usdskel_cannot_pose_is_refused_as_apply_refuses_
                                 "(UsdSkel needs translations, rotations and scales for every animated joint)")
     assert reports[1].error.startswith(f"trial t1 (t1.usda): {tmp_path / 't1.usda'}:/Rig/Skel/Anim.rotations: 5 entries at time 60")
     assert "Warning" not in capfd.readouterr().err
+
+
+def test_an_animation_bound_on_the_skelroot_is_read_as_usdskel_binds_it(tmp_path):
+    """skel:animationSource on the SkelRoot is inherited by its Skeleton (UsdSkel poses it; apply reads
+    it): build-map said 'no Skeleton with a bound SkelAnimation'. The map is the one bound on the Skeleton."""
+    from pxr import UsdSkel
+
+    _, sheet = _session(tmp_path)
+    before = build(sheet).definition.motions
+    for i in range(len(TARGETS)):
+        stage = Usd.Stage.Open(str(tmp_path / f"t{i}.usda"))
+        stage.GetPrimAtPath("/Rig/Skel").RemoveProperty("skel:animationSource")
+        UsdSkel.BindingAPI.Apply(stage.GetPrimAtPath("/Rig")).CreateAnimationSourceRel().SetTargets(["/Rig/Skel/Anim"])
+        stage.Save()
+    result = build(sheet)
+    assert [r.status for r in result.reports] == ["ok"] * len(TARGETS), [r.error for r in result.reports]
+    np.testing.assert_array_equal(result.definition.motions.offsets, before.offsets)

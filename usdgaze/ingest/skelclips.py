@@ -25,7 +25,7 @@ from pxr import Usd, UsdGeom, UsdSkel
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
-from usdgaze.usd.skelio import check_animation, joint_parents, skeleton_to_world
+from usdgaze.usd.skelio import animation_of, check_animation, joint_parents, skeleton_to_world
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.kinematics import snap_up
 from usdgaze.core.zero_scale import singular
@@ -55,7 +55,8 @@ def _skeleton(stage: Usd.Stage, path: str | None, where: str) -> UsdSkel.Skeleto
             raise SkeletonClipError(f"{where}: {path} is not a Skeleton prim")
         return UsdSkel.Skeleton(prim)
     found = [p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton)]
-    animated = [p for p in found if UsdSkel.BindingAPI(p).GetAnimationSourceRel().GetTargets()]
+    # Bound on the Skeleton or inherited from an ancestor (the SkelRoot), as UsdSkel and apply bind it.
+    animated = [p for p in found if animation_of(p) is not None]
     if not animated:
         raise SkeletonClipError(f"{where}: no Skeleton with a bound SkelAnimation")
     if len(animated) > 1:
