@@ -92,6 +92,11 @@ def test_toml_sheet_errors(tmp_path):
         load_sheet(path)
     with pytest.raises(SheetError, match="no such trial sheet"):
         load_sheet(tmp_path / "none.csv")
+    # [[trials]] beside [[trial]]: the [[trials]] rows were dropped without a word
+    path.write_text("[[trials]]\nfile = 'a.c3d'\nyaw = 0\npitch = 0\n[[trial]]\nfile = 'b.c3d'\nyaw = 36\npitch = 0\n")
+    with pytest.raises(SheetError) as err:
+        load_sheet(path)
+    assert str(err.value) == f"{path}: both [[trial]] and [[trials]] tables; name every trial [[trial]]"
 
 
 @pytest.mark.parametrize(

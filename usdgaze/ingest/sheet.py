@@ -210,6 +210,8 @@ def load_sheet(path: str | Path) -> Sheet:
     if path.suffix.lower() == ".toml":
         data = load_toml(path, SheetError)
         _unknown(data, _TOP_KEYS, "key", str(path))
+        if "trial" in data and "trials" in data:  # one of the two was dropped without a word
+            raise SheetError(f"{path}: both [[trial]] and [[trials]] tables; name every trial [[trial]]")
         rows = data.get("trial", data.get("trials", []))
         if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
             raise SheetError(f"{path}: trials must be [[trial]] tables")
