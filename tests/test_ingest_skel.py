@@ -249,3 +249,28 @@ def test_an_animation_bound_on_the_skelroot_is_read_as_usdskel_binds_it(tmp_path
     result = build(sheet)
     assert [r.status for r in result.reports] == ["ok"] * len(TARGETS), [r.error for r in result.reports]
     np.testing.assert_array_equal(result.definition.motions.offsets, before.offsets)
+
+
+def test_a_mirrored_clip_turns_as_the_world_shows_it(tmp_path):
+    """A clip mirrored by a negative scale on its SkelRoot (a right turn made a left one, to double a
+    session) turns the head the other way in the world: with the sheet's yaws negated to match, its map
+    is the unmirrored map's mirror image (each P+ reflected across the character's left axis). Read in
+    skeleton space, its head turned the other way from its target (stored 'ok', eyes past their range)."""
+    from pxr import UsdGeom
+
+    motions, sheet = _session(tmp_path)
+    rows = []
+    for i, (yaw, pitch) in enumerate(TARGETS):
+        stage = Usd.Stage.Open(str(tmp_path / f"t{i}.usda"))
+        xform = UsdGeom.Xformable(stage.GetPrimAtPath("/Rig"))
+        xform.AddRotateZOp().Set(40.0)
+        xform.AddScaleOp().Set((-1.0, 1.0, 1.0))
+        stage.Save()
+        rows.append(f'[[trial]]\nname = "t{i}"\nfile = "t{i}.usda"\nyaw = {-yaw:g}\npitch = {pitch:g}\n')
+    sheet.write_text("\n".join(rows))
+    result = build(sheet)
+    assert all(r.status == "ok" and not any("other way" in w for w in r.warnings) for r in result.reports), \
+        [(r.error, r.warnings) for r in result.reports]
+    mirrored = motions.offsets[:, :4] * np.array([1.0, -1.0, -1.0, 1.0])  # (x, y, z, w) across canonical X (left)
+    errors = np.degrees(rot.angle(rot.relative(mirrored, result.definition.motions.offsets[:, :4])))
+    assert errors.max() <= 0.5, errors

@@ -12,7 +12,9 @@ in the stage's units. Up is the stage's up axis carried into skeleton space (thr
 Skeleton's transform) unless the binding sets ``up_axis`` (skeleton space); forward comes from
 left/right-named joints at the crop's first frame, or the binding's ``forward`` (skeleton space).
 A Skeleton whose transform to the world is animated (a root control on the SkelRoot or a parent Xform)
-has that transform's turn since the first sample added to the chain, so the body turns as the world sees it.
+has that transform's turn since the first sample added to the chain, and a mirrored one (a negative scale)
+is reflected, so the body turns as the world sees it (a yaw toward the figure's left as the world shows it,
+as ``apply`` takes one).
 """
 
 from __future__ import annotations
@@ -205,14 +207,16 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     _check_up(world[:, chain.head, :3, 3] - world[:, chain.pelvis, :3, 3], up, stage, binding, where)
     forward = None if binding.forward is None else np.asarray(binding.forward, dtype=float)
 
-    def frame_at(i: int) -> np.ndarray:
-        frame = character_frame(joints, world[i], up, forward, f"{where} frame {i}").rotation
-        return frame if turns is None else rot.multiply(turns[i], frame)
+    def named_frame(i: int) -> np.ndarray:
+        return character_frame(joints, world[i], up, forward, f"{where} frame {i}").rotation
 
-    turns = _root_turns(skel, times)
-    if turns is not None:  # the chain as the world sees it, in the skeleton's space at the first sample
-        orientations = rot.multiply(turns[:, None], orientations)
-        points = rot.rotate(turns[:, None], points)
+    view = _world_view(skel, times, lambda: rot.rotate(named_frame(0), np.array([1.0, 0.0, 0.0])))
+
+    def frame_at(i: int) -> np.ndarray:
+        return named_frame(i) if view is None else _seen_frame(view, i, named_frame(i))
+
+    if view is not None:  # the chain as the world sees it, in the skeleton's space at the first sample
+        orientations, points = _seen(view, orientations, points)
     return TrialSeries(
         source=where,
         orientations=orientations,
@@ -225,24 +229,48 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     )
 
 
-def _root_turns(skel: UsdSkel.Skeleton, times: list[float]) -> np.ndarray | None:
-    """Each sample's turn of the Skeleton's transform to the world since the first sample, as seen in
-    skeleton space ``(F, 4)``; None where that transform is static. A rig turned by an animated SkelRoot,
-    Skeleton or parent Xform (a DCC's root or world control, an armature object's animation) turns its
-    body with it: measured in skeleton space alone that turn was lost (a clip whose joints turned the
-    head 20 deg on a root turning 10 gave a map of 20, the eyes made up the other 10)."""
+def _world_view(skel: UsdSkel.Skeleton, times: list[float], left_at_start) -> tuple[np.ndarray, np.ndarray] | None:
+    """How the world sees skeleton space, as ``(V, flip)``: ``V (F or 1, 3, 3)`` each sample's turn of the
+    Skeleton's transform to the world since the first sample (in skeleton space), reflected by ``flip``
+    across the character's left axis (``left_at_start()``, skeleton space) where that transform mirrors;
+    None where skeleton space is the world's view (a static, unmirrored transform).
+
+    A rig turned by an animated SkelRoot or parent Xform (a DCC's root control) turns its body with it:
+    measured in skeleton space alone that turn was lost (20 deg of joints on a 10 deg root gave a map of
+    20). A mirrored one (a clip scaled by -1 to make a left turn of a right one) turns as the world shows
+    it, as apply's yaw does: read in skeleton space its head turned the other way from its target."""
     to_world = skeleton_to_world(skel.GetPrim(), np.asarray(times, dtype=float))
-    if len(to_world) == 1:
-        return None
     linear = to_world[:, :3, :3]
     # A sample scaled to nothing (a character hidden for a while) has no turn: it keeps the last one seen.
     # The first sample is refused before this, by the unit the Skeleton's scale gives it.
     hidden = ~np.isfinite(linear).all(axis=(-2, -1))
     hidden[~hidden] = singular(linear[~hidden])
-    if hidden[0]:
+    mirrored = not hidden[0] and np.linalg.det(linear[0]) < 0.0
+    if hidden[0] or (len(linear) == 1 and not mirrored):
         return None
     linear = linear[np.maximum.accumulate(np.where(hidden, 0, np.arange(len(linear))))]
-    return rot.from_matrix(np.linalg.inv(linear[0]) @ linear)
+    turns = rot.to_matrix(rot.from_matrix(np.linalg.inv(linear[0]) @ linear))
+    flip = np.eye(3)
+    if mirrored:
+        left = np.asarray(left_at_start(), dtype=float)
+        flip = flip - 2.0 * np.outer(left, left)
+    return flip @ turns, flip
+
+
+def _seen(view: tuple[np.ndarray, np.ndarray], orientations: np.ndarray, points: np.ndarray):
+    """Orientations ``(F, L, 4)`` and points ``(F, P, 3)`` of skeleton space as :func:`_world_view` sees them."""
+    v, flip = view
+    v = np.broadcast_to(v, (len(points), 3, 3))
+    seen = v[:, None] @ rot.to_matrix(orientations) @ flip
+    return rot.from_matrix(seen), np.einsum("fij,fpj->fpi", v, points)
+
+
+def _seen_frame(view: tuple[np.ndarray, np.ndarray], i: int, frame: np.ndarray) -> np.ndarray:
+    """The character frame at sample ``i`` as :func:`_world_view` sees it: a mirrored one's left is the
+    world's left of the figure, where its right-named joints show."""
+    v, flip = view
+    canonical_flip = np.diag([-1.0, 1.0, 1.0]) if np.linalg.det(flip) < 0 else np.eye(3)
+    return rot.from_matrix(v[min(i, len(v) - 1)] @ rot.to_matrix(frame) @ canonical_flip)
 
 
 def _numbering(times: list[float]) -> str:
