@@ -148,10 +148,12 @@ def gaze_map_ranges(prim: Usd.Prim, time_range=None) -> list:
 
 def _setting_ranges(prim: Usd.Prim) -> list:
     """The synthesis settings against the bounds read_map holds them to (its own check)."""
+    from usdgaze.usd.schema import _TYPES
+
     errors = []
     for field, name in SETTING_ATTRS.items():
         _, value = _values(prim, name)
-        if not isinstance(value, (int, float)) or isinstance(value, bool):
+        if not isinstance(value, _TYPES[name][1]) or isinstance(value, bool):
             continue  # unauthored, or of another type: WrongType says so (a string here was an internal error)
         problem = setting_problem(field, value)
         if problem:
