@@ -69,7 +69,7 @@ def root_map(root: Usd.Prim, source: str) -> GazeMapDefinition | None:
     """The gaze map of a character's SkelRoot ``root``, None where it has none. A GazeMapAPI on a prim
     under it (a map file referenced onto the Skeleton) is refused: it went unused without a word, the
     built-in map in its place (``validate`` says it too)."""
-    prims = iter(Usd.PrimRange(root, Usd.PrimAllPrimsPredicate))
+    prims = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))  # active, defined: what UsdSkel sees
     next(prims)  # the root itself
     for prim in prims:
         if prim.IsA(UsdSkel.Root):  # another character's, with its own map
