@@ -70,8 +70,9 @@ def root_map(root: Usd.Prim, source: str) -> GazeMapDefinition | None:
     under it (a map file referenced onto the Skeleton) is refused: it went unused without a word, the
     built-in map in its place (``validate`` says it too)."""
     prims = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))  # active, defined: what UsdSkel sees
-    next(prims)  # the root itself
     for prim in prims:
+        if prim == root:
+            continue
         if prim.IsA(UsdSkel.Root):  # another character's, with its own map
             prims.PruneChildren()
         elif has_map(prim):
