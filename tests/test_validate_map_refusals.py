@@ -84,22 +84,25 @@ def test_a_bad_value_in_a_composed_map_file_is_named_in_that_file(tmp_path, caps
     assert line.startswith(f"{site}: error: gaze:synthesis:neckShare: 2.0, expected a number in [0, 1] ("), line
 
 
-def test_a_map_referenced_onto_the_skeleton_is_refused_not_ignored(tmp_path, capsys):
-    """A map file referenced one prim too deep (onto the Skeleton, not the SkelRoot): apply used the
-    built-in map without a word (exit 0) and inspect said 'none (the built-in map is used)', while
-    validate flagged it. All three now name the prim."""
+@pytest.mark.parametrize("onto", ["skeleton", "parent"])
+def test_a_map_referenced_onto_the_skeleton_or_a_parent_is_refused_not_ignored(tmp_path, capsys, onto):
+    """A map file referenced one prim too deep (onto the Skeleton) or too high (onto the Xform holding the
+    character): apply used the built-in map without a word (exit 0) and inspect said 'none (the built-in
+    map is used)', while validate flagged it. All three now name the prim."""
     map_path = tmp_path / "map.usda"
     assert main(["dump-map", str(map_path)]) == 0
-    rig = syn.make_rig(tmp_path / "rig.usda", frames=20, mesh=False)
+    rig = syn.make_rig(tmp_path / "rig.usda", frames=20, mesh=False, root_path="/World/Character")
     stage_layer = Sdf.Layer.FindOrOpen(str(rig.path))
     map_layer = Sdf.Layer.FindOrOpen(str(map_path))
     (spec,) = map_layer.rootPrims
-    stage_layer.GetPrimAtPath(rig.skeleton).referenceList.Prepend(Sdf.Reference("map.usda", spec.path))
+    target = rig.skeleton if onto == "skeleton" else "/World"
+    stage_layer.GetPrimAtPath(target).referenceList.Prepend(Sdf.Reference("map.usda", spec.path))
     stage_layer.Save()
+    kind = "Skeleton" if onto == "skeleton" else stage_layer.GetPrimAtPath("/World").typeName or "typeless prim"
     capsys.readouterr()
     out = tmp_path / "o.usda"
     assert main(["apply", str(rig.path), "--shift", "0.1s:20:0", "--out", str(out)]) == 2
-    said = (f"{rig.path}:{rig.skeleton}: GazeMapAPI is applied to a Skeleton; it applies only to SkelRoot "
+    said = (f"{rig.path}:{target}: GazeMapAPI is applied to a {kind}; it applies only to SkelRoot "
             f"(this character's is {rig.skel_root}): apply it there")
     assert capsys.readouterr().err.strip().splitlines() == [f"usdgaze: error: {said}"]
     assert not out.exists()
@@ -107,5 +110,5 @@ def test_a_map_referenced_onto_the_skeleton_is_refused_not_ignored(tmp_path, cap
     assert f"SkelRoot {rig.skel_root}  gaze map: none usable: {said}" in capsys.readouterr().out
     assert main(["validate", str(rig.path), "--only-usdgaze"]) == 3
     assert capsys.readouterr().out.splitlines() == [
-        f"{rig.path}:{rig.skeleton}: error: GazeMapAPI is applied to a Skeleton; it applies only to SkelRoot "
+        f"{rig.path}:{target}: error: GazeMapAPI is applied to a {kind}; it applies only to SkelRoot "
         "(usdgaze.review.validators:GazeMapRoleJoints.NotSkelRoot)"]

@@ -67,18 +67,25 @@ def has_map(prim: Usd.Prim) -> bool:
 
 def root_map(root: Usd.Prim, source: str) -> GazeMapDefinition | None:
     """The gaze map of a character's SkelRoot ``root``, None where it has none. A GazeMapAPI on a prim
-    under it (a map file referenced onto the Skeleton) is refused: it went unused without a word, the
-    built-in map in its place (``validate`` says it too)."""
+    under it (a map file referenced onto the Skeleton) or above it (onto a crowd's Xform) is refused: it
+    went unused without a word, the built-in map in its place (``validate`` says it too)."""
     prims = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))  # active, defined: what UsdSkel sees
     for prim in prims:
-        if prim == root:
-            continue
-        if prim.IsA(UsdSkel.Root):  # another character's, with its own map
+        if prim.IsA(UsdSkel.Root) and prim != root:  # another character's, with its own map
             prims.PruneChildren()
-        elif has_map(prim):
-            raise GazeMapError(f"{source}:{prim.GetPath()}: {API_NAME} is applied to a {prim.GetTypeName() or 'typeless prim'}; "
-                               f"it applies only to SkelRoot (this character's is {root.GetPath()}): apply it there")
+        elif prim != root and has_map(prim):
+            raise _misplaced(prim, root, source)
+    parent = root.GetParent()
+    while parent and not parent.IsPseudoRoot():
+        if has_map(parent) and not parent.IsA(UsdSkel.Root):
+            raise _misplaced(parent, root, source)
+        parent = parent.GetParent()
     return read_map(root, source) if has_map(root) else None
+
+
+def _misplaced(prim: Usd.Prim, root: Usd.Prim, source: str) -> GazeMapError:
+    return GazeMapError(f"{source}:{prim.GetPath()}: {API_NAME} is applied to a {prim.GetTypeName() or 'typeless prim'}; "
+                        f"it applies only to SkelRoot (this character's is {root.GetPath()}): apply it there")
 
 
 def _check_map_prim(prim: Usd.Prim, where: str) -> None:
