@@ -5,11 +5,13 @@ was clean to validate (or said 'missing' for the keyed array) while apply refuse
 from __future__ import annotations
 
 import pytest
-from pxr import Gf, Sdf
+from pxr import Gf, Sdf, Usd
 
 from usdgaze.console.main import main
+from usdgaze.review import usdview
 
 from . import synthetic as syn
+from .usdview_standin import UsdviewApiStandIn
 
 
 def _keyed(spec: Sdf.PrimSpec, name: str) -> None:
@@ -112,3 +114,6 @@ def test_a_map_referenced_onto_the_skeleton_or_a_parent_is_refused_not_ignored(t
     assert capsys.readouterr().out.splitlines() == [
         f"{rig.path}:{target}: error: GazeMapAPI is applied to a {kind}; it applies only to SkelRoot "
         "(usdgaze.review.validators:GazeMapRoleJoints.NotSkelRoot)"]
+    # usdview's Print Map and Schedule said 'no GazeMapAPI (the built-in map is used)'
+    text = usdview.summary(UsdviewApiStandIn(Usd.Stage.Open(str(rig.path))))
+    assert f"{rig.skel_root}: GazeMapAPI unreadable (rig.usda:{target}: GazeMapAPI is applied to a {kind};" in text
