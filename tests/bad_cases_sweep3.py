@@ -130,3 +130,59 @@ def b_mesh_index_on_an_added_eye(d):
         indices[0] = len(r.joints)
         attr.default = Vt.IntArray(indices)
     return apply_argv(d, edited(d, past_the_joints, eyes=False, mesh=True))
+
+
+def b_map_on_the_skeleton(d):
+    """A map file referenced onto the Skeleton, not the SkelRoot: the built-in map was used, exit 0."""
+    from .bad_common import dump_map
+
+    path = dump_map(d / "map.usda")
+
+    def author(layer, r):
+        layer.GetPrimAtPath(r.skeleton).referenceList.Prepend(Sdf.Reference(path.name, "/GazeMap"))
+    return apply_argv(d, edited(d, author))
+
+
+def b_map_value_in_a_referenced_map_file(d):
+    """A bad value in a map file a character references: the line named the stage, which holds no such value."""
+    from .bad_common import dump_map
+
+    path = dump_map(d / "map.usda")
+    map_layer = Sdf.Layer.FindOrOpen(str(path))
+    map_layer.Reload(force=True)
+    map_layer.GetAttributeAtPath("/GazeMap.gaze:synthesis:blendSize").default = 99
+    map_layer.Save()
+
+    def author(layer, r):
+        layer.GetPrimAtPath(r.skel_root).referenceList.Prepend(Sdf.Reference(path.name, "/GazeMap"))
+    return apply_argv(d, edited(d, author))
+
+
+def b_build_map_sheet_semicolons(d):
+    (d / "a.c3d").write_bytes(b"trial")
+    (d / "sheet.csv").write_text("file;yaw;pitch\na.c3d;0;0\n")
+    return ["build-map", str(d / "sheet.csv"), "--out", str(d / "map.usda")]
+
+
+def b_build_map_sheet_trial_and_trials(d):
+    for name in ("a.c3d", "b.c3d"):
+        (d / name).write_bytes(b"trial")
+    (d / "sheet.toml").write_text('[[trials]]\nfile = "a.c3d"\nyaw = 0\npitch = 0\n'
+                                  '[[trial]]\nfile = "b.c3d"\nyaw = 36\npitch = 0\n')
+    return ["build-map", str(d / "sheet.toml"), "--out", str(d / "map.usda")]
+
+
+def b_build_map_c3d_metres_in_a_mm_file(d):
+    """Points in metres, POINT:UNITS left blank (C3D reads mm; ezc3d writes none by default)."""
+    import numpy as np
+
+    from . import ingest_synth as syn
+    from .c3d_bytes import write_c3d_bytes
+
+    motion = syn.known_motions(np.array([[72.0, 0.0]]))[0]
+    points, _ = syn.simulate_trial(motion, np.random.default_rng(0))
+    write_c3d_bytes(d / "a.c3d", list(syn.LABELS), points / 1000.0, syn.RATE, units=" ")
+    (d / "markers.toml").write_text(syn.MARKERSET_TOML)
+    (d / "sheet.csv").write_text("file,yaw,pitch\na.c3d,72,0\n")
+    return ["build-map", str(d / "sheet.csv"), "--markers", str(d / "markers.toml"), "--out", str(d / "map.usda"),
+            "--min-trials", "1", "--quiet"]

@@ -138,3 +138,29 @@ def test_a_crop_in_a_clips_time_codes_says_how_crops_count(tmp_path):
     report = build(sheet).reports[0]
     assert report.error == ("trial a (clip.usda): crop_end 1149 is past the last frame 149; crop frames count the "
                             "trial's samples from 0 (their time codes run 1001-1150)")
+
+
+@pytest.mark.parametrize("factor, units, likely", [(1e-3, " ", "m"), (1e-3, "mm", "m"), (1.0, "m", "mm"), (0.1, "mm", "cm")])
+def test_points_in_another_unit_than_the_files_are_said_so(captures, tmp_path, factor, units, likely):
+    """Metres in a file whose POINT:UNITS says mm, or says nothing (read as mm; ezc3d writes none by
+    default), were refused as 'no motion (the whole trial is one rest period)'; mm labelled m as 'no rest
+    period found'. The head's distance from the base of the spine, measured here from the points, names it."""
+    truth, points = captures[1]
+    sheet, markers = _session(tmp_path / "s", [(truth, points * factor)], dict(units=units))
+    (report,) = build(sheet, markers).reports
+    head = points[:, [syn.LABELS.index(x) for x in ("HLF", "HLB", "HRB", "HRF")]].mean(axis=1)
+    reach = np.nanmedian(np.linalg.norm(head - points[:, syn.LABELS.index("BOS")], axis=-1))  # mm
+    said_mm = reach * factor * {"m": 1000.0, "mm": 1.0}[units.strip() or "mm"]
+    assert report.status == "failed" and "\n" not in report.error
+    assert report.error.startswith(f"trial {truth.name} ({truth.name}.c3d): the head is {said_mm:.3g} mm from the "
+                                   "base of the spine by the file's POINT:UNITS"), report.error
+    assert report.error.endswith(f"its points look like {likely} ({reach * factor:.3g} {likely}): correct POINT:UNITS in the file")
+
+
+def test_metres_labelled_as_metres_give_the_mm_files_map(captures, float_map, tmp_path):
+    sheet, markers = _session(tmp_path / "s", [(t, p / 1000.0) for t, p in captures], dict(units="m", scale=1.0))
+    result = build(sheet, markers)
+    assert [r.crop for r in result.reports] == [r.crop for r in float_map.reports]
+    angle = np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(result.definition.motions.offsets
+                                                          * float_map.definition.motions.offsets, axis=-1)), 0, 1)))
+    assert angle.max() < 0.01

@@ -28,6 +28,14 @@ def test_csv_sheet(tmp_path):
     assert sheet.trials[2].is_skeletal and not sheet.trials[0].is_skeletal
 
 
+def test_a_spreadsheets_empty_columns_and_rows_are_skipped(tmp_path):
+    """Spreadsheets save columns and rows they once formatted as empty cells (``,,``): the sheet reads
+    as without them (it was refused as "row 2: unknown key ''")."""
+    (tmp_path / "s.csv").write_text("trial,file,yaw,pitch,,\r\nA,a.c3d,36,0,,\r\n,,,,,\r\nB,b.c3d,-36,12,,\r\n,,,,,\r\n")
+    sheet = load_sheet(tmp_path / "s.csv")
+    assert [(t.name, t.file.name, t.yaw, t.pitch) for t in sheet.trials] == [("A", "a.c3d", 36.0, 0.0), ("B", "b.c3d", -36.0, 12.0)]
+
+
 def test_toml_sheet_with_markers_and_skeleton(tmp_path):
     (tmp_path / "s.toml").write_text(
         'markers = "ms.toml"\n[skeleton]\npelvis = "Hips"\nlower_spine = "Spine"\nforward = [0, -1, 0]\n'
@@ -58,6 +66,12 @@ def test_toml_sheet_with_markers_and_skeleton(tmp_path):
         # A row is named by its line in the file: comment and blank lines count.
         ("file,yaw,pitch\n# degrees\n\na.c3d,0,0\nb.c3d,left,0\n", "row 5: yaw 'left' is not a number"),
         ("file,yaw,pitch\n# degrees\na.c3d,0,0,9\n", "row 3: 4 cells"),
+        # A value under a column the header leaves unnamed (was "row 2: unknown key ''" on every such sheet).
+        ("file,yaw,pitch,\na.c3d,0,0,\nb.c3d,1,0,x\n", "row 3: 'x' in column 4, which the header leaves unnamed"),
+        # Another separator (was "unknown column 'file;yaw;pitch'").
+        ("file;yaw;pitch\na.c3d;0;0\n", "the header is one cell ('file;yaw;pitch'); the cells of a CSV sheet are "
+                                          "separated by commas, this one by ';'"),
+        ("file\tyaw\tpitch\na.c3d\t0\t0\n", "this one by '\\t'"),
     ],
 )
 def test_csv_sheet_errors(tmp_path, text, message):
@@ -78,6 +92,11 @@ def test_toml_sheet_errors(tmp_path):
         load_sheet(path)
     with pytest.raises(SheetError, match="no such trial sheet"):
         load_sheet(tmp_path / "none.csv")
+    # [[trials]] beside [[trial]]: the [[trials]] rows were dropped without a word
+    path.write_text("[[trials]]\nfile = 'a.c3d'\nyaw = 0\npitch = 0\n[[trial]]\nfile = 'b.c3d'\nyaw = 36\npitch = 0\n")
+    with pytest.raises(SheetError) as err:
+        load_sheet(path)
+    assert str(err.value) == f"{path}: both [[trial]] and [[trials]] tables; name every trial [[trial]]"
 
 
 @pytest.mark.parametrize(

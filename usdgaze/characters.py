@@ -23,7 +23,7 @@ from usdgaze.usd import schema
 
 def own_map(root, source: str) -> GazeMapDefinition | None:
     """The gaze map authored on a SkelRoot (GazeMapAPI), or None."""
-    return schema.read_map(root, source) if schema.has_map(root) else None
+    return schema.root_map(root, source)
 
 
 def bind_root(clip: SkelClip, root, hints: BindHints | None = None) -> tuple[Chain, CharacterFrame]:

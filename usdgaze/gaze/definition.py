@@ -186,32 +186,46 @@ def _validate_bindings(bindings: dict, source: str) -> None:
                 raise GazeMapError(f"{source}.{attr}: entry {k} is {joint!r}, expected a joint path")
 
 
+def forward_problem(forward) -> str | None:
+    """Why an authored forward is no direction (``(nan, 0.0, 0.0) is not a direction ...``), or None
+    for an unset one or a finite non-zero 3-vector whose length is finite too."""
+    if forward is None:
+        return None
+    forward = np.asarray(forward, dtype=float)
+    with np.errstate(over="ignore"):  # (1e200, 1e200, 0) is finite, its length is not
+        length = float(np.sqrt(np.sum(forward * forward))) if forward.shape == (3,) else np.nan
+    if forward.shape != (3,) or not np.isfinite(forward).all() or not 0 < length < np.inf:
+        return (f"{tuple(forward.ravel().tolist())} is not a direction "
+                "(leave it unset to work forward out from the rest pose)")
+    return None
+
+
 def _validate_forward(forward, source: str) -> None:
-    """An unset forward, or a finite non-zero 3-vector whose length is finite too."""
-    if forward is not None:
-        forward = np.asarray(forward, dtype=float)
-        with np.errstate(over="ignore"):  # (1e200, 1e200, 0) is finite, its length is not
-            length = float(np.sqrt(np.sum(forward * forward))) if forward.shape == (3,) else np.nan
-        if forward.shape != (3,) or not np.isfinite(forward).all() or not 0 < length < np.inf:
-            raise GazeMapError(
-                f"{source}.{FORWARD_ATTR}: {tuple(forward.ravel().tolist())} is not a direction "
-                f"(leave it unset to work forward out from the rest pose)"
-            )
+    problem = forward_problem(forward)
+    if problem:
+        raise GazeMapError(f"{source}.{FORWARD_ATTR}: {problem}")
+
+
+def setting_problem(name: str, value) -> str | None:
+    """Why ``value`` cannot be the synthesis setting ``name`` (a field of :class:`SynthesisSettings`),
+    or None: integers within their bounds, a neck share in [0, 1]."""
+    if name == "neck_share":
+        if not (isinstance(value, (int, float, np.floating)) and 0.0 <= value <= 1.0):
+            return f"{value!r}, expected a number in [0, 1]"
+    elif not isinstance(value, (int, np.integer)) or isinstance(value, bool):
+        return f"{value!r}, expected an integer"
+    elif name in _SETTING_MINIMA and value < _SETTING_MINIMA[name]:
+        return f"{value}, expected >= {_SETTING_MINIMA[name]}"
+    elif name in _SETTING_MAXIMA and value > _SETTING_MAXIMA[name]:
+        return f"{value}, expected <= {_SETTING_MAXIMA[name]}"
+    return None
 
 
 def _validate_settings(settings: SynthesisSettings, source: str) -> None:
-    """Integer settings within their bounds and a neck share in [0, 1]."""
     for name, attr in SETTING_ATTRS.items():
-        value = getattr(settings, name)
-        if name == "neck_share":
-            if not (isinstance(value, (int, float, np.floating)) and 0.0 <= value <= 1.0):
-                raise GazeMapError(f"{source}.{attr}: {value!r}, expected a number in [0, 1]")
-        elif not isinstance(value, (int, np.integer)) or isinstance(value, bool):
-            raise GazeMapError(f"{source}.{attr}: {value!r}, expected an integer")
-        elif name in _SETTING_MINIMA and value < _SETTING_MINIMA[name]:
-            raise GazeMapError(f"{source}.{attr}: {value}, expected >= {_SETTING_MINIMA[name]}")
-        elif name in _SETTING_MAXIMA and value > _SETTING_MAXIMA[name]:
-            raise GazeMapError(f"{source}.{attr}: {value}, expected <= {_SETTING_MAXIMA[name]}")
+        problem = setting_problem(name, getattr(settings, name))
+        if problem:
+            raise GazeMapError(f"{source}.{attr}: {problem}")
 
 
 def validate(definition: GazeMapDefinition, source: str) -> None:

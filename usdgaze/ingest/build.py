@@ -282,11 +282,22 @@ def _cropped(series: TrialSeries, crop: tuple[int, int]) -> TrialSeries:
     )
 
 
+def _warn_same_motion(seen: dict[tuple[str, tuple[int, int]], str], trial: Trial, crop: tuple[int, int],
+                      report: TrialReport) -> None:
+    """Warn of a trial whose file and crop an earlier one has (a row copied and its file left unchanged):
+    its example is that trial's motion under another target, the eyes asked to make up the difference."""
+    key = (os.path.realpath(trial.file), crop)
+    if key in seen:
+        report.warnings.append(f"the same file and crop as trial {seen[key]}: one motion stored for two targets")
+    seen.setdefault(key, trial.name)
+
+
 def _extract_trials(sheet: Sheet, reports: list[TrialReport], loaded: dict[str, TrialSeries],
                     rate: float | None, settings: BuildSettings):
     """Offsets, stored timing and target of every trial that extracts, and its cropped series by name."""
     offsets, timing, params, kept = [], [], [], {}
     targets: dict[tuple[float, float], str] = {}
+    motions: dict[tuple[str, tuple[int, int]], str] = {}
     for trial, report in zip(sheet.trials, reports):
         series = loaded.get(trial.name)
         if series is None:
@@ -299,6 +310,7 @@ def _extract_trials(sheet: Sheet, reports: list[TrialReport], loaded: dict[str, 
             report.error = str(exc)
             continue
         targets[key] = trial.name
+        _warn_same_motion(motions, trial, crop, report)
         timing_row = _stored_timing(ex)
         report.status, report.extraction, report.crop, report.crop_source = "ok", ex, crop, source
         report.warnings.extend(ex.warnings)

@@ -11,7 +11,7 @@ from typing import Callable
 
 import numpy as np
 
-from usdgaze.ingest.c3dio import MarkerCapture, read_c3d
+from usdgaze.ingest.c3dio import MM_PER_UNIT, MarkerCapture, read_c3d
 from usdgaze.ingest.cleaning import fill_gaps, missing_markers, stabilize
 from usdgaze.ingest.frames import (UPRIGHT_DEG, character_frame, fit_frames, landmark_frames, off_upright, square_axes,
                                    square_is_mirrored)
@@ -80,6 +80,7 @@ def marker_series(capture: MarkerCapture, markerset: MarkerSet, where: str) -> T
     _, forward = square_axes(landmarks[3])
     up = markerset.up
     _check_up(landmarks[3].mean(axis=1), markerset, where)
+    _check_scale(landmarks[3].mean(axis=1), capture, where)
     keep = np.setdiff1d(np.arange(stable.shape[1]), [base])
     return TrialSeries(
         source=where,
@@ -106,6 +107,27 @@ def _check_up(head: np.ndarray, markerset: MarkerSet, where: str) -> None:
     if angle > UPRIGHT_DEG:
         raise MarkerSetError(f"{where}: the head is {angle:.0f} deg from up_axis {markerset.up_axis} of {markerset.source} "
                              f"(seen from the base of the spine, the capture's up is {seen}); set up_axis = \"{seen.lstrip('+')}\" there")
+
+
+HEAD_REACH_MM = (150.0, 1500.0)
+"""The head's distance from the base of the spine on a person, standing or seated (~0.7 m on an adult)."""
+
+
+def _check_scale(head: np.ndarray, capture: MarkerCapture, where: str) -> None:
+    """Refuse points whose unit is not the file's POINT:UNITS (metres in a file that says mm, or none,
+    which C3D reads as mm, as ezc3d writes by default): the rest threshold is in mm, so such a trial
+    was refused as 'no motion' or 'no rest period', neither of which it is.
+
+    ``head``: the head square's centre relative to the base of the spine ``(F, 3)``, in the file's unit."""
+    reach = float(np.nanmedian(np.linalg.norm(head, axis=-1)))
+    mm = reach * capture.mm_per_unit
+    if HEAD_REACH_MM[0] <= mm <= HEAD_REACH_MM[1]:
+        return
+    likely = min(("mm", "cm", "m"), key=lambda u: abs(np.log(reach * MM_PER_UNIT[u] / 700.0)))
+    raise MarkerSetError(f"{where}: the head is {mm:.3g} mm from the base of the spine by the file's POINT:UNITS "
+                         f"'{capture.units}' (C3D reads none as mm), not a person's {HEAD_REACH_MM[0] / 1000:g}-"
+                         f"{HEAD_REACH_MM[1] / 1000:g} m; its points look like {likely} ({reach:.3g} {likely}): "
+                         "correct POINT:UNITS in the file")
 
 
 def _longest_run(mask: np.ndarray, labels: list[str]) -> tuple[str, int, int] | None:

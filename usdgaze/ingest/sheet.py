@@ -3,7 +3,7 @@
 CSV: a header row with ``file``, ``yaw``, ``pitch`` and optionally ``trial``, ``crop_start``,
 ``crop_end`` (frames: 0-based sample indices into the file, end inclusive, whatever numbers the capture
 software shows: C3D's frame 1, or a clip's first time sample, is 0) and ``skeleton`` (the
-Skeleton prim of a UsdSkel clip); ``#`` comment and blank lines are skipped, a row with more cells
+Skeleton prim of a UsdSkel clip); ``#`` comment and blank lines, rows of empty cells and unnamed empty columns (a spreadsheet's) are skipped, a row with more cells
 than the header is refused, and messages name a row by its line in the file. TOML: ``[[trial]]``
 tables with the same keys (``crop = [start, end]`` also works), an optional top-level ``markers =
 "markerset.toml"`` and an optional ``[skeleton]`` binding table. Relative paths are relative to the
@@ -141,6 +141,29 @@ def _csv_lines(path: Path) -> list[tuple[int, str]]:
     return [(n, line) for n, line in numbered if line.strip() and not line.lstrip().startswith("#")]
 
 
+def _check_separator(fieldnames: list[str], path: Path) -> None:
+    """A header of one cell holding ';' or a tab is a sheet saved with another separator (a spreadsheet
+    in a locale whose decimal mark is the comma): say so, not 'unknown column'."""
+    if len(fieldnames) == 1:
+        used = [sep for sep in (";", "\t") if sep in fieldnames[0]]
+        if used:
+            raise SheetError(f"{path}: the header is one cell ({fieldnames[0].strip()!r}); the cells of a CSV "
+                             f"sheet are separated by commas, this one by {used[0]!r}")
+
+
+def _row(fieldnames: list[str], fields: list[str], where: str) -> dict | None:
+    """The row's cells by column, None for a row of empty cells. A spreadsheet writes columns it
+    once formatted as empty header cells (``trial,file,yaw,pitch,,``) and rows of empty cells:
+    those are skipped, and a value under an unnamed column is refused (it was ``unknown key ''``,
+    blamed on the first trial's row)."""
+    if not any(cell.strip() for cell in fields):
+        return None
+    for k, (head, cell) in enumerate(zip(fieldnames, fields)):
+        if not head.strip() and cell.strip():
+            raise SheetError(f"{where}: '{cell.strip()}' in column {k + 1}, which the header leaves unnamed")
+    return {head: cell for head, cell in zip(fieldnames, fields) if head.strip()}
+
+
 def _csv_trials(path: Path, base: Path, seen: set[str]) -> list[Trial]:
     """The trials of a CSV sheet; a row is named by its line in the file, as an editor shows it."""
     kept = _csv_lines(path)
@@ -148,7 +171,8 @@ def _csv_trials(path: Path, base: Path, seen: set[str]) -> list[Trial]:
     fieldnames = next(reader, None)
     if not fieldnames:
         raise SheetError(f"{path}: empty sheet (expected a header with file, yaw, pitch)")
-    named = [_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in fieldnames if h]
+    _check_separator(fieldnames, path)
+    named = [_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in fieldnames if h.strip()]
     twice = [h for k, h in enumerate(named) if h in named[:k]]
     if twice:
         raise SheetError(f"{path}: column '{twice[0]}' appears twice in the header")
@@ -168,8 +192,9 @@ def _csv_trials(path: Path, base: Path, seen: set[str]) -> list[Trial]:
             # value after it, so even an empty extra cell is refused.
             raise SheetError(f"{where}: {len(fields)} cells, but the header names {len(fieldnames)} "
                              f"({', '.join(fieldnames)}); quote a value that holds a comma")
-        row = dict(zip(fieldnames, fields))
-        trials.append(_trial(row, len(trials), base, where, seen))
+        row = _row(fieldnames, fields, where)
+        if row:
+            trials.append(_trial(row, len(trials), base, where, seen))
 
 
 def load_sheet(path: str | Path) -> Sheet:
@@ -185,6 +210,8 @@ def load_sheet(path: str | Path) -> Sheet:
     if path.suffix.lower() == ".toml":
         data = load_toml(path, SheetError)
         _unknown(data, _TOP_KEYS, "key", str(path))
+        if "trial" in data and "trials" in data:  # one of the two was dropped without a word
+            raise SheetError(f"{path}: both [[trial]] and [[trials]] tables; name every trial [[trial]]")
         rows = data.get("trial", data.get("trials", []))
         if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
             raise SheetError(f"{path}: trials must be [[trial]] tables")

@@ -11,6 +11,10 @@ positions alone would not see it), relative to the pelvis joint (the base-of-spi
 in the stage's units. Up is the stage's up axis carried into skeleton space (through the
 Skeleton's transform) unless the binding sets ``up_axis`` (skeleton space); forward comes from
 left/right-named joints at the crop's first frame, or the binding's ``forward`` (skeleton space).
+A Skeleton whose transform to the world is animated (a root control on the SkelRoot or a parent Xform)
+has that transform's turn since the first sample added to the chain, and a mirrored one (a negative scale)
+is reflected, so the body turns as the world sees it (a yaw toward the figure's left as the world shows it,
+as ``apply`` takes one).
 """
 
 from __future__ import annotations
@@ -23,8 +27,10 @@ from pxr import Usd, UsdGeom, UsdSkel
 from usdgaze.core import rotations as rot
 from usdgaze.gaze.definition import ROLES
 from usdgaze.errors import RigError, UsdGazeError
+from usdgaze.usd.skelio import animation_of, check_animation, joint_parents, skeleton_to_world
 from usdgaze.usd.stage import open_stage
 from usdgaze.core.kinematics import snap_up
+from usdgaze.core.zero_scale import singular
 from usdgaze.core.names import names_not_read, spelled_with_names
 from usdgaze.core.rig import bind_chain, character_frame, leaf
 from usdgaze.ingest.frames import UPRIGHT_DEG, off_upright
@@ -51,7 +57,8 @@ def _skeleton(stage: Usd.Stage, path: str | None, where: str) -> UsdSkel.Skeleto
             raise SkeletonClipError(f"{where}: {path} is not a Skeleton prim")
         return UsdSkel.Skeleton(prim)
     found = [p for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton)]
-    animated = [p for p in found if UsdSkel.BindingAPI(p).GetAnimationSourceRel().GetTargets()]
+    # Bound on the Skeleton or inherited from an ancestor (the SkelRoot), as UsdSkel and apply bind it.
+    animated = [p for p in found if animation_of(p) is not None]
     if not animated:
         raise SkeletonClipError(f"{where}: no Skeleton with a bound SkelAnimation")
     if len(animated) > 1:
@@ -79,6 +86,9 @@ def _resolve(binding: SkeletonBinding, joints: list[str], where: str) -> dict[st
 
 def _skel_query(skel: UsdSkel.Skeleton, where: str) -> tuple[UsdSkel.SkeletonQuery, list[float]]:
     """The skeleton's query (through its SkelRoot where it has one) and its animation's time samples."""
+    # Joint tokens UsdSkel cannot parse ('mixamorig:Hips') are read as roots: checked as apply checks them,
+    # before USD warns once per joint and the chain is then said to have no pelvis.
+    joint_parents([str(j) for j in (skel.GetJointsAttr().Get() or [])], f"{where}: {skel.GetPath()}")
     root = UsdSkel.Root.Find(skel.GetPrim())
     cache = UsdSkel.Cache()
     if root:
@@ -172,6 +182,10 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     stage = _open(path, where)
     skel = _skeleton(stage, skeleton or binding.skeleton, where)
     query, times = _skel_query(skel, where)
+    try:  # as apply checks it: UsdSkel poses the rest pose where a sample is unusable, and warns
+        check_animation(skel.GetPrim(), str(path))
+    except UsdGazeError as exc:
+        raise SkeletonClipError(f"{where}: {exc}") from None
     joints, chain = _bound_chain(query, binding, where)
     landmarks = [chain.roles["pelvis"][-1], chain.roles["lowerSpine"][-1], chain.roles["upperSpine"][-1], chain.head]
     times, rate = _frame_times(stage, times, where)
@@ -192,16 +206,71 @@ def read_skeleton_series(path: str | Path, binding: SkeletonBinding = SkeletonBi
     up = _skeleton_up(stage, to_world, binding, where)
     _check_up(world[:, chain.head, :3, 3] - world[:, chain.pelvis, :3, 3], up, stage, binding, where)
     forward = None if binding.forward is None else np.asarray(binding.forward, dtype=float)
+
+    def named_frame(i: int) -> np.ndarray:
+        return character_frame(joints, world[i], up, forward, f"{where} frame {i}").rotation
+
+    view = _world_view(skel, times, lambda: rot.rotate(named_frame(0), np.array([1.0, 0.0, 0.0])))
+
+    def frame_at(i: int) -> np.ndarray:
+        return named_frame(i) if view is None else _seen_frame(view, i, named_frame(i))
+
+    if view is not None:  # the chain as the world sees it, in the skeleton's space at the first sample
+        orientations, points = _seen(view, orientations, points)
     return TrialSeries(
         source=where,
         orientations=orientations,
         points=points,
-        frame_at=lambda i: character_frame(joints, world[i], up, forward, f"{where} frame {i}").rotation,
+        frame_at=frame_at,
         rate=rate,
         units=f"{meters:g} m",
         mm_per_unit=meters * 1000.0,
         numbering=_numbering(times),
     )
+
+
+def _world_view(skel: UsdSkel.Skeleton, times: list[float], left_at_start) -> tuple[np.ndarray, np.ndarray] | None:
+    """How the world sees skeleton space, as ``(V, flip)``: ``V (F or 1, 3, 3)`` each sample's turn of the
+    Skeleton's transform to the world since the first sample (in skeleton space), reflected by ``flip``
+    across the character's left axis (``left_at_start()``, skeleton space) where that transform mirrors;
+    None where skeleton space is the world's view (a static, unmirrored transform).
+
+    A rig turned by an animated SkelRoot or parent Xform (a DCC's root control) turns its body with it:
+    measured in skeleton space alone that turn was lost (20 deg of joints on a 10 deg root gave a map of
+    20). A mirrored one (a clip scaled by -1 to make a left turn of a right one) turns as the world shows
+    it, as apply's yaw does: read in skeleton space its head turned the other way from its target."""
+    to_world = skeleton_to_world(skel.GetPrim(), np.asarray(times, dtype=float))
+    linear = to_world[:, :3, :3]
+    # A sample scaled to nothing (a character hidden for a while) has no turn: it keeps the last one seen.
+    # The first sample is refused before this, by the unit the Skeleton's scale gives it.
+    hidden = ~np.isfinite(linear).all(axis=(-2, -1))
+    hidden[~hidden] = singular(linear[~hidden])
+    mirrored = not hidden[0] and np.linalg.det(linear[0]) < 0.0
+    if hidden[0] or (len(linear) == 1 and not mirrored):
+        return None
+    linear = linear[np.maximum.accumulate(np.where(hidden, 0, np.arange(len(linear))))]
+    turns = rot.to_matrix(rot.from_matrix(np.linalg.inv(linear[0]) @ linear))
+    flip = np.eye(3)
+    if mirrored:
+        left = np.asarray(left_at_start(), dtype=float)
+        flip = flip - 2.0 * np.outer(left, left)
+    return flip @ turns, flip
+
+
+def _seen(view: tuple[np.ndarray, np.ndarray], orientations: np.ndarray, points: np.ndarray):
+    """Orientations ``(F, L, 4)`` and points ``(F, P, 3)`` of skeleton space as :func:`_world_view` sees them."""
+    v, flip = view
+    v = np.broadcast_to(v, (len(points), 3, 3))
+    seen = v[:, None] @ rot.to_matrix(orientations) @ flip
+    return rot.from_matrix(seen), np.einsum("fij,fpj->fpi", v, points)
+
+
+def _seen_frame(view: tuple[np.ndarray, np.ndarray], i: int, frame: np.ndarray) -> np.ndarray:
+    """The character frame at sample ``i`` as :func:`_world_view` sees it: a mirrored one's left is the
+    world's left of the figure, where its right-named joints show."""
+    v, flip = view
+    canonical_flip = np.diag([-1.0, 1.0, 1.0]) if np.linalg.det(flip) < 0 else np.eye(3)
+    return rot.from_matrix(v[min(i, len(v) - 1)] @ rot.to_matrix(frame) @ canonical_flip)
 
 
 def _numbering(times: list[float]) -> str:

@@ -34,11 +34,11 @@ def inspect_stage(path: str, hints=None) -> dict:
     for root in skel_roots(stage):
         has = schema.has_map(root)
         try:  # one SkelRoot's broken map is its own entry's problem, as a skeleton's is
-            definition, map_error = (schema.read_map(root, str(path)) if has else None), None
+            definition, map_error = schema.root_map(root, str(path)), None
         except UsdGazeError as exc:
             definition, map_error = None, str(exc)
         entry = {"path": str(root.GetPath()),
-                 "map": (f"GazeMapAPI, cannot read it: {map_error}" if map_error else
+                 "map": (f"{'GazeMapAPI, cannot read it' if has else 'none usable'}: {map_error}" if map_error else
                          f"GazeMapAPI, {len(definition)} examples" if has else "none (the built-in map is used)"),
                  "skeletons": []}
         for skel in skeletons_under(root):

@@ -65,7 +65,10 @@ def _characters(stage):
         hints = None
     out = []
     for root in skel_roots(stage):
-        own = own_map(root, source)
+        try:  # a map that cannot be used (Print Map and Schedule says why) skips its character, as a skeleton that cannot bind does
+            own = own_map(root, source)
+        except UsdGazeError:
+            continue
         for skel in skeletons_under(root):
             try:
                 clip = read_clip(stage, skel, root, source)
@@ -208,14 +211,13 @@ def summary(api) -> str:
     from usdgaze.usd import schedule
 
     for root in skel_roots(stage):
-        try:
-            has = schema.has_map(root)
-        except UsdGazeError as exc:  # applied, but the schema registry was built before usdgaze's plugin
+        try:  # read as apply reads it: a broken or misplaced map (on the Skeleton) is no map to count
+            definition = schema.root_map(root, stage.GetRootLayer().GetDisplayName())
+        except UsdGazeError as exc:  # or applied while the schema registry predates usdgaze's plugin
             lines.append(f"{root.GetPath()}: GazeMapAPI unreadable ({exc})")
             continue
-        if has:
-            n = len(root.GetAttribute("gaze:examples:yaw").Get() or [])
-            lines.append(f"{root.GetPath()}: GazeMapAPI, {n} examples")
+        if definition is not None:
+            lines.append(f"{root.GetPath()}: GazeMapAPI, {len(definition)} examples")
         else:
             lines.append(f"{root.GetPath()}: no GazeMapAPI (the built-in map is used)")
         if schedule.has_schedule(root):

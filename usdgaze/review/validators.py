@@ -16,16 +16,18 @@ from usdgaze.gaze.definition import (
     API_NAME,
     BINDING_ATTRS,
     EXAMPLE_ATTRS,
+    FORWARD_ATTR,
     OFFSET_ATTRS,
     PITCH_ATTR,
     SETTING_ATTRS,
     TIMING_ATTRS,
     UNIT_TOLERANCE,
     YAW_ATTR,
-    _SETTING_MINIMA,
     _TIMING_RANGES,
     _check_range,
     _range_text,
+    forward_problem,
+    setting_problem,
 )
 from usdgaze.gaze.motion import TIMING_FIELDS
 from usdgaze.review.layer_checks import gaze_layer_schedule, sampled_range
@@ -65,32 +67,33 @@ def _values(prim: Usd.Prim, name: str):
     return attr, attr.Get()
 
 
+def _animated(prim: Usd.Prim, name: str, path) -> list:
+    """read_map refuses a gaze map attribute with time samples (its default alone is read): say so."""
+    attr = prim.GetAttribute(name)
+    if attr and attr.GetNumTimeSamples():
+        return [_error(prim, path, "Animated", f"{name}: has time samples; gaze map attributes are uniform (one default value)")]
+    return []
+
+
 def gaze_map_arrays(prim: Usd.Prim, time_range=None) -> list:
     from usdgaze.usd.schema import _TYPES
 
     errors, lengths = [], {}
-    for name in EXAMPLE_ATTRS:
-        attr, value = _values(prim, name)
+    # The per-example arrays, then the settings, bindings and forward: read_map refuses a wrong type too.
+    for name in EXAMPLE_ATTRS + tuple(n for n in _TYPES if n not in EXAMPLE_ATTRS):
         path = prim.GetPath().AppendProperty(name)
-        if value is None:
-            errors.append(_error(prim, path, "Missing", f"{name}: missing, expected one entry per example"))
-            continue
-        if attr.GetNumTimeSamples():
-            errors.append(_error(prim, path, "Animated", f"{name}: has time samples; gaze map attributes are uniform"))
-        if not isinstance(value, _TYPES[name][1]):
-            errors.append(_error(prim, path, "WrongType", f"{name}: authored as {authored_type(attr)}, expected {_TYPES[name][0]}"))
-            continue
-        lengths[name] = len(value)
-    # The settings, bindings and forward: read_map refuses a wrong type too, so say so here.
-    for name in (n for n in _TYPES if n not in EXAMPLE_ATTRS):
+        animated = _animated(prim, name, path)
         attr, value = _values(prim, name)
-        if value is None:
+        if animated or value is None:
+            # Only time samples: no default, so not 'missing' as well (it said only that).
+            errors += animated or ([_error(prim, path, "Missing", f"{name}: missing, expected one entry per example")]
+                                   if name in EXAMPLE_ATTRS else [])
             continue
-        path = prim.GetPath().AppendProperty(name)
-        if attr.GetNumTimeSamples():
-            errors.append(_error(prim, path, "Animated", f"{name}: has time samples; gaze map attributes are uniform"))
         if not isinstance(value, _TYPES[name][1]) or isinstance(value, bool):
             errors.append(_error(prim, path, "WrongType", f"{name}: authored as {authored_type(attr)}, expected {_TYPES[name][0]}"))
+            continue
+        if name in EXAMPLE_ATTRS:
+            lengths[name] = len(value)
     if lengths:
         counts = np.array(list(lengths.values()))
         values, freq = np.unique(counts, return_counts=True)
@@ -140,15 +143,31 @@ def gaze_map_ranges(prim: Usd.Prim, time_range=None) -> list:
         for i in first[counts > 1]:
             errors.append(_error(prim, prim.GetPath().AppendProperty(YAW_ATTR), "Duplicate",
                                  f"{YAW_ATTR}: (yaw, pitch) = ({yaw[i]:g}, {pitch[i]:g}) appears more than once"))
+    return errors + _setting_ranges(prim) + _forward_range(prim)
+
+
+def _setting_ranges(prim: Usd.Prim) -> list:
+    """The synthesis settings against the bounds read_map holds them to (its own check)."""
+    from usdgaze.usd.schema import _TYPES
+
+    errors = []
     for field, name in SETTING_ATTRS.items():
         _, value = _values(prim, name)
-        if not isinstance(value, (int, float)) or isinstance(value, bool):
+        if not isinstance(value, _TYPES[name][1]) or isinstance(value, bool):
             continue  # unauthored, or of another type: WrongType says so (a string here was an internal error)
-        low_ok = value >= 0.0 and value <= 1.0 if field == "neck_share" else value >= _SETTING_MINIMA.get(field, value)
-        if not low_ok:
-            expected = "in [0, 1]" if field == "neck_share" else f">= {_SETTING_MINIMA[field]}"
-            errors.append(_error(prim, prim.GetPath().AppendProperty(name), "Range", f"{name}: {value}, expected {expected}"))
+        problem = setting_problem(field, value)
+        if problem:
+            errors.append(_error(prim, prim.GetPath().AppendProperty(name), "Range", f"{name}: {problem}"))
     return errors
+
+
+def _forward_range(prim: Usd.Prim) -> list:
+    """An authored forward that read_map refuses (NaN, infinite, or too long to have a length); (0, 0, 0) is unset."""
+    _, value = _values(prim, FORWARD_ATTR)
+    if value is None or not hasattr(value, "__len__") or len(value) != 3 or all(c == 0.0 for c in value):
+        return []
+    problem = forward_problem(tuple(value))
+    return [_error(prim, prim.GetPath().AppendProperty(FORWARD_ATTR), "Range", f"{FORWARD_ATTR}: {problem}")] if problem else []
 
 
 def gaze_map_unit_quaternions(prim: Usd.Prim, time_range=None) -> list:

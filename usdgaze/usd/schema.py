@@ -20,7 +20,7 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdSkel, Vt
 
 from usdgaze.usd import plugin as _plugin
-from usdgaze.usd.checks import authored_type
+from usdgaze.usd.checks import authored_type, value_spec
 from usdgaze.usd.stage import composed_files, open_stage
 from usdgaze.gaze.definition import (
     API_NAME,
@@ -63,6 +63,29 @@ _INT32 = (-(2**31), 2**31 - 1)
 def has_map(prim: Usd.Prim) -> bool:
     """Whether ``prim`` has ``GazeMapAPI`` applied (authored or composed)."""
     return _plugin.has_api(prim, API_NAME, GazeMapError)
+
+
+def root_map(root: Usd.Prim, source: str) -> GazeMapDefinition | None:
+    """The gaze map of a character's SkelRoot ``root``, None where it has none. A GazeMapAPI on a prim
+    under it (a map file referenced onto the Skeleton) or above it (onto a crowd's Xform) is refused: it
+    went unused without a word, the built-in map in its place (``validate`` says it too)."""
+    prims = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))  # active, defined: what UsdSkel sees
+    for prim in prims:
+        if prim.IsA(UsdSkel.Root) and prim != root:  # another character's, with its own map
+            prims.PruneChildren()
+        elif prim != root and has_map(prim):
+            raise _misplaced(prim, root, source)
+    parent = root.GetParent()
+    while parent and not parent.IsPseudoRoot():
+        if has_map(parent) and not parent.IsA(UsdSkel.Root):
+            raise _misplaced(parent, root, source)
+        parent = parent.GetParent()
+    return read_map(root, source) if has_map(root) else None
+
+
+def _misplaced(prim: Usd.Prim, root: Usd.Prim, source: str) -> GazeMapError:
+    return GazeMapError(f"{source}:{prim.GetPath()}: {API_NAME} is applied to a {prim.GetTypeName() or 'typeless prim'}; "
+                        f"it applies only to SkelRoot (this character's is {root.GetPath()}): apply it there")
 
 
 def _check_map_prim(prim: Usd.Prim, where: str) -> None:
@@ -138,6 +161,13 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
     """
     where = _where(prim, source)
     _check_map_prim(prim, where)
+    try:
+        return _read_checked(prim, where)
+    except GazeMapError as exc:
+        raise _named_where_authored(exc, prim, where) from None
+
+
+def _read_checked(prim: Usd.Prim, where: str) -> GazeMapDefinition:
     arrays = _example_arrays(prim, where)
     params = np.stack([arrays[YAW_ATTR], arrays[PITCH_ATTR]], axis=-1).astype(float)
     offsets = np.stack([arrays[name] for name in OFFSET_ATTRS], axis=1).astype(float)
@@ -155,6 +185,21 @@ def read_map(prim: Usd.Prim, source: str | None = None) -> GazeMapDefinition:
     )
     validate(definition, where)
     return definition
+
+
+def _named_where_authored(exc: GazeMapError, prim: Usd.Prim, where: str) -> GazeMapError:
+    """``exc`` naming the layer that authors the attribute at fault where that is not the stage's root
+    layer (a map referenced or inherited from a map file, or a sublayer's), as ``validate`` names it:
+    ``gaze_map.usda:/Crowd/Walker1.gaze:...`` (it named the stage, which holds no such value)."""
+    text = str(exc)
+    name = next((n for n in _TYPES if text.startswith(f"{where}.{n}: ")), None)
+    spec = value_spec(prim.GetAttribute(name)) if name else None
+    layer = spec.layer if spec is not None else None
+    if layer is None or layer == prim.GetStage().GetRootLayer() or layer.anonymous or not layer.realPath:
+        return exc
+    source = where[: -len(f":{prim.GetPath()}")]
+    path = layer.realPath if os.path.isabs(source) else os.path.relpath(layer.realPath)
+    return GazeMapError(f"{path}:{prim.GetPath()}.{name}: {text[len(where) + len(name) + 3:]}")
 
 
 def write_map(prim: Usd.Prim, definition: GazeMapDefinition) -> None:

@@ -315,6 +315,19 @@ def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str, joints:
     return times, rotations, translations, scales, held
 
 
+def check_animation(skel: Usd.Prim, source: str) -> None:
+    """:func:`read_clip`'s checks of a Skeleton's bound SkelAnimation, for readers that pose it through
+    UsdSkel (build-map's clips): where they fail, UsdSkel poses the rest pose with a warning."""
+    where_skel = f"{source}:{skel.GetPath()}"
+    joints, _ = _skeleton_joints(UsdSkel.Skeleton(skel), where_skel)
+    bound, anim_prim = _animation_source(skel)
+    if bound:
+        anim_prim, where_anim = _bound_animation(anim_prim, where_skel, source)
+        anim = UsdSkel.Animation(anim_prim)
+        anim_joints, _, _ = _animated_joints(anim, joints, skel, where_anim)
+        _animation_samples(anim, len(anim_joints), where_anim, anim_joints)
+
+
 def _joint_names(skeleton: UsdSkel.Skeleton) -> list[str] | None:
     """The skeleton's authored jointNames, or None."""
     names_attr = skeleton.GetJointNamesAttr()
