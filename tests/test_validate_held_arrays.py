@@ -4,7 +4,7 @@ An audit found: an animation whose rotations hold one time sample while its tran
 export that keys only what changes), or that holds one pose on a single sample (which ``apply`` takes
 over the stage's range), got a layer ``plot`` and ``preview`` drew, yet ``validate`` on the very
 preview ``apply`` wrote called it another take (``OtherTake``, exit 3): it compared the layer's span
-with the first and last time sample of ``rotations`` only.
+with the first and last time sample of ``rotations`` only, where apply samples every array's keys.
 """
 
 from __future__ import annotations
@@ -36,6 +36,8 @@ def _animated_span(path) -> tuple[float, float]:
 
 @pytest.mark.parametrize("held", [("rotations",), ("rotations", "translations", "scales")])
 def test_a_layer_over_held_arrays_validates_clean_and_another_take_still_does_not(tmp_path, capsys, held):
+    """One array held, the others moving: the input's span is theirs. Every array held (one pose): the
+    input has no span of its own, apply took the stage's range."""
     rig = syn.make_rig(tmp_path / "in.usda", frames=60, mesh=False, walk_speed=0.5)
     syn.edit(rig.path, lambda layer: [_keep_first_sample(layer, f"{rig.animation}.{name}") for name in held])
     layer, preview = tmp_path / "g.usda", tmp_path / "p.usda"
@@ -46,6 +48,8 @@ def test_a_layer_over_held_arrays_validates_clean_and_another_take_still_does_no
     assert main(["validate", str(preview), "--only-usdgaze"]) == 0, capsys.readouterr().out
     assert main(["validate", str(rig.path), "--layer", str(layer), "--only-usdgaze"]) == 0, capsys.readouterr().out
 
+    if len(held) == 3:
+        return  # one pose has no span to tell one take from another
     # A take cut to its first 30 frames (its range too): the same layer is another take's.
     short = tmp_path / "short.usda"
     syn.make_rig(short, frames=30, mesh=False, walk_speed=0.5)

@@ -86,26 +86,20 @@ def _other_version(stage, layer, record: dict) -> list:
 
 
 def _other_take(stage, layer, characters) -> list:
-    """Each named character's animation as ``layer`` samples it against the frames ``apply`` writes for
-    the input without it (:func:`usdgaze.usd.skelio.written_times`: from the first key of its rotations,
-    translations and scales to the last, or the stage's range for a pose held by one sample or none),
-    so another span is a layer made for another take (plot and preview refuse it; validate had called
-    it clean). Rotations alone were compared: one held while the translations moved, or one pose
-    expanded over the shot's range, was called another take."""
-    from usdgaze.errors import UsdGazeError
-    from usdgaze.usd.skelio import written_times
-
+    """Each named character's animation as ``layer`` samples it against the input without it: ``apply``
+    writes every frame from the first key of its rotations, translations and scales to the last, so
+    another span is a layer made for another take (plot and preview refuse it; validate had called it
+    clean). An input that holds one pose (one sample or none) has no span of its own (``apply`` took
+    the range of the stage it was given), so there is nothing to compare. Rotations alone were
+    compared: one held while the translations moved, or one pose on a single sample, was called
+    another take on ``apply``'s own preview."""
     errors = []
     for anim in _animations(stage, characters):
         ours = _times_in(anim.GetRotationsAttr(), layer)
         below = _times_without(anim, layer)
-        if ours is None or below is None:  # not sampled here, or nothing below holds it
+        if ours is None or len(below) < 2:  # not sampled here, or no span below
             continue
-        try:
-            want = written_times(stage, below, str(anim.GetPath()))[0]
-        except UsdGazeError:  # a held pose on a stage with no range: apply refuses it, nothing to compare
-            continue
-        (a, b), (c, d) = (ours[0], ours[-1]), (want[0], want[-1])
+        (a, b), (c, d) = (ours[0], ours[-1]), (below[0], below[-1])
         if not np.allclose([a, b], [c, d], rtol=1e-9, atol=1e-6):
             errors.append(_stage_error(stage, "OtherTake",
                                        f"{layer.GetDisplayName()}: {anim.GetPath()} samples time codes {a:g}..{b:g}, "
@@ -122,22 +116,21 @@ def _times_in(attr, layer) -> np.ndarray | None:
     return None
 
 
-def _times_without(anim, layer) -> np.ndarray | None:
+def _times_without(anim, layer) -> np.ndarray:
     """The animation's sample times as value resolution gives them with ``layer`` left out: per array,
-    the strongest other spec's samples (none where its default wins), joined; None where no other
-    layer holds a value of any of the three arrays (value clips are not looked into)."""
-    found, times = False, set()
+    the strongest other spec's samples (none where its default wins), joined (value clips are not
+    looked into: none)."""
+    times = set()
     for attr in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr()):
         for spec, offset in (attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []):
             if spec.layer.identifier == layer.identifier:
                 continue
             if spec.layer.GetNumTimeSamplesForPath(spec.path):
                 times.update(offset * t for t in spec.layer.ListTimeSamplesForPath(spec.path))
-            elif not spec.HasDefaultValue():
-                continue
-            found = True
-            break
-    return np.array(sorted(times), dtype=float) if found else None
+                break
+            if spec.HasDefaultValue():
+                break
+    return np.array(sorted(times), dtype=float)
 
 
 def _looks_and_releases(stage, record: dict, name: str, clock, span) -> list:

@@ -292,16 +292,6 @@ def _on_every_frame(times: np.ndarray, stage: Usd.Stage, where_anim: str) -> np.
     return np.sort(np.concatenate([times, grid[near >= 0.5 * step]]))
 
 
-def written_times(stage: Usd.Stage, times: np.ndarray, where_anim: str) -> tuple[np.ndarray, bool]:
-    """The times a pass writes for an animation whose arrays are sampled at ``times`` (sorted, unique
-    stage times, every array's together), and whether it holds one pose: with no time sample, or one
-    (USD holds it at every time), every frame of the stage's range; else its keys, with every frame
-    between them where they lie far apart."""
-    held = len(times) == 0 or (len(times) == 1 and stage.HasAuthoredTimeCodeRange()
-                               and stage.GetEndTimeCode() > stage.GetStartTimeCode())
-    return (_still_times(stage, where_anim) if held else _on_every_frame(times, stage, where_anim)), held
-
-
 def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str, joints: list[str] | None = None):
     """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation,
     and whether it holds one pose: with defaults only, or one time sample (USD holds that value at
@@ -310,7 +300,12 @@ def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str, joints:
     times = np.sort(np.concatenate([s.times() for s in attrs if s.attr] or [[]]))
     times = times[np.r_[True, times[1:] != times[:-1]]] if len(times) else times  # np.unique would import numpy.ma
     stage = anim.GetPrim().GetStage()
-    times, held = written_times(stage, times, where_anim)
+    held = len(times) == 0 or (len(times) == 1 and stage.HasAuthoredTimeCodeRange()
+                               and stage.GetEndTimeCode() > stage.GetStartTimeCode())
+    if held:
+        times = _still_times(stage, where_anim)
+    else:
+        times = _on_every_frame(times, stage, where_anim)
     rotations = read_array(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
     translations = read_array(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
     scales = read_array(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
