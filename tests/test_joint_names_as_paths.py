@@ -15,7 +15,9 @@ from pxr import Sdf
 
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from usdgaze import api
+from usdgaze.core.hints import BindHints
 from usdgaze.core.names import spelled_with_names
+from usdgaze.passes.options import PassOptions
 
 from . import measure
 from . import synthetic as syn
@@ -66,3 +68,31 @@ def test_a_name_whose_leading_elements_are_not_its_ancestors_is_read_whole():
     parents = [-1, 0, 1]
     assert spelled_with_names(joints, parents, ["Hips", "Arm", "L/Hand"]) == ["Hips", "Hips/Arm", "Hips/Arm/L_Hand"]
     assert spelled_with_names(joints, parents, ["|grp|Hips", "Hips|Arm", "Arm|Hand"]) == ["Hips", "Hips/Arm", "Hips/Arm/Hand"]
+
+
+def test_a_binding_by_token_on_a_rig_bound_by_its_joint_names(tmp_path):
+    """A rig whose tokens say nothing binds by its jointNames; a ``--bind`` naming a joint by its token
+    (``head=j5``, as ``usdgaze inspect`` lists the joints) was looked for among the names alone, and
+    the rig that bound without it was refused with it ('no pelvis above head j5')."""
+    rig = syn.make_rig(tmp_path / "in.usda", frames=90, mesh=False, time_codes_per_second=30)
+    layer = Sdf.Layer.FindOrOpen(str(rig.path))
+    token = {j: "/".join(f"j{rig.joints.index('/'.join(j.split('/')[:k]))}" for k in range(1, j.count("/") + 2))
+             for j in rig.joints}
+    for prim in (rig.skeleton, rig.animation):
+        spec = layer.GetAttributeAtPath(f"{prim}.joints")
+        spec.default = [token[str(j)] for j in spec.default]
+    layer.Save()
+    head, neck = token[rig.joint("head")], token[rig.joint("neck")]
+    for role, joint in (("head", head.rsplit("/", 1)[-1]), ("neck", neck), ("head", "mixamorig:Head")):
+        options = PassOptions(binding=BindHints(bindings=((role, (joint,)),)))
+        report = api.apply(rig.path, ["0.5s:40:0"], tmp_path / "gaze.usdc", preview=tmp_path / "preview.usda",
+                           options=options)
+        chain = report.characters[0].chain
+        assert chain["head"] == [head] and chain["neck"] == [neck], (role, joint, chain)
+        leaf = lambda key: token[rig.joint(key)].rsplit("/", 1)[-1]  # noqa: E731
+        base = measure.posed(str(rig.path), rig.skeleton)
+        new = measure.posed(str(tmp_path / "preview.usda"), rig.skeleton)
+        change, _, _ = measure.gaze_change(base, new, rig.forward, leaf("head"), (leaf("eye_l"), leaf("eye_r")))
+        s = report.characters[0].result.shift_timing[0]
+        hold = base.times >= rig.start_time + (s["time_s"] + s["duration"]) * rig.time_codes_per_second + 1
+        assert hold.sum() > 30 and np.abs(change[hold] - [40.0, 0.0]).max() <= 0.5
