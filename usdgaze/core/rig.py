@@ -100,7 +100,7 @@ def _explicit(joints: list[str], bindings, labels, where: str,
         label = labels.get(role, f"gaze:binding:{role}")
         if role not in ROLES:
             raise RigError(f"{where}: {label}: unknown gaze role '{role}' (roles: {', '.join(ROLES)})")
-        picked = [_resolve_either(n, joints, tokens, f"{where}: {label}") for n in wanted]
+        picked = [resolve_either(n, joints, tokens, f"{where}: {label}") for n in wanted]
         twice = sorted({j for j in picked if picked.count(j) > 1})
         if twice:
             raise RigError(f"{where}: {label}: names joint '{names.leaf(joints[twice[0]])}' twice")
@@ -110,7 +110,7 @@ def _explicit(joints: list[str], bindings, labels, where: str,
     return found, reasons
 
 
-def _resolve_either(name: str, joints: list[str], tokens: list[str] | None, what: str) -> int:
+def resolve_either(name: str, joints: list[str], tokens: list[str] | None, what: str) -> int:
     """A bound joint named by its token (path or own name) where ``joints`` spell the skeleton with its
     jointNames (``tokens``: the same joints as USD names them), else by that spelling."""
     if tokens is None or tokens is joints:
