@@ -274,3 +274,21 @@ def test_a_mirrored_clip_turns_as_the_world_shows_it(tmp_path):
     mirrored = motions.offsets[:, :4] * np.array([1.0, -1.0, -1.0, 1.0])  # (x, y, z, w) across canonical X (left)
     errors = np.degrees(rot.angle(rot.relative(mirrored, result.definition.motions.offsets[:, :4])))
     assert errors.max() <= 0.5, errors
+
+
+def test_a_skeleton_table_may_name_a_generic_rigs_joint_by_its_token(tmp_path):
+    """On a rig bound by its jointNames, ``[skeleton] head = "jN"`` (the token, as ``inspect`` lists
+    it) was looked for among the names alone: 'not a joint of the skeleton'."""
+    rename = {k: f"mixamorig_{k}" for k in CUSTOM}
+    motions, sheet = _session(tmp_path, rename)
+    named = build(sheet)
+    for i in range(len(TARGETS)):
+        _generic_tokens(tmp_path / f"t{i}.usda")
+    from pxr import Sdf
+
+    layer = Sdf.Layer.FindOrOpen(str(tmp_path / "t0.usda"))
+    names = list(layer.GetAttributeAtPath("/Rig/Skel.jointNames").default)
+    sheet.write_text(f'[skeleton]\nhead = "j{names.index("mixamorig_Head")}"\n' + sheet.read_text())
+    generic = build(sheet)
+    assert _pose_errors(motions, generic).max() <= 0.5
+    np.testing.assert_allclose(generic.definition.motions.offsets, named.definition.motions.offsets, atol=1e-12)

@@ -30,7 +30,7 @@ from usdgaze.usd.layers import (
     reload_if_open,
     write_preview,
 )
-from usdgaze.usd.sublayers import check_sublayer_target, insert_sublayer
+from usdgaze.usd.sublayers import check_sublayer_target, insert_sublayer, masked_overrides
 from usdgaze.values import ShiftRequest, check_pass_options, cli_label
 from usdgaze.files.kinds import require_file
 
@@ -248,3 +248,4 @@ def _stage_outputs(tx: Outputs, req: ApplyRequest, stage, report: ApplyReport,
     if req.sublayer_into is not None:
         report.sublayer_was_there = not insert_sublayer(req.sublayer_into, out, animations, tx, input_path=req.source)
         report.sublayered_into = str(req.sublayer_into)
+        report.warnings.extend(masked_overrides(req.sublayer_into, out, animations, req.source))

@@ -162,7 +162,8 @@ def bind(clip: SkelClip, definition: GazeMapDefinition | None, hints: BindHints 
     where = f"{clip.source}:{clip.skeleton}"
     bindings, labels, forward, label = _bindings(definition, hints, shared, shared_name)
     chain = _by_names_too(clip.joints, clip.parents, clip.joint_names,
-                          lambda joints: bind_chain(joints, clip.parents, bindings, where=where, labels=labels))
+                          lambda joints: bind_chain(joints, clip.parents, bindings, where=where, labels=labels,
+                                                    tokens=clip.joints))
     frame = _by_names_too(clip.joints, clip.parents, clip.joint_names,
                           lambda joints: _character_frame(clip, joints, forward, label))
     return chain, frame
@@ -174,7 +175,8 @@ def chain_of(joints: list[str], parents, joint_names, definition: GazeMapDefinit
     of a layer needs to know which joints the pass drove."""
     bindings, labels, _, _ = _bindings(definition, hints, None, "")
     return _by_names_too(joints, parents, joint_names,
-                         lambda named: bind_chain(named, parents, bindings, where=where, labels=labels))
+                         lambda named: bind_chain(named, parents, bindings, where=where, labels=labels,
+                                                  tokens=joints))
 
 
 def _bindings(definition, hints: BindHints | None, shared, shared_name: str) -> tuple[dict, dict, tuple | None, str]:

@@ -42,9 +42,25 @@ def spelled_with_names(joints: list[str], parents, names) -> list[str] | None:
         return None
     spelled: list[str] = []
     for i, name in enumerate(names):
-        own = str(name).replace("/", "_") or leaf(joints[i])
+        above = spelled[parents[i]].split("/") if parents[i] >= 0 else []
+        own = _own_name(str(name), above) or leaf(joints[i])
         spelled.append(f"{spelled[parents[i]]}/{own}" if parents[i] >= 0 else own)
     return None if spelled == list(joints) else spelled
+
+
+_PATH_SEPARATORS = re.compile(r"[/|]")
+
+
+def _own_name(name: str, above: list[str]) -> str:
+    """A ``jointNames`` entry's own name. A DCC may name a joint by its path (Maya's ``|grp|Hips|Spine``,
+    ``Hips/Spine``, or the last few elements of it): where the elements before the last are the names of
+    the joint's ancestors (``above``, root first; a root's may be groups above the skeleton), it is the
+    last. Read whole, the head was ``Hips_Spine_..._Head``, a name of every word, and no chain bound."""
+    parts = [p for p in _PATH_SEPARATORS.split(name) if p]
+    k = min(len(parts) - 1, len(above))
+    if parts and parts != [name] and parts[len(parts) - 1 - k:-1] == above[len(above) - k:]:
+        return parts[-1]
+    return name.replace("/", "_")
 
 
 def names_not_read(joints: list[str], names) -> str:

@@ -93,13 +93,14 @@ def resolve_joint(name: str, joints: list[str], what: str) -> int:
     raise RigError(f"{what}: '{name}' is not a joint of this skeleton")
 
 
-def _explicit(joints: list[str], bindings, labels, where: str) -> tuple[dict[str, list[int]], dict[str, str]]:
+def _explicit(joints: list[str], bindings, labels, where: str,
+              tokens: list[str] | None = None) -> tuple[dict[str, list[int]], dict[str, str]]:
     found, reasons = {}, {}
     for role, wanted in bindings.items():
         label = labels.get(role, f"gaze:binding:{role}")
         if role not in ROLES:
             raise RigError(f"{where}: {label}: unknown gaze role '{role}' (roles: {', '.join(ROLES)})")
-        picked = [resolve_joint(n, joints, f"{where}: {label}") for n in wanted]
+        picked = [resolve_either(n, joints, tokens, f"{where}: {label}") for n in wanted]
         twice = sorted({j for j in picked if picked.count(j) > 1})
         if twice:
             raise RigError(f"{where}: {label}: names joint '{names.leaf(joints[twice[0]])}' twice")
@@ -107,6 +108,17 @@ def _explicit(joints: list[str], bindings, labels, where: str) -> tuple[dict[str
         reasons[role] = label
     _one_role_each(joints, found, where, "a joint plays one role")
     return found, reasons
+
+
+def resolve_either(name: str, joints: list[str], tokens: list[str] | None, what: str) -> int:
+    """A bound joint named by its token (path or own name) where ``joints`` spell the skeleton with its
+    jointNames (``tokens``: the same joints as USD names them), else by that spelling."""
+    if tokens is None or tokens is joints:
+        return resolve_joint(name, joints, what)
+    try:
+        return resolve_joint(name, tokens, what)
+    except RigError:
+        return resolve_joint(name, joints, what)
 
 
 def _one_role_each(joints: list[str], found: dict[str, list[int]], where: str, advice: str) -> None:
@@ -273,14 +285,16 @@ def _split_spine(path: list[int], joints, found, reasons, fixed: set[str]) -> No
 
 
 def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple[str, ...]] | None = None,
-               where: str = "skeleton", labels: dict[str, str] | None = None) -> Chain:
+               where: str = "skeleton", labels: dict[str, str] | None = None, tokens: list[str] | None = None) -> Chain:
     """Bind roles to joints: explicit bindings first, then names, then the skeleton's shape.
 
     ``bindings`` name joints by path or by their own name; ``labels`` say where each role's binding
-    came from (``--bind``), for messages. Raises :class:`RigError` listing the joints considered.
+    came from (``--bind``), for messages. ``tokens``: the skeleton's own joint paths where ``joints``
+    spell them with its jointNames (a binding may name a joint either way). Raises :class:`RigError`
+    listing the joints considered.
     """
     bindings = {k: tuple(v) for k, v in (bindings or {}).items() if v}
-    found, reasons = _explicit(joints, bindings, labels or {}, where)
+    found, reasons = _explicit(joints, bindings, labels or {}, where, tokens)
     if "head" not in found:
         _find_head(joints, parents, found, reasons)
     if "head" in found and "pelvis" not in found:

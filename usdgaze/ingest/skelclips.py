@@ -66,22 +66,31 @@ def _skeleton(stage: Usd.Stage, path: str | None, where: str) -> UsdSkel.Skeleto
     return UsdSkel.Skeleton(animated[0])
 
 
-def _resolve(binding: SkeletonBinding, joints: list[str], where: str) -> dict[str, tuple[str, ...]]:
-    """Role -> joint paths from names or paths (a name matches a joint's leaf, namespaces ignored)."""
+def _resolve(binding: SkeletonBinding, joints: list[str], where: str,
+             spelled: list[str] | None = None) -> dict[str, tuple[str, ...]]:
+    """Role -> joint paths from names or paths (a name matches a joint's leaf, namespaces ignored), as
+    ``spelled`` spells the skeleton's ``joints`` (with its jointNames, say): a joint may be named
+    either way (its token ``j5``, as inspect lists it, was not found among the names)."""
+    spelled = joints if spelled is None else spelled
     out = {}
     for role, name in binding.joints.items():
         if role not in ROLES:
             raise SkeletonClipError(f"{where}: unknown skeleton role '{role}' (roles: {', '.join(ROLES)})")
-        if name in joints:
-            out[role] = (name,)
-            continue
-        hits = [j for j in joints if leaf(j) == leaf(name)] or [j for j in joints if leaf(j).lower() == leaf(name).lower()]
+        hits = _named(name, joints) or _named(name, spelled)
         if not hits:
             raise SkeletonClipError(f"{where}: skeleton.{role} = '{name}' is not a joint of the skeleton")
         if len(hits) > 1:
             raise SkeletonClipError(f"{where}: skeleton.{role} = '{name}' matches {len(hits)} joints; give the joint path")
-        out[role] = (hits[0],)
+        out[role] = (spelled[hits[0]],)
     return out
+
+
+def _named(name: str, joints: list[str]) -> list[int]:
+    """Indices of the joints ``name`` names: its path, else its leaf (then ignoring case)."""
+    if name in joints:
+        return [joints.index(name)]
+    return ([i for i, j in enumerate(joints) if leaf(j) == leaf(name)]
+            or [i for i, j in enumerate(joints) if leaf(j).lower() == leaf(name).lower()])
 
 
 def _skel_query(skel: UsdSkel.Skeleton, where: str) -> tuple[UsdSkel.SkeletonQuery, list[float]]:
@@ -116,7 +125,7 @@ def _bound_chain(query: UsdSkel.SkeletonQuery, binding: SkeletonBinding, where: 
     first = None
     for spelled in [joints] + ([named] if named else []):
         try:
-            return spelled, bind_chain(spelled, parents, _resolve(binding, spelled, where), where)
+            return spelled, bind_chain(spelled, parents, _resolve(binding, joints, where, spelled), where)
         except (RigError, SkeletonClipError) as exc:
             first = first or exc
     if isinstance(first, SkeletonClipError):

@@ -230,20 +230,20 @@ class Base:
     ae: np.ndarray
     """Its (azimuth, elevation) in degrees ``(F, 2)``."""
 
-    def eye_midpoint(self) -> np.ndarray:
-        """Skeleton-space midpoint of the base motion's eyes ``(F, 3)``. The pose holds rotations only:
-        the positions down to the eyes are computed when asked (where look targets are seen from; a
-        pass of shifts alone never asks)."""
+    def head_and_eyes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Skeleton-space positions of the base motion's head joint and of its eyes' midpoint ``(F, 3)``.
+        The pose holds rotations only: the positions down to the eyes are computed when asked (where
+        look targets are seen from; a pass of shifts alone never asks)."""
         rig = self.rig
-        pose = forward(with_ancestors(list(rig.eyes), rig.parents), rig.parents, rig.local, self.pose.rotation)
-        return 0.5 * (pose.position[rig.eyes[0]] + pose.position[rig.eyes[1]])
+        pose = forward(with_ancestors([*rig.eyes, rig.head], rig.parents), rig.parents, rig.local, self.pose.rotation)
+        return pose.position[rig.head], 0.5 * (pose.position[rig.eyes[0]] + pose.position[rig.eyes[1]])
 
 
 def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
     """The rig with eyes (added if missing), base FK of the chain and eyes (the leg roots' counter
     rotation needs only their locals), and the base line of sight (where the head looks)."""
     rig = with_eyes(clip, chain, frame, options)
-    # The eyes' base rotations are not needed unless look targets are seen from them (eye_midpoint
+    # The eyes' base rotations are not needed unless look targets are seen from them (head_and_eyes
     # composes them then); their scales still decide, as before, whether the pose has linear parts.
     pose = forward(with_ancestors(list(chain.path), rig.parents), rig.parents, rig.local, positions=False,
                    scaled_by=with_ancestors(list(chain.path) + list(rig.eyes), rig.parents))

@@ -122,9 +122,20 @@ def _relative(points: np.ndarray, eye: np.ndarray, base_ae: np.ndarray, up: np.n
     return ae
 
 
-def _nearer(points: np.ndarray, eye: np.ndarray, near: float) -> np.ndarray:
+NEAR, INSIDE = 1, 2
+"""Why a target is out of reach on a frame though not behind: nearer than the eyes' near point, or
+inside the head (nearer the head joint than the eyes are)."""
+
+
+def _too_near(points: np.ndarray, eye: np.ndarray, head: np.ndarray, sight: np.ndarray, near: float) -> np.ndarray:
+    """Per frame, ``NEAR``, ``INSIDE`` or 0. Inside the head: behind the eyes (against the base line of
+    ``sight``) and nearer the head joint than they are. A point there turns with the head, so no turn of
+    the body brings it into view: one at the head joint, 11 cm behind the eyes, was taken up by 150 deg
+    turns cut short every few frames as the bobbing head brought it across the near point."""
     with np.errstate(over="ignore", invalid="ignore"):  # 1e300 away is refused by _check_distance
-        return rot.length(points - eye) < near
+        behind = np.einsum("fi,fi->f", points - eye, sight) < 0.0
+        inside = behind & (rot.length(points - head) < rot.length(eye - head))
+        return np.where(inside, INSIDE, np.where(rot.length(points - eye) < near, NEAR, 0)).astype(np.int8)
 
 
 # -- the pass ----------------------------------------------------------------------------------------
@@ -241,11 +252,11 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     base = prepare(clip, chain, frame, options)
     rig, up = base.rig, base.up
     # Where look targets are seen from: the base motion's eyes (shifts alone never ask).
-    eye_b = to_world(clip, base.eye_midpoint()) if targets else None
+    head_b, eye_b = (to_world(clip, p) for p in base.head_and_eyes()) if targets else (None, None)
     _check_distance(clip, directives, targets, eye_b, target_names)
     near = NEAR_POINT_M / clip.meters_per_unit
-    too_near = {k: _nearer(t, eye_b, near) for k, t in enumerate(targets)}
-    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, too_near[d.target])
+    too_near = {k: _too_near(t, eye_b, head_b, base.line_of_sight, near) for k, t in enumerate(targets)}
+    rel = {d.target: _relative(targets[d.target], eye_b, base.ae, up, too_near[d.target] > 0)
            for d in directives if d.kind == "look"}
 
     gaze_map = CachedMap(gaze_map)  # the planner asks for the same shifts again and again
@@ -319,7 +330,7 @@ def _shift_spans(directives: list[Directive]) -> list[tuple[Directive, float]]:
 def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], result: PassResult,
               base_ae: np.ndarray, options: PassOptions, names: list[str], too_near: dict, up: np.ndarray) -> list[str]:
     """Shifts that miss their request once settled; targets that went out of reach (``too_near``:
-    per target, the frames it is nearer than the near point)."""
+    per target and frame, ``NEAR``, ``INSIDE`` or 0)."""
     shifts = [(Shift(d.time_s, d.yaw, d.pitch), end) for d, end in _shift_spans(directives)]
     plan = Schedule(np.empty(0), result.requested, result.settled, [])
     out = reach_warnings(clip, [s for s, _ in shifts], plan, base_ae, result.achieved, result.eye_angles,
@@ -349,8 +360,8 @@ def _warnings(clip: SkelClip, directives: list[Directive], epochs: list[Epoch], 
         for f in (f for f, kind, _ in epoch.events if kind == "base"):
             t = seconds[f]
             again = next((b for b in back if b > t), None)
-            why = (f"nearer than the eyes' near point, {NEAR_POINT_M * 100:g} cm" if too_near[d.target][f]
-                   else "behind the character")
+            why = {NEAR: f"nearer than the eyes' near point, {NEAR_POINT_M * 100:g} cm",
+                   INSIDE: "inside the character's head"}.get(int(too_near[d.target][f]), "behind the character")
             out.append(f"{clip.where()}: look at {name} from {d.time_s:g} s: the target is out of reach "
                        f"({why}) at {t:g} s; the gaze returns to the base motion's"
                        + (f" and takes the target up again at {again:g} s" if again is not None else ""))

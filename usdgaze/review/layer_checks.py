@@ -86,25 +86,51 @@ def _other_version(stage, layer, record: dict) -> list:
 
 
 def _other_take(stage, layer, characters) -> list:
-    """Each named character's animation as ``layer`` samples it against the strongest layer below it
-    that samples it: ``apply`` writes every frame from the input's first key to its last, so another
-    span is a layer made for another take (plot and preview refuse it; validate had called it clean)."""
+    """Each named character's animation as ``layer`` samples it against the input without it: ``apply``
+    writes every frame from the first key of its rotations, translations and scales to the last, so
+    another span is a layer made for another take (plot and preview refuse it; validate had called it
+    clean). An input that holds one pose (one sample or none) has no span of its own (``apply`` took
+    the range of the stage it was given), so there is nothing to compare. Rotations alone were
+    compared: one held while the translations moved, or one pose on a single sample, was called
+    another take on ``apply``'s own preview."""
     errors = []
     for anim in _animations(stage, characters):
-        attr = anim.GetRotationsAttr()
-        stack = attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []
-        spans = [(spec.layer.identifier, _span(spec, offset)) for spec, offset in stack
-                 if spec.layer.GetNumTimeSamplesForPath(spec.path)]
-        ours = next((k for k, (name, _) in enumerate(spans) if name == layer.identifier), None)
-        if ours is None or ours + 1 >= len(spans):  # not sampled here, or nothing below samples it
+        ours = _times_in(anim.GetRotationsAttr(), layer)
+        below = _times_without(anim, layer)
+        if ours is None or len(below) < 2:  # not sampled here, or no span below
             continue
-        (a, b), (c, d) = spans[ours][1], spans[ours + 1][1]
+        (a, b), (c, d) = (ours[0], ours[-1]), (below[0], below[-1])
         if not np.allclose([a, b], [c, d], rtol=1e-9, atol=1e-6):
             errors.append(_stage_error(stage, "OtherTake",
                                        f"{layer.GetDisplayName()}: {anim.GetPath()} samples time codes {a:g}..{b:g}, "
                                        f"the input below it {c:g}..{d:g}: the layer was made for another take; "
                                        f"validate it over the input it was made for"))
     return errors
+
+
+def _times_in(attr, layer) -> np.ndarray | None:
+    """Stage times of the samples ``layer`` holds for ``attr`` (through its offset), or None."""
+    for spec, offset in (attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []):
+        if spec.layer.identifier == layer.identifier and spec.layer.GetNumTimeSamplesForPath(spec.path):
+            return np.array([offset * t for t in spec.layer.ListTimeSamplesForPath(spec.path)], dtype=float)
+    return None
+
+
+def _times_without(anim, layer) -> np.ndarray:
+    """The animation's sample times as value resolution gives them with ``layer`` left out: per array,
+    the strongest other spec's samples (none where its default wins), joined (value clips are not
+    looked into: none)."""
+    times = set()
+    for attr in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr()):
+        for spec, offset in (attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []):
+            if spec.layer.identifier == layer.identifier:
+                continue
+            if spec.layer.GetNumTimeSamplesForPath(spec.path):
+                times.update(offset * t for t in spec.layer.ListTimeSamplesForPath(spec.path))
+                break
+            if spec.HasDefaultValue():
+                break
+    return np.array(sorted(times), dtype=float)
 
 
 def _looks_and_releases(stage, record: dict, name: str, clock, span) -> list:
@@ -150,12 +176,6 @@ def _bound(stage, characters):
             anim = UsdSkel.BindingAPI(skel).GetInheritedAnimationSource()
             if anim:
                 yield prim, UsdSkel.Skeleton(skel), UsdSkel.Animation(anim)
-
-
-def _span(spec, offset) -> tuple[float, float]:
-    """First and last time sample of a spec, in stage time (through the layer's offset)."""
-    times = spec.layer.ListTimeSamplesForPath(spec.path)
-    return float(offset * times[0]), float(offset * times[-1])
 
 
 def sampled_range(stage, characters, start: float, end: float) -> tuple[float, float]:

@@ -195,13 +195,31 @@ def gaze_map_role_joints(prim: Usd.Prim, time_range=None) -> list:
     for role, name in BINDING_ATTRS.items():
         _, value = _values(prim, name)
         for skel in skeletons:
-            joints = set(str(j) for j in (UsdSkel.Skeleton(skel).GetJointsAttr().Get() or []))
-            missing = [str(j) for j in (value or []) if str(j) not in joints]
+            missing = [str(j) for j in (value or []) if not _binds(str(j), UsdSkel.Skeleton(skel))]
             if missing:
                 errors.append(_error(prim, prim.GetPath().AppendProperty(name), "UnknownJoint",
                                      f"{name}: '{missing[0]}'{f' (+{len(missing) - 1} more)' if len(missing) > 1 else ''} "
                                      f"is not a joint of {skel.GetPath()}"))
     return errors
+
+
+def _binds(name: str, skel: UsdSkel.Skeleton) -> bool:
+    """Whether a binding's joint name finds a joint of ``skel`` as ``apply`` finds it: by path or by its
+    own name, on the joint tokens or, where they say nothing, the paths spelled with its jointNames (a
+    binding by own name, ``mixamorig_Head``, bound in apply and was 'not a joint' here)."""
+    from usdgaze.core.names import spelled_with_names
+    from usdgaze.core.rig import resolve_either
+    from usdgaze.errors import RigError
+
+    tokens = [str(j) for j in (skel.GetJointsAttr().Get() or [])]
+    names_attr = skel.GetJointNamesAttr()
+    names = names_attr.Get() if names_attr and names_attr.HasAuthoredValue() else None
+    spelled = spelled_with_names(tokens, UsdSkel.Topology(tokens).GetParentIndices(), names) if names else None
+    try:
+        resolve_either(name, spelled or tokens, tokens, "")
+    except RigError:
+        return False
+    return True
 
 
 def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:

@@ -169,6 +169,32 @@ def sublayered(root: str | os.PathLike, override: str | os.PathLike, input_path=
     return layer.subLayerOffsets[0] == override_offset(real, input_path)
 
 
+def masked_overrides(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str],
+                     input_path: str | os.PathLike | None = None) -> list[str]:
+    """A warning for each other usdgaze override ``root``'s layer stack holds over the same animations
+    (an earlier take of this gaze, another name for ``--out``): the new override, strongest, hides its
+    animation, but whatever else it authors still shows (its guides drew the old lines of sight over
+    the new gaze, and ``validate`` found nothing). Layers the input composes are left out: a pass on
+    the input adds to those, and says so (:func:`usdgaze.usd.layers.composed_override_notes`)."""
+    from usdgaze.usd.layers import is_override
+    from usdgaze.usd.stage import layer_dependencies, without_usd_warnings
+
+    real = os.path.realpath(root)
+    with without_usd_warnings():
+        composed = {FileId.of(f) for f in layer_dependencies(os.path.realpath(input_path))} if input_path else set()
+    notes = []
+    for path, _ in _stack_offsets(Sdf.Layer.FindOrOpen(real))[1:]:
+        if not path or _same_file(path, override) or FileId.of(path) in composed or not is_override(path):
+            continue  # (a layer of another kind is not opened whole)
+        layer = Sdf.Layer.FindOrOpen(path)
+        held = [a for a in anim_paths if layer is not None and layer.GetPrimAtPath(a)]
+        if held:
+            notes.append(f"{root}: also sublayers {path}, an override usdgaze wrote for {', '.join(held)}: the new "
+                         "override hides its animation, but its guides and whatever else it adds still show; remove it "
+                         f"from the subLayers if it is an earlier take")
+    return notes
+
+
 def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str],
                     outputs: Outputs | None = None, input_path: str | os.PathLike | None = None) -> bool:
     """Make ``override`` the strongest sublayer of ``root``, changing nothing but its subLayers.
