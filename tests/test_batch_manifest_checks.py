@@ -226,3 +226,15 @@ def _refused_naming(manifest, *words: str) -> None:
     assert "\n" not in message and message.startswith(f"{manifest}: ")
     for word in words:
         assert word in message, (word, message)
+
+
+@pytest.mark.parametrize("argv", [[], ["--task-index", "0"]])
+def test_a_manifest_in_a_missing_folder_is_named_not_its_summary(tmp_path, capsys, argv):
+    """A mistyped manifest folder was said as its default summary's folder missing
+    ('.../m.summary.json: folder ... does not exist'): the manifest is named, as for a missing file."""
+    manifest = tmp_path / "no folder" / "m.toml"
+    capsys.readouterr()
+    assert main(["batch", str(manifest), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"usdgaze: error: {manifest}: no such file"], err
+    assert list(tmp_path.iterdir()) == []
