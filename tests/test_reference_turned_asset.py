@@ -17,6 +17,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 import usdgaze  # noqa: F401  (registers the schemas before any stage is opened)
 from usdgaze.console.main import main
+from usdgaze.review.validation import run as validate
 
 from . import attend_support as A
 from . import measure
@@ -75,3 +76,34 @@ def test_a_reference_that_drops_the_assets_own_turn_is_refused(tmp_path, capsys)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "which says upAxis Y, but the stage's up is Z" in err[0], err
     assert not (tmp_path / "gaze.usdc").exists()
+
+
+def test_a_centimetre_asset_scaling_its_metre_data_on_its_own_root_is_taken_at_its_size(tmp_path):
+    """The unit check reads the same way: an asset in centimetres (metersPerUnit 0.01, sublayering
+    ball_throw) whose root prim scales the CMU clip's metre data by 100, referenced into a metre stage
+    under a prim scaled 0.01, is a character of its own size (measured by FK below). The check took the
+    asset's own scale as the arc's, read the reference as unscaled and refused it as "100 times too small"."""
+    asset = Sdf.Layer.CreateNew(str(tmp_path / "asset_cm.usda"))
+    asset.pseudoRoot.SetInfo("upAxis", "Y")
+    asset.pseudoRoot.SetInfo("metersPerUnit", 0.01)
+    asset.subLayerPaths[:] = [str(BALL_THROW)]
+    stage = Usd.Stage.Open(asset)
+    root = UsdGeom.Xformable(stage.GetPrimAtPath("/root"))
+    root.AddScaleOp().Set((100.0, 100.0, 100.0))  # after its own rotateXYZ, in its xformOpOrder
+    asset.Save()
+    src = Sdf.Layer.FindOrOpen(str(BALL_THROW))
+    layer = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
+        setattr(layer, key, getattr(src, key))
+    layer.pseudoRoot.SetInfo("upAxis", "Y")
+    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    stage = Usd.Stage.Open(layer)
+    UsdGeom.Xform.Define(stage, "/World").AddScaleOp().Set((0.01, 0.01, 0.01))
+    stage.DefinePrim("/World/root").GetReferences().AddReference(str(tmp_path / "asset_cm.usda"), "/root")
+    layer.Save()
+    p = measure.posed(str(tmp_path / "shot.usda"), SKEL)
+    height = p.position("Head")[0][1] - min(p.position("LeftAnkle")[0][1], p.position("RightAnkle")[0][1])
+    assert 1.2 < height < 2.0, height  # metres, in a metre stage: the character's own size
+    problems = [q for q in validate(tmp_path / "shot.usda", only_usdgaze=True) if q["validator"].endswith("SkeletonUnits")]
+    assert problems == [], problems
+    assert main(["inspect", str(tmp_path / "shot.usda")]) == 0
