@@ -147,9 +147,10 @@ def _asset_to_stage(skel: Usd.Prim, node, assets: dict) -> np.ndarray:
     ident = node.layerStack.identifier
     if path.isEmpty:
         return stage_world
-    if ident not in assets:
-        assets[ident] = Usd.Stage.Open(ident.rootLayer, ident.pathResolverContext)
-    own = assets[ident].GetPrimAtPath(path)
+    if (ident, path) not in assets:  # the Skeleton and its ancestors alone: an asset may be a whole set
+        mask = Usd.StagePopulationMask([path])
+        assets[ident, path] = Usd.Stage.OpenMasked(ident.rootLayer, ident.pathResolverContext, mask)
+    own = assets[ident, path].GetPrimAtPath(path)
     if not own or not own.IsA(UsdGeom.Xformable):
         return stage_world
     asset_world = _first_world(own)[:3, :3]
