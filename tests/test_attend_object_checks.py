@@ -11,6 +11,9 @@
 - A transform USD cannot evaluate (an op of the wrong type, an unknown op, a named op that is not
   there), on the object or a parent, in ``attend`` or on a ``--physics`` stone, is one line naming the
   prim and attribute, exit 2 (an internal error, exit 1, before).
+- ``apply --look-at`` refuses the same transforms of its target prim in the same line (an internal
+  error, exit 1, or a look at the world's origin, exit 0, before); an xformOpOrder authored as a token
+  or a string (USD orders no op by it) is named as such (its letters were read as op names).
 - An instancing prototype's prim, an abstract class prim and the character's own Skeleton are not
   objects (one line each); an instance's prim (an instance proxy) is.
 """
@@ -206,7 +209,45 @@ def _retyped(prim_type: str, name: str, type_name, value, sampled: bool = False,
     return edit
 
 
+def _order_typed(type_name, value):
+    """An edit for ``_rig_with_ball``: the object's xformOpOrder authored as ``type_name`` (not token[]):
+    USD orders no op by it and reads the prim at identity, the world's origin."""
+    def edit(ball, layer):
+        ball.AddAppliedSchema("GazeObjectAPI")
+        spec = layer.GetPrimAtPath("/Obj/Ball")
+        spec.RemoveProperty(spec.properties["xformOpOrder"])
+        Sdf.AttributeSpec(spec, "xformOpOrder", type_name, variability=Sdf.VariabilityUniform).default = value
+    return edit
+
+
+_UNEVALUABLE = [
+    (_retyped("Sphere", "xformOp:translate", _N.Double, 1.0), "/Obj/Ball.xformOp:translate: is a double, expected"),
+    (_retyped("Xform", "xformOp:foo", _N.Double3, Gf.Vec3d(0, 1, 2)), "/Obj/Ball.xformOpOrder: 'xformOp:foo' is no "),
+    (_retyped("Sphere", "xformOp:translate", _N.Double3Array, [Gf.Vec3d(0, 1.6, 2)]), "is a double3[], expected"),
+    (_retyped("Sphere", "xformOp:translate", None, None), "/Obj/Ball.xformOpOrder: names xformOp:translate, which"),
+    (_order_typed(_N.Token, "xformOp:translate"), "/Obj/Ball.xformOpOrder: is a token, expected a token[]"),
+    (_retyped("Sphere", "xformOp:scale", _N.Double, 2.0, on="/Obj"), "/Obj.xformOp:scale: is a double"),
+]
+
+
+@pytest.mark.parametrize("edit, want", _UNEVALUABLE)
+def test_a_look_at_target_whose_transform_usd_cannot_evaluate_is_one_line(tmp_path, capsys, edit, want):
+    """``apply --look-at PRIM`` read the target without attend's transform checks: an op of the wrong
+    type or an unknown op stopped it with USD's internal error (exit 1), and an op USD skips (named but
+    not authored, or an xformOpOrder authored as a token, whose letters attend read as op names) was
+    looked at at the world's origin, exit 0."""
+    r = _rig_with_ball(tmp_path, edit)
+    before = r.path.read_bytes()
+    out = tmp_path / "out.usda"
+    assert main(["apply", str(r.path), "--look-at", "/Obj/Ball@0.5s", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and want in err[0] and "internal error" not in err[0], err
+    assert not out.exists() and r.path.read_bytes() == before
+
+
 @pytest.mark.parametrize("edit, physics, want", [
+    (_order_typed(_N.Token, "xformOp:translate"), False, "/Obj/Ball.xformOpOrder: is a token, expected a token[]"),
+    (_order_typed(_N.String, "xformOp:translate"), False, "/Obj/Ball.xformOpOrder: is a string, expected a token[]"),
     (_retyped("Sphere", "xformOp:translate", _N.Double, 1.0), False,
      "/Obj/Ball.xformOp:translate: is a double, expected a float3, double3 or half3 (a translate op)"),
     (_retyped("Sphere", "xformOp:translate", _N.Double, 1.0, sampled=True), False, "xformOp:translate: is a double,"),

@@ -13,6 +13,7 @@ from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd.faces import eye_positions
+from usdgaze.usd.xformops import check_transform
 
 PURPOSES = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
 
@@ -43,6 +44,10 @@ def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
     problem = drawn_problem(prim)
     if problem:
         raise UsdGazeError(f"{source}:{path}: {problem}; look at one of those or at a point X,Y,Z")
+    # As an attend object's: an op USD cannot evaluate stopped apply with an internal error (exit 1), and
+    # one it skips (an op the order names but the prim lacks, an order that is no token[]) was looked at
+    # where USD's identity put it, the world's origin (exit 0).
+    check_transform(prim, source)
     return prim
 
 

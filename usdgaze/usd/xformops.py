@@ -13,6 +13,7 @@ from __future__ import annotations
 from pxr import Sdf, Tf, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.usd.checks import authored_type
 
 RESET = "!resetXformStack!"
 INVERT = "!invert!"
@@ -30,7 +31,11 @@ _WANTED = {**{t: _SCALAR for t in (_T.TypeRotateX, _T.TypeRotateY, _T.TypeRotate
 
 def op_problem(prim: Usd.Prim) -> str | None:
     """Why USD cannot evaluate ``prim``'s own transform ops, as ``attribute: what is wrong``, or None."""
-    order = UsdGeom.Xformable(prim).GetXformOpOrderAttr().Get() or []
+    attr = UsdGeom.Xformable(prim).GetXformOpOrderAttr()
+    spelled = authored_type(attr) if attr.HasAuthoredValue() else "token[]"
+    if spelled != "token[]":  # USD orders no op by it (the prim is read at identity): its letters were read as ops
+        return f"xformOpOrder: is a {spelled or 'value of no type'}, expected a token[] (USD reads no op order from it)"
+    order = attr.Get() or []
     for token in order:
         if token == RESET:
             continue
