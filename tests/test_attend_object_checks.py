@@ -320,3 +320,34 @@ def test_an_object_drawn_nowhere_or_on_the_character_is_one_line(tmp_path, capsy
     if case != "own skeleton":  # a look-at target is refused the same way
         assert main(["apply", str(r.path), "--look-at", f"{path}@0.2s", "--out", str(out)]) == 2
         assert path in capsys.readouterr().err and not out.exists()
+
+
+@pytest.mark.parametrize("command", [["attend"], ["apply", "--shift", "0.5s:20:0"]])
+@pytest.mark.parametrize("name, type_name, value, want", [
+    ("xformOp:translate", _N.Double, 1.0, ".xformOp:translate: is a double, expected a float3"),
+    ("xformOp:foo", _N.Double3, Gf.Vec3d(0, 1, 2), ".xformOpOrder: 'xformOp:foo' is no transform op USD evaluates"),
+    ("xformOpOrder", _N.Token, "xformOp:translate", ".xformOpOrder: is a token, expected a token[]"),
+])
+def test_a_character_whose_transform_usd_cannot_evaluate_is_one_line(tmp_path, capsys, command, name, type_name,
+                                                                      value, want):
+    """The same transforms on the character's SkelRoot (above its Skeleton): apply and attend stopped with
+    USD's internal error (exit 1) on a translate authored as a double or an unknown op, and took an
+    xformOpOrder authored as a token (USD then drops the SkelRoot's ops)."""
+    r = _rig_with_ball(tmp_path, lambda ball, layer: ball.AddAppliedSchema("GazeObjectAPI"))
+    layer = Sdf.Layer.FindOrOpen(str(r.path))
+    spec = layer.GetPrimAtPath(r.skel_root)
+    for old in ("xformOpOrder", name):
+        if old in spec.properties:
+            spec.RemoveProperty(spec.properties[old])
+    order = Sdf.AttributeSpec(spec, "xformOpOrder", type_name if name == "xformOpOrder" else _N.TokenArray,
+                              variability=Sdf.VariabilityUniform)
+    order.default = value if name == "xformOpOrder" else [name]
+    if name != "xformOpOrder":
+        Sdf.AttributeSpec(spec, name, type_name).default = value
+    layer.Save()
+    before = r.path.read_bytes()
+    out = tmp_path / "out.usda"
+    assert main([command[0], str(r.path), "--out", str(out), *command[1:]]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{r.skel_root}{want}" in err[0] and "internal error" not in err[0], err
+    assert not out.exists() and r.path.read_bytes() == before
