@@ -283,6 +283,12 @@ def test_a_transform_usd_cannot_evaluate_is_one_line(tmp_path, capsys, edit, phy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and want in err[0] and "internal error" not in err[0], err
     assert not out.exists() and r.path.read_bytes() == before
+    if not physics:  # validate says what attend refuses (it said nothing of a translate authored as a double)
+        assert main(["validate", str(r.path), "--only-usdgaze"]) == 3
+        said = capsys.readouterr().out
+        site, _, problem = want.rpartition(".xformOp")
+        line = next(l for l in said.splitlines() if "GazeObject.Transform" in l)
+        assert (f"xformOp{problem}" if site else want) in line and f"{site}.xformOp" in line, said
 
 
 def _instanced(ball, layer):

@@ -57,15 +57,24 @@ def op_problem(prim: Usd.Prim) -> str | None:
     return None
 
 
-def check_transform(prim: Usd.Prim, source: str) -> None:
-    """One line naming the prim and attribute unless USD can evaluate the transform of ``prim`` and of
-    every prim above it whose transform it inherits."""
+def transform_problem(prim: Usd.Prim) -> tuple[Usd.Prim, str] | None:
+    """The first prim, ``prim`` or one above it whose transform it inherits, whose transform USD cannot
+    evaluate, with :func:`op_problem`'s line; None where USD can evaluate them all."""
     p = prim
     while p and not p.IsPseudoRoot():
         if p.IsA(UsdGeom.Xformable):
             problem = op_problem(p)
             if problem:
-                raise UsdGazeError(f"{source}:{p.GetPath()}.{problem}")
+                return p, problem
             if UsdGeom.Xformable(p).GetResetXformStack():  # the transforms above are not used
-                return
+                return None
         p = p.GetParent()
+    return None
+
+
+def check_transform(prim: Usd.Prim, source: str) -> None:
+    """One line naming the prim and attribute unless USD can evaluate the transform of ``prim`` and of
+    every prim above it whose transform it inherits."""
+    found = transform_problem(prim)
+    if found:
+        raise UsdGazeError(f"{source}:{found[0].GetPath()}.{found[1]}")
