@@ -79,6 +79,23 @@ def prototype_instancer(prim: Usd.Prim) -> Usd.Prim | None:
     return None
 
 
+def instances_note(prim: Usd.Prim, source: str) -> str | None:
+    """A line for a PointInstancer drawing more than one instance (at some authored time), or None: as one
+    object or target it is the centre of their bounds, where none of them may be (two balls 2.4 m apart
+    were looked at between them, 32 deg off each). A swarm's centre may be what is meant: said, not refused."""
+    if not prim.IsA(UsdGeom.PointInstancer):
+        return None
+    attr = UsdGeom.PointInstancer(prim).GetProtoIndicesAttr()
+    times = attr.GetTimeSamples() or [Usd.TimeCode.Default()]
+    counts = [(len(attr.Get(t) or []), t) for t in times]
+    most, at = max(counts, key=lambda c: c[0])
+    if most < 2:
+        return None
+    when = "" if isinstance(at, Usd.TimeCode) else f" at time code {at:g}"
+    return (f"{source}:{prim.GetPath()}: a PointInstancer drawing {most} instances{when} is one object, looked at "
+            "in the centre of their bounds, where none of them may be; to look at each, give each a prim of its own")
+
+
 def _varying(prim: Usd.Prim, boundable: bool) -> bool:
     """Whether the prim's world position can change over time (its transform, or for geometry what
     its bounds come from)."""
@@ -138,6 +155,9 @@ def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str,
         if not np.all(np.isfinite(eyes)):
             raise UsdGazeError(f"{source}:{path}: world position of its eyes is not finite")
         return eyes
+    note = instances_note(prim, source)
+    if note and notes is not None and note not in notes:
+        notes.append(note)
     boundable = prim.IsA(UsdGeom.Boundable)
     sample_times = np.asarray(times, dtype=float) if _varying(prim, boundable) else np.asarray(times[:1], dtype=float)
     out = np.empty((len(sample_times), 3))
