@@ -361,7 +361,8 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
         check_transform(prim, source)
         note = instances_note(prim, source)  # said once, whichever characters read it
-        notes.extend([note] if note and notes is not None and note not in notes else [])
+        if note and notes is not None and note not in notes:
+            notes.append(note)
         try:
             eyes = eye_positions(prim, time_codes, source, notes) if faces else None
             with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below
