@@ -154,7 +154,7 @@ def _asset_to_stage(skel: Usd.Prim, node, assets: dict) -> np.ndarray:
     if not own or not own.IsA(UsdGeom.Xformable):
         return stage_world
     asset_world = _first_world(own)[:3, :3]
-    if abs(np.linalg.det(asset_world)) < _SINGULAR:
+    if singular(asset_world[None])[0]:
         return stage_world
     return np.linalg.inv(asset_world) @ stage_world
 
