@@ -60,8 +60,8 @@ VALIDATORS = {
     "GazeSchedule": "A GazeScheduleAPI reads as a schedule (arrays one per directive, known kinds, times in order, "
                     "weights and blends in range), each target is an Xformable or Boundable prim of the stage, "
                     "and each directive lies in the stage's time range or its SkelRoot's animation samples.",
-    "GazeObject": "A GazeObjectAPI sits on an Xformable, its importance is > 0 at every sample, its radius >= 0 "
-                  "and its kind one of the allowed tokens.",
+    "GazeObject": "A GazeObjectAPI sits on an Xformable whose transform USD can evaluate (on it and above it), its "
+                  "importance is > 0 at every sample, its radius >= 0 and its kind one of the allowed tokens.",
     "GazeLayerSchedule": "The schedule a usdgaze layer records (customLayerData usdgaze): every shift, look-at and release parses and "
                          "starts inside the stage's time range, every character it names is a SkelRoot there, and the layer "
                          "overrides a SkelAnimation of the stage and samples it over the span the input below it does "

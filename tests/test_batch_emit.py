@@ -127,3 +127,30 @@ def test_farm_recipes_without_their_arguments_say_their_usage_and_exit_2(script,
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.strip().splitlines() == [proc.stderr.strip()] and proc.stderr.startswith(usage), proc.stderr
     assert "unbound" not in proc.stderr and proc.stdout == ""
+
+
+@pytest.mark.parametrize("folder_name, farms", [
+    ("m\necho INJECTED\n", ("slurm", "deadline", "opencue")),  # a line break in a folder's name
+    ("take \"7\"", ("deadline",)),  # a double quote: Deadline's <QUOTE> around the manifest ends there
+])
+def test_a_manifest_path_the_job_files_cannot_carry_is_refused_and_nothing_written(tmp_path, capsys, folder_name,
+                                                                                  farms):
+    """A line break in the manifest's path ended SLURM's comment line: the rest ran as a command
+    (`echo INJECTED`), and sbatch ignored every #SBATCH line after it (bash -n: syntax error); it split
+    Deadline's key=value lines. A double quote broke Deadline's quoted argument. One line, exit 2."""
+    folder = tmp_path / folder_name
+    folder.mkdir()
+    (folder / "m.toml").write_text('[[job]]\ninput = "in.usda"\nout = "o.usdc"\nshifts = ["0.2s:30:0"]\n')
+    (folder / "in.usda").write_text("#usda 1.0\n")
+    for farm in farms:
+        capsys.readouterr()
+        assert main(["batch", str(folder / "m.toml"), "--emit", farm, str(tmp_path / farm)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "m.toml" in err[0] and "no job files were written" in err[0], err
+        assert not (tmp_path / farm).exists()
+    if "slurm" not in farms:  # the same folder is carried by SLURM's quoting, and the script parses
+        assert main(["batch", str(folder / "m.toml"), "--emit", "slurm", str(tmp_path / "slurm")]) == 0
+        script = tmp_path / "slurm" / "usdgaze.sbatch"
+        assert subprocess.run(["bash", "-n", str(script)]).returncode == 0
+        exec_line = next(l for l in script.read_text().splitlines() if l.startswith("exec "))
+        assert shlex.split(exec_line)[3] == str(folder / "m.toml")

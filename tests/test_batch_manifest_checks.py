@@ -226,3 +226,28 @@ def _refused_naming(manifest, *words: str) -> None:
     assert "\n" not in message and message.startswith(f"{manifest}: ")
     for word in words:
         assert word in message, (word, message)
+
+
+@pytest.mark.parametrize("argv", [[], ["--task-index", "0"]])
+def test_a_manifest_in_a_missing_folder_is_named_not_its_summary(tmp_path, capsys, argv):
+    """A mistyped manifest folder was said as its default summary's folder missing
+    ('.../m.summary.json: folder ... does not exist'): the manifest is named, as for a missing file."""
+    manifest = tmp_path / "no folder" / "m.toml"
+    capsys.readouterr()
+    assert main(["batch", str(manifest), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"usdgaze: error: {manifest}: no such file"], err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_manifest_saved_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Notepad and Excel's "UTF-8" save a byte-order mark first: the manifest was refused as "not valid
+    TOML (Invalid statement (at line 1, column 1))" though it read right in any editor. It is read as
+    the same text without the mark (the CSV sheets already were, utf-8-sig)."""
+    path = _manifest(tmp_path, 'shifts = ["1s:10:0"]\n')
+    plain = load_manifest(path)
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert [s.values for s in load_manifest(path)] == [s.values for s in plain]
+    (tmp_path / "bad.toml").write_bytes(b"\xef\xbb\xbf[[job]]\nname = \"\xe9\"\n")  # not UTF-8 after it
+    with pytest.raises(UsdGazeError, match=r"bad.toml: not valid TOML \(not UTF-8 text"):
+        load_manifest(tmp_path / "bad.toml")

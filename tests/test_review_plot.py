@@ -303,3 +303,9 @@ def test_attention_plot_of_a_real_attend_run(tmp_path):
             assert drawn == (row == nearest), (t, row, nearest)
         checked += 1
     assert checked >= 3
+    # An attend layer requests no change of the line of sight: its gaze panel drew a dashed "requested 0"
+    # under the planner's glances, which read as misses of a request; it draws the change alone.
+    gaze_ax = plotting.figures(review)[f"{name}_gaze"].axes[0]
+    labels = [line.get_label() for line in gaze_ax.get_lines()]
+    assert labels == ["yaw achieved (FK)", "pitch achieved (FK)"], labels
+    assert "no shifts requested" in gaze_ax.get_title() and "requested vs" not in gaze_ax.get_title()

@@ -390,3 +390,25 @@ def test_schedule_validator_reports_every_problem_one_line_each(tmp_path, capsys
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 4 and all(line.startswith(f"{bad}:/Char.gaze:schedule:") for line in lines), lines
     assert sum("GazeSchedule.Malformed" in line for line in lines) == 3
+
+
+@pytest.mark.parametrize("command", [["plot", "--out", "plots"], ["preview", "--out", "p.gif"], ["validate"]])
+@pytest.mark.parametrize("own", ["cmu/cmu_131_01.usdc", "attend/standing.usdc"])
+def test_a_layer_of_the_inputs_own_given_as_layer_is_named_as_such(tmp_path, capsys, command, own):
+    """``--layer`` naming one of the input's own sublayers (the character's file, by tab completion) was
+    taken for a --sublayer-into override and muted to show "the input": the CMU clip's layer muted
+    said "the skeleton has no joints", the standing pose's that its frames were not the input's, and
+    validate said nothing. It is one line naming the layer, exit 2, nothing written."""
+    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    shot.subLayerPaths[:] = [str(ROOT / "sample_stages" / "attend" / "ball_throw.usda")]
+    shot.Save()
+    layer = ROOT / "sample_stages" / own
+    argv = [command[0], str(tmp_path / "shot.usda"), "--layer", str(layer)]
+    if len(command) > 1:
+        argv += [command[1], str(tmp_path / command[2])]
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"usdgaze: error: {layer}: --layer names a layer of the input's own ({tmp_path / 'shot.usda'} "
+                   "composes it as a sublayer), not one usdgaze wrote; pass the override layer usdgaze wrote"], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["shot.usda"]

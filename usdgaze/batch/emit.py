@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from usdgaze.batch.manifest import Shot
 
 FORMATS = ("deadline", "opencue", "slurm")
+_FARMS = {"deadline": "Deadline", "opencue": "OpenCue", "slurm": "SLURM"}
 
 
 def usdgaze_command() -> list[str]:
@@ -157,6 +158,22 @@ def check_inputs(manifest: str | os.PathLike, shots: Sequence["Shot"]) -> None:
                                    "its farm task would fail, so no job files were written")
 
 
+def _check_carried(kind: str, manifest: Path) -> None:
+    """One line where the job files cannot carry the manifest's path or this usdgaze's command as they are:
+    a control character (a line break in a folder's name ended SLURM's comment line, so the rest of the
+    name ran as a command and sbatch ignored the #SBATCH lines after it; it split Deadline's key=value
+    lines; XML 1.0 has no other control characters), or for Deadline a double quote, which ends the
+    ``<QUOTE>`` around the manifest in its arguments."""
+    for what, text in (("the manifest's path", str(manifest)), ("this usdgaze's command", " ".join(usdgaze_command()))):
+        bad = next((c for c in text if ord(c) < 32 or ord(c) == 127), None)
+        if bad is not None:
+            raise UsdGazeError(f"{str(manifest)!r}: {what} holds the control character {bad!r}, which {_FARMS[kind]}'s job files "
+                               "cannot carry; rename it, and no job files were written")
+        if kind == "deadline" and '"' in text:
+            raise UsdGazeError(f"{manifest}: {what} holds a double quote, which ends Deadline's <QUOTE> around the "
+                               "manifest in the task's arguments; rename it, and no job files were written")
+
+
 def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike,
          force: bool = False, ask: Request = Request()) -> list[Path]:
     """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths.
@@ -170,6 +187,7 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     # manifest's: the link's), and resolving the link sent every task to the real file's folder.
     manifest = Path(os.path.abspath(manifest))
     folder = Path(folder)
+    _check_carried(kind, manifest)
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
     files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), ["--force"] if force else [],

@@ -49,13 +49,14 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
                                "task runs one shot and writes its own summary)")
     flag, given = ("--report", report_path) if report_path else ("--summary", summary_path)
     with Outputs() as tx:
+        # The manifest first: a missing one in a missing folder was said as its summary's folder missing.
+        shots = load_manifest(manifest)
         # The summary is checked before any shot runs: it may not be the manifest or any shot's file.
         summary = Path(given) if given else _default_summary(Path(manifest), task_index)
         if summary.suffix.lower() != ".json":
             raise UsdGazeError(f"{summary}: {flag} is written as JSON; name it FILE.json")
         if not emit:
             tx.claim(summary, flag)
-        shots = load_manifest(manifest)
         register(tx.ids, Path(manifest), shots)
         if emit:
             from usdgaze.batch.emit import check_inputs, emit as write_jobs, task_request

@@ -28,7 +28,11 @@ def load_toml(path: str | Path, error: type[UsdGazeError] = UsdGazeError) -> dic
         if kind:
             raise error(f"{path}: is {kind}, not a regular file")
         with path.open("rb") as f:
-            return _toml.load(f)
+            data = f.read()
+        # A UTF-8 byte-order mark (Notepad, Excel's "UTF-8" export) is not text: the parser said
+        # "Invalid statement (at line 1, column 1)" of a file that looks right. Read past it, as the
+        # CSV sheets are (utf-8-sig).
+        return _toml.loads(data.removeprefix(b"\xef\xbb\xbf").decode("utf-8"))
     except FileNotFoundError:
         raise error(f"{path}: no such file") from None
     except IsADirectoryError:

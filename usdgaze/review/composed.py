@@ -141,7 +141,6 @@ def _check_same_frames(base, gaze, layer_file: str) -> None:
 def _in_stack(root: Sdf.Layer, layer: Sdf.Layer) -> bool:
     """Whether ``layer`` is in ``root``'s layer stack (``--sublayer-into`` put it in the shot)."""
     from usdgaze.usd.stage import layer_stack
-
     return any(name == layer.identifier for name, _, _ in layer_stack(root))
 
 
@@ -174,6 +173,10 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
             raise UsdGazeError(f"{path}: cannot open as a USD layer")
         layers.append(layer)
     base_layer, gaze_layer = layers
+    in_stack = not in_memory and _in_stack(base_layer, gaze_layer)
+    if in_stack and not layer_record(gaze_layer):  # muted as a --sublayer-into override: "the skeleton has no joints"
+        raise UsdGazeError(f"{layer_file}: --layer names a layer of the input's own ({source} composes it as a "
+                           "sublayer), not one usdgaze wrote; pass the override layer usdgaze wrote")
     root = Sdf.Layer.CreateAnonymous("usdgaze_review.usda")
     with Sdf.ChangeBlock():
         for name in ("timeCodesPerSecond", "framesPerSecond", "startTimeCode", "endTimeCode"):
@@ -182,7 +185,7 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
         for name in ("upAxis", "metersPerUnit", "defaultPrim"):
             if base_layer.pseudoRoot.HasInfo(name):
                 root.pseudoRoot.SetInfo(name, base_layer.pseudoRoot.GetInfo(name))
-        if in_memory or not _in_stack(base_layer, gaze_layer):  # a shot that sublayers it has it at its offset
+        if not in_stack:  # a shot that sublayers it has it at its offset
             root.subLayerPaths.append(gaze_layer.identifier)
         root.subLayerPaths.append(base_layer.identifier)
     stage = open_root(root, source)

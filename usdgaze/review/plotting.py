@@ -69,14 +69,18 @@ def panel_cascade(ax, elapsed: np.ndarray, angles: np.ndarray, labels: list[str]
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, borderaxespad=0.0)
 
 
-def panel_gaze(ax, seconds, requested, achieved, shift_times, title: str) -> None:
-    """Requested (steps) against achieved (by FK) change of the line of sight."""
-    for i, (name, colour) in enumerate((("yaw", YAW_COLOUR), ("pitch", PITCH_COLOUR))):
-        ax.plot(seconds, requested[:, i], "--", color=colour, lw=1, label=f"{name} requested")
-        ax.plot(seconds, achieved[:, i], color=colour, lw=1.6, label=f"{name} achieved (FK)")
+def panel_gaze(ax, seconds, requested, achieved, shift_times, name: str) -> None:
+    """Requested (steps) against achieved (by FK) change of the line of sight of character ``name``.
+    Without shifts (an attend layer, look-at directives alone) nothing was requested as a change: the
+    achieved change alone (a dashed "requested 0" made the planner's glances read as errors)."""
+    for i, (axis, colour) in enumerate((("yaw", YAW_COLOUR), ("pitch", PITCH_COLOUR))):
+        if len(shift_times):
+            ax.plot(seconds, requested[:, i], "--", color=colour, lw=1, label=f"{axis} requested")
+        ax.plot(seconds, achieved[:, i], color=colour, lw=1.6, label=f"{axis} achieved (FK)")
     for t in shift_times:
         ax.axvline(t, color="0.85", lw=0.8, zorder=0)
-    ax.set_title(title)
+    ax.set_title(f"{name}: requested vs achieved change of the line of sight" if len(shift_times) else
+                 f"{name}: change of the line of sight against the base (no shifts requested)")
     ax.set_ylabel("change of the line of sight (deg)")
     ax.set_xlabel("seconds from the stage start")
     ax.legend(loc="best", fontsize=7)
@@ -198,7 +202,7 @@ def _character_figures(plt, review, c, name: str) -> dict[str, object]:
     if c.eyes is not None:
         fig, ax = plt.subplots(figsize=(9, 3.6))
         panel_gaze(ax, c.seconds, analysis.requested_steps(c.seconds, c.shifts), analysis.achieved_change(c),
-                   times, f"{name}: requested vs achieved change of the line of sight")
+                   times, name)
         out[f"{name}_gaze"] = fig
         fig, ax = plt.subplots(figsize=(10, 3.6))
         panel_eyes(ax, c.seconds, analysis.eye_in_head(c), review.eye_range, review.eye_range_recorded,
@@ -297,7 +301,7 @@ def summary_figure(review):
     fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 9.5 * len(chars)), squeeze=False)
     for n, (c, name) in enumerate(zip(chars, names(review))):
         panel_gaze(axes[3 * n, 0], c.seconds, analysis.requested_steps(c.seconds, c.shifts), analysis.achieved_change(c),
-                   [t for t, _, _ in c.shifts], f"{name}: requested vs achieved change of the line of sight")
+                   [t for t, _, _ in c.shifts], name)
         cascades = analysis.shift_cascade(c, c.shifts)
         if cascades:
             s = cascades[0]

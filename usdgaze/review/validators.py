@@ -334,7 +334,8 @@ def gaze_schedule(prim: Usd.Prim, time_range=None) -> list:
 
 
 def gaze_object(prim: Usd.Prim, time_range=None) -> list:
-    """A GazeObjectAPI: on an Xformable, importance > 0 at every sample, radius >= 0, a known kind."""
+    """A GazeObjectAPI: on an Xformable whose transform USD can evaluate, importance > 0 at every sample,
+    radius >= 0, a known kind."""
     from pxr import UsdGeom
 
     errors = []
@@ -342,6 +343,13 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
         errors.append(_error(prim, prim.GetPath(), "NotXformable",
                              f"GazeObjectAPI is applied to a {prim.GetTypeName() or 'typeless prim'}; "
                              "it needs an Xformable (the object's world transform is its state)"))
+    else:  # as attend reads it: an op USD cannot evaluate, on the object or above it, is refused there
+        from usdgaze.usd.xformops import transform_problem
+
+        found = transform_problem(prim)
+        if found:
+            attr = found[1].split(": ", 1)[0]  # the line names the attribute first
+            errors.append(_error(found[0], found[0].GetPath().AppendProperty(attr), "Transform", found[1]))
     from usdgaze.usd.objects import importance_problem, type_problem
 
     typed = {}

@@ -74,13 +74,14 @@ def arc_units_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim | N
     asset says: a metre asset referenced into a stage that authors none (0.01) made a 1.6 cm character
     that showed only as targets out of reach. An asset that authors no unit is taken in the stage's."""
     stage_mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
-    scale = None
-    for prim, layer, arc in _arc_layers(stage, prims):
+    assets: dict = {}
+    for prim, node, arc in _arc_layers(stage, prims):
+        layer = node.layerStack.identifier.rootLayer
         value = layer.pseudoRoot.GetInfo("metersPerUnit") if layer.pseudoRoot.HasInfo("metersPerUnit") else None
         if not isinstance(value, (int, float)) or abs(value / stage_mpu - 1.0) <= _UNIT_TOLERANCE:
             continue
-        if scale is None:  # read only where units differ: most characters are never asked
-            scale = float(np.cbrt(abs(np.linalg.det(_first_world(skel)[:3, :3]))))
+        # read only where units differ: most characters are never asked
+        scale = float(np.cbrt(abs(np.linalg.det(_asset_to_stage(skel, node, assets)))))
         if abs(value / (stage_mpu * scale) - 1.0) <= _UNIT_TOLERANCE:
             continue
         return prim, (
@@ -105,14 +106,14 @@ def arc_up_axis_problem(stage: Usd.Stage, skel: Usd.Prim, prims: list[Usd.Prim |
     not convert axes: a Z-up export referenced into a Y-up stage lies on its back. An asset that
     authors no upAxis is taken in the stage's; one authoring neither Y nor Z is not judged here."""
     stage_up = str(UsdGeom.GetStageUpAxis(stage))
-    world = None
-    for prim, layer, arc in _arc_layers(stage, prims):
+    assets: dict = {}
+    for prim, node, arc in _arc_layers(stage, prims):
+        layer = node.layerStack.identifier.rootLayer
         value = str(layer.pseudoRoot.GetInfo("upAxis")) if layer.pseudoRoot.HasInfo("upAxis") else stage_up
         if value == stage_up or value not in _AXES or stage_up not in _AXES:
             continue
-        if world is None:  # read only where axes differ: most characters are never asked
-            world = _first_world(skel)[:3, :3]
-        turned = _AXES[value] @ world  # USD's matrices act on row vectors
+        # read only where axes differ: most characters are never asked
+        turned = _AXES[value] @ _asset_to_stage(skel, node, assets)  # USD's matrices act on row vectors
         norm = float(np.linalg.norm(turned))
         cos = float(turned @ _AXES[stage_up]) / norm if norm > 0 else -1.0
         off = math.degrees(math.acos(min(1.0, max(-1.0, cos))))
@@ -132,15 +133,40 @@ def _first_world(skel: Usd.Prim) -> np.ndarray:
     return np.array(UsdGeom.Xformable(skel).ComputeLocalToWorldTransform(Usd.TimeCode.EarliestTime()))
 
 
+def _asset_to_stage(skel: Usd.Prim, node, assets: dict) -> np.ndarray:
+    """The 3x3 (row vectors) taking the world of the file that ``node``'s arc brings in (the asset, whose
+    upAxis and metersPerUnit are its world's) to the stage's world: the Skeleton's world in the stage
+    with its world in the asset, opened alone, undone. A transform the asset itself carries (Blender's
+    export turns Z-up data Y-up on its root prim) is the asset's, not the arc's: counted as the arc's,
+    the Y-up CMU clip turned +90 deg about X into a Z-up stage was refused as lying 90 deg off, and one
+    whose reference dropped that turn was taken. Where the asset does not place the Skeleton (another
+    file brings it in), the Skeleton's world in the stage is taken whole."""
+    stage_world = _first_world(skel)[:3, :3]
+    path = node.mapToRoot.Evaluate().MapTargetToSource(skel.GetPath())
+    ident = node.layerStack.identifier
+    if path.isEmpty:
+        return stage_world
+    if (ident, path) not in assets:  # the Skeleton and its ancestors alone: an asset may be a whole set
+        mask = Usd.StagePopulationMask([path])
+        assets[ident, path] = Usd.Stage.OpenMasked(ident.rootLayer, ident.pathResolverContext, mask)
+    own = assets[ident, path].GetPrimAtPath(path)
+    if not own or not own.IsA(UsdGeom.Xformable):
+        return stage_world
+    asset_world = _first_world(own)[:3, :3]
+    if singular(asset_world[None])[0]:
+        return stage_world
+    return np.linalg.inv(asset_world) @ stage_world
+
+
 def _arc_layers(stage: Usd.Stage, prims: list[Usd.Prim | None]):
-    """``(prim, layer, arc)`` for each of ``prims`` and each layer a reference or payload brings specs
-    of it in from (``arc``: the outermost arc's kind)."""
+    """``(prim, node, arc)`` for each of ``prims`` and each prim index node by which a reference or payload
+    brings specs of it in from another file (``arc``: the outermost arc's kind)."""
     root_layer = stage.GetRootLayer()
     for prim in prims:
         if not prim:
             continue
         for node, arc in _arc_nodes(prim.GetPrimIndex().rootNode, root_layer, None):
-            yield prim, node.layerStack.identifier.rootLayer, arc
+            yield prim, node, arc
 
 
 def _arc_nodes(node, root_layer, arc: str | None):

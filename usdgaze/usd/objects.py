@@ -24,7 +24,8 @@ from usdgaze.errors import UsdGazeError, usd_failure
 from usdgaze.usd.faces import HEAD_RADIUS_M, eye_positions
 from usdgaze.usd.checks import authored_type
 from usdgaze.usd.plugin import has_api
-from usdgaze.usd.targets import PURPOSES, bounds_vary, drawn_problem, prototype_instancer, sample_target
+from usdgaze.usd.targets import (PURPOSES, bounds_vary, drawn_problem, instances_note, prototype_instancer,
+                                 sample_target)
 from usdgaze.usd.xformops import check_transform
 from usdgaze.values import MAX_OBSTACLE_RADIUS_M, MAX_TARGET_DISTANCE_M
 
@@ -359,6 +360,9 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
         if kind not in KINDS:
             raise UsdGazeError(f"{where}.gaze:object:kind: '{kind}' is not one of {', '.join(repr(k) for k in KINDS)}")
         check_transform(prim, source)
+        note = instances_note(prim, source)  # said once, whichever characters read it
+        if note and notes is not None and note not in notes:
+            notes.append(note)
         try:
             eyes = eye_positions(prim, time_codes, source, notes) if faces else None
             with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below

@@ -13,6 +13,7 @@ from usdgaze.errors import UsdGazeError
 from usdgaze.usd import checks
 from usdgaze.usd.samples import Samples, check_values, read_array
 from usdgaze.usd.skinning import influence_problems
+from usdgaze.usd.xformops import check_transform
 
 
 def skel_roots(stage: Usd.Stage) -> list[Usd.Prim]:
@@ -344,6 +345,9 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     joints, parents = _skeleton_joints(skeleton, where_skel)
     rest_local, bind_world, neutral_world, neutral_source, authored = _poses(skeleton, joints, parents, where_skel)
     bound, anim_prim = _animation_source(skel)
+    # The Skeleton's world transform, as an object's or a target's: an op USD cannot evaluate on it or a
+    # prim above it stopped apply and attend with USD's internal error (exit 1).
+    check_transform(skel, source)
     checks.check_arcs(stage, skel, [root, skel, anim_prim], source)
     notes: list[str] = []
     if bound:

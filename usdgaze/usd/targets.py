@@ -13,6 +13,7 @@ from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd.faces import eye_positions
+from usdgaze.usd.xformops import check_transform
 
 PURPOSES = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
 
@@ -43,6 +44,10 @@ def check_target(stage: Usd.Stage, path: str, source: str) -> Usd.Prim:
     problem = drawn_problem(prim)
     if problem:
         raise UsdGazeError(f"{source}:{path}: {problem}; look at one of those or at a point X,Y,Z")
+    # As an attend object's: an op USD cannot evaluate stopped apply with an internal error (exit 1), and
+    # one it skips (an op the order names but the prim lacks, an order that is no token[]) was looked at
+    # where USD's identity put it, the world's origin (exit 0).
+    check_transform(prim, source)
     return prim
 
 
@@ -72,6 +77,23 @@ def prototype_instancer(prim: Usd.Prim) -> Usd.Prim | None:
                 return parent
         parent = parent.GetParent()
     return None
+
+
+def instances_note(prim: Usd.Prim, source: str) -> str | None:
+    """A line for a PointInstancer drawing more than one instance (at some authored time), or None: as one
+    object or target it is the centre of their bounds, where none of them may be (two balls 2.4 m apart
+    were looked at between them, 32 deg off each). A swarm's centre may be what is meant: said, not refused."""
+    if not prim.IsA(UsdGeom.PointInstancer):
+        return None
+    attr = UsdGeom.PointInstancer(prim).GetProtoIndicesAttr()
+    times = attr.GetTimeSamples() or [Usd.TimeCode.Default()]
+    counts = [(len(attr.Get(t) or []), t) for t in times]
+    most, at = max(counts, key=lambda c: c[0])
+    if most < 2:
+        return None
+    when = "" if isinstance(at, Usd.TimeCode) else f" at time code {at:g}"
+    return (f"{source}:{prim.GetPath()}: a PointInstancer drawing {most} instances{when} is one object, looked at "
+            "in the centre of their bounds, where none of them may be; to look at each, give each a prim of its own")
 
 
 def _varying(prim: Usd.Prim, boundable: bool) -> bool:
@@ -133,6 +155,9 @@ def sample_target(stage: Usd.Stage, path: str, times: np.ndarray, source: str,
         if not np.all(np.isfinite(eyes)):
             raise UsdGazeError(f"{source}:{path}: world position of its eyes is not finite")
         return eyes
+    note = instances_note(prim, source)
+    if note and notes is not None and note not in notes:
+        notes.append(note)
     boundable = prim.IsA(UsdGeom.Boundable)
     sample_times = np.asarray(times, dtype=float) if _varying(prim, boundable) else np.asarray(times[:1], dtype=float)
     out = np.empty((len(sample_times), 3))

@@ -13,6 +13,7 @@ from __future__ import annotations
 from pxr import Sdf, Tf, Usd, UsdGeom
 
 from usdgaze.errors import UsdGazeError, usd_failure
+from usdgaze.usd.checks import authored_type
 
 RESET = "!resetXformStack!"
 INVERT = "!invert!"
@@ -30,7 +31,11 @@ _WANTED = {**{t: _SCALAR for t in (_T.TypeRotateX, _T.TypeRotateY, _T.TypeRotate
 
 def op_problem(prim: Usd.Prim) -> str | None:
     """Why USD cannot evaluate ``prim``'s own transform ops, as ``attribute: what is wrong``, or None."""
-    order = UsdGeom.Xformable(prim).GetXformOpOrderAttr().Get() or []
+    attr = UsdGeom.Xformable(prim).GetXformOpOrderAttr()
+    spelled = authored_type(attr) if attr.HasAuthoredValue() else "token[]"
+    if spelled != "token[]":  # USD orders no op by it (the prim is read at identity): its letters were read as ops
+        return f"xformOpOrder: is a {spelled or 'value of no type'}, expected a token[] (USD reads no op order from it)"
+    order = attr.Get() or []
     for token in order:
         if token == RESET:
             continue
@@ -52,15 +57,24 @@ def op_problem(prim: Usd.Prim) -> str | None:
     return None
 
 
-def check_transform(prim: Usd.Prim, source: str) -> None:
-    """One line naming the prim and attribute unless USD can evaluate the transform of ``prim`` and of
-    every prim above it whose transform it inherits."""
+def transform_problem(prim: Usd.Prim) -> tuple[Usd.Prim, str] | None:
+    """The first prim, ``prim`` or one above it whose transform it inherits, whose transform USD cannot
+    evaluate, with :func:`op_problem`'s line; None where USD can evaluate them all."""
     p = prim
     while p and not p.IsPseudoRoot():
         if p.IsA(UsdGeom.Xformable):
             problem = op_problem(p)
             if problem:
-                raise UsdGazeError(f"{source}:{p.GetPath()}.{problem}")
+                return p, problem
             if UsdGeom.Xformable(p).GetResetXformStack():  # the transforms above are not used
-                return
+                return None
         p = p.GetParent()
+    return None
+
+
+def check_transform(prim: Usd.Prim, source: str) -> None:
+    """One line naming the prim and attribute unless USD can evaluate the transform of ``prim`` and of
+    every prim above it whose transform it inherits."""
+    found = transform_problem(prim)
+    if found:
+        raise UsdGazeError(f"{source}:{found[0].GetPath()}.{found[1]}")
