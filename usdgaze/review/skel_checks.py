@@ -13,7 +13,7 @@ from usdgaze.usd.skelio import ill_formed_joint
 from usdgaze.usd.skinning import influence_problems
 
 
-def _error(prim: Usd.Prim, path, name: str, message: str) -> UsdValidation.ValidationError:
+def site_error(prim: Usd.Prim, path, name: str, message: str) -> UsdValidation.ValidationError:
     site = UsdValidation.ValidationErrorSite(prim.GetStage(), path)
     return UsdValidation.ValidationError(name, UsdValidation.ValidationErrorType.Error, [site], message)
 
@@ -26,7 +26,7 @@ def not_authored(anim: UsdSkel.Animation) -> list:
     if not joints:
         return []
     prim = anim.GetPrim()
-    return [_error(prim, attr.GetPath(), "NotAuthored", f"{attr.GetName()}: {NOT_AUTHORED}")
+    return [site_error(prim, attr.GetPath(), "NotAuthored", f"{attr.GetName()}: {NOT_AUTHORED}")
             for attr in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())
             if not attr or not attr.HasAuthoredValue()]
 
@@ -47,7 +47,7 @@ def animation_arrays(prim: Usd.Prim, time_range=None) -> list:
             what = {"Length": f"{entries} entries at {at}, expected {n} (one per joint)",
                     "NotFinite": f"NaN or infinite values at {at}",
                     "NotUnit": f"not unit quaternions at {at}"}[kind]
-            errors.append(_error(prim, attr.GetPath(), kind, f"{attr.GetName()}: {what}; {count} of {total} samples"))
+            errors.append(site_error(prim, attr.GetPath(), kind, f"{attr.GetName()}: {what}; {count} of {total} samples"))
     return errors
 
 
@@ -60,12 +60,12 @@ def ill_formed_joints(skel: UsdSkel.Skeleton, joints) -> list:
         return []
     more = f"; {len(bad)} of the skeleton's {len(joints)} joints are ill-formed" if len(bad) > 1 else ""
     attr = skel.GetJointsAttr()
-    return [_error(skel.GetPrim(), attr.GetPath(), "IllFormedJoint", f"joints: {ill_formed_joint(bad[0])}{more}")]
+    return [site_error(skel.GetPrim(), attr.GetPath(), "IllFormedJoint", f"joints: {ill_formed_joint(bad[0])}{more}")]
 
 
 def skinned_influences(skel: UsdSkel.Skeleton) -> list:
     """Each mesh the Skeleton skins whose jointIndices UsdSkel cannot skin by (an index out of range,
     jointWeights of another length; see :mod:`usdgaze.usd.skinning`): one line per mesh, on the primvar.
     apply warns of the same, and refuses to add eye joints that an index out of range would land on."""
-    return [_error(p.prim, p.prim.GetPath().AppendProperty(p.attribute), "JointIndices", f"{p.attribute}: {p.problem}")
+    return [site_error(p.prim, p.prim.GetPath().AppendProperty(p.attribute), "JointIndices", f"{p.attribute}: {p.problem}")
             for p in influence_problems(skel.GetPrim())]
