@@ -108,13 +108,11 @@ def attend(input_path: str | os.PathLike, out: str | os.PathLike, objects: list[
 
 
 def _attend(stage, source, out_path, objects, settings, skel_root, progress, record=None):
-    from usdgaze.characters import bind_root, select_roots
-    from usdgaze.passes.attend import apply_attend, planner_times
-    from usdgaze.passes.take import cut_to_range, through_take, with_ahead
+    from usdgaze.characters import select_roots
     from usdgaze.usd.attendio import add_inspection
-    from usdgaze.usd.layers import AnimOverride, build_override, composed_override_notes, layer_info
-    from usdgaze.usd.objects import object_prims, objects_of, read_objects
-    from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
+    from usdgaze.usd.layers import build_override, composed_override_notes, layer_info
+    from usdgaze.usd.objects import object_prims, objects_of
+    from usdgaze.usd.skelio import animations_elsewhere
 
     prims = object_prims(stage, source, objects)
     roots = select_roots(stage, source, skel_root)
@@ -123,55 +121,18 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
     per_root = objects_of(prims, roots, source)
     report = AttendReport(output=str(out_path))
     report.warnings.extend(composed_override_notes(stage, source))
-    overrides, inspections, info = [], [], None
+    overrides, inspections = [], []
     t_start, cpu_start = time.perf_counter(), time.process_time()
     steps = frames = 0
     for root, mine in zip(roots, per_root):
-        skels = skeletons_under(root)
-        if not skels:
-            raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
-        # A shot over a longer take (a playback range inside the animation) is planned over its range,
-        # as --physics simulates it: planned from the take's first frame, objects were reported first
-        # seen before the shot (-4.00 s on stepping_stones_shot.usda) and 5 times the frames were planned.
-        ahead_s = settings.window_s + 2 * settings.h  # the take after it, for the planner's last windows
-        clip, ahead, take = cut_to_range(read_clip(stage, skels[0], root, source), stage, ahead_s, ("planned", "plan"))
-        check_not_shared(others, clip.animation, source)
-        report.warnings.extend(clip.notes)
-        if len(skels) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
-            report.warnings.append(f"{source}:{root.GetPath()}: {len(skels)} Skeletons under this SkelRoot; attend "
-                                   f"plans the first, {skels[0].GetPath()}, and leaves the others as they are")
-        chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
-        if frame.note:
-            report.warnings.append(frame.note)
-        h = settings.h
-        t_plan = planner_times(clip.seconds, h)
-        codes = clip.start_time + t_plan * clip.time_codes_per_second
-        objs = read_objects(stage, source, mine, codes, clip.meters_per_unit, report.warnings)
-        things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
-        # Windows near a shot's end see the take go on, not the shot's last pose held.
-        result = apply_attend(with_ahead(clip, ahead, take), chain, frame, things, settings.loop_options(), progress,
-                              frames=None if ahead is None else len(clip.times))
-        report.warnings.extend(result.warnings)
+        override, inspection, result = _plan_character(stage, source, root, mine, others, settings, progress, report)
+        overrides.append(override)
+        inspections.append(inspection)
         steps += len(result.planner_times)
-        frames += len(clip.times)
-        written = result
-        if settings.realize == "map":
-            written = _realize_map(stage, source, root, clip, chain, frame, mine, result, settings.h)
-        # A realized map moves the pelvis like apply does: its leg roots' translations come with it.
-        override = AnimOverride.of(clip, written, move_roots=settings.realize == "map" and bool(chain.leg_roots))
-        overrides.append(override if take is None else through_take(override, take, clip))  # the take's own outside
-        inspections.append((clip.skel_root, clip.times, result, [o.path for o in objs]))
-        report.results.append(result)
-        seen = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]  # by this character's eyes
-        report.characters.append({"skel_root": clip.skel_root, "animation": clip.animation, "frames": len(clip.times),
-                                  "added_joints": written.added_joints,
-                                  "changed_joints": [j.rsplit('/', 1)[-1] for j in written.changed_joints],
-                                  "objects": seen})
-        report.objects.extend({"skel_root": clip.skel_root, **o} for o in seen)
-        if info is None:
-            info = layer_info(stage)
+        frames += len(inspection[1])
     report.planner = _planner_summary(report.results, steps, frames, time.perf_counter() - t_start,
                                       time.process_time() - cpu_start, settings)
+    info = layer_info(stage)
     info.custom = {"usdgaze": {"version": __version__, "input": os.path.basename(source), "command": "attend",
                                "characters": sorted({c["skel_root"] for c in report.characters}),
                                "objects": [str(p.GetPath()) for p in prims], "alpha": settings.alpha,
@@ -182,6 +143,55 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
         add_inspection(layer, character, times, result.sight_world, result.eye_pose, paths,
                        result.estimates_world, result.uncertainty)
     return report, layer
+
+
+def _plan_character(stage, source, root, mine, others, settings, progress, report):
+    """Plan one SkelRoot's first Skeleton looking at its objects ``mine``: (its override, its inspection's
+    (character, times, result, object paths), the planner's result); ``report`` gets its warnings and summary."""
+    from usdgaze.characters import bind_root
+    from usdgaze.passes.attend import apply_attend, planner_times
+    from usdgaze.passes.take import cut_to_range, through_take, with_ahead
+    from usdgaze.usd.layers import AnimOverride
+    from usdgaze.usd.objects import read_objects
+    from usdgaze.usd.skelio import check_not_shared, read_clip, skeletons_under
+
+    skels = skeletons_under(root)
+    if not skels:
+        raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
+    # A shot over a longer take (a playback range inside the animation) is planned over its range,
+    # as --physics simulates it: planned from the take's first frame, objects were reported first
+    # seen before the shot (-4.00 s on stepping_stones_shot.usda) and 5 times the frames were planned.
+    ahead_s = settings.window_s + 2 * settings.h  # the take after it, for the planner's last windows
+    clip, ahead, take = cut_to_range(read_clip(stage, skels[0], root, source), stage, ahead_s, ("planned", "plan"))
+    check_not_shared(others, clip.animation, source)
+    report.warnings.extend(clip.notes)
+    if len(skels) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
+        report.warnings.append(f"{source}:{root.GetPath()}: {len(skels)} Skeletons under this SkelRoot; attend "
+                               f"plans the first, {skels[0].GetPath()}, and leaves the others as they are")
+    chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
+    if frame.note:
+        report.warnings.append(frame.note)
+    codes = clip.start_time + planner_times(clip.seconds, settings.h) * clip.time_codes_per_second
+    objs = read_objects(stage, source, mine, codes, clip.meters_per_unit, report.warnings)
+    things = [loop.Thing(o.path, o.positions, o.importance, o.view_radius, o.kind, visible=o.visible) for o in objs]
+    # Windows near a shot's end see the take go on, not the shot's last pose held.
+    result = apply_attend(with_ahead(clip, ahead, take), chain, frame, things, settings.loop_options(), progress,
+                          frames=None if ahead is None else len(clip.times))
+    report.warnings.extend(result.warnings)
+    written = result
+    if settings.realize == "map":
+        written = _realize_map(stage, source, root, clip, chain, frame, mine, result, settings.h)
+    # A realized map moves the pelvis like apply does: its leg roots' translations come with it.
+    override = AnimOverride.of(clip, written, move_roots=settings.realize == "map" and bool(chain.leg_roots))
+    report.results.append(result)
+    seen = [_object_summary(o.path, result, j) for j, o in enumerate(objs)]  # by this character's eyes
+    report.characters.append({"skel_root": clip.skel_root, "animation": clip.animation, "frames": len(clip.times),
+                              "added_joints": written.added_joints,
+                              "changed_joints": [j.rsplit('/', 1)[-1] for j in written.changed_joints],
+                              "objects": seen})
+    report.objects.extend({"skel_root": clip.skel_root, **o} for o in seen)
+    override = override if take is None else through_take(override, take, clip)  # the take's own outside
+    return override, (clip.skel_root, clip.times, result, [o.path for o in objs]), result
 
 
 def _planner_summary(results: list, steps: int, frames: int, wall: float, cpu: float, settings) -> dict:
