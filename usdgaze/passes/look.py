@@ -274,25 +274,8 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
     fixation = options.fixation_m / clip.meters_per_unit
     scene = eyes_mod.Scene(seconds, eye_m, eye_m + fixation * base.line_of_sight, up, near)
 
-    legacy = look.eye_timing == "model" and not any(d.kind == "look" for d in directives)
-    if legacy:  # the paper's eyes: the wanted line of sight follows the map's gaze progress
-        ae = base.ae + plan.requested
-        ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
-        wide = np.abs(plan.requested[:, 0]) > 90.0
-        sight = eyes_mod.Sight(eye_m + fixation * direction_from(ae, up), ~plan.settled, [],
-                               np.where(wide, np.sign(plan.requested[:, 0]), 0.0))
-    else:
-        model = _model_progress(gaze_map, seconds, eye_m, up) if look.eye_timing == "model" else None
-        goals = _goals(epochs, targets, scene, base.ae, up, fixation, 180.0 + options.eye_range.yaw)
-        sight = eyes_mod.point_of_sight(scene, goals, look, model)
-
-    # Partial gaze: toward the base line of sight (and the fixation distance) as the weight falls.
-    direction, distance = _unit(sight.point - eye_m)
-    if len(part):
-        direction[part] = saccade.slerp(base.line_of_sight[part], direction[part], weight[part])
-    distance = np.maximum(distance, scene.near)  # nearer, each eye would turn to its own side of the point
-    inv = np.where(full, 1.0 / distance, (1.0 - weight) / fixation + weight / distance)
-    wanted_point = eye_m + direction / inv[:, None]
+    sight = _sight(gaze_map, directives, plan, epochs, targets, base, scene, fixation, options, look)
+    wanted_point = _weighted_point(sight, base, scene, weight, fixation)
     result = finish(clip, chain, frame, base, body, plan, to_skel(clip, wanted_point), options,
                     saccading=sight.saccading, side=sight.side)
     # The eyes were sent toward the request after the +-89 deg elevation cap; a shift's hold is judged
@@ -301,6 +284,35 @@ def apply_look(clip: SkelClip, chain: Chain, frame: CharacterFrame, gaze_map: Pa
         result.requested[(seconds >= d.time_s) & (seconds < end) & result.settled & full] = [d.yaw, d.pitch]
     result.warnings = _warnings(clip, directives, epochs, result, base.ae, options, target_names or [], too_near, up)
     return restore(result, hidden, clip)
+
+
+def _sight(gaze_map, directives: list[Directive], plan, epochs, targets: list[np.ndarray], base, scene,
+           fixation: float, options: PassOptions, look: LookOptions):
+    """The eyes' point of sight per frame (:class:`eyes_mod.Sight`), at full gaze weight."""
+    up, eye_m = base.up, scene.eye
+    if look.eye_timing == "model" and not any(d.kind == "look" for d in directives):
+        # The paper's eyes: the wanted line of sight follows the map's gaze progress.
+        ae = base.ae + plan.requested
+        ae[:, 1] = np.clip(ae[:, 1], -89.0, 89.0)
+        wide = np.abs(plan.requested[:, 0]) > 90.0
+        return eyes_mod.Sight(eye_m + fixation * direction_from(ae, up), ~plan.settled, [],
+                              np.where(wide, np.sign(plan.requested[:, 0]), 0.0))
+    model = _model_progress(gaze_map, scene.seconds, eye_m, up) if look.eye_timing == "model" else None
+    goals = _goals(epochs, targets, scene, base.ae, up, fixation, 180.0 + options.eye_range.yaw)
+    return eyes_mod.point_of_sight(scene, goals, look, model)
+
+
+def _weighted_point(sight, base, scene, weight: np.ndarray, fixation: float) -> np.ndarray:
+    """The point the eyes are sent to: partial gaze turns toward the base line of sight (and the
+    fixation distance) as the weight falls."""
+    eye_m = scene.eye
+    direction, distance = _unit(sight.point - eye_m)
+    part = np.flatnonzero(weight < 1.0)
+    if len(part):
+        direction[part] = saccade.slerp(base.line_of_sight[part], direction[part], weight[part])
+    distance = np.maximum(distance, scene.near)  # nearer, each eye would turn to its own side of the point
+    inv = np.where(weight >= 1.0, 1.0 / distance, (1.0 - weight) / fixation + weight / distance)
+    return eye_m + direction / inv[:, None]
 
 
 def _base_shown(directives: list[Directive], seconds: np.ndarray, plan: Schedule) -> np.ndarray:
