@@ -300,18 +300,7 @@ def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple
     if "head" in found and "pelvis" not in found:
         _find_pelvis(joints, parents, found["head"][-1], found, reasons)
     if "head" not in found or "pelvis" not in found:
-        heads = [i for i, j in enumerate(joints) if "head" in names.tokens(j)]
-        pelvises = [i for i, j in enumerate(joints) if set(names.tokens(j)) & {"hips", "hip", "pelvis"}]
-        if "head" not in found:
-            what = "no head (a joint named head, the eye joints' parent, or Rigify's spine.006)"
-        else:
-            what = (f"no pelvis above head '{names.leaf(joints[found['head'][-1]])}' (a joint named hips or pelvis, "
-                    "or one where a mirrored pair of legs branches off)")
-        raise RigError(
-            f"{where}: no gaze chain (pelvis and head) found by name: {what}; considered as head: "
-            f"{_listed(joints, heads)}; as pelvis: {_listed(joints, pelvises)}; joints: "
-            f"{_listed(joints, range(len(joints)), 12)}; {_HINT}")
-
+        raise _no_chain(joints, found, where)
     pelvis_first, head = found["pelvis"][0], found["head"][-1]
     path = _path_to_root(head, parents)
     if pelvis_first not in path:
@@ -328,6 +317,33 @@ def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple
             raise RigError(f"{where}: no {role} joint between pelvis '{names.leaf(joints[pelvis_first])}' and head "
                            f"'{names.leaf(joints[head])}'; considered {_listed(joints, between)}; {_described(joints, found)}; {_HINT}")
 
+    _find_eyes(head, joints, parents, found, reasons, where)
+    # A binding may have taken a joint the names gave another role.
+    _one_role_each(joints, found, where, f"one of them is bound; {_described(joints, found)}; {_HINT}")
+    pelvis = found["pelvis"][-1]
+    on_chain = set(path)
+    legs = tuple(i for i in range(len(joints)) if parents[i] == pelvis and i not in on_chain)
+    roles = {r: tuple(sorted(found.get(r, []), key=lambda j: len(_path_to_root(j, parents)))) for r in ROLES}
+    return Chain(roles=roles, path=tuple(path), leg_roots=legs, reasons=reasons)
+
+
+def _no_chain(joints: list[str], found: dict, where: str) -> RigError:
+    """The error for a skeleton whose names give no head, or no pelvis above it: what was considered."""
+    heads = [i for i, j in enumerate(joints) if "head" in names.tokens(j)]
+    pelvises = [i for i, j in enumerate(joints) if set(names.tokens(j)) & {"hips", "hip", "pelvis"}]
+    if "head" not in found:
+        what = "no head (a joint named head, the eye joints' parent, or Rigify's spine.006)"
+    else:
+        what = (f"no pelvis above head '{names.leaf(joints[found['head'][-1]])}' (a joint named hips or pelvis, "
+                "or one where a mirrored pair of legs branches off)")
+    return RigError(
+        f"{where}: no gaze chain (pelvis and head) found by name: {what}; considered as head: "
+        f"{_listed(joints, heads)}; as pelvis: {_listed(joints, pelvises)}; joints: "
+        f"{_listed(joints, range(len(joints)), 12)}; {_HINT}")
+
+
+def _find_eyes(head: int, joints: list[str], parents: np.ndarray, found: dict, reasons: dict, where: str) -> None:
+    """The eyes under ``head`` by name, where no binding gave them; both or neither."""
     eyes = _eyes_under(head, joints, parents)
     for role in ("leftEye", "rightEye"):
         if role not in found:
@@ -338,14 +354,6 @@ def bind_chain(joints: list[str], parents: np.ndarray, bindings: dict[str, tuple
         considered = [i for i in _below(head, parents) if set(names.tokens(joints[i])) & {"eye", "eyes", "eyeball"}]
         raise RigError(f"{where}: found only one eye joint; considered {_listed(joints, considered)}; "
                        f"{_described(joints, found)}; {_HINT}")
-
-    # A binding may have taken a joint the names gave another role.
-    _one_role_each(joints, found, where, f"one of them is bound; {_described(joints, found)}; {_HINT}")
-    pelvis = found["pelvis"][-1]
-    on_chain = set(path)
-    legs = tuple(i for i in range(len(joints)) if parents[i] == pelvis and i not in on_chain)
-    roles = {r: tuple(sorted(found.get(r, []), key=lambda j: len(_path_to_root(j, parents)))) for r in ROLES}
-    return Chain(roles=roles, path=tuple(path), leg_roots=legs, reasons=reasons)
 
 
 def _described(joints: list[str], found: dict[str, list[int]]) -> str:
