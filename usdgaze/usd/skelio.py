@@ -11,7 +11,7 @@ from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.zero_scale import singular
 from usdgaze.errors import UsdGazeError
 from usdgaze.usd import checks
-from usdgaze.usd.samples import Samples, check_values, read_array
+from usdgaze.usd.clip_samples import animation_samples, rest_pose_samples
 from usdgaze.usd.skinning import influence_problems
 from usdgaze.usd.xformops import check_transform
 
@@ -238,84 +238,6 @@ def _animated_joints(anim: UsdSkel.Animation, joints: list[str], skel: Usd.Prim,
     return anim_joints, np.array([index.get(j, -1) for j in anim_joints], dtype=int), missing
 
 
-_MOST_STILL_FRAMES = 1_000_000  # a still pose spread over more frames than this is a typo in the range
-
-
-_HOLDS_ONE_POSE = "the animation holds one pose (no time samples on rotations, translations or scales)"
-
-
-def _still_times(stage: Usd.Stage, where: str, what: str = _HOLDS_ONE_POSE) -> np.ndarray:
-    """The frames of the stage's playback range, for a character that holds one pose (an animation
-    of defaults only, or none): UsdSkel shows that pose at every time, so the gaze is added over the
-    range the shot plays."""
-    if not stage.HasAuthoredTimeCodeRange():
-        raise UsdGazeError(f"{where}: {what} and the stage authors no startTimeCode/endTimeCode; author the "
-                           "shot's range to add gaze to a still character")
-    start, end = float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())
-    step = float(stage.GetTimeCodesPerSecond()) / float(stage.GetFramesPerSecond())
-    count = int(np.floor((end - start) / step + 1e-9)) + 1
-    if count > _MOST_STILL_FRAMES:
-        raise UsdGazeError(f"{where}: {what.split(' (')[0]} and the stage's range [{start:g}, {end:g}] spans "
-                           f"{count} frames (at most {_MOST_STILL_FRAMES}); check startTimeCode/endTimeCode")
-    return start + step * np.arange(count, dtype=float)
-
-
-def _rest_pose_samples(stage: Usd.Stage, rest_local: np.ndarray, where_skel: str):
-    """Times and every joint's rest transform at each, as the arrays of an animation that holds the
-    rest pose: what UsdSkel shows for a Skeleton with no animation bound."""
-    times = _still_times(stage, where_skel, "the skeleton has no animation bound (UsdSkel shows its rest pose)")
-    t, q, s = rot.decompose_tr(rest_local)
-    shape = (len(times),) + t.shape
-    return (times, np.broadcast_to(q.astype(np.float32), shape[:2] + (4,)).copy(),
-            np.broadcast_to(t.astype(np.float32), shape).copy(), np.broadcast_to(s.astype(np.float16), shape).copy())
-
-
-_RESOLVES_S = 0.05  # samples this close resolve a saccade's main phase (30-100 ms): left as they are
-
-
-def _on_every_frame(times: np.ndarray, stage: Usd.Stage, where_anim: str) -> np.ndarray:
-    """Sample times of a keyed animation with every frame between its first and last key added where
-    keys lie more than a frame and more than 50 ms apart: UsdSkel interpolates between them, and a
-    saccade written only at the keys would be smeared over the gap. A capture sampled at 20 Hz or
-    faster stays as it is, whatever the stage's frame rate."""
-    tcps = float(stage.GetTimeCodesPerSecond())
-    step = tcps / float(stage.GetFramesPerSecond())
-    if len(times) < 2 or float(np.max(np.diff(times))) <= max(step, _RESOLVES_S * tcps) * (1.0 + 1e-6):
-        return times
-    count = int(np.floor((times[-1] - times[0]) / step + 1e-9)) + 1
-    if count > _MOST_STILL_FRAMES:
-        raise UsdGazeError(f"{where_anim}: keys from {times[0]:g} to {times[-1]:g} span {count} frames "
-                           f"(at most {_MOST_STILL_FRAMES}); check the time samples")
-    grid = times[0] + step * np.arange(count, dtype=float)
-    at = np.searchsorted(times, grid)
-    near = np.minimum(np.abs(grid - times[np.maximum(at - 1, 0)]), np.abs(grid - times[np.minimum(at, len(times) - 1)]))
-    # The keys stay exact; a frame within half a frame of one would only be a near-duplicate sample.
-    return np.sort(np.concatenate([times, grid[near >= 0.5 * step]]))
-
-
-def _animation_samples(anim: UsdSkel.Animation, n: int, where_anim: str, joints: list[str] | None = None):
-    """Time codes and checked rotation, translation and scale samples ``(F, n, .)`` of the animation,
-    and whether it holds one pose: with defaults only, or one time sample (USD holds that value at
-    every time), it is sampled at every frame of the stage's range."""
-    attrs = [Samples(a) for a in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr())]
-    times = np.sort(np.concatenate([s.times() for s in attrs if s.attr] or [[]]))
-    times = times[np.r_[True, times[1:] != times[:-1]]] if len(times) else times  # np.unique would import numpy.ma
-    stage = anim.GetPrim().GetStage()
-    held = len(times) == 0 or (len(times) == 1 and stage.HasAuthoredTimeCodeRange()
-                               and stage.GetEndTimeCode() > stage.GetStartTimeCode())
-    if held:
-        times = _still_times(stage, where_anim)
-    else:
-        times = _on_every_frame(times, stage, where_anim)
-    rotations = read_array(attrs[0], times, np.float32, 4, n, f"{where_anim}.rotations")
-    translations = read_array(attrs[1], times, np.float32, 3, n, f"{where_anim}.translations")
-    scales = read_array(attrs[2], times, np.float16, 3, n, f"{where_anim}.scales")
-    authored = {name: s.times() for name, s in zip(("rotations", "translations"), attrs[:2]) if s.attr}
-    check_values(rotations, translations, where_anim, times, joints, authored)
-    checks.check_scales(scales, f"{where_anim}.scales")
-    return times, rotations, translations, scales, held
-
-
 def check_animation(skel: Usd.Prim, source: str) -> None:
     """:func:`read_clip`'s checks of a Skeleton's bound SkelAnimation, for readers that pose it through
     UsdSkel (build-map's clips): where they fail, UsdSkel poses the rest pose with a warning."""
@@ -326,13 +248,30 @@ def check_animation(skel: Usd.Prim, source: str) -> None:
         anim_prim, where_anim = _bound_animation(anim_prim, where_skel, source)
         anim = UsdSkel.Animation(anim_prim)
         anim_joints, _, _ = _animated_joints(anim, joints, skel, where_anim)
-        _animation_samples(anim, len(anim_joints), where_anim, anim_joints)
+        animation_samples(anim, len(anim_joints), where_anim, anim_joints)
 
 
 def _joint_names(skeleton: UsdSkel.Skeleton) -> list[str] | None:
     """The skeleton's authored jointNames, or None."""
     names_attr = skeleton.GetJointNamesAttr()
     return [str(j) for j in names_attr.Get()] if names_attr and names_attr.HasAuthoredValue() else None
+
+
+def _bound_samples(skel: Usd.Prim, anim_prim: Usd.Prim | None, joints: list[str], rest: np.ndarray | None,
+                   source: str, notes: list[str]):
+    """The bound animation's path, joints, their skeleton indices and samples (``animation_samples``'s
+    times, rotations, translations, scales, held); ``notes`` gets the joints UsdSkel ignores."""
+    where_skel = f"{source}:{skel.GetPath()}"
+    anim_prim, where_anim = _bound_animation(anim_prim, where_skel, source)
+    anim = UsdSkel.Animation(anim_prim)
+    animation = str(anim_prim.GetPath())
+    anim_joints, anim_to_skel, ignored = _animated_joints(anim, joints, skel, where_anim)
+    checks.check_rest_covers(rest, joints, anim_to_skel, where_skel, animation)
+    if ignored:
+        notes.append(f"{where_anim}.joints: {len(ignored)} of its joints are not joints of {skel.GetPath()} "
+                     f"('{ignored[0]}'{', ...' if len(ignored) > 1 else ''}); UsdSkel ignores them, and the layer "
+                     "writes their values through unchanged")
+    return animation, anim_joints, anim_to_skel, animation_samples(anim, len(anim_joints), where_anim, anim_joints)
 
 
 def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> SkelClip:
@@ -351,21 +290,13 @@ def read_clip(stage: Usd.Stage, skel: Usd.Prim, root: Usd.Prim, source: str) -> 
     checks.check_arcs(stage, skel, [root, skel, anim_prim], source)
     notes: list[str] = []
     if bound:
-        anim_prim, where_anim = _bound_animation(anim_prim, where_skel, source)
-        anim = UsdSkel.Animation(anim_prim)
-        animation = str(anim_prim.GetPath())
-        anim_joints, anim_to_skel, ignored = _animated_joints(anim, joints, skel, where_anim)
-        checks.check_rest_covers(authored[0], joints, anim_to_skel, where_skel, animation)
-        times, rotations, translations, scales, held = _animation_samples(anim, len(anim_joints), where_anim, anim_joints)
-        if ignored:
-            notes.append(f"{where_anim}.joints: {len(ignored)} of its joints are not joints of {skel.GetPath()} "
-                         f"('{ignored[0]}'{', ...' if len(ignored) > 1 else ''}); UsdSkel ignores them, and the layer "
-                         "writes their values through unchanged")
+        animation, anim_joints, anim_to_skel, samples = _bound_samples(skel, anim_prim, joints, authored[0], source,
+                                                                       notes)
     else:  # the layer defines an animation holding the rest pose, with the gaze in it, and binds it
         animation = _new_animation_path(skel)
         anim_joints, anim_to_skel = list(joints), np.arange(len(joints))
-        times, rotations, translations, scales = _rest_pose_samples(stage, rest_local, where_skel)
-        held = True
+        samples = (*rest_pose_samples(stage, rest_local, where_skel), True)
+    times, rotations, translations, scales, held = samples
     joint_names = _joint_names(skeleton)
     skel_to_world = skeleton_to_world(skel, times)
     notes.extend(checks.check_scaled_away(skel, times, skel_to_world, source))
