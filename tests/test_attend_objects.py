@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
-from usdgaze.usd import objects
+from usdgaze.usd import object_positions, objects
 
 
 def _usd_positions(stage, path, codes):
@@ -68,7 +68,7 @@ CODES = np.arange(0.0, 30.0, 0.37)  # before, between, on and after the (offset)
 def test_positions_equal_usds_own_answer(tmp_path, case):
     stage = _stage(tmp_path, animated_parent=case == "animated_parent", two_ops=case == "two_ops", held=case == "held")
     prims = [stage.GetPrimAtPath(p) for p in ("/World/Ball", "/World/Still")]
-    fast = objects._fast_positions(prims[0], CODES)
+    fast = object_positions.fast_positions(prims[0], CODES)
     assert (fast is not None) == (case in ("fast", "held"))
     got = objects.read_objects(stage, "x.usda", prims, CODES, 0.01)
     for obj, path in zip(got, ("/World/Ball", "/World/Still")):

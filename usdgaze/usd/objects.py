@@ -6,11 +6,7 @@ centre of its world bounds, as ``--look-at`` takes it; for animated geometry, th
 for a character, its eyes, ``usdgaze.usd.faces``); positions come back in metres (the stage's metersPerUnit
 applied). A transform USD cannot evaluate is refused first (``usdgaze.usd.xformops``).
 
-Reading: where an object's transform is one translate op whose value resolves to time samples of one
-layer (any layer offset applied) under ancestors that do not move, its samples are read once at the Sdf
-level and interpolated over all times with numpy, as USD does (linear, or held where the stage says
-so). Anything else (several ops, animated parents, value clips, resetXformStack) is read per time
-with ``UsdGeom.XformCache``, the general path; both give the same positions (tests/test_attend_objects.py).
+Positions are read by :mod:`usdgaze.usd.object_positions`.
 """
 
 from __future__ import annotations
@@ -24,8 +20,8 @@ from usdgaze.errors import UsdGazeError, usd_failure
 from usdgaze.usd.faces import HEAD_RADIUS_M, eye_positions
 from usdgaze.usd.checks import authored_type
 from usdgaze.usd.plugin import has_api
-from usdgaze.usd.targets import (PURPOSES, bounds_vary, drawn_problem, instances_note, prototype_instancer,
-                                 sample_target)
+from usdgaze.usd.object_positions import positions, sampled
+from usdgaze.usd.targets import drawn_problem, instances_note, prototype_instancer
 from usdgaze.usd.xformops import check_transform
 from usdgaze.values import MAX_OBSTACLE_RADIUS_M, MAX_TARGET_DISTANCE_M
 
@@ -124,98 +120,6 @@ def _importance(prim: Usd.Prim, time_codes: np.ndarray, where: str) -> np.ndarra
     if any(v is None for v in values):
         raise UsdGazeError(f"{where}.gaze:object:importance: has no value")
     return np.array(values, dtype=float)
-
-
-def sampled(attr: Usd.Attribute, time_codes: np.ndarray) -> np.ndarray | None:
-    """``attr`` at every time code from its strongest layer's time samples, or None where USD must resolve
-    it per time (value clips, splines, no samples). Sample times go through the layer offset to the stage."""
-    source = attr.GetResolveInfo().GetSource()
-    if source == Usd.ResolveInfoSourceDefault:
-        value = np.asarray(attr.Get(), float).reshape(1, -1)
-        return np.repeat(value, len(time_codes), 0)
-    if source != Usd.ResolveInfoSourceTimeSamples:
-        return None
-    spec = offset = None
-    for s, off in attr.GetPropertyStackWithLayerOffsets():
-        if s.HasInfo("timeSamples") and s.layer.GetNumTimeSamplesForPath(s.path):
-            spec, offset = s, off
-            break
-        if s.HasDefaultValue():
-            return None  # a stronger default over weaker samples: let USD say what wins
-    if spec is None:
-        return None
-    layer_times = spec.layer.ListTimeSamplesForPath(spec.path)
-    raw = [spec.layer.QueryTimeSample(spec.path, t) for t in layer_times]
-    if any(isinstance(v, Sdf.ValueBlock) for v in raw):
-        return None  # a blocked sample has no value there: USD says what the transform is (its op left out)
-    values = np.array([np.asarray(v, float) for v in raw])
-    times = np.array([offset * t for t in layer_times], float)
-    order = np.argsort(times)  # a negative scale reverses them
-    times, values = times[order], values[order].reshape(len(times), -1)
-    t = np.asarray(time_codes, float)
-    if attr.GetStage().GetInterpolationType() == Usd.InterpolationTypeHeld:
-        return values[np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1)]
-    return np.stack([np.interp(t, times, values[:, i]) for i in range(values.shape[1])], -1)
-
-
-def _fast_positions(prim: Usd.Prim, time_codes: np.ndarray) -> np.ndarray | None:
-    """World translations from one translate op's time samples under still ancestors, or None."""
-    xf = UsdGeom.Xformable(prim)
-    ops = xf.GetOrderedXformOps()
-    if xf.GetResetXformStack() or len(ops) != 1 or ops[0].GetOpType() != UsdGeom.XformOp.TypeTranslate \
-            or ops[0].IsInverseOp():
-        return None
-    parent = prim.GetParent()
-    while parent and not parent.IsPseudoRoot():
-        if parent.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(parent).TransformMightBeTimeVarying():
-            return None
-        parent = parent.GetParent()
-    local = sampled(ops[0].GetAttr(), time_codes)
-    if local is None:
-        return None
-    to_world = np.array(UsdGeom.XformCache(Usd.TimeCode(float(time_codes[0]))).GetParentToWorldTransform(prim))
-    return local @ to_world[:3, :3] + to_world[3, :3]  # row vectors, as USD's matrices
-
-
-def _off_centre(prim: Usd.Prim, time_code: float) -> bool:
-    """A Boundable whose geometry is not centred on its origin (a mesh baked in world space): its
-    position is the centre of its bounds, as a --look-at target's, not its transform's translation."""
-    if not prim.IsA(UsdGeom.Boundable):
-        return False
-    centre, size = _own_centre(prim, time_code)
-    return bool(np.linalg.norm(centre) > 1e-6 * max(1.0, float(np.linalg.norm(size))))
-
-
-def _own_centre(prim: Usd.Prim, time_code: float) -> tuple[np.ndarray, np.ndarray]:
-    """The centre and size of a Boundable's bounds in its own space at ``time_code`` (zeros where
-    they are empty: it is then at its origin)."""
-    # A cache per time: BBoxCache.SetTime keeps computed extents (see targets.sample_target).
-    cache = UsdGeom.BBoxCache(Usd.TimeCode(time_code), PURPOSES, useExtentsHint=True)
-    box = cache.ComputeUntransformedBound(prim)
-    if box.GetRange().IsEmpty():
-        return np.zeros(3), np.zeros(3)
-    return np.asarray(box.ComputeCentroid(), float), np.asarray(box.GetRange().GetSize(), float)
-
-
-def _positions(prim: Usd.Prim, time_codes: np.ndarray, caches, source: str) -> np.ndarray:
-    if prim.IsA(UsdGeom.Boundable) and bounds_vary(prim):
-        # Animated geometry (baked points, a character's posed body): the centre of its bounds at each
-        # time. Decided once at the first time, a mesh centred there was read at its origin for the shot.
-        centres = np.array([np.append(_own_centre(prim, float(t))[0], 1.0) for t in time_codes])
-        return np.einsum("ki,kij->kj", centres, _world_matrices(prim, time_codes, caches)[:, :, :3])
-    if _off_centre(prim, float(time_codes[0])):
-        return sample_target(prim.GetStage(), str(prim.GetPath()), time_codes, source, faces=False)  # its bounds
-    fast = _fast_positions(prim, time_codes)
-    if fast is not None:
-        return fast
-    return _world_matrices(prim, time_codes, caches)[:, 3, :3]
-
-
-def _world_matrices(prim: Usd.Prim, time_codes: np.ndarray, caches: list) -> np.ndarray:
-    """(K, 4, 4) local-to-world matrices (row vectors), from per-time caches shared by every object."""
-    if not caches:
-        caches.extend(UsdGeom.XformCache(Usd.TimeCode(float(t))) for t in time_codes)
-    return np.array([np.array(c.GetLocalToWorldTransform(prim)) for c in caches])
 
 
 def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list[Usd.Prim]:
@@ -366,7 +270,7 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
         try:
             eyes = eye_positions(prim, time_codes, source, notes) if faces else None
             with np.errstate(over="ignore", invalid="ignore"):  # a transform that overflows is said below
-                pos = (_positions(prim, time_codes, caches, source) if eyes is None else eyes) * meters_per_unit
+                pos = (positions(prim, time_codes, caches, source) if eyes is None else eyes) * meters_per_unit
         except Tf.ErrorException as exc:  # what check_transform cannot see: USD's own word, in one line
             raise UsdGazeError(f"{where}.xformOpOrder: USD cannot evaluate this transform "
                                f"({usd_failure(exc)})") from None
