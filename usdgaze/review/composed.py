@@ -19,6 +19,7 @@ from usdgaze.core.kinematics import world_matrices
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.errors import UsdGazeError, usd_failure
 from usdgaze.review import recorded
+from usdgaze.review.attention import Attention, read_attention
 from usdgaze.review.physics_record import PhysicsMeasures, read_physics
 from usdgaze.review.recorded import Look
 from usdgaze.usd.stage import open_root
@@ -80,20 +81,6 @@ class CharacterReview:
     @property
     def eyes(self) -> tuple[int, int] | None:
         return self.chain.eyes
-
-
-@dataclass
-class Attention:
-    """An attend run's inspection prims for one character (``/UsdGazeAttend/<character>``)."""
-
-    name: str
-    seconds: np.ndarray
-    point_of_sight: np.ndarray
-    """``(F, 3)`` stage units."""
-    objects: dict[str, np.ndarray]
-    """Object prim path -> world position ``(F, 3)`` (the estimate where the prim cannot be sampled)."""
-    uncertainty: dict[str, np.ndarray]
-    """Object prim path -> the belief's position uncertainty ``(F,)`` (NaN while not tracked)."""
 
 
 @dataclass
@@ -343,50 +330,6 @@ class _Reader:
             physics=read_physics(dict(self.layer.customLayerData or {}), [gaze_clip.skeleton], self.layer_file,
                                  recorded.recorded_seconds(self.layer, self.offset, gaze_clip)).get(gaze_clip.skeleton),
         )
-
-
-ATTEND_ROOT = "/UsdGazeAttend"
-"""Where the attend pass writes its inspection prims: per character ``gaze:attend:pointOfSight``
-(point3f per frame), per object child ``gaze:attend:object`` (its path), ``gaze:attend:estimate``,
-``gaze:attend:uncertainty`` (float per frame, NaN while not tracked)."""
-
-
-def _series(attr) -> tuple[np.ndarray, np.ndarray]:
-    times = np.array(attr.GetTimeSamples(), dtype=float)
-    values = np.array([attr.Get(float(t)) for t in times], dtype=float)
-    return times, values
-
-
-def read_attention(stage, source: str) -> list[Attention]:
-    """The attend run's point of sight and per-object uncertainty, if the stage holds them."""
-    from usdgaze.usd.targets import sample_target
-
-    scope = stage.GetPrimAtPath(ATTEND_ROOT)
-    if not scope:
-        return []
-    tcps, start = stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode()
-    out = []
-    for character in scope.GetChildren():
-        sight = character.GetAttribute("gaze:attend:pointOfSight")
-        if not sight or not sight.GetNumTimeSamples():
-            continue
-        times, points = _series(sight)
-        objects, uncertainty = {}, {}
-        for child in character.GetChildren():
-            obj = child.GetAttribute("gaze:attend:object")
-            unc = child.GetAttribute("gaze:attend:uncertainty")
-            if not obj or not unc:
-                continue
-            path = str(obj.Get())
-            uncertainty[path] = np.interp(times, *_series(unc))
-            try:
-                objects[path] = sample_target(stage, path, times, source)
-            except UsdGazeError:  # no such prim here: where the belief put it
-                est_t, est = _series(child.GetAttribute("gaze:attend:estimate"))
-                objects[path] = np.stack([np.interp(times, est_t, est[:, k]) for k in range(3)], axis=1)
-        if objects:
-            out.append(Attention(character.GetName(), (times - start) / tcps, points, objects, uncertainty))
-    return out
 
 
 def _prim_specs(layer):
