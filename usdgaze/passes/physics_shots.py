@@ -105,12 +105,10 @@ def write_model(input_path, out, total_mass: float = 75.0, timestep: float | Non
     one under ``skel_root``), at its step (``timestep`` None: the step by task, as the pass takes it);
     a summary for the console."""
     from usdgaze.api import _open_input
-    from usdgaze.characters import select_roots
     from usdgaze.files.kinds import require_file
     from usdgaze.files.transaction import Outputs
     from usdgaze.physics import mjcf
-    from usdgaze.physics.build import binding
-    from usdgaze.usd.skelio import skeletons_under
+    from usdgaze.physics.build import binding, one_skeleton
 
     out = Path(out)
     if out.suffix.lower() != ".xml":
@@ -123,13 +121,8 @@ def write_model(input_path, out, total_mass: float = 75.0, timestep: float | Non
         tx.read(source)
         tx.claim(out, "--out")
         stage = _open_input(tx, source)
-        roots = select_roots(stage, source, skel_root)
-        if len(roots) > 1:
-            raise UsdGazeError(f"{source}: {len(roots)} SkelRoots; pick one with --skel-root")
-        skels = skeletons_under(roots[0])
-        if not skels:
-            raise UsdGazeError(f"{source}:{roots[0].GetPath()}: no Skeleton under the SkelRoot")
-        shot = read_shot(stage, source, roots[0], roots, skels[0], mpc.Options(), binding, total_mass)
+        root, skel = one_skeleton(stage, source, skel_root)
+        shot = read_shot(stage, source, root, [root], skel, mpc.Options(), binding, total_mass)
         model = shot.body[0]
         tx.stage_text(out, mjcf.write(model, timestep=timestep or shot.options.h))
     return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},

@@ -9,31 +9,30 @@ import numpy as np
 from usdgaze.errors import RigError, UsdGazeError
 
 
-def load_clip(input_path: str | os.PathLike, skel_root: str | None = None, outputs=None):
-    """The one skeleton's clip of ``input_path`` (or the one under ``skel_root``); ``outputs`` is told every file read."""
-    return _read(input_path, skel_root, outputs)[0]
-
-
-def _read(input_path, skel_root: str | None, outputs, bound: bool = False):
-    """:func:`load_clip`'s clip and, where ``bound``, its gaze binding (:func:`binding`), read while the
-    stage is open: the SkelRoot's GazeMapAPI is read from it."""
-    from usdgaze.api import select_roots
-    from usdgaze.usd.skelio import read_clip, skeletons_under
-    from usdgaze.usd.stage import composed_files, open_stage
+def load_clip(input_path: str | os.PathLike, skel_root: str | None = None):
+    """The clip of ``input_path``'s one skeleton (:func:`one_skeleton`)."""
+    from usdgaze.usd.skelio import read_clip
+    from usdgaze.usd.stage import open_stage
 
     source = str(input_path)
     stage = open_stage(source)
-    if outputs is not None:
-        for path in composed_files(stage):
-            outputs.read(path)
+    root, skel = one_skeleton(stage, source, skel_root)
+    return read_clip(stage, skel, root, source)
+
+
+def one_skeleton(stage, source: str, skel_root: str | None):
+    """(SkelRoot, Skeleton): the stage's one SkelRoot (or ``skel_root``) and its first Skeleton; one line
+    where there are several SkelRoots and none is named, or the SkelRoot has no Skeleton."""
+    from usdgaze.characters import select_roots
+    from usdgaze.usd.skelio import skeletons_under
+
     roots = select_roots(stage, source, skel_root)
     if len(roots) > 1:
         raise UsdGazeError(f"{source}: {len(roots)} SkelRoots; pick one with --skel-root")
     skels = skeletons_under(roots[0])
     if not skels:
         raise UsdGazeError(f"{source}:{roots[0].GetPath()}: no Skeleton under the SkelRoot")
-    clip = read_clip(stage, skels[0], roots[0], source)
-    return clip, (binding(clip, roots[0]) if bound else None)
+    return roots[0], skels[0]
 
 
 MIN_MASS_KG, MAX_MASS_KG = 1.0, 500.0
