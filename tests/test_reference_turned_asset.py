@@ -26,16 +26,22 @@ BALL_THROW = A.ATTEND / "ball_throw.usda"
 SKEL = "/World/root/Body/BodySkel"
 
 
-def _z_up_cm(tmp_path, world_turn: float = 90.0, own_turn: float | None = None):
-    """``shot.usda`` (Z up, metersPerUnit 0.01): /World turned ``world_turn`` deg about X and scaled 100,
-    with ball_throw's character and ball referenced under it. ``own_turn``: the referencing /World/root
-    authors its own xformOpOrder [rotateX own_turn], dropping the asset's -90."""
+def _shot_layer(tmp_path, up: str, meters_per_unit: float) -> Sdf.Layer:
+    """A new ``shot.usda`` with ball_throw's time range and rates, in the given up axis and unit."""
     src = Sdf.Layer.FindOrOpen(str(BALL_THROW))
     layer = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
     for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
         setattr(layer, key, getattr(src, key))
-    layer.pseudoRoot.SetInfo("upAxis", "Z")
-    layer.pseudoRoot.SetInfo("metersPerUnit", 0.01)
+    layer.pseudoRoot.SetInfo("upAxis", up)
+    layer.pseudoRoot.SetInfo("metersPerUnit", meters_per_unit)
+    return layer
+
+
+def _z_up_cm(tmp_path, world_turn: float = 90.0, own_turn: float | None = None):
+    """``shot.usda`` (Z up, metersPerUnit 0.01): /World turned ``world_turn`` deg about X and scaled 100,
+    with ball_throw's character and ball referenced under it. ``own_turn``: the referencing /World/root
+    authors its own xformOpOrder [rotateX own_turn], dropping the asset's -90."""
+    layer = _shot_layer(tmp_path, "Z", 0.01)
     stage = Usd.Stage.Open(layer)
     world = UsdGeom.Xform.Define(stage, "/World")
     world.AddRotateXOp().Set(world_turn)
@@ -91,12 +97,7 @@ def test_a_centimetre_asset_scaling_its_metre_data_on_its_own_root_is_taken_at_i
     root = UsdGeom.Xformable(stage.GetPrimAtPath("/root"))
     root.AddScaleOp().Set((100.0, 100.0, 100.0))  # after its own rotateXYZ, in its xformOpOrder
     asset.Save()
-    src = Sdf.Layer.FindOrOpen(str(BALL_THROW))
-    layer = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
-    for key in ("startTimeCode", "endTimeCode", "timeCodesPerSecond", "framesPerSecond"):
-        setattr(layer, key, getattr(src, key))
-    layer.pseudoRoot.SetInfo("upAxis", "Y")
-    layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    layer = _shot_layer(tmp_path, "Y", 1.0)
     stage = Usd.Stage.Open(layer)
     UsdGeom.Xform.Define(stage, "/World").AddScaleOp().Set((0.01, 0.01, 0.01))
     stage.DefinePrim("/World/root").GetReferences().AddReference(str(tmp_path / "asset_cm.usda"), "/root")
