@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 
 import numpy as np
 import pytest
@@ -42,7 +43,9 @@ def test_build_map_writes_map_report_and_series(session, tmp_path, capsys):
     np.testing.assert_allclose(stored.motions.timing, expected.definition.motions.timing, rtol=1e-6, atol=1e-6)
 
     data = Sdf.Layer.FindOrOpen(str(out)).customLayerData["usdgaze:buildMap"]
-    assert data["sheet"] == str(session.sheet)
+    rel = os.path.relpath(session.sheet, tmp_path)
+    assert data["sheet"] == (rel if rel.startswith("..") else "./" + rel)  # from the map's folder
+    assert data["trials"]["y+000_p+00"]["file"] == session.trials[0].file.name  # as the sheet writes it
     assert data["thresholds"]["rest_speed_mm_s"] == 6.0 and data["thresholds"]["start_speed_deg_s"] == 18.0
     assert data["trials"]["y+000_p+00"]["cropSource"] == "manual"
     assert data["trials"]["y+036_p+00"]["yaw"] == 36.0
@@ -118,3 +121,19 @@ def test_quiet_still_says_which_trial_was_skipped_and_why(session, tmp_path, cap
     assert "(1 trial skipped)" in captured.out and out.exists()
     (line,) = captured.err.strip().splitlines()
     assert line.startswith("usdgaze: warning: trial Gone skipped: ") and "no such file" in line, line
+
+
+def test_the_same_build_from_another_working_folder_writes_the_same_bytes(session, tmp_path, monkeypatch):
+    """The map records its sheet from the map's folder and each trial's file as the sheet writes it:
+    recorded as opened through the working folder, the same inputs gave other bytes run from another
+    folder."""
+    maps = []
+    for cwd in (session.sheet.parent, tmp_path):
+        monkeypatch.chdir(cwd)
+        out = tmp_path / "out" / "map.usda"
+        out.parent.mkdir(exist_ok=True)
+        sheet, markers = (os.path.relpath(p, cwd) for p in (session.sheet, session.markerset))
+        assert main(["build-map", sheet, "--markers", markers, "--out", os.path.relpath(out, cwd), "--quiet"]) == 0
+        maps.append(out.read_bytes())
+    assert maps[0] == maps[1]
+

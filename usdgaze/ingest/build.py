@@ -348,11 +348,14 @@ def require_definition(result: BuildResult) -> GazeMapDefinition:
     )
 
 
-def layer_data(result: BuildResult, sheet: Sheet) -> dict:
-    """What goes into the map layer's customLayerData: the sheet, the thresholds and the outcome."""
+def layer_data(result: BuildResult, sheet: Sheet, sheet_path: str) -> dict:
+    """What goes into the map layer's customLayerData: the sheet (``sheet_path``: as the map names it),
+    the thresholds and the outcome. Each trial's file is recorded as the sheet writes it, relative to
+    the sheet: recorded as opened (through the working folder), one build gave other bytes run from
+    another folder."""
     trials = {}
     for trial, report in zip(sheet.trials, result.reports):
-        entry = {"file": str(trial.file), "yaw": float(trial.yaw), "pitch": float(trial.pitch), "status": report.status}
+        entry = {"file": trial.written or str(trial.file), "yaw": float(trial.yaw), "pitch": float(trial.pitch), "status": report.status}
         if report.crop:
             entry["cropStart"], entry["cropEnd"] = int(report.crop[0]), int(report.crop[1])
             entry["cropSource"] = report.crop_source
@@ -363,7 +366,7 @@ def layer_data(result: BuildResult, sheet: Sheet) -> dict:
                 for k, v in result.settings.as_dict().items()}
     return {
         "usdgaze:buildMap": {
-            "sheet": str(sheet.path),
+            "sheet": sheet_path,
             "rate": float(result.rate or 0.0),
             "thresholds": settings,
             "trials": trials,
@@ -373,9 +376,11 @@ def layer_data(result: BuildResult, sheet: Sheet) -> dict:
 
 def write_map(result: BuildResult, sheet: Sheet, out: str | Path, outputs=None) -> GazeMapDefinition:
     """Write the map (``usdgaze.usd.schema.dump_map``) with the sheet and thresholds as layer data."""
+    from usdgaze.usd.layers import relative_asset_path
     from usdgaze.usd.schema import dump_map  # pxr only when writing
 
     definition = require_definition(result)
-    dump_map(definition, out, prim_path="/GazeMap", custom_layer_data=layer_data(result, sheet),
+    record = layer_data(result, sheet, relative_asset_path(sheet.path, out))  # the map's folder's view
+    dump_map(definition, out, prim_path="/GazeMap", custom_layer_data=record,
              outputs=outputs, flag="--out")
     return definition
