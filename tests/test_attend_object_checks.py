@@ -384,3 +384,13 @@ def test_a_character_whose_transform_usd_cannot_evaluate_is_one_line(tmp_path, c
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{r.skel_root}{want}" in err[0] and "internal error" not in err[0], err
     assert not out.exists() and r.path.read_bytes() == before
+
+
+def test_an_object_named_by_a_property_path_is_said_so(tmp_path, capsys):
+    """``--objects /Obj/Ball.radius`` (a property, copied from an attribute's path) was 'no such prim'."""
+    r = _rig_with_ball(tmp_path, lambda ball, layer: None)
+    out = tmp_path / "a.usda"
+    assert main(["attend", str(r.path), "--objects", "/Obj/Ball.radius", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'/Obj/Ball.radius' names a property; give its prim, /Obj/Ball" in err[0], err
+    assert not out.exists()

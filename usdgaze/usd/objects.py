@@ -132,6 +132,9 @@ def object_prims(stage: Usd.Stage, source: str, paths: list[str] | None) -> list
         for p in paths:
             if not Sdf.Path.IsValidPathString(p) or not Sdf.Path(p).IsAbsolutePath():
                 raise UsdGazeError(f"{source}: --objects entry '{p}' is not an absolute prim path such as /World/Ball")
+            if not Sdf.Path(p).IsPrimPath():  # /Ball.radius: 'no such prim' said nothing of why
+                raise UsdGazeError(f"{source}: --objects entry '{p}' names a property; give its prim, "
+                                   f"{Sdf.Path(p).GetPrimPath()}")
             if any(q.GetPath() == Sdf.Path(p) for q in prims):  # its belief and cost would count twice
                 raise UsdGazeError(f"{source}:{p}: --objects names this prim twice; name each object once")
             prim = stage.GetPrimAtPath(p)
