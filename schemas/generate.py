@@ -50,7 +50,8 @@ VALIDATORS = {
                       "joint of its joints array, and its jointNames, where authored, one name per joint; "
                       "restTransforms are authored where its bound animation leaves joints out (UsdSkel takes those "
                       "from them). The meshes it skins have jointIndices UsdSkel can skin by: every index within "
-                      "the joints they index, and as many as jointWeights.",
+                      "the joints they index, and as many as jointWeights. Its transform, and every one above it that it "
+                      "inherits, is one USD can evaluate.",
     "SkeletonUnits": "A Skeleton, its SkelRoot and its bound animation, where a reference or payload brings them "
                      "in, come from layers that author the stage's metersPerUnit (or none), or the reference is "
                      "scaled to make up for it.",

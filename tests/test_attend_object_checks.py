@@ -384,6 +384,11 @@ def test_a_character_whose_transform_usd_cannot_evaluate_is_one_line(tmp_path, c
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{r.skel_root}{want}" in err[0] and "internal error" not in err[0], err
     assert not out.exists() and r.path.read_bytes() == before
+    if command == ["attend"]:  # validate says so of the Skeleton (it said nothing)
+        assert main(["validate", str(r.path), "--only-usdgaze"]) == 3
+        said = capsys.readouterr().out
+        line = next(l for l in said.splitlines() if "SkeletonArrays.Transform" in l)
+        assert want.split(": ", 1)[1] in line and f"{r.skel_root}.{want[1:].split(':', 1)[0]}" in line, said
 
 
 def test_an_object_named_by_a_property_path_is_said_so(tmp_path, capsys):

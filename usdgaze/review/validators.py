@@ -42,7 +42,8 @@ def declared() -> dict[str, dict]:
 def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
     """A Skeleton's bind and rest transforms, where authored, one finite matrix per joint (a layer that
     adds eyes writes all three: a short or broken one passed validate and failed every reader); its
-    jointNames one name per joint; the meshes it skins, joint indices UsdSkel can skin by."""
+    jointNames one name per joint; the meshes it skins, joint indices UsdSkel can skin by; its transform
+    one USD can evaluate."""
     skel = UsdSkel.Skeleton(prim)
     joints = skel.GetJointsAttr().Get()
     n = 0 if joints is None else len(joints)
@@ -58,8 +59,21 @@ def skeleton_arrays(prim: Usd.Prim, time_range=None) -> list:
             errors.append(site_error(prim, attr.GetPath(), "Length", f"{attr.GetName()}: {len(m)} entries, expected {n} (one per joint)"))
         elif not np.isfinite(m).all():
             errors.append(site_error(prim, attr.GetPath(), "NotFinite", f"{attr.GetName()}: NaN or infinite values"))
+    # As apply, attend and inspect read it: an op USD cannot evaluate on it or above it is refused there.
     return (errors + ill_formed_joints(skel, joints) + _joint_names_length(skel, joints)
-            + _sparse_without_rest(skel, joints) + skinned_influences(skel))
+            + _sparse_without_rest(skel, joints) + skinned_influences(skel) + _transform_errors(prim))
+
+
+def _transform_errors(prim: Usd.Prim) -> list:
+    """A ``Transform`` error, sited on the attribute at fault, where USD cannot evaluate the transform of
+    ``prim`` or of a prim above it whose transform it inherits (:func:`xformops.transform_problem`)."""
+    from usdgaze.usd.xformops import transform_problem
+
+    found = transform_problem(prim)
+    if not found:
+        return []
+    attr = found[1].split(": ", 1)[0]  # the line names the attribute first
+    return [site_error(found[0], found[0].GetPath().AppendProperty(attr), "Transform", found[1])]
 
 
 def _joint_names_length(skel: UsdSkel.Skeleton, joints) -> list:
@@ -161,12 +175,7 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
                              f"GazeObjectAPI is applied to a {prim.GetTypeName() or 'typeless prim'}; "
                              "it needs an Xformable (the object's world transform is its state)"))
     else:  # as attend reads it: an op USD cannot evaluate, on the object or above it, is refused there
-        from usdgaze.usd.xformops import transform_problem
-
-        found = transform_problem(prim)
-        if found:
-            attr = found[1].split(": ", 1)[0]  # the line names the attribute first
-            errors.append(site_error(found[0], found[0].GetPath().AppendProperty(attr), "Transform", found[1]))
+        errors += _transform_errors(prim)
     from usdgaze.usd.objects import importance_problem, type_problem
 
     typed = {}
