@@ -178,3 +178,20 @@ def test_inspect_says_which_poses_are_held_and_what_the_layer_would_define(tmp_p
         assert skel["animation"] == (ANIM if bound else SKEL + "/gazeAnimation")
     (skel,) = inspect_stage(str(ROOT / "sample_stages" / "cmu" / "cmu_131_02.usdc"))["skel_roots"][0]["skeletons"]
     assert not skel["held_pose"] and skel["animation_bound"]
+
+
+def test_one_sample_without_a_range_says_to_author_the_range(tmp_path, capsys):
+    """One time sample and no playback range: the request 'lies outside the animation (time codes 5 to
+    5)', which said nothing of why; the line now says to author the shot's range."""
+    from usdgaze.console.main import main
+
+    src = still_stage(tmp_path / "still.usdc", held_as="one sample")
+    layer = Sdf.Layer.FindOrOpen(str(src))
+    layer.ClearStartTimeCode()
+    layer.ClearEndTimeCode()
+    layer.Save()
+    out = tmp_path / "gaze.usda"
+    assert main(["apply", str(src), "--shift", "0.5s:40:0", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "lies outside the animation" in err[0] and "author startTimeCode/endTimeCode" in err[0], err
+    assert not out.exists()

@@ -263,9 +263,12 @@ def clip_directives(stage, clip: SkelClip, requests: list[DirectiveRequest], not
         slack = max(1e-9, 1e-3 / tcps, 5e-6 * max(abs(first), abs(last)))
         if not first - slack <= t <= last + slack:
             said = f"{r.origin} ({r.flag})" if r.origin else f"{clip.where()}: {r.flag}"
+            # One sample and no playback range to hold it over (USD holds it at every time): say what to author.
+            one = ("; it has one time sample and the stage no playback range longer than a frame: author "
+                   "startTimeCode/endTimeCode for the shot to add gaze to the pose it holds") if len(clip.times) == 1 else ""
             raise UsdGazeError(
                 f"{said} lies outside the animation{f' {clip.animation}' if r.origin else ''} (time codes "
-                f"{clip.times[0]:g} to {clip.times[-1]:g}, {first:g} to {last:g} s)")
+                f"{clip.times[0]:g} to {clip.times[-1]:g}, {first:g} to {last:g} s){one}")
         t = min(max(t, first), last)
         index = -1
         if r.kind == "look":
