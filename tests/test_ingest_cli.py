@@ -137,3 +137,16 @@ def test_the_same_build_from_another_working_folder_writes_the_same_bytes(sessio
         maps.append(out.read_bytes())
     assert maps[0] == maps[1]
 
+
+
+def test_a_missing_marker_set_named_by_the_sheet_is_said_with_the_sheet(session, tmp_path, capsys):
+    """A TOML sheet's ``markers = "nope.toml"`` that names no file said 'nope.toml: no such file', not
+    where it was named."""
+    rows = "".join(f'[[trial]]\nfile = "{t.file}"\nyaw = {t.yaw:g}\npitch = {t.pitch:g}\n' for t in session.trials)
+    sheet = tmp_path / "sheet.toml"
+    sheet.write_text('markers = "nope.toml"\n' + rows)
+    out = tmp_path / "map.usda"
+    assert main(["build-map", str(sheet), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{sheet}: markers names {tmp_path / 'nope.toml'}" in err[0], err
+    assert not out.exists()

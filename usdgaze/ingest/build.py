@@ -22,7 +22,7 @@ from usdgaze.ingest.extract import CHAIN, Extraction, extract
 from usdgaze.ingest.markers import MarkerSet, SkeletonBinding, load_markerset
 from usdgaze.ingest.series import TrialSeries, read_marker_series
 from usdgaze.ingest.settings import BuildSettings
-from usdgaze.ingest.sheet import Sheet, Trial, load_sheet
+from usdgaze.ingest.sheet import Sheet, SheetError, Trial, load_sheet
 from usdgaze.files.kinds import not_a_file
 
 
@@ -207,6 +207,9 @@ def _session_inputs(sheet: Sheet | str | Path, markerset: MarkerSet | str | Path
         sheet = load_sheet(sheet)
     if markerset is None and sheet.markers is not None:
         markerset = sheet.markers
+        if not Path(markerset).is_file():  # 'nope.toml: no such file' said nothing of where it was named
+            raise SheetError(f"{sheet.path}: markers names {markerset}, which is not a file (a relative path is "
+                             "taken from the sheet's folder)")
     if markerset is not None and not isinstance(markerset, MarkerSet):
         markerset = load_markerset(markerset)
     # The sheet's [skeleton] table wins over the marker set's.
