@@ -186,3 +186,28 @@ def b_build_map_c3d_metres_in_a_mm_file(d):
     (d / "sheet.csv").write_text("file,yaw,pitch\na.c3d,72,0\n")
     return ["build-map", str(d / "sheet.csv"), "--markers", str(d / "markers.toml"), "--out", str(d / "map.usda"),
             "--min-trials", "1", "--quiet"]
+
+
+def b_attend_objects_property_path(d):
+    """``--objects`` naming an attribute's path (copied from usdview): it said 'no such prim'."""
+    return ["attend", str(rig(d).path), "--objects", "/Character.radius", "--out", str(d / "a.usda")]
+
+
+def b_build_map_sheet_markers_not_a_file(d):
+    """A TOML sheet whose ``markers`` names no file: it said 'nope.toml: no such file', not where."""
+    (d / "a.c3d").write_bytes(b"trial")
+    (d / "sheet.toml").write_text('markers = "nope.toml"\n[[trial]]\nfile = "a.c3d"\nyaw = 0\npitch = 0\n')
+    return ["build-map", str(d / "sheet.toml"), "--out", str(d / "map.usda")]
+
+
+def b_directive_on_one_sample_without_a_range(d):
+    """One time sample per array and no playback range: 'lies outside the animation (time codes 0 to 0)'
+    said nothing of why."""
+    def one_sample(layer, r):
+        for name in ("rotations", "translations", "scales"):
+            path = Sdf.Path(f"{r.animation}.{name}")
+            for t in layer.ListTimeSamplesForPath(path)[1:]:
+                layer.EraseTimeSample(path, t)
+        layer.ClearStartTimeCode()
+        layer.ClearEndTimeCode()
+    return apply_argv(d, edited(d, one_sample))
