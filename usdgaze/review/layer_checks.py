@@ -120,16 +120,14 @@ def _times_without(anim, layer) -> np.ndarray:
     """The animation's sample times as value resolution gives them with ``layer`` left out: per array,
     the strongest other spec's samples (none where its default wins), joined (value clips are not
     looked into: none)."""
+    from usdgaze.usd.samples import samples_spec
+
     times = set()
     for attr in (anim.GetRotationsAttr(), anim.GetTranslationsAttr(), anim.GetScalesAttr()):
-        for spec, offset in (attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()) if attr else []):
-            if spec.layer.identifier == layer.identifier:
-                continue
-            if spec.layer.GetNumTimeSamplesForPath(spec.path):
-                times.update(offset * t for t in spec.layer.ListTimeSamplesForPath(spec.path))
-                break
-            if spec.HasDefaultValue():
-                break
+        found = samples_spec(attr, skip=layer) if attr else None
+        if found is not None:
+            held, path, offset = found
+            times.update(offset * t for t in held.ListTimeSamplesForPath(path))
     return np.array(sorted(times), dtype=float)
 
 

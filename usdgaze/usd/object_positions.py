@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
+from usdgaze.usd.samples import authored_samples
 from usdgaze.usd.targets import PURPOSES, bounds_vary, sample_target
 
 
@@ -24,19 +25,12 @@ def sampled(attr: Usd.Attribute, time_codes: np.ndarray) -> np.ndarray | None:
     if source == Usd.ResolveInfoSourceDefault:
         value = np.asarray(attr.Get(), float).reshape(1, -1)
         return np.repeat(value, len(time_codes), 0)
-    if source != Usd.ResolveInfoSourceTimeSamples:
+    found = authored_samples(attr)  # None for a stronger default over weaker samples: USD says what wins
+    if found is None:
         return None
-    spec = offset = None
-    for s, off in attr.GetPropertyStackWithLayerOffsets():
-        if s.HasInfo("timeSamples") and s.layer.GetNumTimeSamplesForPath(s.path):
-            spec, offset = s, off
-            break
-        if s.HasDefaultValue():
-            return None  # a stronger default over weaker samples: let USD say what wins
-    if spec is None:
-        return None
-    layer_times = spec.layer.ListTimeSamplesForPath(spec.path)
-    raw = [spec.layer.QueryTimeSample(spec.path, t) for t in layer_times]
+    layer, path, offset = found
+    layer_times = layer.ListTimeSamplesForPath(path)
+    raw = [layer.QueryTimeSample(path, t) for t in layer_times]
     if any(isinstance(v, Sdf.ValueBlock) for v in raw):
         return None  # a blocked sample has no value there: USD says what the transform is (its op left out)
     values = np.array([np.asarray(v, float) for v in raw])

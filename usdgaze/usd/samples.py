@@ -20,8 +20,18 @@ def authored_samples(attr: Usd.Attribute) -> tuple[Sdf.Layer, Sdf.Path, Sdf.Laye
     """
     if attr.GetResolveInfo().GetSource() != Usd.ResolveInfoSourceTimeSamples:
         return None
+    return samples_spec(attr)
+
+
+def samples_spec(attr: Usd.Attribute, skip: Sdf.Layer | None = None
+                 ) -> tuple[Sdf.Layer, Sdf.Path, Sdf.LayerOffset] | None:
+    """The strongest spec of ``attr``'s property stack that holds time samples, with its offset to stage
+    time, the specs of ``skip`` left out (the value as resolved without that layer); None where a
+    stronger default comes first or no spec holds samples."""
     for spec, offset in attr.GetPropertyStackWithLayerOffsets(Usd.TimeCode.Default()):
         layer, path = spec.layer, spec.path
+        if skip is not None and layer.identifier == skip.identifier:
+            continue
         if layer.GetNumTimeSamplesForPath(path):
             return layer, path, offset
         if spec.HasDefaultValue():  # a stronger default would win: not the simple case
