@@ -123,7 +123,7 @@ def write_model(input_path, out, total_mass: float = 75.0, timestep: float | Non
         stage = _open_input(tx, source)
         root, skel = one_skeleton(stage, source, skel_root)
         shot = read_shot(stage, source, root, [root], skel, mpc.Options(), binding, total_mass)
-        model = shot.body[0]
-        tx.stage_text(out, mjcf.write(model, timestep=timestep or shot.options.h))
+        model, h = shot.body[0], timestep or shot.options.h
+        tx.stage_text(out, mjcf.write(model, timestep=h))
     return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
-            "mass": model.total_mass, "skeleton": shot.clip.skeleton, "timestep": timestep or shot.options.h}
+            "mass": model.total_mass, "skeleton": shot.clip.skeleton, "timestep": h}
