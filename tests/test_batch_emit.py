@@ -154,3 +154,39 @@ def test_a_manifest_path_the_job_files_cannot_carry_is_refused_and_nothing_writt
         assert subprocess.run(["bash", "-n", str(script)]).returncode == 0
         exec_line = next(l for l in script.read_text().splitlines() if l.startswith("exec "))
         assert shlex.split(exec_line)[3] == str(folder / "m.toml")
+
+
+def test_more_shots_than_one_slurm_array_holds_go_in_several_arrays(tmp_path):
+    """SLURM's default MaxArraySize (1001) caps an array's indices at 1000: a 1,200-shot manifest was
+    emitted as --array=0-1199, which sbatch refuses ("Invalid job array specification"). Now a
+    submit.sh submits arrays of at most 1001 tasks, each telling the script the shot of its task 0;
+    run here with a recording sbatch, the arrays cover every shot once, and one task of the second
+    array runs the shot it names (its layer, and no other, is written)."""
+    syn.make_rig(tmp_path / "rig.usda", frames=24)
+    count = 1200
+    (tmp_path / "many.toml").write_text("".join(
+        f'[[job]]\nname = "s{i}"\ninput = "rig.usda"\nout = "out/s{i}.usda"\nshifts = ["0.2s:{10 + i % 50}:0"]\n'
+        for i in range(count)))
+    folder = tmp_path / "slurm"
+    assert main(["batch", str(tmp_path / "many.toml"), "--emit", "slurm", str(folder)]) == 0
+    script = (folder / "usdgaze.sbatch").read_text()
+    assert "#SBATCH --array=0-1000\n" in script, script
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "sbatch").write_text(f'#!/usr/bin/env bash\necho "$@" >> {tmp_path}/calls.txt\n')
+    (bin_dir / "sbatch").chmod(0o755)
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}"}
+    subprocess.run(["bash", str(folder / "submit.sh")], check=True, env=env, cwd=tmp_path)
+    covered = []
+    for call in (tmp_path / "calls.txt").read_text().splitlines():
+        array, path, first = call.split()
+        assert array.startswith("--array=0-") and Path(path) == folder / "usdgaze.sbatch", call
+        size = int(array.rpartition("-")[2]) + 1
+        assert size <= 1001, call
+        covered += range(int(first), int(first) + size)
+    assert covered == list(range(count))
+    env["SLURM_ARRAY_TASK_ID"] = "3"
+    done = subprocess.run(["bash", str(folder / "usdgaze.sbatch"), "1001"], env=env, cwd=tmp_path,
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "out").glob("*.usda")) == ["s1004.usda"]

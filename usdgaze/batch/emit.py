@@ -5,7 +5,8 @@
   with ``deadlinecommand job_info.job plugin_info.job``;
 * OpenCue: a job spec (cjsl XML, one layer with range 0-(N-1), chunk 1), submitted with
   ``opencue.api.launchSpec(open(SPEC).read())`` or cuesubmit;
-* SLURM: an array-job script, submitted with ``sbatch usdgaze.sbatch``.
+* SLURM: an array-job script, submitted with ``sbatch usdgaze.sbatch`` (over 1001 shots: several
+  arrays, ``bash submit.sh``).
 """
 
 from __future__ import annotations
@@ -114,22 +115,50 @@ def _opencue(manifest: Path, count: int, name: str, extra: Sequence[str], ask: R
     return {f"{name}.xml": spec}
 
 
+SLURM_ARRAY_MAX = 1001
+"""SLURM's default ``MaxArraySize``: an array's indices run 0..1000 at most, and sbatch refuses a larger
+``--array`` ("Invalid job array specification"), so more shots go in several arrays (``submit.sh``)."""
+
+
 def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str], ask: Request) -> dict[str, str]:
     cmd = " ".join(shlex.quote(a) for a in [*usdgaze_command(), "batch", str(manifest), *extra, "--task-index"])
+    split = count > SLURM_ARRAY_MAX
+    submit = "bash submit.sh (arrays of at most 1001 tasks)" if split else "sbatch usdgaze.sbatch"
+    task = '"$((SLURM_ARRAY_TASK_ID + ${1:-0}))"' if split else '"$SLURM_ARRAY_TASK_ID"'
     script = f"""#!/usr/bin/env bash
-# usdgaze batch {manifest.name}: one array task per shot ({_count(count)}). Submit: sbatch usdgaze.sbatch
+# usdgaze batch {manifest.name}: one array task per shot ({_count(count)}). Submit: {submit}
 # --cpus-per-task: one request for every array task, so the most threads any shot sets ({ask.cores});
 # --time: half an hour a shot, four hours where one simulates physics (edit both to your shots).
 #SBATCH --job-name={name}
-#SBATCH --array=0-{count - 1}
+#SBATCH --array=0-{min(count, SLURM_ARRAY_MAX) - 1}
 #SBATCH --cpus-per-task={ask.cores}
 #SBATCH --mem=2G
 #SBATCH --time={ask.time_limit}
 #SBATCH --output=usdgaze_%A_%a.log
 # Exit codes: 0 done or skipped, 2 bad input (do not retry), 1 internal error (worth a retry).
-exec {cmd} "$SLURM_ARRAY_TASK_ID"
 """
-    return {"usdgaze.sbatch": script}
+    if split:
+        script += "# The first argument: the shot of array task 0 (submit.sh passes each array's).\n"
+    files = {"usdgaze.sbatch": script + f"exec {cmd} {task}\n"}
+    if split:
+        files["submit.sh"] = _slurm_submit(count)
+    return files
+
+
+def _slurm_submit(count: int) -> str:
+    """A script submitting ``count`` shots as arrays of at most :data:`SLURM_ARRAY_MAX` tasks, each told
+    the shot its task 0 runs."""
+    return f"""#!/usr/bin/env bash
+# {_count(count)}, more than SLURM's default MaxArraySize ({SLURM_ARRAY_MAX}) lets one array hold: one
+# array per {SLURM_ARRAY_MAX} shots. Where the cluster's MaxArraySize differs, set USDGAZE_ARRAY_SIZE to it.
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+size=${{USDGAZE_ARRAY_SIZE:-{SLURM_ARRAY_MAX}}}
+for ((first = 0; first < {count}; first += size)); do
+  n=$(( {count} - first < size ? {count} - first : size ))
+  sbatch --array=0-$((n - 1)) "$here/usdgaze.sbatch" "$first"
+done
+"""
 
 
 def _count(n: int, what: str = "shot") -> str:
