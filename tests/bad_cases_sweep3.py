@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pxr import Gf, Sdf, Vt
 
-from .bad_common import apply_argv, edited, remove, rig
+from .bad_common import JOB, apply_argv, edited, manifest, remove, rig
 
 
 def b_sparse_animation_without_rest_transforms(d):
@@ -211,3 +211,46 @@ def b_directive_on_one_sample_without_a_range(d):
         layer.ClearStartTimeCode()
         layer.ClearEndTimeCode()
     return apply_argv(d, edited(d, one_sample))
+
+
+def b_character_transform_a_double(d):
+    """The SkelRoot's ``xformOp:translate`` authored as a double: USD cannot evaluate the character's
+    transform, and apply stopped with USD's internal error (exit 1)."""
+    def double_translate(layer, r):
+        prim = layer.GetPrimAtPath(r.skel_root)
+        for name in ("xformOpOrder", "xformOp:translate"):
+            if name in prim.properties:
+                prim.RemoveProperty(prim.properties[name])
+        order = Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                                  variability=Sdf.VariabilityUniform)
+        order.default = ["xformOp:translate"]
+        Sdf.AttributeSpec(prim, "xformOp:translate", Sdf.ValueTypeNames.Double).default = 1.0
+    return apply_argv(d, edited(d, double_translate))
+
+
+def b_look_at_target_unknown_op(d):
+    """A look-at target whose xformOpOrder names an op USD does not evaluate (``xformOp:foo``): an
+    internal error (exit 1) before."""
+    def target(layer, r):
+        prim = Sdf.CreatePrimInLayer(layer, "/World/Target")
+        prim.specifier = Sdf.SpecifierDef
+        prim.typeName = "Xform"
+        order = Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                                  variability=Sdf.VariabilityUniform)
+        order.default = ["xformOp:foo"]
+        Sdf.AttributeSpec(prim, "xformOp:foo", Sdf.ValueTypeNames.Double3).default = Gf.Vec3d(0, 1.5, 2)
+    return ["apply", str(edited(d, target)), "--look-at", "/World/Target@0.5s", "--out", str(d / "gaze.usdc")]
+
+
+def b_batch_emit_manifest_folder_line_break(d):
+    """``--emit slurm`` of a manifest in a folder whose name holds a line break: it ended the SLURM
+    script's comment line, so the rest of the name ran as a command and sbatch ignored the #SBATCH
+    lines after it."""
+    folder = d / "shots\nday2"
+    folder.mkdir()
+    return manifest(folder, f"[[job]]\n{JOB}", "--emit", "slurm", str(d / "jobs"))
+
+
+def b_batch_manifest_in_a_missing_folder(d):
+    """A mistyped manifest folder: it was said as its default summary's folder missing."""
+    return ["batch", str(d / "shots" / "manifest.toml")]
