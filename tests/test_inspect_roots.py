@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from pxr import Sdf, Vt
 
@@ -84,3 +86,13 @@ def test_a_skeleton_belongs_to_its_nearest_skel_root(tmp_path, capsys):
     head = r.leaf["head"]
     turned = measure.rotation_angle_deg(new.world[:, new.index(head), :3, :3], base.world[:, base.index(head), :3, :3])
     assert turned[-1] > 5.0  # the inner character's head turned (its share of the 40 deg)
+
+    # Without --skel-root: the outer SkelRoot holds no Skeleton of its own, so the stage has one
+    # character to pick (it was '2 SkelRoots and none has a GazeMapAPI; pick one with --skel-root').
+    again = tmp_path / "again.usda"
+    assert main(["apply", str(tmp_path / "nested.usda"), "--shift", "10:40:0", "--out", str(tmp_path / "g2.usdc"),
+                 "--preview", str(again)]) == 0
+    new = measure.posed(str(again), "/Outer/Inner/Skel")
+    turned_again = measure.rotation_angle_deg(new.world[:, new.index(head), :3, :3],
+                                              base.world[:, base.index(head), :3, :3])
+    assert np.array_equal(turned_again, turned)

@@ -32,10 +32,11 @@ def bind_root(clip: SkelClip, root, hints: BindHints | None = None) -> tuple[Cha
 
 
 def select_roots(stage, source: str, skel_root: str | None):
-    """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only one."""
+    """The SkelRoots to work on: the named one, else every one with a GazeMapAPI, else the only
+    one holding a Skeleton."""
     from pxr import Sdf, UsdSkel
 
-    from usdgaze.usd.skelio import no_skel_root, skel_roots
+    from usdgaze.usd.skelio import no_skel_root, skel_roots, skeletons_under
 
     if skel_root:
         if not Sdf.Path.IsValidPathString(skel_root) or not (Sdf.Path(skel_root).IsAbsolutePath()
@@ -53,6 +54,9 @@ def select_roots(stage, source: str, skel_root: str | None):
     with_map = [r for r in roots if schema.has_map(r)]
     if with_map:
         return with_map
+    # A SkelRoot around another (a set or group exported as one) holds no Skeleton of its own: it was
+    # listed among those to pick, and a stage of one character needed --skel-root.
+    roots = [r for r in roots if skeletons_under(r)] or roots
     if len(roots) > 1:
         listed = ", ".join(str(r.GetPath()) for r in roots[:6])
         raise UsdGazeError(f"{source}: {len(roots)} SkelRoots and none has a GazeMapAPI; pick one with --skel-root ({listed})")

@@ -27,7 +27,7 @@ import numpy as np
               help="saccade: the eyes move on the main sequence and pursue; model: the paper's coupled eye timing.")
 @click.option("--no-guides", is_flag=True, help="Do not author the guide-purpose lines of sight and point of sight.")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Override layer to write (.usda/.usdc/.usd).")
-@click.option("--skel-root", default=None, help="SkelRoot prim path (default: every SkelRoot with a GazeMapAPI, else the only one).")
+@click.option("--skel-root", default=None, help="SkelRoot prim path (default: every SkelRoot with a GazeMapAPI, else the only one holding a Skeleton).")
 @click.option("--map", "map_spec", default=None, metavar="FILE[:PRIM]", help="Gaze map to use instead of the SkelRoot's or the built-in one.")
 @click.option("--sublayer-into", default=None, type=click.Path(dir_okay=False), metavar="ROOT",
               help="Insert the override as the strongest sublayer of ROOT (only ROOT's subLayers change; "

@@ -28,7 +28,7 @@ from usdgaze.console.types import FiniteRange
               help="direct: write the planner's eyes, neck and spine; map: turn its fixations into look-at "
                    "directives realized through the gaze map (cascade, overshoot, saccades).")
 @click.option("--skel-root", default=None,
-              help="SkelRoot prim path (default: every SkelRoot with a GazeMapAPI, else the only one).")
+              help="SkelRoot prim path (default: every SkelRoot with a GazeMapAPI, else the only one holding a Skeleton).")
 @click.option("--bind", "bind", multiple=True, metavar="ROLE=JOINT[+JOINT...]",
               help="Bind a gaze role (pelvis, lowerSpine, upperSpine, neck, head, leftEye, rightEye) to joints, "
                    "by path or name, where names do not say it. Repeatable; wins over the map's bindings.")
