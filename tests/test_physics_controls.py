@@ -1,0 +1,81 @@
+"""The step's derivative by the motors' controls in closed form (``physics.controls``) against
+MuJoCo's own finite differences of them (``mjd_transitionFD``), on the CMU body: feet on the ground
+(contact rows pushing and not), in the air, turned, with a toe motor held at its limit; and MuJoCo's
+differences kept where the closed form does not apply."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from usdgaze.physics import build, controls, retarget
+from usdgaze.physics.dynamics import MujocoBody
+
+CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
+
+
+@pytest.fixture(scope="module")
+def body():
+    clip = build.load_clip(CMU)
+    model, ref = build.body_model(clip)
+    return MujocoBody(model, h=0.02), retarget.to_qpos(model, ref)
+
+
+def _mujoco_differences(dyn, x, u):
+    """MuJoCo's finite differences of the whole step (A and B) at ``x``, ``u``, in its tangent space."""
+    dyn._load(x, u, 0)
+    A = np.zeros((dyn.nx, dyn.nx))
+    B = np.zeros((dyn.nx, dyn.nu))
+    mujoco.mjd_transitionFD(dyn.mj, dyn.data, dyn.eps, dyn.centered, A, B, None, None)
+    return A, B
+
+
+@pytest.mark.parametrize("frame, lift, speed", [(400, 0.0, 0.3), (100, 0.0, 2.0), (700, 0.4, 1.0), (250, -0.01, 0.5)])
+def test_control_columns_match_mujocos_differences(body, frame, lift, speed):
+    dyn, qpos = body
+    assert dyn.closed_controls
+    rng = np.random.default_rng(frame)
+    q = qpos[frame].copy()
+    q[2] += lift
+    x = dyn.to_state(q, rng.normal(0, speed, dyn.nv))
+    u = rng.normal(0, 0.5, dyn.nu)
+    limited = np.flatnonzero(dyn.mj.actuator_ctrllimited)
+    assert len(limited) > 0
+    u[limited[0]] = 1.5  # a toe motor beyond its range: clamped by MuJoCo, it moves nothing
+    A_fd, B_fd = _mujoco_differences(dyn, x, u)
+    A, B = dyn._fd(x, u, 0)
+    assert np.array_equal(A, A_fd)  # the state's columns are still MuJoCo's, bit for bit
+    assert np.linalg.norm(B - B_fd) / np.linalg.norm(B_fd) < 1e-6
+    assert np.abs(B - B_fd).max() < 1e-6 * np.abs(B_fd).max()
+    assert np.all(B[:, limited[0]] == 0.0) and np.all(B_fd[:, limited[0]] == 0.0)
+    if lift <= 0.0:
+        dyn._load(x, u, 0)
+        mujoco.mj_forward(dyn.mj, dyn.data)
+        pushing = np.asarray(dyn.data.efc_force) != 0
+        assert pushing.any() and not pushing.all(), "rows that push and rows that do not"
+
+
+def test_mujocos_differences_where_the_closed_form_does_not_apply(body):
+    """An elliptic friction cone (a contact row can slide, in its cone zone): MuJoCo differences the controls."""
+    dyn, qpos = body
+    mj = dyn.mj
+    rng = np.random.default_rng(1)
+    x = dyn.to_state(qpos[400].copy(), rng.normal(0, 0.3, dyn.nv))
+    u = rng.normal(0, 0.5, dyn.nu)
+    cone = mj.opt.cone
+    try:
+        mj.opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        dyn._load(x, u, 0)
+        mujoco.mj_forward(mj, dyn.data)
+        assert dyn.data.nefc > 0
+        assert controls.closed_form(mj, dyn.data, u, dyn._rot_x, dyn._moments) is None
+        A, B = dyn._fd(x, u, 0)
+        assert np.array_equal(B, _mujoco_differences(dyn, x, u)[1])
+    finally:
+        mj.opt.cone = cone
+    assert not controls.applies(mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size=".1"/></body></worldbody>'
+        '<actuator><position joint="j" kp="10"/></actuator></mujoco>'))
