@@ -108,8 +108,7 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
 
     model, ref = body or build.body_model(clip, total_mass, chain_frame=chain_frame)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
-    ref_qpos = retarget.to_qpos(model, ref)
-    build.check_on_ground(model, ref_qpos, clip)
+    ref_qpos = retarget.to_qpos(model, ref)  # on the ground: checked with every shot's tasks (read_shots)
     tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos, task_found=task_found)
     start = time.perf_counter()
     result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress, tasks=tasks,

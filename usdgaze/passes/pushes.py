@@ -10,6 +10,7 @@ import numpy as np
 from pxr import Usd
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.passes.catches import CATCH
 from usdgaze.physics import mpc
 from usdgaze.usd.checks import authored_type
 
@@ -40,12 +41,12 @@ def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
     return times, out
 
 
-_ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, "usdgaze:physics:catch")
+_ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, CATCH)
 """The physics attributes read on a SkelRoot (``usdgaze:physics:task`` is a stone's or an obstacle's)."""
 
 
 def _check_on_the_root(root, source: str) -> None:
-    """One line for a push attribute authored on a prim under the SkelRoot or above it: only the
+    """One line for a push attribute or a catch authored on a prim under the SkelRoot or above it: only the
     SkelRoot's are read (docs/physics.md), and one on the Skeleton or on the SkelRoot's parent was
     ignored without a word; and for a misspelled physics attribute on the SkelRoot itself (a
     ``pushforce`` left the push out, exit 0)."""
@@ -62,7 +63,11 @@ def _check_on_the_root(root, source: str) -> None:
             if attr and attr.HasAuthoredValue():
                 raise UsdGazeError(f"{source}:{attr.GetPath()}: a push is read on the SkelRoot only; author "
                                    f"{PUSH_FORCE} and {PUSH_JOINT} on {root.GetPath()}")
-    for attr in root.GetAuthoredAttributes():
+        catch = prim.GetRelationship(CATCH) or prim.GetAttribute(CATCH)
+        if catch and catch.IsAuthored():  # on the Skeleton or the SkelRoot's parent it caught nothing, exit 0
+            raise UsdGazeError(f"{source}:{catch.GetPath()}: a ball to catch is read on the SkelRoot only; author "
+                               f"{CATCH} on {root.GetPath()}")
+    for attr in root.GetAuthoredProperties():  # a misspelled catch is a relationship
         name = attr.GetName()
         if name.startswith("usdgaze:physics:") and name not in _ROOT_NAMES:
             import difflib

@@ -1,0 +1,60 @@
+"""``attend --physics`` refuses a shot's bad task inputs before any simulation, and reads a catch the
+shot's own layer authors over an asset's (tests/bad_cases_sweep4.py has the refusals' builders;
+docs/bad-inputs.md their lines)."""
+
+from __future__ import annotations
+
+import pytest
+from pxr import Sdf, Usd
+
+import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
+
+from . import bad_cases_sweep4 as sweep4
+from .bad_common import run_inprocess
+
+
+def test_second_characters_bad_push_refused_before_any_simulation(tmp_path, monkeypatch):
+    """Two characters, the second's push on a joint it lacks: the first was simulated before (one
+    call of the simulation), and nothing is now."""
+    from usdgaze.physics import mpc, visuomotor
+
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        raise AssertionError("simulated before the shots were checked")
+
+    monkeypatch.setattr(mpc, "simulate", counted)
+    monkeypatch.setattr(visuomotor, "simulate", counted)
+    argv = sweep4.b_physics_second_character_bad_push(tmp_path)
+    code, _, err = run_inprocess(argv, tmp_path)
+    assert code == 2, err
+    assert err.strip().splitlines() == [err.strip()]
+    assert "/B.usdgaze:physics:pushJoint: 'NoSuchJoint' is not a simulated joint of /B/Skel" in err
+    assert calls == []
+    assert not (tmp_path / "gaze.usdc").exists()
+
+
+@pytest.mark.parametrize("builder", [sweep4.b_physics_on_a_platform_with_objects,
+                                     sweep4.b_physics_catch_outside_the_reference])
+def test_refused_before_any_simulation(tmp_path, monkeypatch, builder):
+    """The coupled loop's refusals come before it runs (it ran 0.2 s of a drop before)."""
+    from usdgaze.physics import visuomotor
+
+    monkeypatch.setattr(visuomotor, "simulate", lambda *a, **k: pytest.fail("simulated"))
+    code, _, err = run_inprocess(builder(tmp_path), tmp_path)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+
+
+def test_catch_authored_over_the_asset_in_the_shot_is_read(tmp_path):
+    """An explicit catch on the SkelRoot in the shot's layer hides the asset's target outside the
+    reference: it is read (the ball the shot names), not refused."""
+    from usdgaze.passes import visuomotor
+
+    argv = sweep4.b_physics_catch_outside_the_reference(tmp_path)
+    shot = Sdf.Layer.FindOrOpen(argv[1])
+    sweep4._catch(shot, "/Character")
+    shot.Save()
+    stage = Usd.Stage.Open(argv[1])
+    prims, paths, catches = visuomotor.read_scene(stage.GetPrimAtPath("/Character"), argv[1])
+    assert paths == [sweep4.BALL] and catches == [0]
