@@ -4,6 +4,7 @@ docs/bad-inputs.md their lines)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from pxr import Sdf, Usd
 
@@ -58,3 +59,38 @@ def test_catch_authored_over_the_asset_in_the_shot_is_read(tmp_path):
     stage = Usd.Stage.Open(argv[1])
     prims, paths, catches = visuomotor.read_scene(stage.GetPrimAtPath("/Character"), argv[1])
     assert paths == [sweep4.BALL] and catches == [0]
+
+
+def _late_shot(d, push: bool):
+    """The rig's animation at time codes 100-189 in a stage from 0, the shot to 118 (0.3 s); ``push``:
+    1500 N forward at the chest over 103-109."""
+    from .bad_common import rig
+
+    r = rig(d, "in.usda", start_time=100.0)
+    layer = Sdf.Layer.FindOrOpen(str(r.path))
+    layer.Reload(force=True)
+    layer.startTimeCode, layer.endTimeCode = 0.0, 118.0
+    if push:
+        root = layer.GetPrimAtPath(r.skel_root)
+        Sdf.AttributeSpec(root, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).default = r.leaf["spine_b"]
+        force = Sdf.AttributeSpec(root, "usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3)
+        layer.SetTimeSample(force.path, 103.0, (0.0, 0.0, 1500.0))
+        layer.SetTimeSample(force.path, 109.0, (0.0, 0.0, 0.0))
+    layer.Save()
+    out = d / "gaze.usdc"
+    code, _, err = run_inprocess(["attend", str(r.path), "--physics", "--out", str(out), "--retry-iterations", "0"], d)
+    assert code == 0, err
+    from . import catch_stages, measure
+
+    stage = catch_stages.composed(r.path, out, d / "composed.usda")
+    return measure.posed(str(stage), r.skeleton).position(r.leaf["pelvis"])
+
+
+def test_push_acts_when_the_animation_starts_after_the_stage(tmp_path):
+    """A push is timed from the clip's first frame, where the simulation starts: timed from the
+    stage's start it came 1.7 s late here, past the 0.3 s shot, and the pushed layer was the unpushed
+    one bit for bit (the report still said 1 push). By UsdSkel FK the pushed hips are up to 32 cm from
+    the unpushed ones (0 before)."""
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    pushed, still = _late_shot(tmp_path / "a", True), _late_shot(tmp_path / "b", False)
+    assert np.abs(pushed - still).max() > 0.10

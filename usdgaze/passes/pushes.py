@@ -108,7 +108,9 @@ def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
         end = times[i + 1] if i + 1 < len(times) else clip.end_time
         if not np.any(f) or end <= clip.times[0] or t >= clip.times[-1]:  # no force, or none in the shot
             continue
-        start_s = (t - clip.start_time) / clip.time_codes_per_second
+        # The simulation's clock starts at the clip's first frame, not the stage's start: an animation
+        # starting 100 time codes into the stage had its push 1.7 s late (past a 0.3 s shot: none).
+        start_s = (t - clip.times[0]) / clip.time_codes_per_second
         pushes.append(mpc.Push(body, rot @ f, start_s, (end - t) / clip.time_codes_per_second))
     return tuple(pushes)
 
