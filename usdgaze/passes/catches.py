@@ -28,7 +28,8 @@ def catch_targets(root: Usd.Prim, source: str) -> list[Sdf.Path]:
         target, layer = dropped[0]
         raise UsdGazeError(f"{source}:{rel.GetPath()}: its target <{target}> (in {layer}) lies outside the reference "
                            f"or payload that brings {root.GetPath()} in, so USD drops it and the shot would run "
-                           f"without the catch; author {CATCH} on {root.GetPath()} in the shot's own layer")
+                           f"without that catch; author it on {root.GetPath()} in the shot's own layer, as a list "
+                           f"that replaces the asset's (rel {CATCH} = <...>)")
     return list(rel.GetTargets())
 
 
