@@ -124,3 +124,12 @@ def b_physics_second_character_bad_push(d):
     simulated (seconds here, minutes on a real shot)."""
     return ["attend", str(two_characters(d)), "--physics", "--out", str(d / "gaze.usdc")]
 
+
+
+def b_physics_task_misspelled(d):
+    """A stone tagged ``usdgaze:physics:tasks``: no stone, and the shot ran without it, exit 0."""
+    def author(layer, r):
+        _ball(layer, api=False, path="/Stones/A")
+        Sdf.AttributeSpec(layer.GetPrimAtPath("/Stones/A"), "usdgaze:physics:tasks",
+                          Sdf.ValueTypeNames.Token).default = "stone"
+    return _physics(d, author)

@@ -37,6 +37,7 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
 
     prims = {kind: [] for kind in TASKS}
     for prim in scene_prims(stage):
+        _check_spelling(prim, source)
         attr = prim.GetAttribute(TASK)
         if not attr or not attr.HasAuthoredValue():
             continue
@@ -52,6 +53,22 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
                 "a stone or an obstacle", inside=True)
     return prims
 
+
+
+def _check_spelling(prim, source: str) -> None:
+    """One line for a ``usdgaze:physics:`` property the pass reads nowhere: a stone tagged
+    ``usdgaze:physics:tasks`` (or ``Task``) was no stone, and the shot ran without it, exit 0."""
+    import difflib
+
+    from usdgaze.passes.pushes import ROOT_NAMES
+
+    known = (TASK, *ROOT_NAMES)
+    for prop in prim.GetAuthoredPropertiesInNamespace("usdgaze:physics"):
+        name = prop.GetName()
+        if name not in known:
+            near = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+            said = f"did you mean {near[0]}?" if near else f"it reads {', '.join(known)}"
+            raise UsdGazeError(f"{source}:{prop.GetPath()}: not an attribute the physics pass reads ({said})")
 
 
 def read_shot(stage, source: str, root, roots: list, skel, options: mpc.Options, bind: Callable,

@@ -41,7 +41,7 @@ def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
     return times, out
 
 
-_ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, CATCH)
+ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, CATCH)
 """The physics attributes read on a SkelRoot (``usdgaze:physics:task`` is a stone's or an obstacle's)."""
 
 
@@ -69,11 +69,11 @@ def _check_on_the_root(root, source: str) -> None:
                                f"{CATCH} on {root.GetPath()}")
     for attr in root.GetAuthoredProperties():  # a misspelled catch is a relationship
         name = attr.GetName()
-        if name.startswith("usdgaze:physics:") and name not in _ROOT_NAMES:
+        if name.startswith("usdgaze:physics:") and name not in ROOT_NAMES:
             import difflib
 
-            near = difflib.get_close_matches(name, _ROOT_NAMES, n=1, cutoff=0.6)
-            said = f"did you mean {near[0]}?" if near else f"a SkelRoot's are {', '.join(_ROOT_NAMES)}"
+            near = difflib.get_close_matches(name, ROOT_NAMES, n=1, cutoff=0.6)
+            said = f"did you mean {near[0]}?" if near else f"a SkelRoot's are {', '.join(ROOT_NAMES)}"
             raise UsdGazeError(f"{source}:{attr.GetPath()}: not an attribute the physics pass reads ({said})")
 
 
