@@ -81,7 +81,9 @@ def test_a_push_outside_the_shot_is_not_a_push_of_the_shot(walk):
                  (300.0, (40.0, 0.0, 0.0))):  # after it
         force.Set(f, t)
     pushes = read_pushes(root, shot, model, "shot")
-    starts = [round(p.start_s * clip.time_codes_per_second + clip.start_time, 6) for p in pushes]
+    # start_s counts from the shot's first frame (101), where its simulation starts: counted from the
+    # stage's start, every push came 100 time codes late.
+    starts = [round(p.start_s * clip.time_codes_per_second + shot.times[0], 6) for p in pushes]
     assert starts == [90.0, 150.0]
 
 

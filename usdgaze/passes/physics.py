@@ -108,8 +108,7 @@ def simulate_clip(clip, root, options: mpc.Options, total_mass: float = 75.0, pr
 
     model, ref = body or build.body_model(clip, total_mass, chain_frame=chain_frame)
     pushes = read_pushes(root, clip, model, f"{clip.source}:{root.GetPath()}")
-    ref_qpos = retarget.to_qpos(model, ref)
-    build.check_on_ground(model, ref_qpos, clip)
+    ref_qpos = retarget.to_qpos(model, ref)  # on the ground: checked with every shot's tasks (read_shots)
     tasks = read_tasks(root.GetStage(), clip, model, clip.source, ref_qpos, task_found=task_found)
     start = time.perf_counter()
     result = mpc.simulate(model, ref_qpos, clip.seconds, options, pushes, progress, tasks=tasks,
@@ -247,6 +246,7 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
     composes, and nothing is left behind on failure or interruption."""
     from usdgaze.api import _open_input
     from usdgaze.files.transaction import Outputs
+    from usdgaze.passes.catches import kind_notes
     from usdgaze.physics.dynamics import require_mujoco
     from usdgaze.usd.layers import check_output_path, composed_override_notes
 
@@ -265,8 +265,8 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)
         notes = composed_override_notes(stage, source)
-        for r in reports:
-            r.warnings = list(notes)
+        for shot, r in zip(shots, reports):
+            r.warnings = list(notes) + kind_notes(shot.root, shot.scene[0], shot.scene[2], source)
         tx.stage_layer(out_path, layer)
     return reports
 

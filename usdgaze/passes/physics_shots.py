@@ -37,6 +37,7 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
 
     prims = {kind: [] for kind in TASKS}
     for prim in scene_prims(stage):
+        _check_spelling(prim, source)
         attr = prim.GetAttribute(TASK)
         if not attr or not attr.HasAuthoredValue():
             continue
@@ -52,6 +53,22 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
                 "a stone or an obstacle", inside=True)
     return prims
 
+
+
+def _check_spelling(prim, source: str) -> None:
+    """One line for a ``usdgaze:physics:`` property the pass reads nowhere: a stone tagged
+    ``usdgaze:physics:tasks`` (or ``Task``) was no stone, and the shot ran without it, exit 0."""
+    import difflib
+
+    from usdgaze.passes.pushes import ROOT_NAMES
+
+    known = (TASK, *ROOT_NAMES)
+    for prop in prim.GetAuthoredPropertiesInNamespace("usdgaze:physics"):
+        name = prop.GetName()
+        if name not in known:
+            near = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+            said = f"did you mean {near[0]}?" if near else f"it reads {', '.join(known)}"
+            raise UsdGazeError(f"{source}:{prop.GetPath()}: not an attribute the physics pass reads ({said})")
 
 
 def read_shot(stage, source: str, root, roots: list, skel, options: mpc.Options, bind: Callable,
@@ -78,8 +95,6 @@ def read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, 
     the model refuses, lying, without feet, squashed, was found only after the characters before it
     had been simulated)."""
     from usdgaze.characters import bind_root, select_roots
-    from usdgaze.passes import visuomotor
-    from usdgaze.physics.catch import can_catch
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, skeletons_under
 
     shots = []
@@ -90,13 +105,29 @@ def read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, 
             shot = read_shot(stage, source, root, roots, skel, options,
                              lambda clip, r: bind_root(clip, r, binding), total_mass)
             check_not_shared(others, shot.clip.animation, source)
-            if shot.scene[2] and not can_catch(shot.body[0]):  # it stopped with an internal error, exit 1
-                raise UsdGazeError(f"{source}:{root.GetPath()}.{visuomotor.CATCH}: names a ball to catch, but "
-                                   f"{shot.clip.skeleton} has no hand (a hand joint below a forearm) to catch it with")
+            _check_tasks(shot, source)
             shots.append(shot)
     if not shots:
         raise UsdGazeError(f"{source}: no Skeleton to simulate")
     return shots
+
+
+def _check_tasks(shot: Shot, source: str) -> None:
+    """What the simulation of ``shot`` would refuse, said before any shot is simulated: a second
+    character's bad push, or its reference off the ground, stopped the command only after the first
+    had been simulated (minutes), and the coupled loop (objects in the stage) never checked the ground."""
+    from usdgaze.passes import visuomotor
+    from usdgaze.passes.pushes import read_pushes
+    from usdgaze.physics import retarget
+    from usdgaze.physics.build import check_on_ground
+    from usdgaze.physics.catch import can_catch
+
+    root, (model, ref) = shot.root, shot.body
+    if shot.scene[2] and not can_catch(model):  # it stopped with an internal error, exit 1
+        raise UsdGazeError(f"{source}:{root.GetPath()}.{visuomotor.CATCH}: names a ball to catch, but "
+                           f"{shot.clip.skeleton} has no hand (a hand joint below a forearm) to catch it with")
+    read_pushes(root, shot.clip, model, f"{source}:{root.GetPath()}")
+    check_on_ground(model, retarget.to_qpos(model, ref), shot.clip)
 
 
 def write_model(input_path, out, total_mass: float = 75.0, timestep: float | None = None,

@@ -10,6 +10,7 @@ import numpy as np
 from pxr import Usd
 
 from usdgaze.errors import UsdGazeError
+from usdgaze.passes.catches import CATCH
 from usdgaze.physics import mpc
 from usdgaze.usd.checks import authored_type
 
@@ -40,12 +41,12 @@ def _forces(force, where: str) -> tuple[list[float], list[np.ndarray]]:
     return times, out
 
 
-_ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, "usdgaze:physics:catch")
+ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, CATCH)
 """The physics attributes read on a SkelRoot (``usdgaze:physics:task`` is a stone's or an obstacle's)."""
 
 
 def _check_on_the_root(root, source: str) -> None:
-    """One line for a push attribute authored on a prim under the SkelRoot or above it: only the
+    """One line for a push attribute or a catch authored on a prim under the SkelRoot or above it: only the
     SkelRoot's are read (docs/physics.md), and one on the Skeleton or on the SkelRoot's parent was
     ignored without a word; and for a misspelled physics attribute on the SkelRoot itself (a
     ``pushforce`` left the push out, exit 0)."""
@@ -62,13 +63,17 @@ def _check_on_the_root(root, source: str) -> None:
             if attr and attr.HasAuthoredValue():
                 raise UsdGazeError(f"{source}:{attr.GetPath()}: a push is read on the SkelRoot only; author "
                                    f"{PUSH_FORCE} and {PUSH_JOINT} on {root.GetPath()}")
-    for attr in root.GetAuthoredAttributes():
+        catch = prim.GetRelationship(CATCH) or prim.GetAttribute(CATCH)
+        if catch and catch.IsAuthored():  # on the Skeleton or the SkelRoot's parent it caught nothing, exit 0
+            raise UsdGazeError(f"{source}:{catch.GetPath()}: a ball to catch is read on the SkelRoot only; author "
+                               f"{CATCH} on {root.GetPath()}")
+    for attr in root.GetAuthoredProperties():  # a misspelled catch is a relationship
         name = attr.GetName()
-        if name.startswith("usdgaze:physics:") and name not in _ROOT_NAMES:
+        if name.startswith("usdgaze:physics:") and name not in ROOT_NAMES:
             import difflib
 
-            near = difflib.get_close_matches(name, _ROOT_NAMES, n=1, cutoff=0.6)
-            said = f"did you mean {near[0]}?" if near else f"a SkelRoot's are {', '.join(_ROOT_NAMES)}"
+            near = difflib.get_close_matches(name, ROOT_NAMES, n=1, cutoff=0.6)
+            said = f"did you mean {near[0]}?" if near else f"a SkelRoot's are {', '.join(ROOT_NAMES)}"
             raise UsdGazeError(f"{source}:{attr.GetPath()}: not an attribute the physics pass reads ({said})")
 
 
@@ -103,7 +108,9 @@ def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:
         end = times[i + 1] if i + 1 < len(times) else clip.end_time
         if not np.any(f) or end <= clip.times[0] or t >= clip.times[-1]:  # no force, or none in the shot
             continue
-        start_s = (t - clip.start_time) / clip.time_codes_per_second
+        # The simulation's clock starts at the clip's first frame, not the stage's start: an animation
+        # starting 100 time codes into the stage had its push 1.7 s late (past a 0.3 s shot: none).
+        start_s = (t - clip.times[0]) / clip.time_codes_per_second
         pushes.append(mpc.Push(body, rot @ f, start_s, (end - t) / clip.time_codes_per_second))
     return tuple(pushes)
 

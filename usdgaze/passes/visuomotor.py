@@ -22,11 +22,10 @@ import time
 
 import numpy as np
 
-from usdgaze.errors import UsdGazeError
+from usdgaze.passes.catches import CATCH, catch_targets, require_objects  # noqa: F401  (CATCH: the pass's name)
 from usdgaze.physics import mpc
 from usdgaze.vision import loop
 
-CATCH = "usdgaze:physics:catch"
 CATCH_TOLERANCE_M = 0.1  # a ball the hand came no nearer than this to is a problem of the shot
 
 
@@ -39,19 +38,14 @@ def read_scene(root, source: str, roots: list | None = None):
     from usdgaze.usd.plugin import has_api
 
     stage = root.GetStage()
+    targets = catch_targets(root, source)
     if not any(has_api(p, API_NAME) for p in scene_prims(stage)):
+        require_objects(root, source, targets, [], API_NAME)  # a ball on a stage of no objects: one line
         return [], [], []
     roots = list(roots or [root])
     prims = objects_of(object_prims(stage, source, None), roots, source)[roots.index(root)]
     paths = [str(p.GetPath()) for p in prims]
-    rel = root.GetRelationship(CATCH)
-    catches = []
-    for target in (rel.GetTargets() if rel else []):
-        if str(target) not in paths:
-            raise UsdGazeError(f"{source}:{root.GetPath()}.{CATCH}: <{target}> is not an object "
-                               f"(a prim with {API_NAME}) of the stage")
-        catches.append(paths.index(str(target)))
-    return prims, paths, catches
+    return prims, paths, require_objects(root, source, targets, paths, API_NAME)
 
 
 def _things(root, clip, source, prims, model, steps: int, h: float) -> list[loop.Thing]:

@@ -234,12 +234,16 @@ def objects_of(prims: list[Usd.Prim], roots: list[Usd.Prim], source: str) -> lis
     return out
 
 
-def _check_obstacle_radius(prim: Usd.Prim, radius: float, where: str) -> None:
-    """An obstacle of the physics pass is a body a person walks round: 0 < radius <= 10 m."""
+def _check_obstacle_radius(prim: Usd.Prim, radius: float | None, where: str) -> None:
+    """An obstacle of the physics pass is a body a person walks round: 0 < radius <= 10 m, authored
+    (``radius`` None: not authored)."""
     task = prim.GetAttribute(PHYSICS_TASK)
     # A time-sampled task is refused with its own line where the tasks are read.
     if not task or not task.HasAuthoredValue() or task.GetNumTimeSamples() or task.Get() != "obstacle":
         return
+    if radius is None:  # the schema's 0.1 m was taken: a Sphere of radius 0.4 was walked 30 cm into, unsaid
+        raise UsdGazeError(f"{where}.gaze:object:radius: not authored; an obstacle's size is this radius, in "
+                           f"metres (more than 0 and at most {MAX_OBSTACLE_RADIUS_M:g} m): author it")
     if not 0.0 < radius <= MAX_OBSTACLE_RADIUS_M:  # NaN fails it too
         raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g} m for an obstacle; expected more than 0 and "
                            f"at most {MAX_OBSTACLE_RADIUS_M:g} m (a body the character walks round)")
@@ -261,7 +265,7 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
         if not np.all(np.isfinite(importance)) or np.any(importance <= 0):
             bad = importance[~(np.isfinite(importance) & (importance > 0))][0]
             raise UsdGazeError(f"{where}.gaze:object:importance: {bad:g} must be > 0")
-        _check_obstacle_radius(prim, radius, where)
+        _check_obstacle_radius(prim, None if authored is None else radius, where)
         if not np.isfinite(radius) or radius < 0:
             raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g}, expected a finite number >= 0 (m)")
         if kind not in KINDS:
