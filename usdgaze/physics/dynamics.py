@@ -318,23 +318,17 @@ class MujocoBody:
         return self._minimal(A, B, xb, self._next(xb, ub, k))
 
     def _fd(self, xb: np.ndarray, ub: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """One step's transition matrices in MuJoCo's tangent coordinates: the state's columns by its
-        finite differences, the controls' in closed form where the model allows (``physics.controls``)."""
+        """MuJoCo's finite-difference transition matrices of one step, in its tangent coordinates."""
         import mujoco
 
         nv = self.nv
         self._load(xb, ub, k)
-        mujoco.mj_forward(self.mj, self.data)
-        B = None
-        if self.closed_controls:
-            B = controls.closed_form(self.mj, self.data, np.asarray(self.data.ctrl), self._rot_x, self._moments)
-        # Every differenced step starts its constraint solve at this step's own solution, a state's
-        # function, so the numbers stay the thread's and the call order's: from zero each took about
-        # four Newton iterations, from here one (the solver's tolerance, 1e-10, makes it take that one).
-        warm = np.array(self.data.qacc)
-        self._load(xb, ub, k)
-        self.data.qacc_warmstart[:] = warm
         A = np.zeros((2 * nv, 2 * nv))
+        B = None
+        if self.closed_controls:  # the controls' columns in closed form (physics.controls), A by MuJoCo
+            mujoco.mj_forward(self.mj, self.data)
+            B = controls.closed_form(self.mj, self.data, np.asarray(self.data.ctrl), self._rot_x, self._moments)
+            self._load(xb, ub, k)
         if B is not None:
             mujoco.mjd_transitionFD(self.mj, self.data, self.eps, self.centered, A, None, None, None)
             return A, B

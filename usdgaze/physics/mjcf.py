@@ -72,11 +72,7 @@ def _header(m: BodyModel, timestep: float, name: str) -> list[str]:
             '  <compiler angle="degree" inertiafromgeom="false" autolimits="true"/>',
             # jacobian="sparse": MuJoCo's "auto" picks dense under 60 dofs, yet the CMU bodies' 54 take
             # 9-17% less CPU per simulated second sparse (docs/physics-log.md, "Sparse Jacobians").
-            # tolerance 1e-10: a differenced step, started at the step's own solution (dynamics._fd),
-            # iterates once where 1e-8 let it stop there (its columns were 5e-5 off); a solve from zero
-            # converged in the same iterations either way, bit for bit on the CMU walk.
-            f'  <option timestep="{timestep:.6g}" integrator="Euler" jacobian="sparse" gravity="0 0 -9.81"'
-            ' tolerance="1e-10"/>',
+            f'  <option timestep="{timestep:.6g}" integrator="Euler" jacobian="sparse" gravity="0 0 -9.81"/>',
             '  <size memory="8M"/>',
             '  <default>',
             f'    <geom contype="1" conaffinity="0" condim="3" friction="1.0 0.05 0.01" solref="{tc:.4g} 1" rgba="0.75 0.7 0.62 1"/>',
