@@ -126,12 +126,13 @@ class ShiftCurves:
 
 def _shift_windows(seconds: np.ndarray, shifts):
     """Each shift's index (in time order), the shift and the frame rows it holds for, until the next
-    one; shifts that hold for fewer than two frames are left out."""
+    one; shifts that hold for fewer than two frames are left out, and so are those that began before
+    the first frame (a shot's range cut from a take): their turn since they began is not on it."""
     shifts = sorted(shifts)
     for k, shift in enumerate(shifts):
         t1 = shifts[k + 1][0] if k + 1 < len(shifts) else np.inf
         rows = np.flatnonzero((seconds >= shift[0]) & (seconds < t1))
-        if len(rows) >= 2:
+        if len(rows) >= 2 and shift[0] >= seconds[0] - 1e-9:
             yield k, shift, rows
 
 

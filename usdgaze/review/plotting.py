@@ -186,12 +186,19 @@ def names(review) -> list[str]:
     return [unique(n, taken) for n in full]
 
 
+def shift_lines(c) -> list[float]:
+    """The times of ``c``'s requests that lie on its frames: a vertical line at one outside them (a
+    shift before a shot's range) had stretched the time axis past the frames drawn."""
+    lo, hi = (float(c.seconds[0]), float(c.seconds[-1])) if len(c.seconds) else (np.inf, -np.inf)
+    return [t for t, _, _ in c.shifts if lo - 1e-9 <= t <= hi + 1e-9]
+
+
 def _character_figures(plt, review, c, name: str) -> dict[str, object]:
     """One character's figures by file stem: its cascades, gaze, eyes, speed and targets (where it has
     eyes: a physics pass writes none for a rig without them), and its physics measures (where the
     layer records them)."""
     out = {}
-    times = [t for t, _, _ in c.shifts]
+    times = shift_lines(c)
     cascades = analysis.shift_cascade(c, c.shifts)
     if cascades:
         fig, axes = plt.subplots(len(cascades), 1, figsize=(10, 3.2 * len(cascades)), squeeze=False)
@@ -301,7 +308,7 @@ def summary_figure(review):
     fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 9.5 * len(chars)), squeeze=False)
     for n, (c, name) in enumerate(zip(chars, names(review))):
         panel_gaze(axes[3 * n, 0], c.seconds, analysis.requested_steps(c.seconds, c.shifts), analysis.achieved_change(c),
-                   [t for t, _, _ in c.shifts], name)
+                   shift_lines(c), name)
         cascades = analysis.shift_cascade(c, c.shifts)
         if cascades:
             s = cascades[0]
@@ -324,7 +331,7 @@ def plot_report(report, path: str | os.PathLike, outputs=None, layer=None) -> No
     from usdgaze.review.composed import read_review
 
     check_plot_path(path)
-    review = read_review(report.input, layer if layer is not None else report.output)
+    review = read_review(report.input, layer if layer is not None else report.output, playback=True)
     with outputs_of(outputs) as tx:
         if not tx.claimed(path):
             tx.claim(path, "--plot")

@@ -1,0 +1,81 @@
+"""``plot`` and ``preview`` of a shot cut from a longer take by its root layer's playback range
+(startTimeCode..endTimeCode over a sublayered take, as an editor's shot file is): both drew the
+whole take (the GIF 96 frames of 4 s for a 1.5 s shot, the plots from -1 s to 3 s), where the shot
+plays only its range. Frames are counted with Pillow and the plotted times read back from the
+figures the command saves."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from pxr import Sdf
+
+from usdgaze.console.main import main
+
+from . import synthetic as syn
+
+TCPS = 60.0
+START, END = 60.0, 150.0  # the shot: 1 s into a 4 s take, 1.5 s long
+
+
+def _shot(folder: Path) -> Path:
+    """A 240-frame take at 60 per second, and a shot layer that sublayers it and plays 60..150."""
+    syn.make_rig(folder / "take.usda", frames=240, time_codes_per_second=TCPS, mesh=False)
+    shot = Sdf.Layer.CreateNew(str(folder / "shot.usda"))
+    shot.subLayerPaths.append("./take.usda")
+    shot.timeCodesPerSecond = shot.framesPerSecond = TCPS
+    shot.startTimeCode, shot.endTimeCode = START, END
+    shot.pseudoRoot.SetInfo("upAxis", "Y")
+    shot.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+    shot.defaultPrim = "Character"
+    shot.Save()
+    return folder / "shot.usda"
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("shot_range")
+    shot = _shot(folder)
+    layer = folder / "gaze.usdc"
+    # One shift before the shot's range (time code 30, in the take), one inside it (0.5 s: code 90).
+    assert main(["apply", str(shot), "--shift", "30:-25:0", "--shift", "0.5s:40:0", "--out", str(layer)]) == 0
+    return shot, layer
+
+
+def test_the_gif_and_the_sheet_cover_the_shots_range_not_the_take(made, tmp_path):
+    shot, layer = made
+    gif, sheet = tmp_path / "p.gif", tmp_path / "s.png"
+    assert main(["preview", str(shot), "--layer", str(layer), "--out", str(gif), "--sheet", str(sheet),
+                 "--fps", "24"]) == 0
+    with Image.open(gif) as im:
+        frames = im.n_frames
+    # 0 to 1.5 s at 24 per second: 37 frames (the take's 0 to 3.98 s had 96).
+    assert frames == int(np.floor((END - START) / TCPS * 24 + 1e-9)) + 1 == 37
+
+
+def test_plots_draw_the_shots_seconds_only(made, tmp_path, monkeypatch):
+    from usdgaze.review import plotting
+
+    shot, layer = made
+    seen: dict[str, list] = {}
+    save = plotting.save_figure
+
+    def record(fig, path, outputs, dpi=100):
+        seen[Path(path).stem] = [(ax.get_title(), ax.get_xlim(), [line.get_xdata() for line in ax.get_lines()])
+                                 for ax in fig.axes]
+        save(fig, path, outputs, dpi)
+
+    monkeypatch.setattr(plotting, "save_figure", record)
+    assert main(["plot", str(shot), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    length = (END - START) / TCPS
+    for stem in ("Character_gaze", "Character_eyes"):
+        (_, xlim, lines), = seen[stem]
+        xs = np.concatenate([np.asarray(x, dtype=float) for x in lines])
+        assert xs.min() == pytest.approx(0.0, abs=1e-9) and xs.max() == pytest.approx(length, abs=1e-9), stem
+        assert xlim[0] > -0.1 and xlim[1] < length + 0.1, (stem, xlim)  # no axis stretched to the take
+    titles = [title for title, _, _ in seen["Character_cascade"]]
+    # The shift at time code 30 began before the shot: its turn since then is not on it.
+    assert len(titles) == 1 and "at 0.5 s to yaw 40" in titles[0], titles
