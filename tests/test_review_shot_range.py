@@ -21,18 +21,20 @@ TCPS = 60.0
 START, END = 60.0, 150.0  # the shot: 1 s into a 4 s take, 1.5 s long
 
 
-def _shot(folder: Path) -> Path:
-    """A 240-frame take at 60 per second, and a shot layer that sublayers it and plays 60..150."""
-    syn.make_rig(folder / "take.usda", frames=240, time_codes_per_second=TCPS, mesh=False)
-    shot = Sdf.Layer.CreateNew(str(folder / "shot.usda"))
+def _shot(folder: Path, name: str = "shot.usda", rate: float = TCPS, start: float = START, end: float = END) -> Path:
+    """A 240-frame take at 60 per second, and a shot layer at ``rate`` time codes per second that
+    sublayers it (USD scales the take's time codes by ``rate / 60``) and plays ``start..end``."""
+    if not (folder / "take.usda").exists():
+        syn.make_rig(folder / "take.usda", frames=240, time_codes_per_second=TCPS, mesh=False)
+    shot = Sdf.Layer.CreateNew(str(folder / name))
     shot.subLayerPaths.append("./take.usda")
-    shot.timeCodesPerSecond = shot.framesPerSecond = TCPS
-    shot.startTimeCode, shot.endTimeCode = START, END
+    shot.timeCodesPerSecond = shot.framesPerSecond = rate
+    shot.startTimeCode, shot.endTimeCode = start, end
     shot.pseudoRoot.SetInfo("upAxis", "Y")
     shot.pseudoRoot.SetInfo("metersPerUnit", 1.0)
     shot.defaultPrim = "Character"
     shot.Save()
-    return folder / "shot.usda"
+    return folder / name
 
 
 @pytest.fixture(scope="module")
@@ -79,3 +81,15 @@ def test_plots_draw_the_shots_seconds_only(made, tmp_path, monkeypatch):
     titles = [title for title, _, _ in seen["Character_cascade"]]
     # The shift at time code 30 began before the shot: its turn since then is not on it.
     assert len(titles) == 1 and "at 0.5 s to yaw 40" in titles[0], titles
+
+
+def test_a_24_fps_shot_over_a_60_hz_take_gets_a_frame_per_shot_frame(tmp_path):
+    """The take's samples lie at shot codes 0.4 apart, none on the shot's first and last frames (25
+    and 61): the GIF had the take's 96 frames; drawn from the first sample in the range (25.2) to the
+    last (60.8) it would have 36, one short of the 37 frames the shot plays."""
+    shot = _shot(tmp_path, "shot24.usda", rate=24.0, start=25.0, end=61.0)
+    layer, gif = tmp_path / "gaze.usdc", tmp_path / "p.gif"
+    assert main(["apply", str(shot), "--shift", "0.5s:40:0", "--out", str(layer)]) == 0
+    assert main(["preview", str(shot), "--layer", str(layer), "--out", str(gif), "--fps", "24"]) == 0
+    with Image.open(gif) as im:
+        assert im.n_frames == 61 - 25 + 1

@@ -96,6 +96,9 @@ class Review:
     fixation_m: float | None = None
     attention: list[Attention] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)  # a layer made from another version of the input
+    playback: tuple[float, float] | None = None
+    """Seconds from the stage start of the shot's playback range (startTimeCode..endTimeCode), where a
+    review cut to it (``read_review(playback=True)``) has one: what ``preview`` draws, frame by frame."""
 
     @property
     def shifts(self) -> list[tuple[float, float, float]]:
@@ -248,6 +251,7 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     review.attention = read_attention(stage, source)
     if playback and stage.HasAuthoredTimeCodeRange():  # a shot over a longer take: its attention too
         review.attention = [_attention_in(a, stage) for a in review.attention]
+        review.playback = _playback_span(stage, review.characters) if review.characters else None
     review.warnings = review_warnings(stage, gaze_layer, layer_file, record, review.characters)
     if not review.characters:
         if skel_root:
@@ -274,6 +278,19 @@ def playback_rows(stage, times: np.ndarray) -> tuple[int, int]:
     if lo < len(times) and abs(times[lo] - start) < abs(times[nearest] - start):
         nearest = lo
     return nearest, nearest + 1
+
+
+def _playback_span(stage, characters: list[CharacterReview]) -> tuple[float, float]:
+    """Seconds of the shot's range to draw: the whole range where the samples reach to within a frame
+    of its ends (a 60 Hz take in a 24 fps shot has none on its first and last frames), else up to a
+    frame past them: USD holds the first and last pose beyond, and a range of 1e8 time codes over a
+    4 s take would be 40 million frames of it."""
+    length = (stage.GetEndTimeCode() - stage.GetStartTimeCode()) / stage.GetTimeCodesPerSecond()
+    frame = 1.0 / stage.GetFramesPerSecond()
+    first = min(float(c.seconds[0]) for c in characters)
+    last = max(float(c.seconds[-1]) for c in characters)
+    lo = min(max(0.0, first - frame), length)
+    return lo, max(lo, min(length, last + frame))
 
 
 def _attention_in(a: Attention, stage) -> Attention:

@@ -277,8 +277,12 @@ def nearest_rows(seconds: np.ndarray, times: np.ndarray) -> np.ndarray:
 
 
 def _span(review) -> np.ndarray:
-    """First and last second any character is sampled at: characters of several lengths (or sample
-    rates) are all drawn over the whole shot, each from its own samples."""
+    """The shot's playback range where the review has one (its frames, whether a sample lies on them
+    or not: a 60 Hz take in a 24 fps shot), else the first and last second any character is sampled
+    at: characters of several lengths (or sample rates) are all drawn over the whole shot, each from
+    its own samples."""
+    if review.playback is not None:
+        return np.array(review.playback, dtype=float)
     return np.array([min(float(c.seconds[0]) for c in review.characters),
                      max(float(c.seconds[-1]) for c in review.characters)])
 
