@@ -234,8 +234,8 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     source, layer_file = str(input_path), gaze_layer.identifier if gaze_layer.anonymous else str(layer_path)
     record = layer_record(gaze_layer)
     review = Review(input=source, layer=layer_file)
-    review.eye_range, review.eye_range_recorded = _eye_range(record)
-    review.fixation_m = float(record["fixation"]) if "fixation" in record else None
+    review.eye_range, review.eye_range_recorded = _eye_range(record, layer_file)
+    review.fixation_m = recorded.recorded_number(record, "fixation", layer_file) if "fixation" in record else None
     # Every SkelRoot whose animation the layer overrides (or the one named).
     roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
     touched = touched_paths(gaze_layer)
@@ -389,11 +389,12 @@ def _prim_specs(layer):
     return [p for p in out if p is not None]
 
 
-def _eye_range(record: dict) -> tuple[dict[str, float], bool]:
+def _eye_range(record: dict, layer_file: str) -> tuple[dict[str, float], bool]:
     from usdgaze.passes.options import EyeRange
 
     default = EyeRange()
-    recorded = record.get(EYE_RANGE_KEY)
-    if isinstance(recorded, dict) and {"yaw", "up", "down"} <= set(recorded):
-        return {k: float(recorded[k]) for k in ("yaw", "up", "down")}, True
+    limits = record.get(EYE_RANGE_KEY)
+    if isinstance(limits, dict) and {"yaw", "up", "down"} <= set(limits):
+        return {k: recorded.recorded_number(record, f"{EYE_RANGE_KEY}.{k}", layer_file)
+                for k in ("yaw", "up", "down")}, True
     return {"yaw": default.yaw, "up": default.up, "down": default.down}, False
