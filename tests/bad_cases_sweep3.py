@@ -302,3 +302,9 @@ def b_preview_layer_record_fixation_negative(d):
 def b_preview_layer_record_directives_not_a_table(d):
     """``directives = 5``: exit 1 ('int' object has no attribute 'get')."""
     return _review_with_record(d, ["preview", "--out", str(d / "review.gif")], directives=5)
+
+
+def b_preview_sheet_too_large(d):
+    """``--sheet-count 200 --size 2048``, both in their ranges: a 1.7 gigapixel sheet stopped on a
+    MemoryError (exit 1); 100 at 1024 wrote one of 214 megapixels that Pillow refuses to open."""
+    return _review_with_record(d, ["preview", "--out", str(d / "sheet.png"), "--sheet-count", "200", "--size", "2048"])

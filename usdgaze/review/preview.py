@@ -60,6 +60,24 @@ def check_output(path: str | os.PathLike, kind: str, fps: float | None = None, f
     return p
 
 
+SHEET_MAX_PIXELS = 178_956_970
+"""The largest contact sheet written: Pillow refuses to open a bigger image (twice its
+``MAX_IMAGE_PIXELS``, as a decompression bomb), and --sheet-count 200 at --size 2048 (1.7 gigapixels)
+had stopped on a MemoryError (exit 1)."""
+
+
+def check_sheet(opts: PreviewOptions) -> None:
+    """A contact sheet of ``opts`` that image readers open, or a one-line error (before any work)."""
+    count = max(1, opts.sheet_count)
+    cols = max(1, min(opts.sheet_columns, count))
+    width = cols * opts.size * (2 if opts.layout == "side-by-side" else 1)
+    height = -(-count // cols) * (opts.size + render.LABEL_H)
+    if width * height > SHEET_MAX_PIXELS:
+        raise UsdGazeError(f"--sheet-count {opts.sheet_count} at --size {opts.size}: a {width} x {height} pixel contact "
+                           f"sheet ({width * height / 1e6:.0f} megapixels), more than image readers open "
+                           f"({SHEET_MAX_PIXELS / 1e6:.0f}); give fewer frames or a smaller --size")
+
+
 # -- scene ----------------------------------------------------------------------------------------
 
 def _objects(review, seconds: np.ndarray) -> dict[str, np.ndarray]:
