@@ -240,11 +240,14 @@ def figures(review) -> dict[str, object]:
     out = {}
     for c, name in zip(review.characters, names(review)):
         out.update(_character_figures(plt, review, c, name))
-    # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body).
+    # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body), spelled
+    # as a prim name: a /Pérsonnage's attention had been plotted as P_rsonnage's.
     # attend plans a SkelRoot's first skeleton: its name, not a later one's, labels the attention.
+    from usdgaze.usd.attendio import scope_name
+
     by_path = {}
     for c, n in zip(review.characters, names(review)):
-        by_path.setdefault(c.skel_root.strip("/").replace("/", "_"), n)
+        by_path.setdefault(scope_name(c.skel_root), n)
     for a in review.attention:
         name = by_path.get(a.name, a.name)
         fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 5), sharex=True,
