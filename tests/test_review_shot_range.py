@@ -6,6 +6,7 @@ figures the command saves."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -93,3 +94,31 @@ def test_a_24_fps_shot_over_a_60_hz_take_gets_a_frame_per_shot_frame(tmp_path):
     assert main(["preview", str(shot), "--layer", str(layer), "--out", str(gif), "--fps", "24"]) == 0
     with Image.open(gif) as im:
         assert im.n_frames == 61 - 25 + 1
+
+
+def test_a_shot_where_the_character_is_hidden_throughout_is_drawn(tmp_path, capsys):
+    """The take scales the character to nothing on time codes 40-44 (apply keeps those frames as the
+    input's); a shot of just those frames has no head direction to set a named camera by, nor an eye
+    angle: the preview stopped on a NaN camera (exit 1) and the eye plot printed numpy's warnings."""
+    from pxr import Gf, Vt
+
+    rig = syn.make_rig(tmp_path / "take.usda", frames=90, time_codes_per_second=30.0, mesh=False)
+    take = Sdf.Layer.FindOrOpen(str(rig.path))
+    prim = take.GetPrimAtPath(rig.skel_root)
+    scale = Sdf.AttributeSpec(prim, "xformOp:scale", Sdf.ValueTypeNames.Float3)
+    for t, s in ((0, 1.0), (39, 1.0), (40, 0.0), (44, 0.0), (45, 1.0)):
+        take.SetTimeSample(scale.path, t, Gf.Vec3f(s, s, s))
+    Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                      Sdf.VariabilityUniform).default = Vt.TokenArray(["xformOp:scale"])
+    take.Save()
+    shot = _shot(tmp_path, "hidden.usda", rate=30.0, start=40.0, end=44.0)
+    layer, gif = tmp_path / "gaze.usdc", tmp_path / "p.gif"
+    assert main(["apply", str(rig.path), "--shift", "0.5s:30:0", "--out", str(layer)]) == 0
+    capsys.readouterr()
+    with warnings.catch_warnings(record=True) as caught:  # a command-line run prints them on stderr
+        warnings.simplefilter("always")
+        assert main(["preview", str(shot), "--layer", str(layer), "--out", str(gif), "--fps", "24"]) == 0
+        assert main(["plot", str(shot), "--layer", str(layer), "--out", str(tmp_path / "p")]) == 0
+    assert capsys.readouterr().err == "" and not [str(w.message) for w in caught]
+    with Image.open(gif) as im:
+        assert im.n_frames == 4  # 4 time codes at 30 per second: 0 to 0.133 s at 24 per second

@@ -92,8 +92,10 @@ def panel_eyes(ax, seconds, eye_angles, limits: dict[str, float], recorded: bool
     for e, (side, ls) in enumerate(styles):
         ax.plot(seconds, eye_angles[:, e, 0], ls, color=YAW_COLOUR, lw=1.2, label=f"{side} eye yaw")
         ax.plot(seconds, eye_angles[:, e, 1], ls, color=PITCH_COLOUR, lw=1.2, label=f"{side} eye pitch")
-    low = min(-limits["yaw"], -limits["down"], float(np.nanmin(eye_angles)))
-    high = max(limits["yaw"], limits["up"], float(np.nanmax(eye_angles)))
+    # NaN where the character is scaled to nothing (hidden): a shot of only such frames has no angle.
+    seen = eye_angles[np.isfinite(eye_angles)]
+    low = min(-limits["yaw"], -limits["down"], float(seen.min()) if seen.size else 0.0)
+    high = max(limits["yaw"], limits["up"], float(seen.max()) if seen.size else 0.0)
     ax.set_ylim(low - 5.0, high + 5.0)
     where = "as the pass recorded" if recorded else "defaults: the layer does not record them"
     for value, name, colour in ((limits["yaw"], "yaw limit", YAW_COLOUR), (-limits["yaw"], None, YAW_COLOUR),
