@@ -97,7 +97,9 @@ def _figures(review, which: str, times: np.ndarray, rows: list[np.ndarray]) -> l
         posed = c.base if which == "base" else c.gaze
         units_per_m = _units_per_m(c)
         origin, direction = analysis.sight_or_head(c, posed)
-        reach = (review.fixation_m or 2.0) * units_per_m
+        # The pass's point of sight lies at the fixation distance in the stage's own units; measured by
+        # the figure's height (a head at 1.5 m) it was drawn 15% short on the CMU actor.
+        reach = (review.fixation_m or 2.0) / c.meters_per_unit
         pos = posed.positions[own]
         bones = _bones(c, posed, units_per_m)
         out.append(render.Figure(
