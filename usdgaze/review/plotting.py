@@ -138,7 +138,8 @@ def panel_target_error(ax, seconds, errors: dict[str, np.ndarray], title: str) -
     """Angle between the line of sight and the direction to each look-at target (deg)."""
     for i, (name, err) in enumerate(errors.items()):
         ax.plot(seconds, err, color=JOINT_COLOURS[i % len(JOINT_COLOURS)], lw=1.4, label=name)
-    ax.set_xlim(float(seconds[0]), float(seconds[-1]))
+    if len(seconds) > 1:  # one frame (a held pose, a one-frame shot): matplotlib's own limits, not its warning
+        ax.set_xlim(float(seconds[0]), float(seconds[-1]))
     ax.set_ylim(bottom=0.0)
     ax.set_title(title)
     ax.set_ylabel("target error (deg)")
