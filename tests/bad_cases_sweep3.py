@@ -254,3 +254,57 @@ def b_batch_emit_manifest_folder_line_break(d):
 def b_batch_manifest_in_a_missing_folder(d):
     """A mistyped manifest folder: it was said as its default summary's folder missing."""
     return ["batch", str(d / "shots" / "manifest.toml")]
+
+
+def _review_with_record(d, command: list[str], **record):
+    """The rig and apply's layer for it, whose ``customLayerData["usdgaze"]`` a hand edit (or another
+    tool) gave ``record``'s values (None: the key removed); ``command``: plot or preview and its output options."""
+    from usdgaze import api
+
+    r = rig(d)
+    layer_path = d / "gaze.usda"
+    api.apply(str(r.path), ["0.5s:30:0"], layer_path)
+    layer = Sdf.Layer.FindOrOpen(str(layer_path))
+    data = dict(layer.customLayerData)
+    data["usdgaze"] = {k: v for k, v in {**dict(data["usdgaze"]), **record}.items() if v is not None}
+    layer.customLayerData = data
+    layer.Save()
+    return [command[0], str(r.path), "--layer", str(layer_path), *command[1:]]
+
+
+def b_plot_layer_record_shifts_not_a_list(d):
+    """``shifts = 7`` in a layer that records no directives (one older than them): exit 1 ('int'
+    object is not iterable)."""
+    return _review_with_record(d, ["plot", "--out", str(d / "plots")], shifts=7, directives=None)
+
+
+def b_plot_layer_record_eye_range_nan(d):
+    """``eyeRange.yaw`` NaN: exit 1 (matplotlib's 'Axis limits cannot be NaN or Inf')."""
+    return _review_with_record(d, ["plot", "--out", str(d / "plots")],
+                               eyeRange={"yaw": float("nan"), "up": 27.7, "down": 47.1})
+
+
+def b_plot_layer_record_bind_not_a_list(d):
+    """``bind = 7``: exit 1 ('int' object is not iterable), validate's too."""
+    return _review_with_record(d, ["plot", "--out", str(d / "plots")], bind=7)
+
+
+def b_preview_layer_record_fixation_text(d):
+    """``fixation = "far"``: exit 1 (could not convert string to float)."""
+    return _review_with_record(d, ["preview", "--out", str(d / "review.gif")], fixation="far")
+
+
+def b_preview_layer_record_fixation_negative(d):
+    """``fixation = -3``: every line of sight drawn backwards, out of the back of the head, exit 0."""
+    return _review_with_record(d, ["preview", "--out", str(d / "review.gif")], fixation=-3.0)
+
+
+def b_preview_layer_record_directives_not_a_table(d):
+    """``directives = 5``: exit 1 ('int' object has no attribute 'get')."""
+    return _review_with_record(d, ["preview", "--out", str(d / "review.gif")], directives=5)
+
+
+def b_preview_sheet_too_large(d):
+    """``--sheet-count 200 --size 2048``, both in their ranges: a 1.7 gigapixel sheet stopped on a
+    MemoryError (exit 1); 100 at 1024 wrote one of 214 megapixels that Pillow refuses to open."""
+    return _review_with_record(d, ["preview", "--out", str(d / "sheet.png"), "--sheet-count", "200", "--size", "2048"])

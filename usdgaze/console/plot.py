@@ -24,7 +24,7 @@ def plot(input_path, layer, out_dir, skel_root) -> None:
     from usdgaze.review.plotting import pyplot, write_plots
 
     pyplot()  # a missing matplotlib fails before any work
-    review = read_review(input_path, layer, skel_root)
+    review = read_review(input_path, layer, skel_root, playback=True)
     for w in review.warnings:  # drawn all the same: what the composed stage plays, which is not this input's gaze
         click.echo(f"usdgaze: warning: {w}", err=True)
     with Outputs() as outputs:

@@ -45,7 +45,9 @@ def preview(input_path, layer, out, sheet, camera, layout, fps, size, sheet_coun
     if sheet is not None:
         pv.check_output(sheet, "sheet", flag="--sheet")
     opts = pv.PreviewOptions(camera=camera, layout=layout, fps=fps, size=size, sheet_count=sheet_count)
-    review = read_review(input_path, layer, skel_root)
+    if is_sheet or sheet is not None:
+        pv.check_sheet(opts)
+    review = read_review(input_path, layer, skel_root, playback=True)
     for w in review.warnings:  # drawn all the same: what the composed stage plays, which is not this input's gaze
         click.echo(f"usdgaze: warning: {w}", err=True)
     stage, _ = composed_stage(input_path, layer)

@@ -106,9 +106,17 @@ def to_record(hints: BindHints) -> dict:
     return record
 
 
+def _listed(value):
+    """A recorded array (``Vt.StringArray``, ``Vt.DoubleArray``) as a list; anything else as it is, for
+    :func:`parse_hints` to refuse in one line (``list(7)`` of a hand-edited record was exit 1)."""
+    if value is None or isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__len__"):
+        return value
+    return list(value)
+
+
 def from_record(record: Mapping, where: str) -> BindHints:
     """The hints an override layer recorded (see :func:`to_record`)."""
-    bind, forward = record.get("bind"), record.get("forward")
-    return parse_hints(list(bind) if bind is not None else None, list(forward) if forward is not None else None,
+    bind, forward = (_listed(record.get(k)) for k in ("bind", "forward"))
+    return parse_hints(bind, forward,
                        bind_label=f"{where}: customLayerData usdgaze.bind",
                        forward_label=f"{where}: customLayerData usdgaze.forward")

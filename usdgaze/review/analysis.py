@@ -126,12 +126,13 @@ class ShiftCurves:
 
 def _shift_windows(seconds: np.ndarray, shifts):
     """Each shift's index (in time order), the shift and the frame rows it holds for, until the next
-    one; shifts that hold for fewer than two frames are left out."""
+    one; shifts that hold for fewer than two frames are left out, and so are those that began before
+    the first frame (a shot's range cut from a take): their turn since they began is not on it."""
     shifts = sorted(shifts)
     for k, shift in enumerate(shifts):
         t1 = shifts[k + 1][0] if k + 1 < len(shifts) else np.inf
         rows = np.flatnonzero((seconds >= shift[0]) & (seconds < t1))
-        if len(rows) >= 2:
+        if len(rows) >= 2 and shift[0] >= seconds[0] - 1e-9:
             yield k, shift, rows
 
 
@@ -162,6 +163,11 @@ def eye_in_head(c) -> np.ndarray:
         d = _solve(head_m, _apply(c.gaze.axes(e), axis))
         out[:, i, 0] = np.degrees(np.arctan2(d @ left, d @ fwd))
         out[:, i, 1] = np.degrees(np.arcsin(np.clip(d @ up, -1.0, 1.0)))
+    # A mirrored character (a negative scale above the skeleton): the skeleton's left is the world's
+    # right, and a yaw is toward the character's left as the world shows it, as the pass takes it
+    # (its eyes turned 25 deg left were plotted at -25 under a gaze change of +30).
+    mirrored = np.linalg.det(c.skel_to_world[:, :3, :3]) < 0.0
+    out[:, :, 0] *= np.broadcast_to(np.where(mirrored, -1.0, 1.0), (len(out),))[:, None]
     return out
 
 

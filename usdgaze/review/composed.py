@@ -96,6 +96,9 @@ class Review:
     fixation_m: float | None = None
     attention: list[Attention] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)  # a layer made from another version of the input
+    playback: tuple[float, float] | None = None
+    """Seconds from the stage start of the shot's playback range (startTimeCode..endTimeCode), where a
+    review cut to it (``read_review(playback=True)``) has one: what ``preview`` draws, frame by frame."""
 
     @property
     def shifts(self) -> list[tuple[float, float, float]]:
@@ -218,8 +221,10 @@ def _pose(clip, joints: list[str], rest_local: np.ndarray, parents: np.ndarray, 
 
 
 def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
-                skel_root: str | None = None) -> Review:
-    """Every skeleton the layer animates, base (layer muted) and gaze (composed), posed for every frame."""
+                skel_root: str | None = None, playback: bool = False) -> Review:
+    """Every skeleton the layer animates, base (layer muted) and gaze (composed), posed for every frame;
+    ``playback``: only the frames of the shot's playback range (:func:`playback_rows`), what ``plot``
+    and ``preview`` show."""
     from usdgaze import api
     from usdgaze.core.hints import from_record
     from usdgaze.review.layer_versions import review_warnings
@@ -229,13 +234,13 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
     source, layer_file = str(input_path), gaze_layer.identifier if gaze_layer.anonymous else str(layer_path)
     record = layer_record(gaze_layer)
     review = Review(input=source, layer=layer_file)
-    review.eye_range, review.eye_range_recorded = _eye_range(record)
-    review.fixation_m = float(record["fixation"]) if "fixation" in record else None
+    review.eye_range, review.eye_range_recorded = _eye_range(record, layer_file)
+    review.fixation_m = recorded.recorded_number(record, "fixation", layer_file) if "fixation" in record else None
     # Every SkelRoot whose animation the layer overrides (or the one named).
     roots = api.select_roots(stage, source, skel_root) if skel_root else skel_roots(stage)
     touched = touched_paths(gaze_layer)
     animated = overridden_animations(stage, touched)
-    read = _Reader(stage, gaze_layer, source, layer_file, record, from_record(record, layer_file))
+    read = _Reader(stage, gaze_layer, source, layer_file, record, from_record(record, layer_file), playback)
     for root in roots:
         for skel in skeletons_under(root):
             if not skel_root and str(skel.GetPath()) not in animated:  # another character: not this review's
@@ -244,6 +249,9 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
             if character is not None:
                 review.characters.append(character)
     review.attention = read_attention(stage, source)
+    if playback and stage.HasAuthoredTimeCodeRange():  # a shot over a longer take: its attention too
+        review.attention = [_attention_in(a, stage) for a in review.attention]
+        review.playback = _playback_span(stage, review.characters) if review.characters else None
     review.warnings = review_warnings(stage, gaze_layer, layer_file, record, review.characters)
     if not review.characters:
         if skel_root:
@@ -253,6 +261,44 @@ def read_review(input_path: str | os.PathLike, layer_path: str | os.PathLike,
                                + (f" (it animates {', '.join(elsewhere)})" if elsewhere else ""))
         raise UsdGazeError(f"{layer_file}: {not_for_input(source)}")
     return review
+
+
+def playback_rows(stage, times: np.ndarray) -> tuple[int, int]:
+    """Rows ``lo:hi`` of the sample ``times`` that the stage plays: those inside its root layer's
+    startTimeCode..endTimeCode where it authors them (a shot cut from a longer take plays only
+    those; the review had drawn the whole take), else all. A range between or beyond the samples
+    keeps the nearest one: the pose USD holds there."""
+    if not stage.HasAuthoredTimeCodeRange() or not len(times):
+        return 0, len(times)
+    start, end = float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())
+    lo, hi = (int(i) for i in np.searchsorted(times, [start - 1e-9, end + 1e-9]))
+    if hi > lo:
+        return lo, hi
+    nearest = min(max(lo - 1, 0), len(times) - 1)
+    if lo < len(times) and abs(times[lo] - start) < abs(times[nearest] - start):
+        nearest = lo
+    return nearest, nearest + 1
+
+
+def _playback_span(stage, characters: list[CharacterReview]) -> tuple[float, float]:
+    """Seconds of the shot's range to draw: the whole range where the samples reach to within a frame
+    of its ends (a 60 Hz take in a 24 fps shot has none on its first and last frames), else up to a
+    frame past them: USD holds the first and last pose beyond, and a range of 1e8 time codes over a
+    4 s take would be 40 million frames of it."""
+    length = (stage.GetEndTimeCode() - stage.GetStartTimeCode()) / stage.GetTimeCodesPerSecond()
+    frame = 1.0 / stage.GetFramesPerSecond()
+    first = min(float(c.seconds[0]) for c in characters)
+    last = max(float(c.seconds[-1]) for c in characters)
+    lo = min(max(0.0, first - frame), length)
+    return lo, max(lo, min(length, last + frame))
+
+
+def _attention_in(a: Attention, stage) -> Attention:
+    """An attend run's record cut to the frames the stage plays (:func:`playback_rows`)."""
+    start, tcps = float(stage.GetStartTimeCode()), float(stage.GetTimeCodesPerSecond())
+    lo, hi = playback_rows(stage, start + a.seconds * tcps)
+    return Attention(a.name, a.seconds[lo:hi], a.point_of_sight[lo:hi],
+                     {k: v[lo:hi] for k, v in a.objects.items()}, {k: v[lo:hi] for k, v in a.uncertainty.items()})
 
 
 def touched_paths(layer) -> set[str]:
@@ -285,12 +331,14 @@ class _Reader:
     """One character of the composed stage at a time: its base and gaze clips posed, with what the
     layer records it was asked."""
 
-    def __init__(self, stage, gaze_layer, source: str, layer_file: str, record: dict, hints) -> None:
+    def __init__(self, stage, gaze_layer, source: str, layer_file: str, record: dict, hints,
+                 playback: bool = False) -> None:
         from pxr import UsdGeom
 
         self.stage, self.layer, self.source, self.layer_file = stage, gaze_layer, source, layer_file
         self.record, self.hints = record, hints  # hints: the --bind/--forward the pass was given
         self.offset = recorded.layer_offset(stage, gaze_layer)
+        self.playback = playback  # cut each clip to the shot's playback range
         self.up = np.array([0.0, 0.0, 1.0]) if UsdGeom.GetStageUpAxis(stage) == "Z" else np.array([0.0, 1.0, 0.0])
 
     def _base_clip(self, skel, root):
@@ -314,7 +362,10 @@ class _Reader:
             return None
         base_clip = self._base_clip(skel, root)
         _check_same_frames(base_clip, gaze_clip, self.layer_file)
-        chain, frame = api.bind(gaze_clip, own_map(root, self.source), self.hints)
+        chain, frame = api.bind(gaze_clip, own_map(root, self.source), self.hints)  # bound on the take, as apply did
+        if self.playback:
+            lo, hi = playback_rows(self.stage, gaze_clip.times)
+            base_clip, gaze_clip = base_clip.frames(lo, hi), gaze_clip.frames(lo, hi)
         parents, joints = gaze_clip.parents, gaze_clip.joints
         clock = recorded.recorded_clock(self.layer, self.offset, gaze_clip)
         path = str(root.GetPath())
@@ -338,11 +389,12 @@ def _prim_specs(layer):
     return [p for p in out if p is not None]
 
 
-def _eye_range(record: dict) -> tuple[dict[str, float], bool]:
+def _eye_range(record: dict, layer_file: str) -> tuple[dict[str, float], bool]:
     from usdgaze.passes.options import EyeRange
 
     default = EyeRange()
-    recorded = record.get(EYE_RANGE_KEY)
-    if isinstance(recorded, dict) and {"yaw", "up", "down"} <= set(recorded):
-        return {k: float(recorded[k]) for k in ("yaw", "up", "down")}, True
+    limits = record.get(EYE_RANGE_KEY)
+    if isinstance(limits, dict) and {"yaw", "up", "down"} <= set(limits):
+        return {k: recorded.recorded_number(record, f"{EYE_RANGE_KEY}.{k}", layer_file)
+                for k in ("yaw", "up", "down")}, True
     return {"yaw": default.yaw, "up": default.up, "down": default.down}, False

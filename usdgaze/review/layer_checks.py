@@ -14,7 +14,7 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
     layer samples over the span the layers below it do."""
     from usdgaze.errors import UsdGazeError
     from usdgaze.passes.requests import parse_shift
-    from usdgaze.review.recorded import layer_offset, recorded_code
+    from usdgaze.review.recorded import check_record, layer_offset, recorded_code
 
     errors = []
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
@@ -23,6 +23,11 @@ def gaze_layer_schedule(stage: Usd.Stage, time_range=None) -> list:
         if not isinstance(record, dict) or not ("shifts" in record or "characters" in record):
             continue  # not a gaze layer (apply's records its shifts; attend's, plain or physics, its characters)
         name = layer.GetDisplayName()
+        try:  # what plot and preview refuse; read below, a hand-edited `shifts = 7` stopped validate (exit 1)
+            check_record(record, name)
+        except UsdGazeError as exc:
+            errors.append(_stage_error(stage, "BadRecord", str(exc)))
+            continue
         lo, hi = sampled_range(stage, record.get("characters", []), start, end)
         clock = recorded_code(layer, layer_offset(stage, layer))
         checked = stage.HasAuthoredTimeCodeRange() or lo < hi

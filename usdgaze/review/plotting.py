@@ -92,8 +92,10 @@ def panel_eyes(ax, seconds, eye_angles, limits: dict[str, float], recorded: bool
     for e, (side, ls) in enumerate(styles):
         ax.plot(seconds, eye_angles[:, e, 0], ls, color=YAW_COLOUR, lw=1.2, label=f"{side} eye yaw")
         ax.plot(seconds, eye_angles[:, e, 1], ls, color=PITCH_COLOUR, lw=1.2, label=f"{side} eye pitch")
-    low = min(-limits["yaw"], -limits["down"], float(np.nanmin(eye_angles)))
-    high = max(limits["yaw"], limits["up"], float(np.nanmax(eye_angles)))
+    # NaN where the character is scaled to nothing (hidden): a shot of only such frames has no angle.
+    seen = eye_angles[np.isfinite(eye_angles)]
+    low = min(-limits["yaw"], -limits["down"], float(seen.min()) if seen.size else 0.0)
+    high = max(limits["yaw"], limits["up"], float(seen.max()) if seen.size else 0.0)
     ax.set_ylim(low - 5.0, high + 5.0)
     where = "as the pass recorded" if recorded else "defaults: the layer does not record them"
     for value, name, colour in ((limits["yaw"], "yaw limit", YAW_COLOUR), (-limits["yaw"], None, YAW_COLOUR),
@@ -136,7 +138,8 @@ def panel_target_error(ax, seconds, errors: dict[str, np.ndarray], title: str) -
     """Angle between the line of sight and the direction to each look-at target (deg)."""
     for i, (name, err) in enumerate(errors.items()):
         ax.plot(seconds, err, color=JOINT_COLOURS[i % len(JOINT_COLOURS)], lw=1.4, label=name)
-    ax.set_xlim(float(seconds[0]), float(seconds[-1]))
+    if len(seconds) > 1:  # one frame (a held pose, a one-frame shot): matplotlib's own limits, not its warning
+        ax.set_xlim(float(seconds[0]), float(seconds[-1]))
     ax.set_ylim(bottom=0.0)
     ax.set_title(title)
     ax.set_ylabel("target error (deg)")
@@ -186,12 +189,19 @@ def names(review) -> list[str]:
     return [unique(n, taken) for n in full]
 
 
+def shift_lines(c) -> list[float]:
+    """The times of ``c``'s requests that lie on its frames: a vertical line at one outside them (a
+    shift before a shot's range) had stretched the time axis past the frames drawn."""
+    lo, hi = (float(c.seconds[0]), float(c.seconds[-1])) if len(c.seconds) else (np.inf, -np.inf)
+    return [t for t, _, _ in c.shifts if lo - 1e-9 <= t <= hi + 1e-9]
+
+
 def _character_figures(plt, review, c, name: str) -> dict[str, object]:
     """One character's figures by file stem: its cascades, gaze, eyes, speed and targets (where it has
     eyes: a physics pass writes none for a rig without them), and its physics measures (where the
     layer records them)."""
     out = {}
-    times = [t for t, _, _ in c.shifts]
+    times = shift_lines(c)
     cascades = analysis.shift_cascade(c, c.shifts)
     if cascades:
         fig, axes = plt.subplots(len(cascades), 1, figsize=(10, 3.2 * len(cascades)), squeeze=False)
@@ -233,11 +243,14 @@ def figures(review) -> dict[str, object]:
     out = {}
     for c, name in zip(review.characters, names(review)):
         out.update(_character_figures(plt, review, c, name))
-    # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body).
+    # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body), spelled
+    # as a prim name: a /Pérsonnage's attention had been plotted as P_rsonnage's.
     # attend plans a SkelRoot's first skeleton: its name, not a later one's, labels the attention.
+    from usdgaze.usd.attendio import scope_name
+
     by_path = {}
     for c, n in zip(review.characters, names(review)):
-        by_path.setdefault(c.skel_root.strip("/").replace("/", "_"), n)
+        by_path.setdefault(scope_name(c.skel_root), n)
     for a in review.attention:
         name = by_path.get(a.name, a.name)
         fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 5), sharex=True,
@@ -301,7 +314,7 @@ def summary_figure(review):
     fig, axes = plt.subplots(3 * len(chars), 1, figsize=(10, 9.5 * len(chars)), squeeze=False)
     for n, (c, name) in enumerate(zip(chars, names(review))):
         panel_gaze(axes[3 * n, 0], c.seconds, analysis.requested_steps(c.seconds, c.shifts), analysis.achieved_change(c),
-                   [t for t, _, _ in c.shifts], name)
+                   shift_lines(c), name)
         cascades = analysis.shift_cascade(c, c.shifts)
         if cascades:
             s = cascades[0]
@@ -324,7 +337,7 @@ def plot_report(report, path: str | os.PathLike, outputs=None, layer=None) -> No
     from usdgaze.review.composed import read_review
 
     check_plot_path(path)
-    review = read_review(report.input, layer if layer is not None else report.output)
+    review = read_review(report.input, layer if layer is not None else report.output, playback=True)
     with outputs_of(outputs) as tx:
         if not tx.claimed(path):
             tx.claim(path, "--plot")

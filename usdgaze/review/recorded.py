@@ -26,6 +26,65 @@ class Look:
     """Target world positions ``(F, 3)`` at the clip's samples."""
 
 
+def _key(key: str) -> str:
+    return f"customLayerData usdgaze.{key}"
+
+
+def recorded_strings(record: dict, key: str, layer_file: str) -> list[str]:
+    """``record[key]`` as a list of strings (none if absent), or a one-line error naming the layer and
+    the key: a hand-edited record's ``shifts = 7`` was exit 1, and ``shifts = "10:20:0"`` was read
+    letter by letter (``--shift '1'``)."""
+    return _strings(record.get(key), key, layer_file)
+
+
+def _strings(value, key: str, layer_file: str) -> list[str]:
+    if value is None:
+        return []
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__len__") or not all(isinstance(v, str) for v in value):
+        raise UsdGazeError(f"{layer_file}: {_key(key)} is not a list of strings")
+    return list(value)
+
+
+def recorded_number(record: dict, key: str, layer_file: str) -> float:
+    """``record[key]`` (``key`` a dotted path into it: ``eyeRange.yaw``) as a finite number > 0, or a
+    one-line error naming the layer and the key: a hand-edited ``fixation = "far"`` was exit 1, and
+    a negative one drew the lines of sight backwards."""
+    value = record
+    for part in key.split("."):
+        value = value.get(part) if isinstance(value, dict) else None
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) and value > 0:
+        return float(value)
+    raise UsdGazeError(f"{layer_file}: {_key(key)} is {value!r}, expected a finite number > 0")
+
+
+def recorded_directives(record: dict, layer_file: str) -> dict[str, list[str]]:
+    """``record["directives"]``, SkelRoot path -> its directive flags, each checked as
+    :func:`recorded_strings` checks (none recorded: empty)."""
+    value = record.get("directives")
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise UsdGazeError(f"{layer_file}: {_key('directives')} is not a dictionary of SkelRoot paths")
+    return {str(root): _strings(texts, f"directives.{root}", layer_file) for root, texts in value.items()}
+
+
+def check_record(record: dict, layer_file: str) -> None:
+    """Every value of an override's record that the review reads, checked as it reads them (a one-line
+    error naming the layer and the key): what ``validate`` says where ``plot`` and ``preview`` refuse."""
+    from usdgaze.core.hints import from_record
+
+    for key in ("shifts", "characters"):
+        recorded_strings(record, key, layer_file)
+    recorded_directives(record, layer_file)
+    if "fixation" in record:
+        recorded_number(record, "fixation", layer_file)
+    limits = record.get("eyeRange")
+    if isinstance(limits, dict) and {"yaw", "up", "down"} <= set(limits):  # else the review shows the defaults
+        for k in ("yaw", "up", "down"):
+            recorded_number(record, f"eyeRange.{k}", layer_file)
+    from_record(record, layer_file)
+
+
 def layer_offset(stage, layer):
     """The time offset at which the stage's root layer stack brings ``layer`` in (identity if not)."""
     from pxr import Sdf
@@ -97,7 +156,7 @@ def _recorded_directives(record: dict, root: str, layer_file: str):
     None where the layer records none for it."""
     from usdgaze.passes.requests import parse_look, parse_release, parse_shift
 
-    texts = (record.get("directives") or {}).get(root)
+    texts = recorded_directives(record, layer_file).get(root)
     if not texts:
         return None
     parsers = {"--shift": parse_shift, "--look-at": parse_look, "--release": parse_release}
@@ -123,7 +182,7 @@ def requests(record: dict, root: str, layer_file: str, clock) -> list[tuple[floa
     directives = _recorded_directives(record, root, layer_file)
     if directives is None:
         directives = []
-        for text in record.get("shifts") or []:
+        for text in recorded_strings(record, "shifts", layer_file):
             try:
                 directives.append(parse_shift(str(text)))
             except UsdGazeError as exc:

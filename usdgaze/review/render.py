@@ -97,15 +97,23 @@ def _basis(kind: str, forward: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, 
     return r, u, d
 
 
+def _first_forward(figures: list[Figure], up: np.ndarray) -> np.ndarray:
+    """The first figure's head direction on its first frame with one: a character scaled to nothing
+    (hidden) has none. Where every figure is hidden on every frame (a shot cut from a take where the
+    character is), a horizontal axis of the stage: a NaN camera had stopped the preview (exit 1)."""
+    for fig in figures:
+        seen = np.flatnonzero(np.linalg.norm(fig.head_forward, axis=-1) > 0.5)  # unit, not 0 or NaN
+        if len(seen):
+            return fig.head_forward[seen[0]]
+    return np.array([0.0, 0.0, 1.0]) if abs(up[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+
+
 def named_camera(kind: str, figures: list[Figure], up: np.ndarray, width: int, height: int,
                  margin: float = 0.06) -> Camera:
     """An orthographic front/side/top camera that follows the figures' pelvis over the floor and
     frames everything any figure draws, on every frame, at one scale."""
     f = figures[0].positions.shape[0]
-    # Its first frame with a forward: a character scaled to nothing (hidden) at the start has none.
-    seen = np.flatnonzero(np.linalg.norm(figures[0].head_forward, axis=-1) > 0.5)  # unit, not 0 or NaN
-    forward = figures[0].head_forward[seen[0] if len(seen) else 0]
-    r, u, d = _basis(kind, forward, up)
+    r, u, d = _basis(kind, _first_forward(figures, up), up)
     root = np.mean([fig.positions[:, fig.focus] for fig in figures], axis=0)
     # A figure with no bone drawn (none short enough) is framed by its joints.
     drawn = [fig.positions[:, sorted({j for bone in fig.bones for j in bone}) or slice(None)] for fig in figures]

@@ -199,11 +199,18 @@ def summary(api) -> str:
 
     stage = api.stage
     lines = []
+    from usdgaze.review.recorded import check_record
+
     for layer in gaze_layers(stage):
         record = dict(layer.customLayerData["usdgaze"])
         muted = " (muted)" if stage.IsLayerMuted(layer.identifier) else ""
         lines.append(f"gaze layer {layer.GetDisplayName()}{muted}: usdgaze {record.get('version', '?')}, "
                      f"input {record.get('input', '?')}")
+        try:  # a hand-edited record (`directives = 5`, `eyeRange.yaw = "wide"`) had stopped the command
+            check_record(record, layer.GetDisplayName())
+        except UsdGazeError as exc:
+            lines.append(f"  record unreadable ({exc})")
+            continue
         lines += _asked(record)
         for key in ("maps", "eyeRange", "fixation"):
             if key in record:

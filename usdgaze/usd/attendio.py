@@ -23,11 +23,15 @@ from usdgaze.core.names import unique
 ROOT = "/UsdGazeAttend"
 
 
-def _name(path: str, taken: set[str]) -> str:
+def scope_name(path: str) -> str:
+    """The inspection scope's name for a character's or an object's prim path (``/root/Body`` ->
+    ``root_Body``, ``/Pérsonnage`` -> ``P_rsonnage``), before it is made unique among its siblings."""
     base = re.sub(r"[^A-Za-z0-9_]", "_", path.strip("/").replace("/", "_")) or "object"
-    if base[0].isdigit():
-        base = "_" + base
-    return unique(base, taken)
+    return "_" + base if base[0].isdigit() else base
+
+
+def _name(path: str, taken: set[str]) -> str:
+    return unique(scope_name(path), taken)
 
 
 def _attr(prim: Sdf.PrimSpec, name: str, type_name) -> Sdf.AttributeSpec:
