@@ -10,6 +10,8 @@ test_physics_obstacles.py.
 
 from __future__ import annotations
 
+import re
+
 from types import SimpleNamespace
 
 import numpy as np
@@ -82,8 +84,10 @@ def landings(posed: measure.Posed, toe: str, tcps: float) -> list[tuple[int, int
 def test_a_stone_displaced_15_cm_is_stood_on_and_the_report_agrees_with_fk(stepped):
     """The issue's bar in one of its four directions: the right foot's stone displaced 15 cm (toward
     -X) is stood on within 5 cm by UsdSkel FK (3.4 cm measured) and the shot does not fall; the feet
-    the shot starts on stay on their stones, and the report calls a contact missed exactly where
-    FK measures over 5 cm (outside a 0.5 cm band: the report measures MuJoCo's toe body). The
+    the shot starts on stay on their stones, and the report calls a contact missed where FK measures
+    it over 5 cm (far from its stone, or not down on it within 0.3 s: a sample with the controls in
+    closed form landed the left foot 5.9 cm off late, said as not down) and never far where FK measures
+    under 5 cm (outside a 0.5 cm band: the report measures MuJoCo's toe body). The
     bar is NOT met in all four directions (5.4 cm toward +Z: docs/physics.md), so the other
     directions are not asserted."""
     sim = measure.posed(str(stepped["composed"]), SKEL)
@@ -97,15 +101,19 @@ def test_a_stone_displaced_15_cm_is_stood_on_and_the_report_agrees_with_fk(stepp
             off = sim.position(toe)[a:b] - stones_at[i]
             off -= np.outer(off @ sim.up, sim.up)
             miss = float(np.linalg.norm(off, axis=1).mean())  # over the reference's contact
-            said = [p for p in report.problems if p.startswith(toe.replace("Toe", "Ankle"))
-                    and " from its stone over " in p
-                    and abs(float(p.split(" over ")[1].split("-")[0]) - a / tcps) < 0.05]
+            ankle = toe.replace("Toe", "Ankle")
+            far = [p for p in report.problems if p.startswith(ankle) and " from its stone over " in p
+                   and abs(float(p.split(" over ")[1].split("-")[0]) - a / tcps) < 0.05]
+            not_down = [p for p in report.problems if p.startswith(f"{ankle} not down on ")  # its contact's start
+                        and abs(float(re.findall(r"(?:of|from) ([0-9.]+) s", p)[-1]) - a / tcps) < 0.05]
             if a == 0:
                 assert miss <= 0.05  # standing on it from the start
             if moved[i]:
                 assert miss <= 0.05, (toe, miss, report.problems)
-            if abs(miss - 0.05) > 0.005:
-                assert bool(said) == (miss > 0.05), (toe, a, miss, report.problems)
+            if miss > 0.055:  # missed by FK: the report says so, far from it or not down on it in time
+                assert far or not_down, (toe, a, miss, report.problems)
+            if miss < 0.045:  # on it by FK: never called far ('not down' also judges height and stillness)
+                assert not far, (toe, a, miss, report.problems)
             i += 1
 
 
