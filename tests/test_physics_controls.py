@@ -1,27 +1,17 @@
 """The step's derivative by the motors' controls in closed form (``physics.controls``) against
 MuJoCo's own finite differences of them (``mjd_transitionFD``), on the CMU body: feet on the ground
-(contact rows pushing and not), in the air, turned, with a toe motor held at its limit; and MuJoCo's
+(contact rows pushing and not), in the air, fast, with a toe motor held at its limit; and MuJoCo's
 differences kept where the closed form does not apply."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
-from usdgaze.physics import build, controls, retarget
-from usdgaze.physics.dynamics import MujocoBody
+from usdgaze.physics import controls
 
-CMU = Path(__file__).resolve().parents[1] / "sample_stages" / "cmu" / "cmu_131_01.usdc"
-
-
-@pytest.fixture(scope="module")
-def body():
-    clip = build.load_clip(CMU)
-    model, ref = build.body_model(clip)
-    return MujocoBody(model, h=0.02), retarget.to_qpos(model, ref)
+from .test_physics_dynamics import body  # noqa: F401  (the CMU body and its reference, a module fixture)
 
 
 def _mujoco_differences(dyn, x, u):
