@@ -66,6 +66,11 @@ def test_mujocos_differences_where_the_closed_form_does_not_apply(body):
         assert np.array_equal(B, _mujoco_differences(dyn, x, u)[1])
     finally:
         mj.opt.cone = cone
+    motor = ('<mujoco>{}<worldbody><body><joint name="j" type="hinge"/><geom size=".1"/></body></worldbody>'
+             '<actuator><motor joint="j"/></actuator></mujoco>')
+    assert controls.applies(mujoco.MjModel.from_xml_string(motor.format("")))
+    # motors switched off: the controls move nothing, which MuJoCo's differences say and the rule would not
+    assert not controls.applies(mujoco.MjModel.from_xml_string(motor.format('<option><flag actuation="disable"/></option>')))
     assert not controls.applies(mujoco.MjModel.from_xml_string(
         '<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size=".1"/></body></worldbody>'
         '<actuator><position joint="j" kp="10"/></actuator></mujoco>'))

@@ -23,8 +23,8 @@ from typing import Callable
 import numpy as np
 
 from usdgaze.errors import UsdGazeError
-from usdgaze.physics.model import BodyModel
 from usdgaze.physics import controls
+from usdgaze.physics.model import BodyModel
 
 
 def require_mujoco():
@@ -318,7 +318,8 @@ class MujocoBody:
         return self._minimal(A, B, xb, self._next(xb, ub, k))
 
     def _fd(self, xb: np.ndarray, ub: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """MuJoCo's finite-difference transition matrices of one step, in its tangent coordinates."""
+        """One step's transition matrices in MuJoCo's tangent coordinates: the state's columns by its
+        finite differences, the controls' in closed form where the model allows (``physics.controls``)."""
         import mujoco
 
         nv = self.nv
