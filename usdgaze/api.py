@@ -9,7 +9,8 @@ import numpy as np
 
 from usdgaze import __version__
 from usdgaze.apply_types import ApplyReport, ApplyRequest, CharacterReport
-from usdgaze.characters import bind, built_map, clip_directives, own_map, root_directives, select_roots
+from usdgaze.characters import (bind, bound_skeletons, built_map, clip_directives, own_map, root_directives,
+                                select_roots)
 from usdgaze.core.clip import SkelClip
 from usdgaze.core.hints import to_record as hints_record
 from usdgaze.core.rig import Chain, CharacterFrame
@@ -138,7 +139,7 @@ def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, Overrid
     """Read every skeleton under ``roots`` and run the gaze pass on it; each character's result goes
     into the override layer as it is done (the report keeps what the summary and guides need)."""
     from usdgaze.usd.layers import composed_override_notes
-    from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, read_clip, skeletons_under
+    from usdgaze.usd.skelio import animations_elsewhere, skeletons_under
 
     source = req.source
     report = ApplyReport(output=str(req.out), input=req.source)
@@ -156,18 +157,11 @@ def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, Overrid
         skels = skeletons_under(root)
         if not skels:
             raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
-        for skel in skels:
-            clip = read_clip(stage, skel, root, source)
-            clip.owns_arrays = True  # read for this call alone: the pass may build its result in place
-            if clip.animation in seen_anims:
-                raise UsdGazeError(
-                    f"{source}:{clip.animation}: drives both {seen_anims[clip.animation]} and {clip.skeleton}; "
-                    "an override of it would move both alike: give each skeleton its own SkelAnimation"
-                )
-            check_not_shared(others, clip.animation, source)
-            seen_anims[clip.animation] = clip.skeleton
-            # A --map file's gaze:binding:* bind the roles the SkelRoot's own map leaves unbound.
-            chain, frame = bind(clip, own, req.options.binding, forced, f"--map {req.map_spec}")
+
+        bound, notes = bound_skeletons(root, skels, source, lambda skel: _read_and_bind(
+            stage, skel, root, own, forced, req, seen_anims, others))
+        report.warnings.extend(notes)
+        for _, (clip, chain, frame) in bound:
             report.warnings.extend(clip.notes + ([frame.note] if frame.note else []))
             if clip.neutral_source.startswith("restTransforms (") and "not authored" not in clip.neutral_source:
                 report.warnings.append(f"{clip.source}:{clip.skeleton}: neutral pose from {clip.neutral_source}")
@@ -184,6 +178,25 @@ def _run_pass(stage, roots, forced, requests, req) -> tuple[ApplyReport, Overrid
             if req.progress:
                 req.progress(clip)
     return report, written
+
+
+def _read_and_bind(stage, skel, root, own, forced, req, seen_anims: dict, others) -> tuple:
+    """(clip, chain, frame) of one skeleton; ``seen_anims`` (animation: skeleton) refuses an animation that
+    drives two skeletons, ``others`` one that drives a character not being written."""
+    from usdgaze.usd.skelio import check_not_shared, read_clip
+
+    source = req.source
+    clip = read_clip(stage, skel, root, source)
+    clip.owns_arrays = True  # read for this call alone: the pass may build its result in place
+    if clip.animation in seen_anims:
+        raise UsdGazeError(
+            f"{source}:{clip.animation}: drives both {seen_anims[clip.animation]} and {clip.skeleton}; "
+            "an override of it would move both alike: give each skeleton its own SkelAnimation"
+        )
+    check_not_shared(others, clip.animation, source)
+    seen_anims[clip.animation] = clip.skeleton
+    # A --map file's gaze:binding:* bind the roles the SkelRoot's own map leaves unbound.
+    return (clip, *bind(clip, own, req.options.binding, forced, f"--map {req.map_spec}"))
 
 
 def _character_report(clip: SkelClip, chain: Chain, frame: CharacterFrame, map_source: str,

@@ -146,9 +146,10 @@ def _attend(stage, source, out_path, objects, settings, skel_root, progress, rec
 
 
 def _plan_character(stage, source, root, mine, others, settings, progress, report):
-    """Plan one SkelRoot's first Skeleton looking at its objects ``mine``: (its override, its inspection's
-    (character, times, result, object paths), the planner's result); ``report`` gets its warnings and summary."""
-    from usdgaze.characters import bind_root
+    """Plan one SkelRoot's first character (its first Skeleton that binds) looking at its objects ``mine``: (its
+    override, its inspection's (character, times, result, object paths), the planner's result); ``report``
+    gets its warnings and summary."""
+    from usdgaze.characters import bind_root, bound_skeletons
     from usdgaze.passes.attend import apply_attend, planner_times
     from usdgaze.passes.take import cut_to_range, through_take, with_ahead
     from usdgaze.usd.layers import AnimOverride
@@ -162,13 +163,19 @@ def _plan_character(stage, source, root, mine, others, settings, progress, repor
     # as --physics simulates it: planned from the take's first frame, objects were reported first
     # seen before the shot (-4.00 s on stepping_stones_shot.usda) and 5 times the frames were planned.
     ahead_s = settings.window_s + 2 * settings.h  # the take after it, for the planner's last windows
-    clip, ahead, take = cut_to_range(read_clip(stage, skels[0], root, source), stage, ahead_s, ("planned", "plan"))
+
+    def read_and_bind(skel):
+        clip, ahead, take = cut_to_range(read_clip(stage, skel, root, source), stage, ahead_s, ("planned", "plan"))
+        return clip, ahead, take, bind_root(clip, root, settings.binding)  # as apply: hints, GazeMapAPI, names
+
+    bound, notes = bound_skeletons(root, skels, source, read_and_bind)  # a face's skeleton is no character
+    report.warnings.extend(notes)
+    clip, ahead, take, (chain, frame) = bound[0][1]
     check_not_shared(others, clip.animation, source)
     report.warnings.extend(clip.notes)
-    if len(skels) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
-        report.warnings.append(f"{source}:{root.GetPath()}: {len(skels)} Skeletons under this SkelRoot; attend "
-                               f"plans the first, {skels[0].GetPath()}, and leaves the others as they are")
-    chain, frame = bind_root(clip, root, settings.binding)  # exactly as apply: hints, then GazeMapAPI, then names
+    if len(bound) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
+        report.warnings.append(f"{source}:{root.GetPath()}: {len(bound)} Skeletons under this SkelRoot; "
+                               f"attend plans the first, {bound[0][0].GetPath()}, and leaves the others as they are")
     if frame.note:
         report.warnings.append(frame.note)
     codes = clip.start_time + planner_times(clip.seconds, settings.h) * clip.time_codes_per_second

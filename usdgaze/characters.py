@@ -12,7 +12,7 @@ from usdgaze.core.hints import BindHints
 from usdgaze.core.kinematics import snap_up
 from usdgaze.core.names import names_not_read, spelled_with_names
 from usdgaze.core.rig import Chain, CharacterFrame, bind_chain, character_frame
-from usdgaze.errors import RigError, UsdGazeError
+from usdgaze.errors import NoHeadError, RigError, UsdGazeError
 from usdgaze.gaze.definition import GazeMapDefinition
 from usdgaze.gaze.gazemap import ParametricGazeMap
 from usdgaze.passes.directives import Directive
@@ -61,6 +61,24 @@ def select_roots(stage, source: str, skel_root: str | None):
         listed = ", ".join(str(r.GetPath()) for r in roots[:6])
         raise UsdGazeError(f"{source}: {len(roots)} SkelRoots and none has a GazeMapAPI; pick one with --skel-root ({listed})")
     return roots
+
+
+def bound_skeletons(root, skels: list, source: str, bind_one) -> tuple[list, list[str]]:
+    """``[(skel, bind_one(skel))]`` for the skeletons of ``root`` that bind, and notes: a skeleton with
+    no head at all (``NoHeadError``: a face's, a prop's or cloth's skeleton) beside one that binds is
+    no character and is left as it is, said in a note (``apply`` refused the SkelRoot, ``attend``
+    planned whichever came first); any other error, or no skeleton that binds, is raised."""
+    bound, headless = [], []
+    for skel in skels:
+        try:
+            bound.append((skel, bind_one(skel)))
+        except NoHeadError as exc:
+            headless.append((skel, exc))
+    if not bound:  # the first one's error, with its advice
+        raise headless[0][1]
+    notes = [f"{source}:{s.GetPath()}: no head among its joints, so no character: left as it is "
+             f"({root.GetPath()}'s character is {bound[0][0].GetPath()})" for s, _ in headless]
+    return bound, notes
 
 
 def _map_key(definition: GazeMapDefinition) -> bytes:
@@ -134,7 +152,7 @@ def _by_names_too(joints: list[str], parents, joint_names, fn):
         named = spelled_with_names(joints, parents, joint_names)
         note = names_not_read(joints, joint_names)
         if note:
-            raise RigError(f"{first}{note}") from None
+            raise type(first)(f"{first}{note}") from None
         if named is None:
             raise
         try:

@@ -33,6 +33,11 @@ class RigError(UsdGazeError):
     """A skeleton's gaze chain cannot be bound."""
 
 
+class NoHeadError(RigError):
+    """A skeleton with no head at all (by name, by eyes or by binding): no character, e.g. a face's,
+    a prop's or a cloth rig's skeleton beside the body's under one SkelRoot."""
+
+
 def usd_failure(exc: BaseException) -> str:
     """The first (root-cause) message of a Tf.ErrorException, without USD's source location."""
     for line in str(exc).splitlines():

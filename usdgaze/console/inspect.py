@@ -47,6 +47,9 @@ def _print(info: dict) -> None:
             if s.get("error"):
                 click.echo(f"    cannot bind: {s['error']}")
                 continue
+            if s.get("no_character"):  # beside the SkelRoot's character: left as it is
+                click.echo(f"    no character (no head; apply and attend leave it as it is): {s['no_character']}")
+                continue
             span = f"time codes {s['first']:g}..{s['last']:g}"
             if not s["animation_bound"]:
                 click.echo(f"    animation: none bound (UsdSkel shows the rest pose); the layer defines {s['animation']} "

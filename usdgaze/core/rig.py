@@ -22,7 +22,7 @@ import numpy as np
 from usdgaze.core import names
 from usdgaze.core.character_frame import (  # noqa: F401  (rig binding's names)
     CharacterFrame, character_frame, mirrored_pairs, side)
-from usdgaze.errors import RigError
+from usdgaze.errors import NoHeadError, RigError
 from usdgaze.gaze.definition import ROLES
 
 _MIXAMO_PREFIX = re.compile(r"^mixamorig\d*_")
@@ -331,12 +331,12 @@ def _no_chain(joints: list[str], found: dict, where: str) -> RigError:
     """The error for a skeleton whose names give no head, or no pelvis above it: what was considered."""
     heads = [i for i, j in enumerate(joints) if "head" in names.tokens(j)]
     pelvises = [i for i, j in enumerate(joints) if set(names.tokens(j)) & {"hips", "hip", "pelvis"}]
-    if "head" not in found:
+    if "head" not in found:  # no character at all (a face's or a prop's skeleton): NoHeadError says so
         what = "no head (a joint named head, the eye joints' parent, or Rigify's spine.006)"
     else:
         what = (f"no pelvis above head '{names.leaf(joints[found['head'][-1]])}' (a joint named hips or pelvis, "
                 "or one where a mirrored pair of legs branches off)")
-    return RigError(
+    return (NoHeadError if "head" not in found else RigError)(
         f"{where}: no gaze chain (pelvis and head) found by name: {what}; considered as head: "
         f"{_listed(joints, heads)}; as pelvis: {_listed(joints, pelvises)}; joints: "
         f"{_listed(joints, range(len(joints)), 12)}; {_HINT}")

@@ -261,10 +261,11 @@ def run(input_path: str | os.PathLike, out: str | os.PathLike, options: mpc.Opti
         out_path = tx.claim(check_output_path(out), "--out")
         stage = _open_input(tx, source)
         tx.check_replaceable()  # every input recorded: before the work
-        shots = read_shots(stage, source, skel_root, options, binding, total_mass)
+        headless: list[str] = []
+        shots = read_shots(stage, source, skel_root, options, binding, total_mass, headless)
         reports, layer = _simulate_all(stage, source, shots, options, total_mass, progress, seed, keep_failed,
                                        record)
-        notes = composed_override_notes(stage, source)
+        notes = composed_override_notes(stage, source) + headless
         for shot, r in zip(shots, reports):
             r.warnings = list(notes) + kind_notes(shot.root, shot.scene[0], shot.scene[2], source)
         tx.stage_layer(out_path, layer)

@@ -90,20 +90,22 @@ def read_shot(stage, source: str, root, roots: list, skel, options: mpc.Options,
 
 
 def read_shots(stage, source: str, skel_root: str | None, options: mpc.Options, binding,
-               total_mass: float = 75.0) -> list[Shot]:
-    """Every skeleton's :class:`Shot`: all read, checked, bound and built before any work (a skeleton
-    the model refuses, lying, without feet, squashed, was found only after the characters before it
-    had been simulated)."""
-    from usdgaze.characters import bind_root, select_roots
+               total_mass: float = 75.0, notes: list | None = None) -> list[Shot]:
+    """Every character skeleton's :class:`Shot`: all read, checked, bound and built before any work (a
+    skeleton the model refuses, lying, without feet, squashed, was found only after the characters
+    before it had been simulated); ``notes`` gets a line for each skeleton left as no character."""
+    from usdgaze.characters import bind_root, bound_skeletons, select_roots
     from usdgaze.usd.skelio import animations_elsewhere, check_not_shared, skeletons_under
 
     shots = []
     roots = select_roots(stage, source, skel_root)
     others = animations_elsewhere(stage, roots)
     for root in roots:
-        for skel in skeletons_under(root):
-            shot = read_shot(stage, source, root, roots, skel, options,
-                             lambda clip, r: bind_root(clip, r, binding), total_mass)
+        bound, headless = bound_skeletons(root, skeletons_under(root), source, lambda skel: read_shot(
+            stage, source, root, roots, skel, options, lambda clip, r: bind_root(clip, r, binding), total_mass))
+        if notes is not None:  # a face's or a prop's skeleton beside the body's: no character, not simulated
+            notes.extend(headless)
+        for _, shot in bound:
             check_not_shared(others, shot.clip.animation, source)
             _check_tasks(shot, source)
             shots.append(shot)

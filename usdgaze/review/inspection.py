@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from usdgaze.errors import UsdGazeError
+from usdgaze.errors import NoHeadError, UsdGazeError
 from usdgaze.files.kinds import require_file
 
 
@@ -13,10 +13,9 @@ def inspect_stage(path: str, hints=None) -> dict:
     """
     from pxr import UsdGeom
 
-    from usdgaze import api
     from usdgaze.usd import schema
     from usdgaze.usd.checks import check_stage
-    from usdgaze.usd.skelio import no_skel_root, read_clip, skel_roots, skeletons_under
+    from usdgaze.usd.skelio import no_skel_root, skel_roots, skeletons_under
     from usdgaze.usd.stage import open_stage
 
     require_file(path)
@@ -40,27 +39,40 @@ def inspect_stage(path: str, hints=None) -> dict:
         entry = {"path": str(root.GetPath()),
                  "map": (f"{'GazeMapAPI, cannot read it' if has else 'none usable'}: {map_error}" if map_error else
                          f"GazeMapAPI, {len(definition)} examples" if has else "none (the built-in map is used)"),
-                 "skeletons": []}
-        for skel in skeletons_under(root):
-            s = {"path": str(skel.GetPath()), "joints": len(skel.GetAttribute("joints").Get() or [])}
-            try:
-                if map_error:
-                    raise UsdGazeError(map_error)
-                clip = read_clip(stage, skel, root, str(path))
-                chain, frame = api.bind(clip, definition, hints)
-            except UsdGazeError as exc:
-                s["error"] = str(exc)
-            else:
-                s.update(animation=clip.animation, animation_bound=clip.animation_bound, held_pose=clip.held_pose,
-                         frames=len(clip.times), first=float(clip.times[0]),
-                         last=float(clip.times[-1]),
-                         chain={r: [clip.joints[j].rsplit("/", 1)[-1] for j in idx] for r, idx in chain.roles.items()},
-                         why={r: chain.reasons.get(r, "") for r in chain.roles},
-                         forward=[float(v) for v in frame.forward], forward_from=frame.source,
-                         frame_note=frame.note,
-                         neutral=clip.neutral_source)
-            entry["skeletons"].append(s)
+                 "skeletons": [_skeleton(stage, skel, root, path, definition, map_error, hints)
+                               for skel in skeletons_under(root)]}
+        binds = any("error" not in s for s in entry["skeletons"])
+        for s in entry["skeletons"]:  # headless beside a character: no character, as apply and attend leave it
+            if s.pop("no_head", False) and binds:
+                s["no_character"] = s.pop("error")
         info["skel_roots"].append(entry)
     if not info["skel_roots"]:
         raise no_skel_root(stage, str(path))
     return info
+
+
+def _skeleton(stage, skel, root, path, definition, map_error: str | None, hints) -> dict:
+    """One skeleton's entry: its binding as apply finds it, or the error (``no_head``: it has none)."""
+    from usdgaze import api
+    from usdgaze.usd.skelio import read_clip
+
+    s = {"path": str(skel.GetPath()), "joints": len(skel.GetAttribute("joints").Get() or [])}
+    try:
+        if map_error:
+            raise UsdGazeError(map_error)
+        clip = read_clip(stage, skel, root, str(path))
+        chain, frame = api.bind(clip, definition, hints)
+    except NoHeadError as exc:  # a face's or a prop's skeleton: no character, if another binds
+        s["error"], s["no_head"] = str(exc), True
+    except UsdGazeError as exc:
+        s["error"] = str(exc)
+    else:
+        s.update(animation=clip.animation, animation_bound=clip.animation_bound, held_pose=clip.held_pose,
+                 frames=len(clip.times), first=float(clip.times[0]),
+                 last=float(clip.times[-1]),
+                 chain={r: [clip.joints[j].rsplit("/", 1)[-1] for j in idx] for r, idx in chain.roles.items()},
+                 why={r: chain.reasons.get(r, "") for r in chain.roles},
+                 forward=[float(v) for v in frame.forward], forward_from=frame.source,
+                 frame_note=frame.note,
+                 neutral=clip.neutral_source)
+    return s
