@@ -79,3 +79,13 @@ def test_a_face_skeleton_alone_is_still_refused(tmp_path, capsys):
     assert len(err) == 1 and "Face: no gaze chain (pelvis and head) found by name: no head" in err[0], err
     assert not (tmp_path / "g.usda").exists()
     assert main(["inspect", str(r.path)]) == 2
+
+
+def test_physics_model_builds_the_body_not_the_face(tmp_path, capsys):
+    """It took the SkelRoot's first Skeleton, the face's: 'no feet ... the physics body stands on its feet'."""
+    r = _with_face(tmp_path)
+    assert main(["physics-model", str(r.path), "--out", str(tmp_path / "m.xml")]) == 0
+    assert capsys.readouterr().out.strip().endswith(f"from {r.skeleton}")
+    import mujoco
+
+    assert mujoco.MjModel.from_xml_path(str(tmp_path / "m.xml")).njnt > 10

@@ -134,14 +134,16 @@ def _check_tasks(shot: Shot, source: str) -> None:
 
 def write_model(input_path, out, total_mass: float = 75.0, timestep: float | None = None,
                 skel_root: str | None = None) -> dict:
-    """Write the MJCF of the body ``attend --physics`` simulates for ``input_path``'s one skeleton (or the
-    one under ``skel_root``), at its step (``timestep`` None: the step by task, as the pass takes it);
+    """Write the MJCF of the body ``attend --physics`` simulates for ``input_path``'s one character (or the
+    one under ``skel_root``; a SkelRoot's first Skeleton that binds), at its step (``timestep`` None: the step by task, as the pass takes it);
     a summary for the console."""
     from usdgaze.api import _open_input
+    from usdgaze.characters import bound_skeletons
     from usdgaze.files.kinds import require_file
     from usdgaze.files.transaction import Outputs
     from usdgaze.physics import mjcf
     from usdgaze.physics.build import binding, one_skeleton
+    from usdgaze.usd.skelio import skeletons_under
 
     out = Path(out)
     if out.suffix.lower() != ".xml":
@@ -154,9 +156,28 @@ def write_model(input_path, out, total_mass: float = 75.0, timestep: float | Non
         tx.read(source)
         tx.claim(out, "--out")
         stage = _open_input(tx, source)
-        root, skel = one_skeleton(stage, source, skel_root)
-        shot = read_shot(stage, source, root, [root], skel, mpc.Options(), binding, total_mass)
+        root, _ = one_skeleton(stage, source, skel_root)
+        skels = skeletons_under(root)
+        # The SkelRoot's first character: a face's or a prop's skeleton listed before the body's is none
+        # (alone, a skeleton without a gaze chain is built by its shape, as before).
+        bind = binding if len(skels) == 1 else _headless_refused
+        bound, _ = bound_skeletons(root, skels, source, lambda skel: read_shot(
+            stage, source, root, [root], skel, mpc.Options(), bind, total_mass))
+        shot = bound[0][1]
         model, h = shot.body[0], timestep or shot.options.h
         tx.stage_text(out, mjcf.write(model, timestep=h))
     return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
             "mass": model.total_mass, "skeleton": shot.clip.skeleton, "timestep": h}
+
+
+def _headless_refused(clip, root):
+    """``physics.build.binding``, but a skeleton with no head at all is no character (NoHeadError)."""
+    from usdgaze.characters import bind_root
+    from usdgaze.errors import NoHeadError, RigError
+
+    try:
+        return bind_root(clip, root)
+    except NoHeadError:
+        raise
+    except RigError:
+        return None
