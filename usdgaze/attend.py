@@ -149,7 +149,7 @@ def _plan_character(stage, source, root, mine, others, settings, progress, repor
     """Plan one SkelRoot's first character (its first Skeleton that binds) looking at its objects ``mine``: (its
     override, its inspection's (character, times, result, object paths), the planner's result); ``report``
     gets its warnings and summary."""
-    from usdgaze.characters import bind_root, bound_skeletons
+    from usdgaze.characters import bind_root, first_character
     from usdgaze.passes.attend import apply_attend, planner_times
     from usdgaze.passes.take import cut_to_range, through_take, with_ahead
     from usdgaze.usd.layers import AnimOverride
@@ -168,14 +168,13 @@ def _plan_character(stage, source, root, mine, others, settings, progress, repor
         clip, ahead, take = cut_to_range(read_clip(stage, skel, root, source), stage, ahead_s, ("planned", "plan"))
         return clip, ahead, take, bind_root(clip, root, settings.binding)  # as apply: hints, GazeMapAPI, names
 
-    bound, notes = bound_skeletons(root, skels, source, read_and_bind)  # a face's skeleton is no character
-    report.warnings.extend(notes)
-    clip, ahead, take, (chain, frame) = bound[0][1]
+    skel, (clip, ahead, take, (chain, frame)), notes = first_character(root, skels, source, read_and_bind)
+    report.warnings.extend(notes)  # a face's skeleton listed before the body's is no character
     check_not_shared(others, clip.animation, source)
     report.warnings.extend(clip.notes)
-    if len(bound) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
-        report.warnings.append(f"{source}:{root.GetPath()}: {len(bound)} Skeletons under this SkelRoot; "
-                               f"attend plans the first, {bound[0][0].GetPath()}, and leaves the others as they are")
+    if len(skels) - len(notes) > 1:  # its inspection and report are the SkelRoot's: one character, one pair of eyes
+        report.warnings.append(f"{source}:{root.GetPath()}: {len(skels)} Skeletons under this SkelRoot; attend "
+                               f"plans the first, {skel.GetPath()}, and leaves the others as they are")
     if frame.note:
         report.warnings.append(frame.note)
     codes = clip.start_time + planner_times(clip.seconds, settings.h) * clip.time_codes_per_second

@@ -81,6 +81,25 @@ def bound_skeletons(root, skels: list, source: str, bind_one) -> tuple[list, lis
     return bound, notes
 
 
+def first_character(root, skels: list, source: str, bind_one) -> tuple:
+    """``(skel, bind_one(skel), notes)`` of the first skeleton of ``root`` that binds, past those with no
+    head at all (said in ``notes``, as :func:`bound_skeletons` says them); the skeletons after it are
+    not read. Another error, or none that binds, is raised."""
+    headless = []
+    for skel in skels:
+        try:
+            value = bind_one(skel)
+        except NoHeadError as exc:
+            if len(headless) == len(skels) - 1:  # the last one: none binds, the first one's error
+                raise (headless[0][1] if headless else exc) from None
+            headless.append((skel, exc))
+            continue
+        notes = [f"{source}:{s.GetPath()}: no head among its joints, so no character: left as it is "
+                 f"({root.GetPath()}'s character is {skel.GetPath()})" for s, _ in headless]
+        return skel, value, notes
+    raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
+
+
 def _map_key(definition: GazeMapDefinition) -> bytes:
     """Content key: characters sharing one map (by composition) build it once."""
     m = definition.motions
