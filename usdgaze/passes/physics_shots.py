@@ -135,10 +135,10 @@ def _check_tasks(shot: Shot, source: str) -> None:
 def write_model(input_path, out, total_mass: float = 75.0, timestep: float | None = None,
                 skel_root: str | None = None) -> dict:
     """Write the MJCF of the body ``attend --physics`` simulates for ``input_path``'s one character (or the
-    one under ``skel_root``; a SkelRoot's first Skeleton that binds), at its step (``timestep`` None: the step by task, as the pass takes it);
-    a summary for the console."""
+    one under ``skel_root``; its first Skeleton that binds), at its step (``timestep`` None: the step by
+    task, as the pass takes it); a summary for the console."""
     from usdgaze.api import _open_input
-    from usdgaze.characters import bound_skeletons
+    from usdgaze.characters import first_character
     from usdgaze.files.kinds import require_file
     from usdgaze.files.transaction import Outputs
     from usdgaze.physics import mjcf
@@ -161,9 +161,8 @@ def write_model(input_path, out, total_mass: float = 75.0, timestep: float | Non
         # The SkelRoot's first character: a face's or a prop's skeleton listed before the body's is none
         # (alone, a skeleton without a gaze chain is built by its shape, as before).
         bind = binding if len(skels) == 1 else _headless_refused
-        bound, _ = bound_skeletons(root, skels, source, lambda skel: read_shot(
+        _, shot, _ = first_character(root, skels, source, lambda skel: read_shot(
             stage, source, root, [root], skel, mpc.Options(), bind, total_mass))
-        shot = bound[0][1]
         model, h = shot.body[0], timestep or shot.options.h
         tx.stage_text(out, mjcf.write(model, timestep=h))
     return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
