@@ -58,17 +58,10 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
 def _check_spelling(prim, source: str) -> None:
     """One line for a ``usdgaze:physics:`` property the pass reads nowhere: a stone tagged
     ``usdgaze:physics:tasks`` (or ``Task``) was no stone, and the shot ran without it, exit 0."""
-    import difflib
-
-    from usdgaze.passes.pushes import ROOT_NAMES
+    from usdgaze.passes.pushes import ROOT_NAMES, check_read
 
     known = (TASK, *ROOT_NAMES)
-    for prop in prim.GetAuthoredPropertiesInNamespace("usdgaze:physics"):
-        name = prop.GetName()
-        if name not in known:
-            near = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
-            said = f"did you mean {near[0]}?" if near else f"it reads {', '.join(known)}"
-            raise UsdGazeError(f"{source}:{prop.GetPath()}: not an attribute the physics pass reads ({said})")
+    check_read(prim.GetAuthoredPropertiesInNamespace("usdgaze:physics"), known, source, f"it reads {', '.join(known)}")
 
 
 def read_shot(stage, source: str, root, roots: list, skel, options: mpc.Options, bind: Callable,
@@ -137,6 +130,8 @@ def write_model(input_path, out, total_mass: float = 75.0, timestep: float | Non
     """Write the MJCF of the body ``attend --physics`` simulates for ``input_path``'s one character (or the
     one under ``skel_root``; its first Skeleton that binds), at its step (``timestep`` None: the step by
     task, as the pass takes it); a summary for the console."""
+    from functools import partial
+
     from usdgaze.api import _open_input
     from usdgaze.characters import first_character
     from usdgaze.files.kinds import require_file
@@ -160,23 +155,10 @@ def write_model(input_path, out, total_mass: float = 75.0, timestep: float | Non
         skels = skeletons_under(root)
         # The SkelRoot's first character: a face's or a prop's skeleton listed before the body's is none
         # (alone, a skeleton without a gaze chain is built by its shape, as before).
-        bind = binding if len(skels) == 1 else _headless_refused
+        bind = binding if len(skels) == 1 else partial(binding, headless=False)
         _, shot, _ = first_character(root, skels, source, lambda skel: read_shot(
             stage, source, root, [root], skel, mpc.Options(), bind, total_mass))
         model, h = shot.body[0], timestep or shot.options.h
         tx.stage_text(out, mjcf.write(model, timestep=h))
     return {"bodies": len(model.bodies), "joints": {k: model.kind.count(k) for k in ("free", "ball", "hinge", "weld")},
             "mass": model.total_mass, "skeleton": shot.clip.skeleton, "timestep": h}
-
-
-def _headless_refused(clip, root):
-    """``physics.build.binding``, but a skeleton with no head at all is no character (NoHeadError)."""
-    from usdgaze.characters import bind_root
-    from usdgaze.errors import NoHeadError, RigError
-
-    try:
-        return bind_root(clip, root)
-    except NoHeadError:
-        raise
-    except RigError:
-        return None

@@ -67,14 +67,21 @@ def _check_on_the_root(root, source: str) -> None:
         if catch and catch.IsAuthored():  # on the Skeleton or the SkelRoot's parent it caught nothing, exit 0
             raise UsdGazeError(f"{source}:{catch.GetPath()}: a ball to catch is read on the SkelRoot only; author "
                                f"{CATCH} on {root.GetPath()}")
-    for attr in root.GetAuthoredProperties():  # a misspelled catch is a relationship
-        name = attr.GetName()
-        if name.startswith("usdgaze:physics:") and name not in ROOT_NAMES:
-            import difflib
+    # a misspelled catch is a relationship: every property, not only the attributes
+    check_read(root.GetAuthoredProperties(), ROOT_NAMES, source, f"a SkelRoot's are {', '.join(ROOT_NAMES)}")
 
-            near = difflib.get_close_matches(name, ROOT_NAMES, n=1, cutoff=0.6)
-            said = f"did you mean {near[0]}?" if near else f"a SkelRoot's are {', '.join(ROOT_NAMES)}"
-            raise UsdGazeError(f"{source}:{attr.GetPath()}: not an attribute the physics pass reads ({said})")
+
+def check_read(props, known: tuple[str, ...], source: str, otherwise: str) -> None:
+    """One line for the first ``usdgaze:physics:`` property of ``props`` not in ``known`` (a misspelling:
+    the pass reads nowhere what it says): the known name it is closest to, else ``otherwise``."""
+    import difflib
+
+    for prop in props:
+        name = prop.GetName()
+        if name.startswith("usdgaze:physics:") and name not in known:
+            near = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+            said = f"did you mean {near[0]}?" if near else otherwise
+            raise UsdGazeError(f"{source}:{prop.GetPath()}: not an attribute the physics pass reads ({said})")
 
 
 def read_pushes(root, clip, model, where: str) -> tuple[mpc.Push, ...]:

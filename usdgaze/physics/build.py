@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from usdgaze.errors import RigError, UsdGazeError
+from usdgaze.errors import NoHeadError, RigError, UsdGazeError
 
 
 def load_clip(input_path: str | os.PathLike, skel_root: str | None = None):
@@ -62,15 +62,20 @@ def body_model(clip, total_mass: float = 75.0, weld_still: bool = True, chain_fr
     return model, ref
 
 
-def binding(clip, root):
+def binding(clip, root, headless: bool = True):
     """The gaze binding ``attend --physics`` builds its body with (the SkelRoot's GazeMapAPI, else names),
     so that both build one model: without it, the head, eyes and forward a GazeMapAPI binds on a rig whose
     names say nothing were not read here (its eyes were 1.7 kg bodies of the head). None where no chain
-    is found (the skeleton's shape tells, as before)."""
+    is found (the skeleton's shape tells, as before); with ``headless`` False a skeleton with no head at
+    all raises NoHeadError (no character: a face's beside the body's)."""
     from usdgaze.characters import bind_root
 
     try:
         return bind_root(clip, root)
+    except NoHeadError:
+        if not headless:
+            raise
+        return None
     except RigError:
         return None
 
