@@ -89,3 +89,16 @@ def test_physics_model_builds_the_body_not_the_face(tmp_path, capsys):
     import mujoco
 
     assert mujoco.MjModel.from_xml_path(str(tmp_path / "m.xml")).njnt > 10
+
+
+def test_a_skel_root_without_a_skeleton_is_one_line_for_the_physics_pass(tmp_path, capsys):
+    """No Skeleton under the only SkelRoot: the headless rule's reader stopped on an IndexError (exit 1)."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "in.usda"))
+    UsdGeom.SetStageUpAxis(stage, "Y")
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdSkel.Root.Define(stage, "/Character")
+    stage.Save()
+    assert main(["attend", str(tmp_path / "in.usda"), "--physics", "--out", str(tmp_path / "o.usda")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"usdgaze: error: {tmp_path / 'in.usda'}: no Skeleton to simulate"], err
+    assert not (tmp_path / "o.usda").exists()

@@ -74,11 +74,11 @@ def bound_skeletons(root, skels: list, source: str, bind_one) -> tuple[list, lis
             bound.append((skel, bind_one(skel)))
         except NoHeadError as exc:
             headless.append((skel, exc))
-    if not bound:  # the first one's error, with its advice
-        raise headless[0][1]
-    notes = [f"{source}:{s.GetPath()}: no head among its joints, so no character: left as it is "
-             f"({root.GetPath()}'s character is {bound[0][0].GetPath()})" for s, _ in headless]
-    return bound, notes
+    if not bound:  # none binds: the first one's error, with its advice (none at all: nothing)
+        if headless:
+            raise headless[0][1]
+        return [], []
+    return bound, _no_character_notes(source, root, headless, bound[0][0])
 
 
 def first_character(root, skels: list, source: str, bind_one) -> tuple:
@@ -90,14 +90,18 @@ def first_character(root, skels: list, source: str, bind_one) -> tuple:
         try:
             value = bind_one(skel)
         except NoHeadError as exc:
-            if len(headless) == len(skels) - 1:  # the last one: none binds, the first one's error
-                raise (headless[0][1] if headless else exc) from None
             headless.append((skel, exc))
             continue
-        notes = [f"{source}:{s.GetPath()}: no head among its joints, so no character: left as it is "
-                 f"({root.GetPath()}'s character is {skel.GetPath()})" for s, _ in headless]
-        return skel, value, notes
+        return skel, value, _no_character_notes(source, root, headless, skel)
+    if headless:  # none binds: the first one's error, with its advice
+        raise headless[0][1]
     raise UsdGazeError(f"{source}:{root.GetPath()}: no Skeleton under this SkelRoot")
+
+
+def _no_character_notes(source: str, root, headless: list, character) -> list[str]:
+    """A line for each headless skeleton ``(skel, error)`` left as it is beside ``character``."""
+    return [f"{source}:{s.GetPath()}: no head among its joints, so no character: left as it is "
+            f"({root.GetPath()}'s character is {character.GetPath()})" for s, _ in headless]
 
 
 def _map_key(definition: GazeMapDefinition) -> bytes:
