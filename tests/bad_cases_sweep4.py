@@ -133,3 +133,21 @@ def b_physics_task_misspelled(d):
         Sdf.AttributeSpec(layer.GetPrimAtPath("/Stones/A"), "usdgaze:physics:tasks",
                           Sdf.ValueTypeNames.Token).default = "stone"
     return _physics(d, author)
+
+
+def b_push_on_a_prop(d):
+    """``pushForce`` and ``pushJoint`` on the ball beside the character, no SkelRoot: acted on nothing, exit 0."""
+    def author(layer, r):
+        _ball(layer)
+        prop = layer.GetPrimAtPath(BALL)
+        Sdf.AttributeSpec(prop, "usdgaze:physics:pushJoint", Sdf.ValueTypeNames.Token).default = r.leaf["spine_b"]
+        Sdf.AttributeSpec(prop, "usdgaze:physics:pushForce", Sdf.ValueTypeNames.Float3).default = (150.0, 0.0, 0.0)
+    return _physics(d, author)
+
+
+def b_physics_catch_on_a_prop(d):
+    """The catch authored on the stage's ``/Objects`` group, not the SkelRoot: no catch, exit 0."""
+    def author(layer, r):
+        _ball(layer)
+        _catch(layer, "/Objects")
+    return _physics(d, author)

@@ -173,6 +173,35 @@ def _contacts(task) -> list[tuple[int, int]]:
             if task.stone[f, a] >= 0]
 
 
+def test_a_stone_out_of_every_footfalls_reach_is_no_target_and_is_said(stone_walk):
+    """A stone metres from the walk pulled the nearest footfall onto it (the report said "399 cm from
+    its stone"): now no footfall takes a stone further than ``REACH_M`` from it, the stones near the
+    footfalls keep theirs, and the shot's notes say which footfalls have none (or that none has)."""
+    dyn, ref_q, frames = stone_walk
+    spots = np.array([[0.45, 1.55, 0], [0.0, 1.5, 0], [0.1, 1.84, 0]])
+    near = stones.StoneTask(dyn, ref_q, spots, frames=frames, names=["/A", "/B", "/C"])
+    far = np.array([[4.5, 1.5, 0.0]])  # 4 m beside the walk (its footfalls lie within 0.5 m of the spots)
+    both = stones.StoneTask(dyn, ref_q, np.vstack([spots, far]), frames=frames, names=["/A", "/B", "/C", "/Far"])
+    assert np.array_equal(both.stone, near.stone) and (near.stone >= 0).any()
+    assert both.notes(10.0) == near.notes(10.0) == []
+    alone = stones.StoneTask(dyn, ref_q, far, frames=frames, names=["/Far"])
+    assert (alone.stone < 0).all()
+    said = alone.notes(10.0)
+    assert len(said) == 1 and said[0].startswith("no stone within 35 cm of any footfall")
+    assert 350 <= int(said[0].split("(the nearest ")[1].split(" cm")[0]) <= 450  # 4 m less the walk's 0-0.5 m
+    seconds = 10.0 + dyn.h * np.arange(len(ref_q))
+    assert alone.problems(ref_q, seconds) == []  # nothing to land on: no "far from its stone"
+    # One footfall's stone moved 1 m off: that footfall keeps none, and is said with its time.
+    first = [(f, a) for f in range(len(near.feet)) for a in np.flatnonzero(np.diff(np.r_[-1, near.stone[f]]) > 0)
+             if near.stone[f, a] >= 0 and a > 0][0]
+    moved = spots.copy()
+    moved[near.stone[first]] += [1.0, 0.0, 0.0]
+    off = stones.StoneTask(dyn, ref_q, moved, frames=frames, names=["/A", "/B", "/C"])
+    assert not (off.stone == near.stone[first]).any()
+    (line,) = off.notes(10.0)
+    assert line.startswith("footfalls with no stone within 35 cm") and near.feet[first[0]][0] in line
+
+
 def test_a_foot_held_over_its_stone_is_not_down_though_its_ground_distance_is_a_hit(stone_walk):
     """The run's verdict (``StoneTask.problems``): the reference with a foot put on the ground (each
     in turn) comes down with that foot for each of its contacts, the capture as it is does not with

@@ -36,8 +36,10 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
     from usdgaze.usd.objects import check_apart, require_xformable, scene_prims
 
     prims = {kind: [] for kind in TASKS}
+    root = stage.GetPrimAtPath(skel_root)
     for prim in scene_prims(stage):
         _check_spelling(prim, source)
+        _check_no_root_property(prim, root, source)
         attr = prim.GetAttribute(TASK)
         if not attr or not attr.HasAuthoredValue():
             continue
@@ -53,6 +55,24 @@ def task_prims(stage, source: str, skel_root: str) -> dict[str, list]:
                 "a stone or an obstacle", inside=True)
     return prims
 
+
+
+def _check_no_root_property(prim, root, source: str) -> None:
+    """One line for a push or a catch authored on a prim that is no SkelRoot, away from the character:
+    on a prop or the world's Xform it acted on nothing, exit 0. (Under the character's SkelRoot or
+    above it, ``pushes.read_pushes`` says where to author it instead.)"""
+    from pxr import UsdSkel
+
+    from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, CATCH
+
+    path, here = root.GetPath(), prim.GetPath()
+    if prim.IsA(UsdSkel.Root) or here.HasPrefix(path) or path.HasPrefix(here):
+        return
+    for prop in prim.GetAuthoredPropertiesInNamespace("usdgaze:physics"):
+        if prop.GetName() in (PUSH_FORCE, PUSH_JOINT, CATCH):
+            what = "a ball to catch" if prop.GetName() == CATCH else "a push"
+            raise UsdGazeError(f"{source}:{prop.GetPath()}: {what} is read on a character's SkelRoot only, and "
+                               f"{here} is none; author it on {path}")
 
 
 def _check_spelling(prim, source: str) -> None:

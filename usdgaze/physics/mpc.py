@@ -314,7 +314,7 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
     result.contact_depth_m = sank
     result.task_problems, result.task_unmendable = judge_tasks(shot.tasks, result)
     result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q[:steps + 1]), h)]
-                              if n]
+                              if n] + [n for t in shot.tasks if hasattr(t, "notes") for n in t.notes(float(result.seconds[0]))]
     return result
 
 

@@ -19,7 +19,10 @@ Ours, where the paper leaves room:
   just left (seen on the CMU walk, whose feet cross); here each reference contact keeps one stone
   for its whole span: the one closest, in the ground plane, to the reference's footfall (the toe's
   mean position over the contact). With stones displaced less than half their spacing this is
-  the paper's choice, and the cost stays smooth.
+  the paper's choice, and the cost stays smooth. A footfall takes no stone further than ``REACH_M``
+  from it: a stone metres from the walk pulled the foot as hard as one 15 cm off (the report then
+  said "399 cm from its stone"); such a footfall is left where the reference steps, and the shot's
+  notes say so (``notes``).
 * A contact under way at the reference's first frame keeps its stone only where the foot stands on
   it (within ``START_ON_M`` of the footfall): that foot is already down and cannot be placed, a stone
   off it only drags it along the ground. On the walk's 4.0 s crop the standing foot's nearest stone
@@ -61,6 +64,9 @@ CONTACT_SPEED = 0.6  # m/s
 CONTACT_MIN_S = 0.05
 POSITION_SCALE = 3.0  # the position residual in thirds of a metre (see the module docstring)
 START_ON_M = 0.01  # a contact under way at the first frame keeps a stone only this close to its footfall
+# A footfall's stone is at most this far from it in the ground plane: the bar displaces stones by up
+# to 15 cm, and half a walking step (CMU 131_01's is 0.6-0.7 m) keeps a foot off its neighbour's stone.
+REACH_M = 0.35
 LANDING_S = 0.3  # a simulated foot must come down this close in time to the reference's footfall
 DOWN_M = 0.02  # a simulated foot is down with the lowest point of its capsules this near the ground
 # The task looks this far into the planner's window and no further: costed over a whole 0.8 or 1.0 s
@@ -126,7 +132,9 @@ class StoneTask:
         near = np.where((near > 0) & (np.abs(fs[near - 1] - step_s) < np.abs(fs[near] - step_s)), near - 1, near)
         self.ref_height, self.ref_frame = [], []
         self.stone = np.full((len(self.feet), len(ref_qpos)), -1)  # the stone of each contact step
-        for f, (_, ankle, toe) in enumerate(self.feet):
+        self.unreached: list[tuple[str, float, float]] = []  # footfalls with no stone in reach: (foot, s, m)
+        taken = set()
+        for f, (leg, ankle, toe) in enumerate(self.feet):
             p = fpos[:, toe]
             speed = np.linalg.norm(np.gradient(p[:, :2], fs, axis=0), axis=1) if len(p) > 1 else np.zeros(1)
             on = contact_mask(p[:, 2], speed, np.diff(fs).mean() if len(fs) > 1 else dyn.h)
@@ -137,12 +145,32 @@ class StoneTask:
                     continue
                 foot = p[a:b].mean(axis=0)
                 stone = self.nearest(foot)
-                if a > 0 or np.linalg.norm(self.stones[stone, :2] - foot[:2]) <= START_ON_M:
-                    span[a:b] = stone  # (a foot down at the start off its stone: none, see above)
+                off = float(np.linalg.norm(self.stones[stone, :2] - foot[:2]))
+                if off > REACH_M:
+                    self.unreached.append((leg, float(fs[a] - fs[0]), off))
+                else:
+                    taken.add(stone)  # (a foot down at the start stands by it: not placed, but not ignored)
+                    if a > 0 or off <= START_ON_M:
+                        span[a:b] = stone  # (a foot down at the start off its stone: none, see above)
             self.stone[f] = span[near]
             self.ref_height.append(xpos[:, toe, 2])
             self.ref_frame.append(xmat[:, ankle])
+        self.untaken = [i for i in range(len(self.stones)) if i not in taken]
         self._onto_stones(ref_qpos)
+
+    def notes(self, start_s: float = 0.0) -> list[str]:
+        """What the reference's footfalls make of the stones, in words, where they miss them: none
+        taken at all, or footfalls with no stone within ``REACH_M`` (``start_s``: the shot's first
+        time in seconds, which the footfalls' times count from). A stone no footfall of this shot
+        takes is not said: a shot cut from a take walks over some of the take's stones only."""
+        if not len(self.stones) or not self.unreached:
+            return []
+        if len(self.untaken) == len(self.stones):
+            nearest = min(m for _, _, m in self.unreached)
+            return [f"no stone within {100 * REACH_M:.0f} cm of any footfall of the reference (the nearest "
+                    f"{100 * nearest:.0f} cm): none stepped on"]
+        steps = ", ".join(f"{leg} at {start_s + t:.2f} s ({100 * m:.0f} cm)" for leg, t, m in self.unreached)
+        return [f"footfalls with no stone within {100 * REACH_M:.0f} cm, left where the reference steps: {steps}"]
 
     def _onto_stones(self, ref_qpos: np.ndarray) -> None:
         """Each contact's toe height target less how far the reference's foot floats over the ground
