@@ -146,9 +146,23 @@ def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> 
     frame = character_frame(joints, clip.neutral(), up_s, forward, where=where, forward_label=label,
                             stage_up=stage_up)
     tilt = float(np.degrees(np.arccos(np.clip(np.dot(up_s, stage_up), -1.0, 1.0))))
-    if forward is not None or tilt < TILT_NOTE_DEG:
+    if forward is not None:
         return frame
+    if tilt < TILT_NOTE_DEG:
+        lean = float(np.degrees(np.arccos(np.clip(np.abs(stage_up).max(), 0.0, 1.0))))
+        return frame if lean < TILT_NOTE_DEG else dataclasses.replace(frame, note=_lean_note(where, lean))
     return dataclasses.replace(frame, note=_tilt_note(where, frame, up_s, stage_up, tilt))
+
+
+def _lean_note(where: str, lean: float) -> str:
+    """Why a look-at may miss a character leaning or lying in the stage (its skeleton's space turned
+    further than ``UP_SNAP_DEG`` from the world's up): its forward is left x the stage's up, as tilted
+    as the character, so its eyes' modelled axis is (a SkelRoot turned 60 deg about X missed every
+    look-at target by 60 deg by UsdSkel FK, with no word)."""
+    return (f"{where}: the stage's up is {lean:.1f} deg off the nearest axis of the skeleton's space (the character "
+            "leans or lies in the stage); its forward is taken as left x the stage's up, which is off where its face "
+            "points in the bind pose by as much as it leans, and a look-at misses by that much: give the bind pose's "
+            "forward with --forward X,Y,Z (skeleton space)")
 
 
 def _tilt_note(where: str, frame: CharacterFrame, up_s: np.ndarray, stage_up: np.ndarray, tilt: float) -> str:
