@@ -107,3 +107,44 @@ def _given_forward(forward: np.ndarray, stage_up: np.ndarray, where: str, label:
         raise RigError(f"{where}: {label} is parallel to the stage up axis")
     up = rot.normalize(up)
     return CharacterFrame(left=rot.cross(up, fwd), up=up, forward=fwd, source=label)
+
+
+LEG_AXIS_DEG = 30.0
+"""The legs say the character's up only where they hang within this of a skeleton axis (a seated bind
+pose's thighs, 45 deg from each, say nothing)."""
+
+
+def body_up(joints: list[str], neutral_world: np.ndarray) -> np.ndarray | None:
+    """The skeleton axis the neutral pose stands upright along, by its legs: from the mirrored pair
+    nearest the root that is apart and has joints below (hips, thighs; a quadruped's hind or front
+    legs) to the joints furthest down each of those chains (toes, feet), the legs hang down that
+    axis. None where that pair's chains do not hang within :data:`LEG_AXIS_DEG` of one axis, or no
+    pair serves: arms spread in a T-pose, a seated pose, a rig with no sided chains."""
+    pos = neutral_world[:, :3, 3]
+    depth = [j.count("/") for j in joints]
+    pairs = mirrored_pairs(joints)
+    extent = max(float(np.ptp(pos, axis=0).max()), 1e-9)
+    for l, r in sorted(pairs, key=lambda p: (depth[p[0]], p)):
+        hang = [_furthest_below(joints, pos, j) for j in (l, r)]
+        if np.linalg.norm(pos[l] - pos[r]) <= 0.01 * extent or any(h is None for h in hang):
+            continue  # CMU's hip joints at one spot; Rigify's pelvis helpers, leaves
+        down = rot.normalize(hang[0] + hang[1])
+        axis = int(np.argmax(np.abs(down)))
+        if np.degrees(np.arccos(min(1.0, abs(float(down[axis]))))) >= LEG_AXIS_DEG:
+            return None
+        up = np.zeros(3)
+        up[axis] = -np.sign(down[axis])
+        return up
+    return None
+
+
+def _furthest_below(joints: list[str], pos: np.ndarray, top: int) -> np.ndarray | None:
+    """Unit vector from joint ``top`` to the joint of its subtree furthest from it (None: no children
+    or all on it)."""
+    prefix = joints[top] + "/"
+    below = [i for i, j in enumerate(joints) if j.startswith(prefix)]
+    if not below:
+        return None
+    reach = pos[below] - pos[top]
+    far = reach[int(np.argmax(np.linalg.norm(reach, axis=1)))]
+    return far / np.linalg.norm(far) if np.linalg.norm(far) > 0 else None

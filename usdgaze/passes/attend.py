@@ -19,7 +19,7 @@ from usdgaze.core.kinematics import Pose, forward, with_ancestors
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.passes.aim import aim_eyes
 from usdgaze.passes.assemble import assemble
-from usdgaze.passes.chain import with_eyes
+from usdgaze.passes.chain import gaze_up, with_eyes
 from usdgaze.passes.hidden import hold_visible, restore
 from usdgaze.passes.options import EyeRange, PassOptions
 from usdgaze.planning.kinbody import BaseChain
@@ -79,7 +79,7 @@ def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: P
                ) -> tuple[BaseChain, np.ndarray]:
     """The base motion's pivots, eye midpoint and head axes on the planner grid (world, metres)."""
     spine, neck = _spine_neck(chain)
-    s2w, mpu, up = clip.skel_to_world, clip.meters_per_unit, clip.world_up
+    s2w, mpu, up = clip.skel_to_world, clip.meters_per_unit, gaze_up(clip, frame)  # the head's yaw axis
     head = chain.head
     eyes = 0.5 * sum(base.place(int(rig.parents[e]), rig.local(e)[0]) for e in rig.eyes)
     pts = [(_world(s2w, base.position[j]) * mpu) for j in (spine, neck)] + [_world(s2w, eyes) * mpu]
@@ -117,7 +117,7 @@ def apply_attend(clip: SkelClip, chain: Chain, frame: CharacterFrame, things: li
     seconds = clip.seconds
     q = _interp(seconds, t_plan, res.offsets)
     left_w = _interp(seconds, t_base, bc.left)
-    new_rot = _drive(clip, rig, base, spine, neck, q, left_w)
+    new_rot = _drive(clip, rig, base, spine, neck, q, left_w, bc.up)
 
     def new_local(j: int):
         t_, q_, s_ = rig.local(j)
@@ -171,12 +171,12 @@ def eyes_on(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, new_local,
     return eyes.rotations, _world(clip.skel_to_world, sight_skel)
 
 
-def _drive(clip: SkelClip, rig, base: Pose, spine: int, neck: int, q: np.ndarray, left_w: np.ndarray
-           ) -> dict[int, np.ndarray]:
+def _drive(clip: SkelClip, rig, base: Pose, spine: int, neck: int, q: np.ndarray, left_w: np.ndarray,
+           up_w: np.ndarray) -> dict[int, np.ndarray]:
     """Local rotations of the spine and neck joints carrying the world offsets G_s, G_n."""
     s3 = clip.skel_to_world[:, :3, :3]
     inv = np.linalg.inv(s3)
-    up_s = rot.normalize(np.einsum("fij,j->fi", inv, clip.world_up))
+    up_s = rot.normalize(np.einsum("fij,j->fi", inv, up_w))
     left_s = rot.normalize(np.einsum("fij,fj->fi", inv, left_w))
 
     def g(yaw, pitch):

@@ -239,6 +239,19 @@ class Base:
         return pose.position[rig.head], 0.5 * (pose.position[rig.eyes[0]] + pose.position[rig.eyes[1]])
 
 
+def gaze_up(clip: SkelClip, frame: CharacterFrame) -> np.ndarray:
+    """The world axis gaze azimuths turn about: the stage's up, or, for a character leaning or lying in
+    the stage (its own up, carried into the world at the first frame, more than ``UP_SNAP_DEG`` from
+    the stage's), its own: lying on its back its line of sight is the stage's up, about which every
+    azimuth is a roll of the eyes (a look-at to its side missed by 45-90 deg by UsdSkel FK)."""
+    from usdgaze.core.kinematics import UP_SNAP_DEG
+    from usdgaze.passes.hidden import held_world
+
+    up_w = np.asarray(clip.world_up, dtype=float)
+    own = rot.normalize(held_world(clip.skel_to_world)[0, :3, :3] @ frame.up)
+    return up_w if float(own @ up_w) > math.cos(math.radians(UP_SNAP_DEG)) else own
+
+
 def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
     """The rig with eyes (added if missing), base FK of the chain and eyes (the leg roots' counter
     rotation needs only their locals), and the base line of sight (where the head looks)."""
@@ -248,7 +261,7 @@ def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOp
     pose = forward(with_ancestors(list(chain.path), rig.parents), rig.parents, rig.local, positions=False,
                    scaled_by=with_ancestors(list(chain.path) + list(rig.eyes), rig.parents))
     skel_to_world = clip.skel_to_world[:, :3, :3]
-    up_w = clip.world_up
+    up_w = gaze_up(clip, frame)
     if chain.head in pose.linear:  # scales on the chain: the head's axis goes through its full linear map
         head_axis = np.linalg.solve(clip.neutral()[chain.head, :3, :3], frame.forward)
         looks = rot.normalize(np.einsum("fij,j->fi", pose.linear[chain.head], head_axis))
