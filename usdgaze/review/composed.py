@@ -296,9 +296,7 @@ def _playback_span(stage, characters: list[CharacterReview]) -> tuple[float, flo
 def _attention_in(a: Attention, stage) -> Attention:
     """An attend run's record cut to the frames the stage plays (:func:`playback_rows`)."""
     start, tcps = float(stage.GetStartTimeCode()), float(stage.GetTimeCodesPerSecond())
-    lo, hi = playback_rows(stage, start + a.seconds * tcps)
-    return Attention(a.name, a.seconds[lo:hi], a.point_of_sight[lo:hi],
-                     {k: v[lo:hi] for k, v in a.objects.items()}, {k: v[lo:hi] for k, v in a.uncertainty.items()})
+    return a.rows(*playback_rows(stage, start + a.seconds * tcps))
 
 
 def touched_paths(layer) -> set[str]:
