@@ -331,3 +331,27 @@ def test_instances_that_hold_no_character_stay_clean(tmp_path, capsys):
     capsys.readouterr()
     assert main(["validate", str(r.path), "--only-usdgaze"]) == 0
     assert capsys.readouterr().out == ""
+
+
+def test_the_preview_root_as_layer_is_refused_alike_by_validate_plot_and_preview(tmp_path, capsys):
+    """The root ``apply --preview`` writes holds no prims: plot and preview found nothing it overrides
+    and refused it, while validate composed it over the input (the input twice) and said clean. All
+    three now refuse it in one line naming the override to pass; that override, and the root opened
+    as the stage, stay clean."""
+    r = syn.make_rig(tmp_path / "in.usda", frames=20, mesh=False)
+    out, root = tmp_path / "gaze.usdc", tmp_path / "p.usda"
+    assert main(["apply", str(r.path), "--shift", "0.1s:20:0", "--out", str(out), "--preview", str(root)]) == 0
+    capsys.readouterr()
+    said = set()
+    for argv in (["validate", str(r.path), "--layer", str(root), "--only-usdgaze"],
+                 ["plot", str(r.path), "--layer", str(root), "--out", str(tmp_path / "plots")],
+                 ["preview", str(r.path), "--layer", str(root), "--out", str(tmp_path / "p.png")]):
+        assert main(argv) == 2, argv
+        (line,) = capsys.readouterr().err.splitlines()
+        said.add(line)
+    assert said == {f"usdgaze: error: {root}: --layer names a root --preview wrote (it sublayers the override and "
+                    f"the input), not an override; pass --layer {out}, the layer apply or attend wrote with --out"}
+    assert not (tmp_path / "plots").exists() and not (tmp_path / "p.png").exists()
+    assert main(["validate", str(r.path), "--layer", str(out), "--only-usdgaze"]) == 0
+    assert main(["validate", str(root), "--only-usdgaze"]) == 0
+    assert capsys.readouterr().out == ""

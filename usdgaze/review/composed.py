@@ -163,6 +163,7 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
             raise UsdGazeError(f"{path}: cannot open as a USD layer")
         layers.append(layer)
     base_layer, gaze_layer = layers
+    recorded.check_not_preview(gaze_layer, layer_file)
     in_stack = not in_memory and _in_stack(base_layer, gaze_layer)
     if in_stack and not layer_record(gaze_layer):  # muted as a --sublayer-into override: "the skeleton has no joints"
         raise UsdGazeError(f"{layer_file}: --layer names a layer of the input's own ({source} composes it as a "
