@@ -1,6 +1,8 @@
 """``plot`` of an ``attend`` layer on a character whose SkelRoot has a non-ASCII name (USD takes UTF-8
 prim names): the attend pass names its inspection scope as a prim name (``P_rsonnage``), and the
-attention plot went out as ``P_rsonnage_attention.png``, titled so, beside ``Pérsonnage_gaze.png``."""
+attention plot went out as ``P_rsonnage_attention.png``, titled so, beside ``Pérsonnage_gaze.png``; and
+of characters whose paths spell one scope name (``/A_B``, ``/A/B``), whose attention files took each
+other's names or overwrote one another."""
 
 from __future__ import annotations
 

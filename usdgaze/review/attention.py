@@ -1,7 +1,7 @@
 """An attend run's inspection prims (:mod:`usdgaze.usd.attendio` writes them under ``/UsdGazeAttend``)
-read back as arrays: per character ``gaze:attend:character`` (its SkelRoot), ``gaze:attend:pointOfSight`` (point3f per frame), per object child
-``gaze:attend:object`` (its path), ``gaze:attend:estimate`` and ``gaze:attend:uncertainty`` (float per
-frame, NaN while not tracked)."""
+read back as arrays: per character ``gaze:attend:character`` (its SkelRoot), ``gaze:attend:pointOfSight``
+(point3f per frame), per object child ``gaze:attend:object`` (its path), ``gaze:attend:estimate`` and
+``gaze:attend:uncertainty`` (float per frame, NaN while not tracked)."""
 
 from __future__ import annotations
 
