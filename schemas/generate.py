@@ -68,11 +68,16 @@ VALIDATORS = {
                          "overrides a SkelAnimation of the stage and samples it over the span the input below it does "
                          "(not another take's), and the joints it writes but its gaze chain does not drive are the "
                          "input's below it (not another version's).",
+    "SkeletonInstances": "No Skeleton under a SkelRoot, nor the SkelAnimation bound to it, lies inside an instance "
+                         "(an instance proxy, or an instanceable prim), where no override can reach it.",
+    "PhysicsObstacles": "Every prim tagged usdgaze:physics:task = \"obstacle\" (inside instances too) authors "
+                        "gaze:object:radius, its size: one value for the shot, more than 0 and at most 10 m.",
 }
 VALIDATOR_SCHEMA_TYPES = {"AnimationArrays": ["UsdSkelAnimation"], "SkeletonArrays": ["UsdSkelSkeleton"],
                           "SkeletonUnits": ["UsdSkelSkeleton"], "SkeletonUpAxis": ["UsdSkelSkeleton"],
                           "GazeSchedule": ["UsdGazeGazeScheduleAPI"],
-                          "GazeObject": ["UsdGazeGazeObjectAPI"], "GazeLayerSchedule": []}
+                          "GazeObject": ["UsdGazeGazeObjectAPI"], "GazeLayerSchedule": [],
+                          "SkeletonInstances": [], "PhysicsObstacles": []}
 USDVIEW_PLUGIN = "usdgaze.review.usdview_plugin"
 
 

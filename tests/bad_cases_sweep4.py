@@ -151,3 +151,26 @@ def b_physics_catch_on_a_prop(d):
         _ball(layer)
         _catch(layer, "/Objects")
     return _physics(d, author)
+
+
+def _preview_root(d) -> tuple[str, str]:
+    """The rig (input) and the --preview root apply wrote beside its override gaze.usdc."""
+    from usdgaze import api
+
+    r = rig(d)
+    api.apply(str(r.path), ["0.5s:30:0"], d / "gaze.usdc", preview=d / "p.usda")
+    return str(r.path), str(d / "p.usda")
+
+
+def b_plot_layer_is_the_preview_root(d):
+    """``plot INPUT --layer`` the --preview root (a stage holding no prims: it said 'overrides no
+    SkelAnimation', naming neither what it was nor what to pass)."""
+    source, root = _preview_root(d)
+    return ["plot", source, "--layer", root, "--out", str(d / "plots")]
+
+
+def b_validate_layer_is_the_preview_root(d):
+    """``validate INPUT --layer`` the --preview root: it composed the input twice and said clean (exit
+    0) where plot and preview refuse that layer."""
+    source, root = _preview_root(d)
+    return ["validate", source, "--layer", root]

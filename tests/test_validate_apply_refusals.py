@@ -271,3 +271,87 @@ def test_layers_of_apply_attend_physics_and_batch_are_clean_over_their_input(tmp
     _edit_knee(r, 5)
     assert main(["validate", str(scene), "--layer", str(tmp_path / "p.usda"), "--only-usdgaze"]) == 0
     assert main(["validate", str(scene), "--layer", str(tmp_path / "t.usda"), "--only-usdgaze"]) == 3
+
+
+def _animation_in_an_instance(d: Path) -> tuple[Path, list[str]]:
+    """/Character binds the animation of /Library/Take, an instanceable copy of the character: the
+    skeleton is overridable, its animation is an instance proxy. (stage, apply's extra options)."""
+    from .bad_common import rig
+
+    r = rig(d, "char.usda")
+    skel, anim = r.skeleton[len(r.skel_root) + 1:], r.animation[len(r.skel_root):]
+    (d / "in.usda").write_text(
+        '#usda 1.0\n(\n    timeCodesPerSecond = 60\n    upAxis = "Y"\n    metersPerUnit = 1\n)\n\n'
+        f'def "Character" (\n    references = @./char.usda@<{r.skel_root}>\n)\n{{\n'
+        f'    over "{skel}"\n    {{\n        rel skel:animationSource = </Library/Take{anim}>\n    }}\n}}\n\n'
+        f'def "Library"\n{{\n    def "Take" (\n        instanceable = true\n'
+        f'        references = @./char.usda@<{r.skel_root}>\n    )\n    {{\n    }}\n}}\n')
+    return d / "in.usda", ["--skel-root", "/Character"]
+
+
+def _instanced_case(d: Path, case: str) -> tuple[Path, list[str]]:
+    from . import bad_cases_stage as b
+
+    if case == "animation":
+        return _animation_in_an_instance(d)
+    argv = getattr(b, f"b_{case}")(d)  # the catalogue's stages (docs/bad-inputs.md)
+    return Path(argv[1]), []
+
+
+@pytest.mark.parametrize("case", ["instanceable_skelroot", "character_inside_an_instance", "animation"])
+def test_a_skeleton_or_animation_inside_an_instance_is_flagged_as_apply_refuses_it(tmp_path, capsys, case):
+    """apply refuses a Skeleton (or its bound SkelAnimation) that is an instance proxy: no override can
+    reach it. validate walked no instance proxy and said nothing (exit 0); now it says apply's words,
+    sited where apply's line is."""
+    stage, extra = _instanced_case(tmp_path, case)
+    capsys.readouterr()
+    assert main(["apply", str(stage), *extra, "--shift", "0.1s:20:0", "--out", str(tmp_path / "g.usdc")]) == 2
+    (refusal,) = capsys.readouterr().err.strip().splitlines()
+    site, problem = refusal.removeprefix(f"usdgaze: error: {stage}:").split(": ", 1)
+    assert problem.startswith("is inside the instance /"), refusal
+    assert not (tmp_path / "g.usdc").exists()
+    assert main(["validate", str(stage), "--only-usdgaze"]) == 3
+    lines = capsys.readouterr().out.splitlines()
+    assert f"{stage}:{site}: error: {problem} (usdgaze.review.validators:SkeletonInstances.Instanced)" in lines, lines
+    assert all(line.endswith("SkeletonInstances.Instanced)") for line in lines), lines
+
+
+def test_instances_that_hold_no_character_stay_clean(tmp_path, capsys):
+    """An instanceable prop beside a character apply takes is no refusal: validate stays clean."""
+    r = syn.make_rig(tmp_path / "in.usda", frames=20, mesh=False)
+    (tmp_path / "prop.usda").write_text('#usda 1.0\n\ndef Xform "Prop"\n{\n    def Sphere "Ball"\n    {\n    }\n}\n')
+    layer = Usd.Stage.Open(str(r.path))
+    prop = layer.DefinePrim("/Props/Rock")
+    prop.GetReferences().AddReference("./prop.usda", "/Prop")
+    prop.SetInstanceable(True)
+    layer.GetRootLayer().Save()
+    assert Usd.Stage.Open(str(r.path)).GetPrimAtPath("/Props/Rock/Ball").IsInstanceProxy()
+    capsys.readouterr()
+    assert main(["apply", str(r.path), "--shift", "0.1s:20:0", "--out", str(tmp_path / "g.usdc")]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(r.path), "--only-usdgaze"]) == 0
+    assert capsys.readouterr().out == ""
+
+
+def test_the_preview_root_as_layer_is_refused_alike_by_validate_plot_and_preview(tmp_path, capsys):
+    """The root ``apply --preview`` writes holds no prims: plot and preview found nothing it overrides
+    and refused it, while validate composed it over the input (the input twice) and said clean. All
+    three now refuse it in one line naming the override to pass; that override, and the root opened
+    as the stage, stay clean."""
+    r = syn.make_rig(tmp_path / "in.usda", frames=20, mesh=False)
+    out, root = tmp_path / "gaze.usdc", tmp_path / "p.usda"
+    assert main(["apply", str(r.path), "--shift", "0.1s:20:0", "--out", str(out), "--preview", str(root)]) == 0
+    capsys.readouterr()
+    said = set()
+    for argv in (["validate", str(r.path), "--layer", str(root), "--only-usdgaze"],
+                 ["plot", str(r.path), "--layer", str(root), "--out", str(tmp_path / "plots")],
+                 ["preview", str(r.path), "--layer", str(root), "--out", str(tmp_path / "p.png")]):
+        assert main(argv) == 2, argv
+        (line,) = capsys.readouterr().err.splitlines()
+        said.add(line)
+    assert said == {f"usdgaze: error: {root}: --layer names a root --preview wrote (it sublayers the override and "
+                    f"the input), not an override; pass --layer {out}, the layer apply or attend wrote with --out"}
+    assert not (tmp_path / "plots").exists() and not (tmp_path / "p.png").exists()
+    assert main(["validate", str(r.path), "--layer", str(out), "--only-usdgaze"]) == 0
+    assert main(["validate", str(root), "--only-usdgaze"]) == 0
+    assert capsys.readouterr().out == ""

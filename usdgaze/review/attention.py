@@ -1,16 +1,16 @@
 """An attend run's inspection prims (:mod:`usdgaze.usd.attendio` writes them under ``/UsdGazeAttend``)
-read back as arrays: per character ``gaze:attend:pointOfSight`` (point3f per frame), per object child
-``gaze:attend:object`` (its path), ``gaze:attend:estimate`` and ``gaze:attend:uncertainty`` (float per
-frame, NaN while not tracked)."""
+read back as arrays: per character ``gaze:attend:character`` (its SkelRoot), ``gaze:attend:pointOfSight``
+(point3f per frame), per object child ``gaze:attend:object`` (its path), ``gaze:attend:estimate`` and
+``gaze:attend:uncertainty`` (float per frame, NaN while not tracked)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from usdgaze.errors import UsdGazeError
-from usdgaze.usd.attendio import ROOT as ATTEND_ROOT
+from usdgaze.usd.attendio import CHARACTER, ROOT as ATTEND_ROOT
 
 
 @dataclass
@@ -25,6 +25,14 @@ class Attention:
     """Object prim path -> world position ``(F, 3)`` (the estimate where the prim cannot be sampled)."""
     uncertainty: dict[str, np.ndarray]
     """Object prim path -> the belief's position uncertainty ``(F,)`` (NaN while not tracked)."""
+    character: str | None = None
+    """The SkelRoot path the scope records (None: a layer written before scopes recorded it)."""
+
+    def rows(self, lo: int, hi: int) -> Attention:
+        """This record cut to its frames ``lo:hi``."""
+        return replace(self, seconds=self.seconds[lo:hi], point_of_sight=self.point_of_sight[lo:hi],
+                       objects={k: v[lo:hi] for k, v in self.objects.items()},
+                       uncertainty={k: v[lo:hi] for k, v in self.uncertainty.items()})
 
 
 
@@ -62,5 +70,8 @@ def read_attention(stage, source: str) -> list[Attention]:
                 est_t, est = _series(child.GetAttribute("gaze:attend:estimate"))
                 objects[path] = np.stack([np.interp(times, est_t, est[:, k]) for k in range(3)], axis=1)
         if objects:
-            out.append(Attention(character.GetName(), (times - start) / tcps, points, objects, uncertainty))
+            owner = character.GetAttribute(CHARACTER)
+            path = owner.Get() if owner and owner.HasAuthoredValue() else None
+            out.append(Attention(character.GetName(), (times - start) / tcps, points, objects, uncertainty,
+                                 None if path is None else str(path)))
     return out

@@ -163,6 +163,7 @@ def composed_stage(input_path: str | os.PathLike, layer_path: str | os.PathLike)
             raise UsdGazeError(f"{path}: cannot open as a USD layer")
         layers.append(layer)
     base_layer, gaze_layer = layers
+    recorded.check_not_preview(gaze_layer, layer_file)
     in_stack = not in_memory and _in_stack(base_layer, gaze_layer)
     if in_stack and not layer_record(gaze_layer):  # muted as a --sublayer-into override: "the skeleton has no joints"
         raise UsdGazeError(f"{layer_file}: --layer names a layer of the input's own ({source} composes it as a "
@@ -296,9 +297,7 @@ def _playback_span(stage, characters: list[CharacterReview]) -> tuple[float, flo
 def _attention_in(a: Attention, stage) -> Attention:
     """An attend run's record cut to the frames the stage plays (:func:`playback_rows`)."""
     start, tcps = float(stage.GetStartTimeCode()), float(stage.GetTimeCodesPerSecond())
-    lo, hi = playback_rows(stage, start + a.seconds * tcps)
-    return Attention(a.name, a.seconds[lo:hi], a.point_of_sight[lo:hi],
-                     {k: v[lo:hi] for k, v in a.objects.items()}, {k: v[lo:hi] for k, v in a.uncertainty.items()})
+    return a.rows(*playback_rows(stage, start + a.seconds * tcps))
 
 
 def touched_paths(layer) -> set[str]:

@@ -189,6 +189,34 @@ def names(review) -> list[str]:
     return [unique(n, taken) for n in full]
 
 
+def attention_names(review) -> list[str]:
+    """A name per attend inspection scope of ``review``, for its ``NAME_attention`` file: its character's
+    (the SkelRoot it records; attend plans a SkelRoot's first skeleton, so that one's name), else,
+    for a layer whose scopes record none, the one character whose path spells the scope's name, else
+    the scope's name, made unique. /A_B and /A/B both spell ``A_B``: the scope's name alone gave one
+    character's attention the other's name, and a third's file overwrote a second's."""
+    from usdgaze.usd.attendio import scope_name
+
+    by_root: dict[str, str] = {}
+    for c, n in zip(review.characters, names(review)):
+        by_root.setdefault(c.skel_root, n)
+    spelled: dict[str, set[str]] = {}
+    for root, n in by_root.items():
+        spelled.setdefault(scope_name(root), set()).add(n)
+    taken, claimed, out = set(by_root.values()), set(), []
+    for a in review.attention:
+        if a.character is not None:
+            own = by_root.get(a.character)
+        else:  # an older layer: the scope's name, where exactly one character spells it
+            own = next(iter(spelled[a.name])) if len(spelled.get(a.name, ())) == 1 else None
+        if own is not None and own not in claimed:
+            claimed.add(own)
+            out.append(own)
+        else:  # no character of this review: a name no character's files use
+            out.append(unique(a.name, taken))
+    return out
+
+
 def shift_lines(c) -> list[float]:
     """The times of ``c``'s requests that lie on its frames: a vertical line at one outside them (a
     shift before a shot's range) had stretched the time axis past the frames drawn."""
@@ -243,16 +271,7 @@ def figures(review) -> dict[str, object]:
     out = {}
     for c, name in zip(review.characters, names(review)):
         out.update(_character_figures(plt, review, c, name))
-    # The attend pass names its scopes after the SkelRoot's path (/root/Body -> root_Body), spelled
-    # as a prim name: a /Pérsonnage's attention had been plotted as P_rsonnage's.
-    # attend plans a SkelRoot's first skeleton: its name, not a later one's, labels the attention.
-    from usdgaze.usd.attendio import scope_name
-
-    by_path = {}
-    for c, n in zip(review.characters, names(review)):
-        by_path.setdefault(scope_name(c.skel_root), n)
-    for a in review.attention:
-        name = by_path.get(a.name, a.name)
+    for a, name in zip(review.attention, attention_names(review)):
         fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 5), sharex=True,
                                           gridspec_kw={"height_ratios": (1, 2)})
         panel_attention(top, bottom, a.seconds, a.point_of_sight, a.objects, a.uncertainty, name)

@@ -193,3 +193,15 @@ def requests(record: dict, root: str, layer_file: str, clock) -> list[tuple[floa
         change = {"shift": (d.weight * d.yaw, d.weight * d.pitch), "release": (0.0, 0.0)}.get(d.kind, (np.nan, np.nan))
         out.append((t, *change))
     return sorted(out)
+
+
+def check_not_preview(layer, layer_file: str) -> None:
+    """One line for a ``--preview`` root given as ``--layer``: it holds no overrides of its own, so plot
+    and preview found nothing to review, while validate composed it (the input twice) and said clean."""
+    from usdgaze.usd.layers import preview_overrides
+
+    found = preview_overrides(layer)
+    if found is not None:
+        raise UsdGazeError(f"{layer_file}: --layer names a root --preview wrote (it sublayers the override and "
+                           f"the input), not an override; pass --layer {found[0] if found else 'OVERRIDE'}, the "
+                           "layer apply or attend wrote with --out")

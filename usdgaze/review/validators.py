@@ -176,7 +176,7 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
                              "it needs an Xformable (the object's world transform is its state)"))
     else:  # as attend reads it: an op USD cannot evaluate, on the object or above it, is refused there
         errors += _transform_errors(prim)
-    from usdgaze.usd.objects import importance_problem, type_problem
+    from usdgaze.usd.objects import importance_problem, is_obstacle, type_problem
 
     typed = {}
     for name in ("gaze:object:importance", "gaze:object:radius", "gaze:object:kind"):
@@ -190,7 +190,9 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
     if problem:
         errors.append(site_error(prim, attr.GetPath(), "Range", problem))
     radius = typed["gaze:object:radius"]
-    if radius and radius.Get() is not None and not (np.isfinite(radius.Get()) and radius.Get() >= 0.0):
+    # An obstacle's radius has its stricter range, (0, 10] m: PhysicsObstacles says it, once.
+    if (radius and radius.Get() is not None and not is_obstacle(prim)
+            and not (np.isfinite(radius.Get()) and radius.Get() >= 0.0)):
         errors.append(site_error(prim, radius.GetPath(), "Range", f"gaze:object:radius: {radius.Get()}, expected >= 0 m"))
     kind = typed["gaze:object:kind"]
     allowed = ("", "ballistic", "static", "moving")
@@ -200,7 +202,41 @@ def gaze_object(prim: Usd.Prim, time_range=None) -> list:
     return errors
 
 
-STAGE_TASKS = {"GazeLayerSchedule": gaze_layer_schedule}
+def skeleton_instances(stage: Usd.Stage, time_range=None) -> list:
+    """Each Skeleton under a SkelRoot, or the SkelAnimation bound to it, that lies inside an instance
+    (an instance proxy, or instanceable): no override can reach it, so apply refuses it (a prim
+    validator never visits an instance proxy, so the stage is walked with them)."""
+    from usdgaze.usd.checks import instanced_problem
+    from usdgaze.usd.skelio import skel_roots, skeletons_under
+
+    errors = []
+    for root in skel_roots(stage):
+        for skel in skeletons_under(root):
+            for prim in (skel, animation_of(skel)):
+                problem = instanced_problem(prim)
+                if problem:  # the skeleton's first: apply reads it before its animation
+                    errors.append(site_error(prim, prim.GetPath(), "Instanced", problem))
+                    break
+    return errors
+
+
+def physics_obstacles(stage: Usd.Stage, time_range=None) -> list:
+    """Every prim the physics pass walks round (``usdgaze:physics:task = "obstacle"``, inside instances
+    too, as attend reads them) authors its size, ``gaze:object:radius``: one value, in (0, 10] m."""
+    from usdgaze.usd.objects import authored_obstacle_problem, scene_prims
+
+    radius_attr = "gaze:object:radius"
+    errors = []
+    for prim in scene_prims(stage):
+        problem = authored_obstacle_problem(prim)
+        if problem:  # a site USD cannot find is no site: a prim without GazeObjectAPI has no such attribute
+            path = prim.GetPath().AppendProperty(radius_attr) if prim.HasProperty(radius_attr) else prim.GetPath()
+            errors.append(site_error(prim, path, "Radius", problem))
+    return errors
+
+
+STAGE_TASKS = {"GazeLayerSchedule": gaze_layer_schedule, "SkeletonInstances": skeleton_instances,
+               "PhysicsObstacles": physics_obstacles}
 
 TASKS = {
     "GazeMapArrays": gaze_map_arrays,

@@ -4,8 +4,9 @@ They live under ``/UsdGazeAttend/<character>`` (the SkelRoot's path with ``_`` f
 another character spells the same) in the override layer (``def Scope`` prims, so muting
 the layer removes them with the animation override), authored at the Sdf level:
 
-* ``point3f gaze:attend:pointOfSight`` (world, stage units) and ``float3 gaze:attend:eyePose``
-  (theta, psi in degrees, zeta in mm) per frame;
+* ``string gaze:attend:character`` (the SkelRoot's path: the scope's name alone cannot say whose it
+  is, ``/A_B`` and ``/A/B`` both spell ``A_B``), ``point3f gaze:attend:pointOfSight`` (world, stage
+  units) and ``float3 gaze:attend:eyePose`` (theta, psi in degrees, zeta in mm) per frame;
 * one child per object: ``string gaze:attend:object`` (its prim path), ``point3f
   gaze:attend:estimate`` (world, stage units) and ``float gaze:attend:uncertainty`` (sigma_p, m^2),
   both NaN at frames where the character does not track the object.
@@ -21,6 +22,8 @@ from pxr import Gf, Sdf
 from usdgaze.core.names import unique
 
 ROOT = "/UsdGazeAttend"
+CHARACTER = "gaze:attend:character"
+"""The SkelRoot path a character scope holds the inspection of (layers before it: none)."""
 
 
 def scope_name(path: str) -> str:
@@ -55,6 +58,7 @@ def add_inspection(layer: Sdf.Layer, character: str, times: np.ndarray, sight: n
         characters = {child.name for child in _scope(layer, ROOT).nameChildren}
         path = f"{ROOT}/{_name(character, characters)}"
         prim = _scope(layer, path)
+        _attr(prim, CHARACTER, Sdf.ValueTypeNames.String).default = character
         pos = _attr(prim, "gaze:attend:pointOfSight", Sdf.ValueTypeNames.Point3f).path
         eye = _attr(prim, "gaze:attend:eyePose", Sdf.ValueTypeNames.Float3).path
         for t, p, e in zip(times, sight.astype(np.float32), eye_pose.astype(np.float32)):

@@ -212,17 +212,28 @@ def check_types(prim: Usd.Prim, expected: dict[str, str], where: str) -> None:
             break
 
 
-def check_not_instanced(prim: Usd.Prim, where: str) -> None:
-    """An override cannot land inside an instance: refuse instance proxies and instanceable prims."""
+def instanced_problem(prim: Usd.Prim | None) -> str | None:
+    """Why an override cannot land on ``prim`` (an instance proxy, or an instanceable prim), or None;
+    ``apply`` refuses such a skeleton or animation and ``validate`` reports it, in these words."""
+    if prim is None:
+        return None
     if prim.IsInstanceProxy():
         outer = prim
         while outer and not outer.IsInstance():
             outer = outer.GetParent()
         name = outer.GetPath() if outer else "an ancestor"
-        raise UsdGazeError(f"{where}: is inside the instance {name}, where no override can reach; "
-                           f"set instanceable = false on {name} to work on it")
+        return (f"is inside the instance {name}, where no override can reach; "
+                f"set instanceable = false on {name} to work on it")
     if prim.IsInstance():
-        raise UsdGazeError(f"{where}: is instanceable, so its skeleton cannot be overridden; set instanceable = false on it")
+        return "is instanceable, so its skeleton cannot be overridden; set instanceable = false on it"
+    return None
+
+
+def check_not_instanced(prim: Usd.Prim, where: str) -> None:
+    """An override cannot land inside an instance: refuse instance proxies and instanceable prims."""
+    problem = instanced_problem(prim)
+    if problem:
+        raise UsdGazeError(f"{where}: {problem}")
 
 
 def check_matrices(mats: np.ndarray | None, joints: list[str], where: str) -> None:

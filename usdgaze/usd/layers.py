@@ -292,6 +292,25 @@ def is_override_record(record) -> bool:
     return isinstance(record, dict) and ("shifts" in record or str(record.get("command", "")).startswith("attend"))
 
 
+def preview_overrides(layer: Sdf.Layer) -> list[str] | None:
+    """Where ``layer`` is a root ``--preview`` wrote (usdgaze's mark on it), the overrides it sublayers
+    (absolute paths; none found: []), else None. Such a root is a stage to open, holding no prims of
+    its own: no override to review over its input."""
+    record = (layer.customLayerData or {}).get("usdgaze")
+    if not (isinstance(record, dict) and record.get("preview")):
+        return None
+    out = []
+    for sub in layer.subLayerPaths:
+        path = layer.ComputeAbsolutePath(sub)
+        try:
+            found = Sdf.Layer.FindOrOpen(path)
+        except Exception:  # pxr raises Tf.ErrorException for a missing or broken sublayer
+            found = None
+        if found is not None and is_override_record((found.customLayerData or {}).get("usdgaze")):
+            out.append(path)
+    return out
+
+
 def composed_override_notes(stage, source: str) -> list[str]:
     """A warning for each usdgaze override the input stage composes: a pass on that stage starts from
     the motion with that layer's gaze in it, so its offsets add to the old ones (a rerun meant to

@@ -234,19 +234,42 @@ def objects_of(prims: list[Usd.Prim], roots: list[Usd.Prim], source: str) -> lis
     return out
 
 
-def _check_obstacle_radius(prim: Usd.Prim, radius: float | None, where: str) -> None:
-    """An obstacle of the physics pass is a body a person walks round: 0 < radius <= 10 m, authored
-    (``radius`` None: not authored)."""
+def is_obstacle(prim: Usd.Prim) -> bool:
+    """Whether the physics pass walks round ``prim``: ``usdgaze:physics:task`` is ``obstacle`` (a
+    time-sampled task is refused with its own line where the tasks are read)."""
     task = prim.GetAttribute(PHYSICS_TASK)
-    # A time-sampled task is refused with its own line where the tasks are read.
-    if not task or not task.HasAuthoredValue() or task.GetNumTimeSamples() or task.Get() != "obstacle":
-        return
+    return bool(task) and task.HasAuthoredValue() and not task.GetNumTimeSamples() and task.Get() == "obstacle"
+
+
+def obstacle_radius_problem(prim: Usd.Prim, radius: float | None) -> str | None:
+    """Why an obstacle's ``gaze:object:radius`` (``radius`` None: not authored) is no body a person walks
+    round, 0 < radius <= 10 m, or None (also for a prim that is no obstacle): ``attend`` refuses it and
+    ``validate`` reports it in these words."""
+    if not is_obstacle(prim):
+        return None
     if radius is None:  # the schema's 0.1 m was taken: a Sphere of radius 0.4 was walked 30 cm into, unsaid
-        raise UsdGazeError(f"{where}.gaze:object:radius: not authored; an obstacle's size is this radius, in "
-                           f"metres (more than 0 and at most {MAX_OBSTACLE_RADIUS_M:g} m): author it")
+        return (f"gaze:object:radius: not authored; an obstacle's size is this radius, in "
+                f"metres (more than 0 and at most {MAX_OBSTACLE_RADIUS_M:g} m): author it")
     if not 0.0 < radius <= MAX_OBSTACLE_RADIUS_M:  # NaN fails it too
-        raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g} m for an obstacle; expected more than 0 and "
-                           f"at most {MAX_OBSTACLE_RADIUS_M:g} m (a body the character walks round)")
+        return (f"gaze:object:radius: {radius:g} m for an obstacle; expected more than 0 and "
+                f"at most {MAX_OBSTACLE_RADIUS_M:g} m (a body the character walks round)")
+    return None
+
+
+def authored_obstacle_problem(prim: Usd.Prim) -> str | None:
+    """What :func:`read_objects` refuses of an obstacle's radius as ``prim`` authors it: its reading (samples
+    that differ, a wrong type) or :func:`obstacle_radius_problem`; None for a sound one, or no obstacle."""
+    if not is_obstacle(prim):
+        return None
+    name = "gaze:object:radius"
+    try:
+        authored = _attr(prim, name, None, "")
+    except UsdGazeError as exc:
+        # A wrong type on a GazeObjectAPI prim the prim validators visit is GazeObject's Type line already.
+        if has_api(prim, API_NAME) and not prim.IsInstanceProxy() and type_problem(prim.GetAttribute(name)):
+            return None
+        return str(exc).lstrip(".")
+    return obstacle_radius_problem(prim, None if authored is None else float(authored))
 
 
 def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_codes: np.ndarray,
@@ -265,7 +288,9 @@ def read_objects(stage: Usd.Stage, source: str, prims: list[Usd.Prim], time_code
         if not np.all(np.isfinite(importance)) or np.any(importance <= 0):
             bad = importance[~(np.isfinite(importance) & (importance > 0))][0]
             raise UsdGazeError(f"{where}.gaze:object:importance: {bad:g} must be > 0")
-        _check_obstacle_radius(prim, None if authored is None else radius, where)
+        problem = obstacle_radius_problem(prim, None if authored is None else radius)
+        if problem:
+            raise UsdGazeError(f"{where}.{problem}")
         if not np.isfinite(radius) or radius < 0:
             raise UsdGazeError(f"{where}.gaze:object:radius: {radius:g}, expected a finite number >= 0 (m)")
         if kind not in KINDS:
