@@ -187,6 +187,21 @@ def check_inputs(manifest: str | os.PathLike, shots: Sequence["Shot"]) -> None:
                                    "its farm task would fail, so no job files were written")
 
 
+def check_summaries(manifest: str | os.PathLike, summary: Path) -> None:
+    """Every emitted task writes its summary beside the manifest (``summary``: task 0's), and refuses to
+    run its shot where it cannot: a manifest in a read-only folder was emitted without a word, and
+    every farm task then failed (exit 2). Probed as a task claims it (its temporary folder made and
+    removed), so a read-only mount, a full quota or a folder at that name are found here."""
+    from usdgaze.files.transaction import Outputs
+
+    try:
+        with Outputs() as tx:
+            tx.claim(summary, "--summary")  # nothing staged: the commit renames nothing
+    except UsdGazeError as exc:
+        raise UsdGazeError(f"{manifest}: every farm task writes its summary beside the manifest, and {exc}; "
+                           "no job files were written") from None
+
+
 def _check_carried(kind: str, manifest: Path) -> None:
     """One line where the job files cannot carry the manifest's path or this usdgaze's command as they are:
     a control character (a line break in a folder's name ended SLURM's comment line, so the rest of the

@@ -56,12 +56,13 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         if summary.suffix.lower() != ".json":
             raise UsdGazeError(f"{summary}: {flag} is written as JSON; name it FILE.json")
         if not emit:
-            tx.claim(summary, flag)
+            _claim_summary(tx, summary, flag, given)
         register(tx.ids, Path(manifest), shots)
         if emit:
-            from usdgaze.batch.emit import check_inputs, emit as write_jobs, task_request
+            from usdgaze.batch.emit import check_inputs, check_summaries, emit as write_jobs, task_request
 
             check_inputs(manifest, shots)
+            check_summaries(manifest, _default_summary(Path(manifest), 0))
             for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force, ask=task_request(shots)):
                 click.echo(f"wrote {path}")
             return
@@ -74,6 +75,17 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
     counts = ", ".join(f"{n} {status}" for status, n in report["counts"].items() if n)
     click.echo(f"{_shots(len(shots))} in {report['seconds']:.2f} s ({report['mode']}): {counts}; summary {summary}")
     ctx.exit(report["exit_code"])
+
+
+def _claim_summary(tx, summary: Path, flag: str, given: str | None) -> None:
+    """Claim the run's summary; where the default one (beside the manifest) cannot be written, the
+    line says the way out, which only the flag's help said (a manifest in a locked show folder)."""
+    try:
+        tx.claim(summary, flag)
+    except UsdGazeError as exc:
+        if given:
+            raise
+        raise UsdGazeError(f"{exc}; write it elsewhere with --summary FILE.json") from None
 
 
 def _run(shots, manifest, workers, dask_address, force, task_index, summary: Path) -> dict:
