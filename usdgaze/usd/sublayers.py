@@ -206,12 +206,15 @@ def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_p
     ``root`` is edited at its target, which keeps its mode; a read-only one is refused.
     """
     real = os.path.realpath(root)
-    layer = check_sublayer_target(root, anim_paths)
-    offset = override_offset(real, input_path)
-    listed = _listed(layer, real, override)
-    if listed[:1] == [0] and layer.subLayerOffsets[0] == offset:
-        return False
     with outputs_of(outputs) as tx:
+        # Read under a lock held until the edit is renamed into place: another command inserting into
+        # the same root meanwhile (a farm task of another manifest) had its sublayer dropped by ours.
+        tx.lock(os.path.dirname(real))
+        layer = check_sublayer_target(root, anim_paths)
+        offset = override_offset(real, input_path)
+        listed = _listed(layer, real, override)
+        if listed[:1] == [0] and layer.subLayerOffsets[0] == offset:
+            return False
         if not tx.claimed(root):
             tx.claim(root, "--sublayer-into", edit=True)
         for i in reversed(listed):

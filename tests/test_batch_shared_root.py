@@ -1,0 +1,93 @@
+"""Two commands inserting their overrides into one shot layer at once (two manifests' shots of one shot
+on a farm, or a batch beside an ``apply --sublayer-into``): each reads the root, adds its sublayer and
+renames the edit into place, so without a lock the later rename dropped the other's sublayer."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+from pxr import Sdf
+
+from . import synthetic as syn
+
+# Each process waits before its renames: what a slow disk (the override's fsync) or a loaded node does.
+# The two started together have then both read the root before either replaced it.
+_DRIVER = textwrap.dedent("""
+    import sys, time
+    from usdgaze.files import transaction
+
+    commit = transaction.Outputs.commit
+
+    def slow_commit(self):
+        time.sleep(float(sys.argv[1]))
+        commit(self)
+
+    transaction.Outputs.commit = slow_commit
+    from usdgaze.console.main import main
+    sys.exit(main(sys.argv[2:]))
+""")
+
+
+def _manifest(folder: Path, name: str, yaw: int) -> Path:
+    path = folder / f"{name}.toml"
+    path.write_text(f'[[job]]\nname = "{name}"\ninput = "rig.usda"\nout = "gaze_{name}.usdc"\n'
+                    f'sublayer_into = "shot.usda"\nshifts = ["0.2s:{yaw}:0"]\n')
+    return path
+
+
+def test_two_batches_inserting_into_one_shot_layer_keep_both_sublayers(tmp_path):
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    shot.subLayerPaths.append("./rig.usda")
+    shot.Save()
+    driver = tmp_path / "driver.py"
+    driver.write_text(_DRIVER)
+    manifests = [_manifest(tmp_path, "a", 30), _manifest(tmp_path, "b", -30)]
+    procs = [subprocess.Popen([sys.executable, str(driver), "2.0", "batch", str(m)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for m in manifests]
+    for p in procs:
+        out, err = p.communicate(timeout=120)
+        assert p.returncode == 0, err
+    assert (tmp_path / "gaze_a.usdc").is_file() and (tmp_path / "gaze_b.usdc").is_file()
+    edited = Sdf.Layer.OpenAsAnonymous(str(tmp_path / "shot.usda"))
+    listed = sorted(edited.subLayerPaths)
+    assert listed == ["./gaze_a.usdc", "./gaze_b.usdc", "./rig.usda"], listed
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".usdgaze")]
+
+
+def test_a_stop_signal_while_waiting_for_the_shot_layer_leaves_nothing(tmp_path):
+    """A command waiting for another's edit of the shot layer to finish is stopped like any other: exit
+    143, no override, no temporaries, the shot layer's bytes as they were."""
+    import fcntl
+    import os
+    import signal
+    import time
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    shot.subLayerPaths.append("./rig.usda")
+    shot.Save()
+    before = (tmp_path / "shot.usda").read_bytes()
+    manifest = _manifest(tmp_path, "a", 30)
+    fd = os.open(tmp_path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # another command's edit in progress
+        p = subprocess.Popen([sys.executable, "-m", "usdgaze", "batch", str(manifest)], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any(q.name.startswith(".usdgaze-tmp") for q in tmp_path.iterdir()):
+            time.sleep(0.05)
+        time.sleep(1.0)  # past the staging of its override: at the lock
+        assert p.poll() is None, p.communicate()
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=60)
+    finally:
+        os.close(fd)
+    assert p.returncode == 128 + signal.SIGTERM, err
+    assert "interrupted by SIGTERM" in err
+    assert (tmp_path / "shot.usda").read_bytes() == before
+    assert not (tmp_path / "gaze_a.usdc").exists()
+    assert not [q.name for q in tmp_path.iterdir() if q.name.startswith(".usdgaze")]
