@@ -91,3 +91,55 @@ def test_a_stop_signal_while_waiting_for_the_shot_layer_leaves_nothing(tmp_path)
     assert (tmp_path / "shot.usda").read_bytes() == before
     assert not (tmp_path / "gaze_a.usdc").exists()
     assert not [q.name for q in tmp_path.iterdir() if q.name.startswith(".usdgaze")]
+
+
+def _two_characters(tmp_path: Path) -> None:
+    """shot.usda: two characters (/Hero, /Extra), each from its own layer, sublayered together."""
+    syn.make_rig(tmp_path / "hero.usda", frames=48, root_path="/Hero")
+    syn.make_rig(tmp_path / "extra.usda", frames=48, root_path="/Extra")
+    shot = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    shot.subLayerPaths[:] = ["./hero.usda", "./extra.usda"]
+    shot.Save()
+
+
+def _job(tmp_path: Path, name: str, source: str, out: str) -> Path:
+    path = tmp_path / f"{name}.toml"
+    path.write_text(f'[[job]]\nname = "{name}"\ninput = "{source}"\nout = "{out}"\nsublayer_into = "shot.usda"\n'
+                    'shifts = ["0.2s:30:0"]\n')
+    return path
+
+
+def _statuses(capsys) -> str:
+    return capsys.readouterr().out.split(": ", 1)[1]
+
+
+def test_two_manifests_sharing_a_shot_layer_skip_their_shots_on_a_rerun(tmp_path, capsys):
+    """Each manifest's override goes first in the shot layer, so the other one's is then second. A rerun
+    redid a shot whose override was not first, moving it first, and the other manifest's rerun did the
+    same: neither ever skipped. Below another character's override it is what it was: skipped."""
+    from usdgaze.console.main import main
+
+    _two_characters(tmp_path)
+    hero, extra = _job(tmp_path, "hero", "hero.usda", "gaze_hero.usdc"), _job(tmp_path, "extra", "extra.usda", "gaze_extra.usdc")
+    assert main(["batch", str(hero)]) == 0 and main(["batch", str(extra)]) == 0
+    capsys.readouterr()
+    before = (tmp_path / "shot.usda").read_bytes()
+    for manifest in (hero, extra, hero):
+        assert main(["batch", str(manifest)]) == 0
+        assert _statuses(capsys).startswith("1 skipped;"), manifest
+    assert (tmp_path / "shot.usda").read_bytes() == before
+
+
+def test_an_override_hidden_by_another_of_the_same_character_is_redone(tmp_path, capsys):
+    """Another override of the same character above ours (an earlier take under another name, inserted
+    since) hides our animation: that shot is not complete, and its rerun puts it first again."""
+    from usdgaze.console.main import main
+
+    _two_characters(tmp_path)
+    ours, other = _job(tmp_path, "ours", "hero.usda", "gaze_ours.usdc"), _job(tmp_path, "take", "hero.usda", "gaze_take.usdc")
+    assert main(["batch", str(ours)]) == 0 and main(["batch", str(other)]) == 0
+    capsys.readouterr()
+    assert main(["batch", str(ours)]) == 0
+    assert _statuses(capsys).startswith("1 done;")
+    edited = Sdf.Layer.OpenAsAnonymous(str(tmp_path / "shot.usda"))
+    assert list(edited.subLayerPaths)[0] == "./gaze_ours.usdc"
