@@ -48,3 +48,10 @@ def b_batch_emit_manifest_in_a_read_only_folder(d):
 
 def b_batch_default_summary_in_a_read_only_folder(d):
     return ["batch", str(_locked(d, _LOCKED_JOB))]
+
+
+def b_batch_map_composes_a_later_out(d):
+    (d / "map.usda").write_text('#usda 1.0\n(\n    subLayers = [@./out/a.usda@]\n)\n')
+    (d / "out").mkdir()
+    return manifest(d, '[defaults]\nshifts = ["0.5s:30:0"]\n[[job]]\nname = "a"\ninput = "in.usda"\nout = "out/a.usda"\n'
+                       '[[job]]\nname = "b"\ninput = "in.usda"\nout = "out/b.usdc"\nmap = "map.usda:/GazeMap"\n')
