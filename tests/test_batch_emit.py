@@ -190,3 +190,30 @@ def test_more_shots_than_one_slurm_array_holds_go_in_several_arrays(tmp_path):
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in (tmp_path / "out").glob("*.usda")) == ["s1004.usda"]
+
+
+def test_a_re_emit_with_fewer_shots_leaves_no_stale_submit_script(tmp_path):
+    """Over 1,001 shots --emit slurm writes submit.sh; emitted again into the same folder for a manifest
+    cut to 3 shots it wrote usdgaze.sbatch alone, and the old submit.sh still submitted 1,200 tasks: 197
+    'out of range' failures and a second array re-running shots 0-198. submit.sh is now written every
+    time, and submits what the manifest holds."""
+    syn.make_rig(tmp_path / "rig.usda", frames=24)
+    manifest = tmp_path / "many.toml"
+    folder = tmp_path / "slurm"
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "sbatch").write_text(f'#!/usr/bin/env bash\necho "$@" >> {tmp_path}/calls.txt\n')
+    (bin_dir / "sbatch").chmod(0o755)
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}"}
+    for count in (1200, 3):
+        manifest.write_text("".join(f'[[job]]\nname = "s{i}"\ninput = "rig.usda"\nout = "out/s{i}.usda"\n'
+                                    f'shifts = ["0.2s:{10 + i % 50}:0"]\n' for i in range(count)))
+        assert main(["batch", str(manifest), "--emit", "slurm", str(folder)]) == 0
+    (tmp_path / "calls.txt").unlink(missing_ok=True)
+    subprocess.run(["bash", str(folder / "submit.sh")], check=True, env=env, cwd=tmp_path)
+    calls = (tmp_path / "calls.txt").read_text().splitlines()
+    arrays = [c for c in calls if "--array" in c]
+    submitted = [c.split() for c in calls]
+    assert len(submitted) == 1 and Path(submitted[0][-1]) == folder / "usdgaze.sbatch", calls
+    assert not arrays or arrays == [f"--array=0-2 {folder / 'usdgaze.sbatch'}"], calls
+    assert "#SBATCH --array=0-2\n" in (folder / "usdgaze.sbatch").read_text()

@@ -139,15 +139,21 @@ def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str], ask: Req
 """
     if split:
         script += "# The first argument: the shot of array task 0 (submit.sh passes each array's).\n"
-    files = {"usdgaze.sbatch": script + f"exec {cmd} {task}\n"}
-    if split:
-        files["submit.sh"] = _slurm_submit(count)
-    return files
+    # submit.sh every time: one left by an emit of over 1001 shots submitted that many tasks to the
+    # script of a manifest cut down since (re-emitted into the same folder).
+    return {"usdgaze.sbatch": script + f"exec {cmd} {task}\n", "submit.sh": _slurm_submit(count)}
 
 
 def _slurm_submit(count: int) -> str:
-    """A script submitting ``count`` shots as arrays of at most :data:`SLURM_ARRAY_MAX` tasks, each told
-    the shot its task 0 runs."""
+    """A script submitting ``count`` shots: the one array of usdgaze.sbatch, or over
+    :data:`SLURM_ARRAY_MAX` shots arrays of at most that many tasks, each told the shot its task 0 runs."""
+    if count <= SLURM_ARRAY_MAX:
+        return f"""#!/usr/bin/env bash
+# {_count(count)}: one array (usdgaze.sbatch's --array). Submit: bash submit.sh
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+sbatch "$here/usdgaze.sbatch"
+"""
     return f"""#!/usr/bin/env bash
 # {_count(count)}, more than SLURM's default MaxArraySize ({SLURM_ARRAY_MAX}) lets one array hold: one
 # array per {SLURM_ARRAY_MAX} shots. Where the cluster's MaxArraySize differs, set USDGAZE_ARRAY_SIZE to it.
