@@ -55,3 +55,9 @@ def b_batch_map_composes_a_later_out(d):
     (d / "out").mkdir()
     return manifest(d, '[defaults]\nshifts = ["0.5s:30:0"]\n[[job]]\nname = "a"\ninput = "in.usda"\nout = "out/a.usda"\n'
                        '[[job]]\nname = "b"\ninput = "in.usda"\nout = "out/b.usdc"\nmap = "map.usda:/GazeMap"\n')
+
+
+def b_batch_task_of_an_edited_manifest(d):
+    """An emitted task (its ``--manifest-jobs`` digest) of a manifest a job was inserted into since."""
+    jobs = "".join(f'[[job]]\nname = "{n}"\ninput = "in.usda"\nout = "{n}.usdc"\nshifts = ["0.5s:30:0"]\n' for n in "axb")
+    return manifest(d, jobs, "--manifest-jobs", "0000000000000000", "--task-index", "1")

@@ -224,11 +224,19 @@ def _check_carried(kind: str, manifest: Path) -> None:
                                "manifest in the task's arguments; rename it, and no job files were written")
 
 
+def jobs_digest(shots: Sequence["Shot"]) -> str:
+    """A digest of the manifest's job names in order: what an emitted task checks its manifest still
+    lists (``--manifest-jobs``), since it runs its shot by index."""
+    import hashlib
+
+    return hashlib.sha256("\n".join(s.name for s in shots).encode()).hexdigest()[:16]
+
+
 def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike,
-         force: bool = False, ask: Request = Request()) -> list[Path]:
+         force: bool = False, ask: Request = Request(), jobs: str | None = None) -> list[Path]:
     """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths.
     ``force``: every task redoes its shot (``--force``); ``ask``: what each task asks for
-    (:func:`task_request`)."""
+    (:func:`task_request`); ``jobs``: the :func:`jobs_digest` every task checks."""
     from usdgaze.files.transaction import Outputs
 
     if kind not in _EMITTERS:
@@ -240,8 +248,8 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     _check_carried(kind, manifest)
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
-    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), ["--force"] if force else [],
-                           ask)
+    extra = (["--force"] if force else []) + (["--manifest-jobs", jobs] if jobs else [])
+    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), extra, ask)
     with Outputs() as tx:
         tx.read(manifest, "manifest")
         tx.make_folder(folder)
