@@ -143,3 +143,22 @@ def test_an_override_hidden_by_another_of_the_same_character_is_redone(tmp_path,
     assert _statuses(capsys).startswith("1 done;")
     edited = Sdf.Layer.OpenAsAnonymous(str(tmp_path / "shot.usda"))
     assert list(edited.subLayerPaths)[0] == "./gaze_ours.usdc"
+
+
+def test_a_folder_locked_twice_by_one_command_does_not_wait_for_itself(tmp_path):
+    """A lock is per descriptor: taken again on another one by the same command it would wait for ever."""
+    import threading
+
+    from usdgaze.files.transaction import Outputs
+
+    done = threading.Event()
+
+    def twice() -> None:
+        with Outputs() as tx:
+            tx.lock(tmp_path)
+            tx.lock(tmp_path / ".")
+        done.set()
+
+    worker = threading.Thread(target=twice, daemon=True)
+    worker.start()
+    assert done.wait(10), "the second lock waited for the first"

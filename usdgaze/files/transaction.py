@@ -86,8 +86,8 @@ class Outputs:
         self._mode = 0o666 & ~current_umask()
         self._old_handlers: dict[int, object] = {}
         self._made: list[Path] = []
-        self._locks: list[int] = []
-        """Folder locks held until the outputs are in place or removed (see ``lock``)."""
+        self._locks: dict[str, int] = {}
+        """Folder locks (real path: descriptor) held until the outputs are in place or removed (``lock``)."""
         self._wanted: set[str] = set()
         """Real paths of the folders ``make_folder`` was asked for (see ``_rewanted``)."""
         self._done = False
@@ -143,14 +143,17 @@ class Outputs:
         another command's edit of it waits and then reads this one's (:mod:`.locks`)."""
         from usdgaze.files.locks import lock_folder
 
-        fd = lock_folder(folder)
+        real = os.path.realpath(folder)
+        if real in self._locks:  # held: a second flock on another descriptor would wait for ever
+            return
+        fd = lock_folder(real)
         if fd is not None:
-            self._locks.append(fd)
+            self._locks[real] = fd
 
     def _unlock(self) -> None:
         while self._locks:
             with contextlib.suppress(OSError):
-                os.close(self._locks.pop())
+                os.close(self._locks.popitem()[1])
 
     # -- reads and claims --------------------------------------------------------------------------
     def read(self, path: str | os.PathLike, what: str = "input") -> None:
