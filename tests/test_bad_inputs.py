@@ -33,8 +33,8 @@ import pytest
 import usdgaze  # noqa: F401  (registers GazeMapAPI before any stage is opened)
 from pxr import Sdf, Vt
 
-from . import (bad_cases_files, bad_cases_look, bad_cases_stage, bad_cases_sweep, bad_cases_sweep2, bad_cases_sweep3,
-               bad_cases_sweep4, bad_cases_values, measure)
+from . import (bad_cases_batch, bad_cases_files, bad_cases_look, bad_cases_stage, bad_cases_sweep, bad_cases_sweep2,
+               bad_cases_sweep3, bad_cases_sweep4, bad_cases_values, measure)
 from .bad_common import (apply_argv, dump_map, edited, quats, remove, rig, run_inprocess, run_subprocess, set_sample,
                          snapshot, unmount_all)
 
@@ -452,7 +452,8 @@ def b_physics_model_quadruped(d):
 BUILDERS = {name[2:].replace("_", "-"): fn for module in (globals(), vars(bad_cases_files), vars(bad_cases_stage),
                                                            vars(bad_cases_values), vars(bad_cases_look),
                                                            vars(bad_cases_sweep), vars(bad_cases_sweep2),
-                                                           vars(bad_cases_sweep3), vars(bad_cases_sweep4))
+                                                           vars(bad_cases_sweep3), vars(bad_cases_sweep4),
+                                                           vars(bad_cases_batch))
             for name, fn in dict(module).items() if name.startswith("b_")}
 # Run through a real ``python -m usdgaze`` (or ``pipeline/batch.py``) process: one or more of each class.
 SUBPROCESS = {

@@ -190,3 +190,63 @@ def test_more_shots_than_one_slurm_array_holds_go_in_several_arrays(tmp_path):
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in (tmp_path / "out").glob("*.usda")) == ["s1004.usda"]
+
+
+def test_a_re_emit_with_fewer_shots_leaves_no_stale_submit_script(tmp_path):
+    """Over 1,001 shots --emit slurm writes submit.sh; emitted again into the same folder for a manifest
+    cut to 3 shots it wrote usdgaze.sbatch alone, and the old submit.sh still submitted 1,200 tasks: 197
+    'out of range' failures and a second array re-running shots 0-198. submit.sh is now written every
+    time, and submits what the manifest holds."""
+    syn.make_rig(tmp_path / "rig.usda", frames=24)
+    manifest = tmp_path / "many.toml"
+    folder = tmp_path / "slurm"
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "sbatch").write_text(f'#!/usr/bin/env bash\necho "$@" >> {tmp_path}/calls.txt\n')
+    (bin_dir / "sbatch").chmod(0o755)
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}"}
+    for count in (1200, 3):
+        manifest.write_text("".join(f'[[job]]\nname = "s{i}"\ninput = "rig.usda"\nout = "out/s{i}.usda"\n'
+                                    f'shifts = ["0.2s:{10 + i % 50}:0"]\n' for i in range(count)))
+        assert main(["batch", str(manifest), "--emit", "slurm", str(folder)]) == 0
+    (tmp_path / "calls.txt").unlink(missing_ok=True)
+    subprocess.run(["bash", str(folder / "submit.sh")], check=True, env=env, cwd=tmp_path)
+    calls = (tmp_path / "calls.txt").read_text().splitlines()
+    arrays = [c for c in calls if "--array" in c]
+    submitted = [c.split() for c in calls]
+    assert len(submitted) == 1 and Path(submitted[0][-1]) == folder / "usdgaze.sbatch", calls
+    assert not arrays or arrays == [f"--array=0-2 {folder / 'usdgaze.sbatch'}"], calls
+    assert "#SBATCH --array=0-2\n" in (folder / "usdgaze.sbatch").read_text()
+
+
+def _task_command(folder: Path, index: int) -> list[str]:
+    """What SLURM's array task ``index`` runs: the emitted script's exec line, its index filled in."""
+    line = next(l for l in (folder / "usdgaze.sbatch").read_text().splitlines() if l.startswith("exec "))
+    return shlex.split(line.removeprefix("exec ").replace('"$SLURM_ARRAY_TASK_ID"', str(index)))
+
+
+def test_a_farm_task_of_a_manifest_edited_since_it_was_emitted_runs_nothing(tmp_path):
+    """Job files run shot I by its index. A job inserted into the manifest after --emit (or two swapped)
+    moved every later shot: task 2 ran what was shot 1, the last shot ran in no task, and every task
+    exited 0. Now a task whose manifest lists other jobs than it was emitted for refuses in one line
+    (exit 2, nothing written); a job's values edited in place still run (the resume key sees them)."""
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    manifest = tmp_path / "jobs.toml"
+
+    def job(name: str, yaw: int) -> str:
+        return f'[[job]]\nname = "{name}"\ninput = "rig.usda"\nout = "out/{name}.usdc"\nshifts = ["0.2s:{yaw}:0"]\n'
+
+    manifest.write_text(job("a", 10) + job("b", 20) + job("c", 30))
+    assert main(["batch", str(manifest), "--emit", "slurm", str(tmp_path / "slurm")]) == 0
+    manifest.write_text(job("a", 10) + job("b", 25) + job("c", 30))  # a value edited in place: runs
+    done = subprocess.run(_task_command(tmp_path / "slurm", 1), capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["b.usdc"]
+    manifest.write_text(job("a", 10) + job("x", 40) + job("b", 25) + job("c", 30))  # a job inserted
+    for index in (1, 2):
+        moved = subprocess.run(_task_command(tmp_path / "slurm", index), capture_output=True, text=True)
+        err = moved.stderr.strip().splitlines()
+        assert moved.returncode == 2 and len(err) == 1, moved.stderr
+        assert err[0].startswith(f"usdgaze: error: {manifest}: ") and "re-emit" in err[0], err
+        assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["b.usdc"]
+    assert not (tmp_path / "jobs.task-2.summary.json").exists()

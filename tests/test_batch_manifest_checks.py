@@ -147,6 +147,29 @@ def test_a_shot_composing_another_shots_output_is_refused_before_that_output_exi
     assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.summary.json"))
 
 
+def test_a_shot_whose_map_composes_another_shots_output_is_refused(tmp_path, capsys):
+    """Shot b's map file sublayers shot a's output. The input's layers were checked, the map's only as
+    its one file: both shots ran, and b's map composed a's override or, run first (a pool, a farm),
+    failed on it missing ('composition failed: Could not load sublayer'), by the order they ran in."""
+    from usdgaze.console.main import main
+
+    from . import synthetic as syn
+
+    syn.make_rig(tmp_path / "rig.usda", frames=48)
+    syn.make_rig(tmp_path / "rig2.usda", frames=48)
+    (tmp_path / "map.usda").write_text('#usda 1.0\n(\n    subLayers = [@./out/a.usda@]\n)\n')
+    manifest = tmp_path / "m.toml"
+    manifest.write_text('[defaults]\nshifts = ["0.2s:30:0"]\n'
+                        '[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usda"\n'
+                        '[[job]]\nname = "b"\ninput = "rig2.usda"\nout = "out/b.usdc"\nmap = "map.usda:/GazeMap"\n')
+    _refused_naming(manifest, str(tmp_path / "out" / "a.usda"), "job 0 'a' out", "map of job 1 'b'")
+    capsys.readouterr()
+    assert main(["batch", str(manifest)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "job 1 'b'" in err, err
+    assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.summary.json"))
+
+
 def test_an_output_folder_name_too_long_is_bad_input(tmp_path, capsys):
     """A folder name over the file system's 255 bytes: pathlib's exists()/is_dir() raise for it (they
     swallow only 'no such file'), and the shot was an internal error (exit 1: 'OSError: [Errno 36]')."""

@@ -7,6 +7,7 @@ one): ``check(value, label, folder)`` returns the normalized value or raises a o
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 from typing import Any, Callable
 
@@ -25,12 +26,27 @@ def _text(key: str):
     return check
 
 
+_SHELL_WORD = re.compile(r"^~|\$(?:\{\w+\}|[A-Za-z_]\w*)")
+"""What a shell would expand in a path: a leading ``~`` (``~`` or ``~user``), ``$NAME`` or ``${NAME}``."""
+
+
+def _unexpanded(key: str, text: str, label: Label) -> None:
+    """Refuse a path a shell would have expanded: TOML does not, nor does usdgaze, and ``out =
+    "~/gaze/a.usdc"`` made a folder named ``~`` beside the manifest (``$SHOW/...`` one named ``$SHOW``)."""
+    found = _SHELL_WORD.search(text)
+    if found:
+        raise UsdGazeError(f"{label(key, repr(text))}: usdgaze does not expand '{found[0]}' (TOML has no ~ or "
+                           "environment variables); write the path out, or relative to the manifest's folder")
+
+
 def _path(key: str, layer: bool = False, suffixes: tuple[str, ...] = ()):
     if layer:
         suffixes = (".usda", ".usdc", ".usd")
 
     def check(value: Any, label: Label, base: Path) -> str:
-        path = os.path.normpath(os.path.join(base, _text(key)(value, label, base)))
+        text = _text(key)(value, label, base)
+        _unexpanded(key, text, label)
+        path = os.path.normpath(os.path.join(base, text))
         if suffixes and Path(path).suffix.lower() not in suffixes:
             *most, last = suffixes
             raise UsdGazeError(f"{label(key, repr(value))}: must end in {', '.join(most)} or {last}")

@@ -139,15 +139,21 @@ def _slurm(manifest: Path, count: int, name: str, extra: Sequence[str], ask: Req
 """
     if split:
         script += "# The first argument: the shot of array task 0 (submit.sh passes each array's).\n"
-    files = {"usdgaze.sbatch": script + f"exec {cmd} {task}\n"}
-    if split:
-        files["submit.sh"] = _slurm_submit(count)
-    return files
+    # submit.sh every time: one left by an emit of over 1001 shots submitted that many tasks to the
+    # script of a manifest cut down since (re-emitted into the same folder).
+    return {"usdgaze.sbatch": script + f"exec {cmd} {task}\n", "submit.sh": _slurm_submit(count)}
 
 
 def _slurm_submit(count: int) -> str:
-    """A script submitting ``count`` shots as arrays of at most :data:`SLURM_ARRAY_MAX` tasks, each told
-    the shot its task 0 runs."""
+    """A script submitting ``count`` shots: the one array of usdgaze.sbatch, or over
+    :data:`SLURM_ARRAY_MAX` shots arrays of at most that many tasks, each told the shot its task 0 runs."""
+    if count <= SLURM_ARRAY_MAX:
+        return f"""#!/usr/bin/env bash
+# {_count(count)}: one array (usdgaze.sbatch's --array). Submit: bash submit.sh
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+sbatch "$here/usdgaze.sbatch"
+"""
     return f"""#!/usr/bin/env bash
 # {_count(count)}, more than SLURM's default MaxArraySize ({SLURM_ARRAY_MAX}) lets one array hold: one
 # array per {SLURM_ARRAY_MAX} shots. Where the cluster's MaxArraySize differs, set USDGAZE_ARRAY_SIZE to it.
@@ -187,6 +193,21 @@ def check_inputs(manifest: str | os.PathLike, shots: Sequence["Shot"]) -> None:
                                    "its farm task would fail, so no job files were written")
 
 
+def check_summaries(manifest: str | os.PathLike, summary: Path) -> None:
+    """Every emitted task writes its summary beside the manifest (``summary``: task 0's), and refuses to
+    run its shot where it cannot: a manifest in a read-only folder was emitted without a word, and
+    every farm task then failed (exit 2). Probed as a task claims it (its temporary folder made and
+    removed), so a read-only mount, a full quota or a folder at that name are found here."""
+    from usdgaze.files.transaction import Outputs
+
+    try:
+        with Outputs() as tx:
+            tx.claim(summary, "--summary")  # nothing staged: the commit renames nothing
+    except UsdGazeError as exc:
+        raise UsdGazeError(f"{manifest}: every farm task writes its summary beside the manifest, and {exc}; "
+                           "no job files were written") from None
+
+
 def _check_carried(kind: str, manifest: Path) -> None:
     """One line where the job files cannot carry the manifest's path or this usdgaze's command as they are:
     a control character (a line break in a folder's name ended SLURM's comment line, so the rest of the
@@ -203,11 +224,19 @@ def _check_carried(kind: str, manifest: Path) -> None:
                                "manifest in the task's arguments; rename it, and no job files were written")
 
 
+def jobs_digest(shots: Sequence["Shot"]) -> str:
+    """A digest of the manifest's job names in order: what an emitted task checks its manifest still
+    lists (``--manifest-jobs``), since it runs its shot by index."""
+    import hashlib
+
+    return hashlib.sha256("\n".join(s.name for s in shots).encode()).hexdigest()[:16]
+
+
 def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.PathLike,
-         force: bool = False, ask: Request = Request()) -> list[Path]:
+         force: bool = False, ask: Request = Request(), jobs: str | None = None) -> list[Path]:
     """Write the job files for ``count`` shots of ``manifest`` into ``folder`` (all or none); their paths.
     ``force``: every task redoes its shot (``--force``); ``ask``: what each task asks for
-    (:func:`task_request`)."""
+    (:func:`task_request`); ``jobs``: the :func:`jobs_digest` every task checks."""
     from usdgaze.files.transaction import Outputs
 
     if kind not in _EMITTERS:
@@ -219,8 +248,8 @@ def emit(kind: str, manifest: str | os.PathLike, count: int, folder: str | os.Pa
     _check_carried(kind, manifest)
     if folder.exists() and not folder.is_dir():
         raise UsdGazeError(f"{folder}: --emit needs a folder, and this is a file")
-    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), ["--force"] if force else [],
-                           ask)
+    extra = (["--force"] if force else []) + (["--manifest-jobs", jobs] if jobs else [])
+    files = _EMITTERS[kind](manifest, count, _token(f"usdgaze_{manifest.stem}"), extra, ask)
     with Outputs() as tx:
         tx.read(manifest, "manifest")
         tx.make_folder(folder)

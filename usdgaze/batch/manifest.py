@@ -305,28 +305,38 @@ def register(ids, path: Path, shots: list[Shot]) -> None:
         raise UsdGazeError(message if message.startswith(f"{path}:") else f"{path}: {message}") from None
 
 
+def _read_files(s: Shot) -> list[tuple[str, str]]:
+    """(role, file) of what a shot reads as a whole: its input, and its map file where it names one."""
+    files = [("input", s.values["input"])]
+    if "map" in s.values:
+        files.append(("map", s.values["map"].partition(":/")[0]))
+    return files
+
+
 def _register(ids, path: Path, shots: list[Shot]) -> None:
     from usdgaze.usd.stage import layer_dependencies, without_usd_warnings
 
     ids.read(path, "manifest")
-    composed: dict[str, list[str]] = {}  # per input file: shots often share their inputs
+    composed: dict[str, list[str]] = {}  # per file: shots often share their inputs and maps
     for s in shots:
-        ids.read(s.values["input"], f"input of {s.label}")
-        if "map" in s.values:
-            ids.read(s.values["map"].partition(":/")[0], f"map of {s.label}")
+        for role, file in _read_files(s):
+            ids.read(file, f"{role} of {s.label}")
     for s in shots:
-        # Another shot must not write a layer this one composes: on a farm it would read it half-made.
-        # A layer not there yet counts too: on the first run it is another shot's output to come.
-        # The path as given, links unresolved: USD anchors a symlinked input's sublayers at the link's
-        # folder (as batch.keys.shot_key reads them); realpath only to know the input among them.
-        source = os.path.abspath(s.values["input"])
-        if source not in composed:
-            with without_usd_warnings():  # USD's multi-line warning for each layer not there yet
-                found = layer_dependencies(source, missing=True)
-            real = os.path.realpath(source)
-            composed[source] = [f for f in found if os.path.realpath(f) != real]
-        for f in composed[source]:
-            ids.read(f, f"layer composed by the input of {s.label}")
+        # Another shot must not write a layer this one composes (its input's or its map's: a map's
+        # sublayer was not checked, and the shot read another's override or failed on it missing by
+        # the order they ran in); on a farm it would read it half-made. A layer not there yet counts
+        # too: on the first run it is another shot's output to come. The path as given, links
+        # unresolved: USD anchors a symlinked file's sublayers at the link's folder (as
+        # batch.keys.shot_key reads them); realpath only to know the file among them.
+        for role, file in _read_files(s):
+            source = os.path.abspath(file)
+            if source not in composed:
+                with without_usd_warnings():  # USD's multi-line warning for each layer not there yet
+                    found = layer_dependencies(source, missing=True)
+                real = os.path.realpath(source)
+                composed[source] = [f for f in found if os.path.realpath(f) != real]
+            for f in composed[source]:
+                ids.read(f, f"layer composed by the {role} of {s.label}")
     for s in shots:
         for key in ("out", "preview", "sublayer_into", "plot"):
             if key in s.values:

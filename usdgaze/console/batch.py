@@ -27,10 +27,13 @@ from usdgaze.errors import Interrupted, UsdGazeError
                    ".task-I.summary.json with --task-index].")
 @click.option("--report", "report_path", default=None, type=click.Path(), hidden=True,
               help="Old name of --summary.")
+@click.option("--manifest-jobs", default=None, hidden=True, metavar="DIGEST",
+              help="Emitted tasks: the manifest's jobs they were emitted for (refused when they changed).")
 @click.option("--emit", nargs=2, default=None, metavar="FARM DIR",
               help="Instead of running: write job files for FARM (deadline, opencue, slurm) into DIR, one task per shot.")
 @click.pass_context
-def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path, report_path, emit) -> None:
+def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path, report_path, manifest_jobs,
+          emit) -> None:
     """Run the gaze shots of MANIFEST; skip those whose inputs and parameters are unchanged."""
     from usdgaze.batch.manifest import load_manifest, register
     from usdgaze.files.transaction import Outputs
@@ -43,7 +46,7 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
         raise UsdGazeError("--emit and --task-index are alternatives: the emitted jobs run one task per shot")
     if emit:  # a flag of the run, not of the job files, was dropped without a word
         ran = [f for f, on in (("--workers", workers > 1), ("--dask", dask_address), ("--summary", summary_path),
-                               ("--report", report_path)) if on]
+                               ("--report", report_path), ("--manifest-jobs", manifest_jobs)) if on]
         if ran:
             raise UsdGazeError(f"--emit writes job files and runs nothing: {ran[0]} is for a run (each emitted "
                                "task runs one shot and writes its own summary)")
@@ -51,18 +54,22 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
     with Outputs() as tx:
         # The manifest first: a missing one in a missing folder was said as its summary's folder missing.
         shots = load_manifest(manifest)
+        if manifest_jobs is not None:
+            _check_emitted_jobs(manifest, shots, manifest_jobs, task_index)
         # The summary is checked before any shot runs: it may not be the manifest or any shot's file.
         summary = Path(given) if given else _default_summary(Path(manifest), task_index)
         if summary.suffix.lower() != ".json":
             raise UsdGazeError(f"{summary}: {flag} is written as JSON; name it FILE.json")
         if not emit:
-            tx.claim(summary, flag)
+            _claim_summary(tx, summary, flag, given)
         register(tx.ids, Path(manifest), shots)
         if emit:
-            from usdgaze.batch.emit import check_inputs, emit as write_jobs, task_request
+            from usdgaze.batch.emit import check_inputs, check_summaries, emit as write_jobs, jobs_digest, task_request
 
             check_inputs(manifest, shots)
-            for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force, ask=task_request(shots)):
+            check_summaries(manifest, _default_summary(Path(manifest), 0))
+            for path in write_jobs(emit[0], manifest, len(shots), emit[1], force=force, ask=task_request(shots),
+                                   jobs=jobs_digest(shots)):
                 click.echo(f"wrote {path}")
             return
         if task_index is not None:
@@ -74,6 +81,30 @@ def batch(ctx, manifest, workers, dask_address, task_index, force, summary_path,
     counts = ", ".join(f"{n} {status}" for status, n in report["counts"].items() if n)
     click.echo(f"{_shots(len(shots))} in {report['seconds']:.2f} s ({report['mode']}): {counts}; summary {summary}")
     ctx.exit(report["exit_code"])
+
+
+def _check_emitted_jobs(manifest: str, shots: list, digest: str, task_index: int | None) -> None:
+    """An emitted task runs shot I by its index: a job added, removed, renamed or moved in the manifest
+    since its job files were written moved the later shots (a task ran another shot, the last ran in
+    none, and every task exited 0). Refused before anything is written."""
+    from usdgaze.batch.emit import jobs_digest
+
+    if jobs_digest(shots) == digest:
+        return
+    task = f", so task {task_index} would run another shot than it was given" if task_index is not None else ""
+    raise UsdGazeError(f"{manifest}: its jobs are not those its farm job files were emitted for (a job added, removed, "
+                       f"renamed or moved since; {len(shots)} now){task}; re-emit them with --emit")
+
+
+def _claim_summary(tx, summary: Path, flag: str, given: str | None) -> None:
+    """Claim the run's summary; where the default one (beside the manifest) cannot be written, the
+    line says the way out, which only the flag's help said (a manifest in a locked show folder)."""
+    try:
+        tx.claim(summary, flag)
+    except UsdGazeError as exc:
+        if given:
+            raise
+        raise UsdGazeError(f"{exc}; write it elsewhere with --summary FILE.json") from None
 
 
 def _run(shots, manifest, workers, dask_address, force, task_index, summary: Path) -> dict:

@@ -86,6 +86,8 @@ class Outputs:
         self._mode = 0o666 & ~current_umask()
         self._old_handlers: dict[int, object] = {}
         self._made: list[Path] = []
+        self._locks: dict[str, int] = {}
+        """Folder locks (real path: descriptor) held until the outputs are in place or removed (``lock``)."""
         self._wanted: set[str] = set()
         """Real paths of the folders ``make_folder`` was asked for (see ``_rewanted``)."""
         self._done = False
@@ -116,6 +118,7 @@ class Outputs:
                 for sig, handler in self._old_handlers.items():
                     signal.signal(sig, handler)
                 self._old_handlers.clear()
+                self._unlock()
         if self._pending is not None and not isinstance(exc, Interrupted):  # a signal is never lost
             if exc is None:
                 raise Interrupted(self._pending, "every output had been written when it stopped")
@@ -133,6 +136,24 @@ class Outputs:
             return
         self._raised = True
         raise Interrupted(signum)  # not KeyboardInterrupt: click would turn that into "Aborted!"
+
+    def lock(self, folder: str | os.PathLike) -> None:
+        """Hold an exclusive lock on ``folder`` until this command's outputs are renamed into place (or
+        removed): taken before reading a file the command edits there (``--sublayer-into``), so that
+        another command's edit of it waits and then reads this one's (:mod:`.locks`)."""
+        from usdgaze.files.locks import lock_folder
+
+        real = os.path.realpath(folder)
+        if real in self._locks:  # held: a second flock on another descriptor would wait for ever
+            return
+        fd = lock_folder(real)
+        if fd is not None:
+            self._locks[real] = fd
+
+    def _unlock(self) -> None:
+        while self._locks:
+            with contextlib.suppress(OSError):
+                os.close(self._locks.popitem()[1])
 
     # -- reads and claims --------------------------------------------------------------------------
     def read(self, path: str | os.PathLike, what: str = "input") -> None:

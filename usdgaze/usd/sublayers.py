@@ -161,12 +161,48 @@ def _same_file(a: str | None, b: str | os.PathLike) -> bool:
 
 
 def sublayered(root: str | os.PathLike, override: str | os.PathLike, input_path=None) -> bool:
-    """``override`` is ``root``'s strongest sublayer, at the offset that keeps it in step with the input."""
+    """``override`` is in ``root``'s subLayers at the offset that keeps it in step with the input, and only
+    usdgaze overrides of other prims (another character's gaze) are listed above it.
+
+    Not only first: two manifests inserting into one shot layer each left the other's override second,
+    and each rerun redid its shot to put its own first again, so neither ever skipped."""
     real = os.path.realpath(root)
     layer = Sdf.Layer.OpenAsAnonymous(real, metadataOnly=True)
-    if layer is None or 0 not in _listed(layer, real, override):
+    listed = _listed(layer, real, override) if layer is not None else []
+    if not listed or layer.subLayerOffsets[listed[0]] != override_offset(real, input_path):
         return False
-    return layer.subLayerOffsets[0] == override_offset(real, input_path)
+    folder = os.path.dirname(real)
+    return _unmasked(override, [os.path.join(folder, p) for p in layer.subLayerPaths[:listed[0]]])
+
+
+def _unmasked(override: str | os.PathLike, above: list[str]) -> bool:
+    """Every layer of ``above`` is a usdgaze override authoring none of the properties ``override``
+    authors: stronger, they change nothing of its result (an earlier take of the same character does)."""
+    from usdgaze.usd.layers import is_override
+
+    if not above:
+        return True
+    own = _property_paths(override)
+    for path in above:
+        if not is_override(path):
+            return False
+        theirs = _property_paths(path)
+        if own is None or theirs is None or own & theirs:
+            return False
+    return True
+
+
+def _property_paths(path: str | os.PathLike) -> set[Sdf.Path] | None:
+    """The property paths the layer at ``path`` authors; None where it cannot be read."""
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(os.fspath(path))
+    except Exception:  # pxr raises Tf.ErrorException: an unreadable layer masks what it may
+        return None
+    if layer is None:
+        return None
+    found: set[Sdf.Path] = set()
+    layer.Traverse(Sdf.Path.absoluteRootPath, lambda p: found.add(p) if p.IsPropertyPath() else None)
+    return found
 
 
 def masked_overrides(root: str | os.PathLike, override: str | os.PathLike, anim_paths: list[str],
@@ -206,12 +242,15 @@ def insert_sublayer(root: str | os.PathLike, override: str | os.PathLike, anim_p
     ``root`` is edited at its target, which keeps its mode; a read-only one is refused.
     """
     real = os.path.realpath(root)
-    layer = check_sublayer_target(root, anim_paths)
-    offset = override_offset(real, input_path)
-    listed = _listed(layer, real, override)
-    if listed[:1] == [0] and layer.subLayerOffsets[0] == offset:
-        return False
     with outputs_of(outputs) as tx:
+        # Read under a lock held until the edit is renamed into place: another command inserting into
+        # the same root meanwhile (a farm task of another manifest) had its sublayer dropped by ours.
+        tx.lock(os.path.dirname(real))
+        layer = check_sublayer_target(root, anim_paths)
+        offset = override_offset(real, input_path)
+        listed = _listed(layer, real, override)
+        if listed[:1] == [0] and layer.subLayerOffsets[0] == offset:
+            return False
         if not tx.claimed(root):
             tx.claim(root, "--sublayer-into", edit=True)
         for i in reversed(listed):
