@@ -7,8 +7,9 @@ pinned to one core, one BLAS thread, one finite-difference thread, under cProfil
 seconds (``time.process_time``: user + sys, what a shared machine's load changes least) per output
 frame at 30 fps and per planner step, split by phase:
 
-* ``fd``: MuJoCo's ``mjd_transitionFD``; ``lin``: the rest of the window's linearization (state
-  conversions, tangent maps, interpolation, the stack's rows);
+* ``fd``: each step's transition matrices (``MujocoBody._fd``: MuJoCo's ``mjd_transitionFD``, or
+  the positions' batch of steps and the closed forms of ``physics.velocity``); ``lin``: the rest of
+  the window's linearization (state conversions, tangent maps, interpolation, the stack's rows);
 * ``backward``: the solver's backward pass; ``rollouts``: forward passes and warm-start rollouts
   without their costs; ``costs``: cost values and expansions (tracking, tasks, attention);
 * ``proposals``: the coupled loop's look-at seeds (their own rollouts and costs);
@@ -61,7 +62,7 @@ def _tot(st: pstats.Stats, name: str) -> float:
 
 def phases(st: pstats.Stats, total: float) -> dict[str, float]:
     """CPU seconds per phase (see the module docstring) from a profile of one simulation."""
-    fd = _tot(st, "<built-in method mujoco._functions.mjd_transitionFD>")
+    fd = _cum(st, "dynamics.py", "_fd")
     lin = _cum(st, "ddp.py", "linearize_start") - fd
     backward = _cum(st, "ddp.py", "_backward")
     proposals = _cum(st, "loop.py", "seed_controls")

@@ -11,9 +11,10 @@ solver's feedback ``K (x - X)`` needs.
 (velocities first, positions from the new velocities; joint damping implicit), no substeps.
 ``linearize`` takes MuJoCo's finite-difference transition matrices (``mjd_transitionFD``), which
 perturb positions in the tangent space, and maps them to these coordinates with the right Jacobian
-of SO(3) per rotation: ``dx = Jr^-1(r) dtangent``. The controls' columns come in closed form where
-the model allows it (``physics.controls``: the same numbers within MuJoCo's own differencing error,
-at a fraction of its cost).
+of SO(3) per rotation: ``dx = Jr^-1(r) dtangent``. The controls' and the velocities' columns come
+in closed form where the model allows it (``physics.controls``, ``physics.velocity``: the same
+numbers within MuJoCo's own differencing error, at a fraction of its cost), the positions' from
+MuJoCo's differencing rule run as one batch of steps.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from usdgaze.errors import UsdGazeError
-from usdgaze.physics import controls
+from usdgaze.physics import controls, velocity
 from usdgaze.physics.model import BodyModel
 
 
@@ -123,6 +124,8 @@ class MujocoBody:
             self.kept = KeptDifferences(int(reuse))
         self.closed_controls = controls.applies(self.mj)
         self._moments = controls.moments(self.mj) if self.closed_controls else None
+        # the velocity columns' closed form needs the model's implicit twin (physics.velocity)
+        self._twin = velocity.implicit_twin(self.mj) if velocity.applies(self.mj) else None
         self.anchor = np.array([1.0, 0, 0, 0])  # wxyz
         # qpos of recent states (key: their position bytes), for this anchor: a window's rollout, its
         # costs and the head pose ask for the same rows in turn (a pure function: results unchanged).
@@ -318,21 +321,29 @@ class MujocoBody:
         return self._minimal(A, B, xb, self._next(xb, ub, k))
 
     def _fd(self, xb: np.ndarray, ub: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """One step's transition matrices in MuJoCo's tangent coordinates: the state's columns by its
-        finite differences, the controls' in closed form where the model allows (``physics.controls``)."""
+        """One step's transition matrices in MuJoCo's tangent coordinates: the velocities' and the
+        controls' columns in closed form where the model allows (``physics.velocity``), the positions'
+        by finite differences; MuJoCo's ``mjd_transitionFD`` for what the closed forms do not cover."""
         import mujoco
 
         nv = self.nv
         self._load(xb, ub, k)
         A = np.zeros((2 * nv, 2 * nv))
-        B = None
-        if self.closed_controls:  # the controls' columns in closed form (physics.controls), A by MuJoCo
+        if self.closed_controls:
             mujoco.mj_forward(self.mj, self.data)
+            if self._twin is not None:
+                got = velocity.columns(self.mj, self._twin, self.data, self._rot_x, self._moments)
+                if got is not None:
+                    A[:, nv:], B = got
+                    self._load(xb, ub, k)
+                    A[:, :nv] = velocity.position_columns(self.mj, self.data, self.eps, self.centered)
+                    return A, B
             B = controls.closed_form(self.mj, self.data, np.asarray(self.data.ctrl), self._rot_x, self._moments)
+            if B is not None:
+                self._load(xb, ub, k)
+                mujoco.mjd_transitionFD(self.mj, self.data, self.eps, self.centered, A, None, None, None)
+                return A, B
             self._load(xb, ub, k)
-        if B is not None:
-            mujoco.mjd_transitionFD(self.mj, self.data, self.eps, self.centered, A, None, None, None)
-            return A, B
         B = np.zeros((2 * nv, self.nu))
         mujoco.mjd_transitionFD(self.mj, self.data, self.eps, self.centered, A, B, None, None)
         return A, B

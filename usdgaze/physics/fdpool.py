@@ -1,6 +1,7 @@
 """The MuJoCo body's finite differences on threads: the window's steps handed out one at a time.
 
-MuJoCo releases the GIL inside ``mjd_transitionFD`` (~4-6 ms a step on the CMU model), so threads,
+MuJoCo releases the GIL inside ``mjd_transitionFD`` and ``mujoco.rollout`` (the positions' batch of
+steps, ``physics.velocity``; ~3.5-6 ms a step on the CMU model), so threads,
 each with its own copy of the body (its own ``MjData``), differentiate steps side by side. A thread
 takes the next step when it is free (the steps' costs differ with their contacts, so fixed halves
 would leave one thread idle while the other finishes), last step first: the solver's backward pass
