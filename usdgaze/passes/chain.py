@@ -239,17 +239,35 @@ class Base:
         return pose.position[rig.head], 0.5 * (pose.position[rig.eyes[0]] + pose.position[rig.eyes[1]])
 
 
-def gaze_up(clip: SkelClip, frame: CharacterFrame) -> np.ndarray:
+def gaze_up(clip: SkelClip, frame: CharacterFrame, pose: Pose | None = None, rig: Rig | None = None,
+            chain: Chain | None = None) -> np.ndarray:
     """The world axis gaze azimuths turn about: the stage's up, or, for a character leaning or lying in
     the stage (its own up, carried into the world at the first frame, more than ``UP_SNAP_DEG`` from
     the stage's), its own: lying on its back its line of sight is the stage's up, about which every
-    azimuth is a roll of the eyes (a look-at to its side missed by 45-90 deg by UsdSkel FK)."""
+    azimuth is a roll of the eyes (a look-at to its side missed by 45-90 deg by UsdSkel FK). Given the
+    base ``pose``, a character upright in its space but lying or crawling in its animation (a capture
+    of an actor lying down: the root joint turned, its pelvis more than ``UP_SNAP_DEG`` off the
+    stage's up at the first frame) turns about its head's own up there, the face's yaw axis whether
+    it lies on its back (the line of sight the stage's up) or crawls (the spine along the sight)."""
     from usdgaze.core.kinematics import UP_SNAP_DEG
     from usdgaze.passes.hidden import held_world
 
     up_w = np.asarray(clip.world_up, dtype=float)
-    own = rot.normalize(held_world(clip.skel_to_world)[0, :3, :3] @ frame.up)
-    return up_w if float(own @ up_w) > math.cos(math.radians(UP_SNAP_DEG)) else own
+    s2w = held_world(clip.skel_to_world)[0, :3, :3]
+    own = rot.normalize(s2w @ frame.up)
+    upright = math.cos(math.radians(UP_SNAP_DEG))
+    if float(own @ up_w) <= upright:
+        return own
+    if pose is None or rig is None or chain is None:
+        return up_w
+    pelvis = rot.normalize(s2w @ _carried(pose, rig, chain.pelvis, frame.up))
+    return up_w if float(pelvis @ up_w) > upright else rot.normalize(s2w @ _carried(pose, rig, chain.head, frame.up))
+
+
+def _carried(pose: Pose, rig: Rig, joint: int, axis: np.ndarray) -> np.ndarray:
+    """A skeleton-space axis of the neutral pose carried by ``joint``'s base rotation at the first frame."""
+    to_rest = rot.multiply(pose.rotation[joint][:1], rot.conjugate(rig.rest_q[joint]))
+    return rot.rotate(to_rest, axis[None])[0]
 
 
 def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
@@ -261,7 +279,7 @@ def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOp
     pose = forward(with_ancestors(list(chain.path), rig.parents), rig.parents, rig.local, positions=False,
                    scaled_by=with_ancestors(list(chain.path) + list(rig.eyes), rig.parents))
     skel_to_world = clip.skel_to_world[:, :3, :3]
-    up_w = gaze_up(clip, frame)
+    up_w = gaze_up(clip, frame, pose, rig, chain)
     if chain.head in pose.linear:  # scales on the chain: the head's axis goes through its full linear map
         head_axis = np.linalg.solve(clip.neutral()[chain.head, :3, :3], frame.forward)
         looks = rot.normalize(np.einsum("fij,j->fi", pose.linear[chain.head], head_axis))
