@@ -245,29 +245,34 @@ def gaze_up(clip: SkelClip, frame: CharacterFrame, pose: Pose | None = None, rig
     the stage (its own up, carried into the world at the first frame, more than ``UP_SNAP_DEG`` from
     the stage's), its own: lying on its back its line of sight is the stage's up, about which every
     azimuth is a roll of the eyes (a look-at to its side missed by 45-90 deg by UsdSkel FK). Given the
-    base ``pose``, a character upright in its space but lying or crawling in its animation (a capture
-    of an actor lying down: the root joint turned, its pelvis more than ``UP_SNAP_DEG`` off the
-    stage's up at the first frame) turns about its head's own up there, the face's yaw axis whether
-    it lies on its back (the line of sight the stage's up) or crawls (the spine along the sight)."""
+    base ``pose``, a character upright in its space but lying in its animation on most frames (a
+    capture of an actor lying down: the root joint turned, the pelvis more than ``UP_SNAP_DEG`` off
+    the stage's up) turns about its head's own up on those frames, the face's yaw axis."""
     from usdgaze.core.kinematics import UP_SNAP_DEG
     from usdgaze.passes.hidden import held_world
 
     up_w = np.asarray(clip.world_up, dtype=float)
-    s2w = held_world(clip.skel_to_world)[0, :3, :3]
-    own = rot.normalize(s2w @ frame.up)
+    s2w = held_world(clip.skel_to_world)[:, :3, :3]
+    own = rot.normalize(s2w[0] @ frame.up)
     upright = math.cos(math.radians(UP_SNAP_DEG))
     if float(own @ up_w) <= upright:
         return own
     if pose is None or rig is None or chain is None:
         return up_w
-    pelvis = rot.normalize(s2w @ _carried(pose, rig, chain.pelvis, frame.up))
-    return up_w if float(pelvis @ up_w) > upright else rot.normalize(s2w @ _carried(pose, rig, chain.head, frame.up))
+    lying = _carried(pose, rig, chain.pelvis, frame.up, s2w) @ up_w <= upright
+    # One axis serves the whole clip: the posture of most of its frames (a clip that gets up from the
+    # floor and stands keeps the stage's up, which its standing frames need).
+    if lying.mean() < 0.5:
+        return up_w
+    return rot.normalize(_carried(pose, rig, chain.head, frame.up, s2w)[lying].mean(axis=0))
 
 
-def _carried(pose: Pose, rig: Rig, joint: int, axis: np.ndarray) -> np.ndarray:
-    """A skeleton-space axis of the neutral pose carried by ``joint``'s base rotation at the first frame."""
-    to_rest = rot.multiply(pose.rotation[joint][:1], rot.conjugate(rig.rest_q[joint]))
-    return rot.rotate(to_rest, axis[None])[0]
+def _carried(pose: Pose, rig: Rig, joint: int, axis: np.ndarray, s2w: np.ndarray) -> np.ndarray:
+    """A skeleton-space axis of the neutral pose carried by ``joint``'s base rotation into the world
+    ``(F, 3)``, unit length."""
+    to_rest = rot.multiply(pose.rotation[joint], rot.conjugate(rig.rest_q[joint]))
+    skel = rot.rotate(to_rest, np.broadcast_to(axis, (len(to_rest), 3)))
+    return rot.normalize(np.einsum("fij,fj->fi", s2w[:len(skel)], skel))
 
 
 def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
