@@ -79,7 +79,7 @@ def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: P
                ) -> tuple[BaseChain, np.ndarray]:
     """The base motion's pivots, eye midpoint and head axes on the planner grid (world, metres)."""
     spine, neck = _spine_neck(chain)
-    s2w, mpu, up = clip.skel_to_world, clip.meters_per_unit, gaze_up(clip, frame)  # the head's yaw axis
+    s2w, mpu, up = clip.skel_to_world, clip.meters_per_unit, gaze_up(clip, frame, base, rig, chain)  # the head's yaw axis
     head = chain.head
     eyes = 0.5 * sum(base.place(int(rig.parents[e]), rig.local(e)[0]) for e in rig.eyes)
     pts = [(_world(s2w, base.position[j]) * mpu) for j in (spine, neck)] + [_world(s2w, eyes) * mpu]

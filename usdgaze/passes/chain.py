@@ -239,17 +239,40 @@ class Base:
         return pose.position[rig.head], 0.5 * (pose.position[rig.eyes[0]] + pose.position[rig.eyes[1]])
 
 
-def gaze_up(clip: SkelClip, frame: CharacterFrame) -> np.ndarray:
+def gaze_up(clip: SkelClip, frame: CharacterFrame, pose: Pose | None = None, rig: Rig | None = None,
+            chain: Chain | None = None) -> np.ndarray:
     """The world axis gaze azimuths turn about: the stage's up, or, for a character leaning or lying in
     the stage (its own up, carried into the world at the first frame, more than ``UP_SNAP_DEG`` from
     the stage's), its own: lying on its back its line of sight is the stage's up, about which every
-    azimuth is a roll of the eyes (a look-at to its side missed by 45-90 deg by UsdSkel FK)."""
+    azimuth is a roll of the eyes (a look-at to its side missed by 45-90 deg by UsdSkel FK). Given the
+    base ``pose``, a character upright in its space but lying in its animation on most frames (a
+    capture of an actor lying down: the root joint turned, the pelvis more than ``UP_SNAP_DEG`` off
+    the stage's up) turns about its head's own up on those frames, the face's yaw axis."""
     from usdgaze.core.kinematics import UP_SNAP_DEG
     from usdgaze.passes.hidden import held_world
 
     up_w = np.asarray(clip.world_up, dtype=float)
-    own = rot.normalize(held_world(clip.skel_to_world)[0, :3, :3] @ frame.up)
-    return up_w if float(own @ up_w) > math.cos(math.radians(UP_SNAP_DEG)) else own
+    s2w = held_world(clip.skel_to_world)[:, :3, :3]
+    own = rot.normalize(s2w[0] @ frame.up)
+    upright = math.cos(math.radians(UP_SNAP_DEG))
+    if float(own @ up_w) <= upright:
+        return own
+    if pose is None or rig is None or chain is None:
+        return up_w
+    lying = _carried(pose, rig, chain.pelvis, frame.up, s2w) @ up_w <= upright
+    # One axis serves the whole clip: the posture of most of its frames (a clip that gets up from the
+    # floor and stands keeps the stage's up, which its standing frames need).
+    if lying.mean() < 0.5:
+        return up_w
+    return rot.normalize(_carried(pose, rig, chain.head, frame.up, s2w)[lying].mean(axis=0))
+
+
+def _carried(pose: Pose, rig: Rig, joint: int, axis: np.ndarray, s2w: np.ndarray) -> np.ndarray:
+    """A skeleton-space axis of the neutral pose carried by ``joint``'s base rotation into the world
+    ``(F, 3)``, unit length."""
+    to_rest = rot.multiply(pose.rotation[joint], rot.conjugate(rig.rest_q[joint]))
+    skel = rot.rotate(to_rest, np.broadcast_to(axis, (len(to_rest), 3)))
+    return rot.normalize(np.einsum("fij,fj->fi", s2w[:len(skel)], skel))
 
 
 def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOptions) -> Base:
@@ -261,7 +284,7 @@ def prepare(clip: SkelClip, chain: Chain, frame: CharacterFrame, options: PassOp
     pose = forward(with_ancestors(list(chain.path), rig.parents), rig.parents, rig.local, positions=False,
                    scaled_by=with_ancestors(list(chain.path) + list(rig.eyes), rig.parents))
     skel_to_world = clip.skel_to_world[:, :3, :3]
-    up_w = gaze_up(clip, frame)
+    up_w = gaze_up(clip, frame, pose, rig, chain)
     if chain.head in pose.linear:  # scales on the chain: the head's axis goes through its full linear map
         head_axis = np.linalg.solve(clip.neutral()[chain.head, :3, :3], frame.forward)
         looks = rot.normalize(np.einsum("fij,j->fi", pose.linear[chain.head], head_axis))
