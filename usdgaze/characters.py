@@ -162,9 +162,9 @@ def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> 
 
 def _lean_note(where: str, lean: float) -> str:
     """Why a look-at may miss a character leaning or lying in the stage (its skeleton's space turned
-    further than ``UP_SNAP_DEG`` from the world's up): its forward is left x the stage's up, as tilted
-    as the character, so its eyes' modelled axis is (a SkelRoot turned 60 deg about X missed every
-    look-at target by 60 deg by UsdSkel FK, with no word)."""
+    further than ``UP_SNAP_DEG`` from the world's up, its legs saying nothing): its forward is left x
+    the stage's up, as tilted as the character, and so is its eyes' modelled axis (a SkelRoot turned
+    60 deg about X missed every look-at target by 60 deg by UsdSkel FK, with no word)."""
     return (f"{where}: the stage's up is {lean:.1f} deg off the nearest axis of the skeleton's space (the character "
             "leans or lies in the stage); its forward is taken as left x the stage's up, which is off where its face "
             "points in the bind pose by as much as it leans, and a look-at misses by that much: give the bind pose's "

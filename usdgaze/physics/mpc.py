@@ -313,8 +313,9 @@ def run(shot: Shot, options: Options, controller: Controller, progress=None) -> 
     result = shot_result(shot.model, written, ref_q, shot.ref_seconds, ctrl, depth, costs, measured, steps, h)
     result.contact_depth_m = sank
     result.task_problems, result.task_unmendable = judge_tasks(shot.tasks, result)
-    result.reference_notes = [n for n in [feasible.sliding_stance(feasible.toe_paths(plan, ref_q[:steps + 1]), h)]
-                              if n] + [n for t in shot.tasks if hasattr(t, "notes") for n in t.notes(float(result.seconds[0]))]
+    sliding = feasible.sliding_stance(feasible.toe_paths(plan, ref_q[:steps + 1]), h)
+    task_notes = [n for t in shot.tasks if hasattr(t, "notes") for n in t.notes(float(result.seconds[0]))]
+    result.reference_notes = ([sliding] if sliding else []) + task_notes
     return result
 
 
