@@ -97,3 +97,26 @@ def test_another_build_of_usdgaze_redoes_a_shot_its_version_string_would_skip(tm
     assert digests[0] == keys.tool_digest() and digests[1] != digests[0]
     monkeypatch.setattr(keys, "tool_digest", lambda: digests[1])
     assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "done"
+
+
+def test_another_release_of_usd_or_numpy_redoes_a_shot(tmp_path, monkeypatch):
+    """The key holds the versions of what computes and writes a shot beside usdgaze (USD's crate
+    writer, numpy's arithmetic): an upgrade of either skipped the shot, its output made with the old."""
+    import numpy
+    from pxr import Usd
+
+    from usdgaze.batch import keys
+
+    syn.make_rig(tmp_path / "rig.usda", frames=24, mesh=False)
+    manifest = tmp_path / "jobs.toml"
+    manifest.write_text('[[job]]\nname = "g"\ninput = "rig.usda"\nout = "out/g.usdc"\nshifts = ["0.2s:30:0"]\n')
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "done"
+    assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "skipped"
+    for patch in (lambda: monkeypatch.setattr(numpy, "__version__", "0.0.other"),
+                  lambda: monkeypatch.setattr(Usd, "GetVersion", lambda: (0, 99, 1))):
+        keys.libraries.cache_clear()
+        patch()
+        assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "done"
+        assert main(["batch", str(manifest)]) == 0 and _status(tmp_path) == "skipped"
+        monkeypatch.undo()
+    keys.libraries.cache_clear()

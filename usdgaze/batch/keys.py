@@ -1,8 +1,8 @@
 """Resume keys: a shot is redone only when something its result depends on changed.
 
 The key hashes the tool version and a digest of the installed package's own files (a build that
-changes what it writes without a new version string still redoes the shots; and for a physics shot
-MuJoCo's version), the shot's parameters, and the
+changes what it writes without a new version string still redoes the shots), the versions of USD,
+numpy and scipy (and for a physics shot MuJoCo's), the shot's parameters, and the
 *contents* of every layer the input composes (root layer, sublayers, references, payloads, value
 clips: what ``UsdUtils.ComputeAllDependencies`` finds) and of the map file and its layers. It is
 recorded in the override layer's ``customLayerData`` (``usdgaze.batchKey``); a shot whose outputs
@@ -70,6 +70,7 @@ def shot_key(shot: Shot) -> tuple[str, list]:
 
     h = hashlib.sha256()
     h.update(f"usdgaze {__version__} {tool_digest()}\n".encode())
+    h.update(f"{libraries()}\n".encode())
     h.update(json.dumps(shot.parameters(), sort_keys=True).encode() + b"\n")
     if shot.values.get("physics"):  # another MuJoCo release simulates other bits
         h.update(f"mujoco {_mujoco_version()}\n".encode())
@@ -102,6 +103,23 @@ def tool_digest() -> str:
     for path in files:
         h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def libraries() -> str:
+    """The versions of what computes and writes a shot beside usdgaze: USD (its crate writer's bytes),
+    numpy and scipy (the model's arithmetic). Another release may write other bytes for the same
+    inputs, so an output made with it is not this run's (it was skipped)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    import numpy
+    from pxr import Usd
+
+    try:
+        scipy = version("scipy")
+    except PackageNotFoundError:  # the model's import fails with its own line when it runs
+        scipy = "none"
+    return f"usd {'.'.join(map(str, Usd.GetVersion()))} numpy {numpy.__version__} scipy {scipy}"
 
 
 def _mujoco_version() -> str:
