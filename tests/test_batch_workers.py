@@ -86,5 +86,5 @@ def test_a_dask_task_whose_worker_dies_fails_its_shot_and_the_others_run(tmp_pat
     assert "KilledWorker" in boom["message"] and "\n" not in boom["message"], boom["message"]
     # What the record says of itself only: "the other shots ran" was said too when a lost scheduler
     # failed every task left.
-    assert boom["message"].endswith("none of its outputs was written (a rerun redoes it)"), boom["message"]
+    assert boom["message"].endswith("written whole or not at all (a rerun redoes it unless all landed)"), boom["message"]
     assert not (tmp_path / "out" / "boom.usdc").exists()

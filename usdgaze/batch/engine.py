@@ -228,7 +228,10 @@ def died(shot: Shot, seconds: float, why: str = "its worker process ended abrupt
     """The record of a shot whose worker process died while running it alone (or its dask task failed)."""
     return {"index": shot.index, "name": shot.name, "input": shot.values["input"], "out": shot.out,
             "status": INTERNAL, "exit_code": EXIT_CODES[INTERNAL], "seconds": round(seconds, 4),
-            "message": f"{why}; none of its outputs was written (a rerun redoes it)"}
+            # Each output lands whole or not at all; a dask worker can die after its shot's last one
+            # landed, so "none was written" could be false: a rerun skips the shot where all did.
+            "message": f"{why}; each of its outputs was written whole or not at all (a rerun redoes it "
+                       "unless all landed)"}
 
 
 _states = None
