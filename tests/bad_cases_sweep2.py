@@ -3,9 +3,9 @@ a marker set or stage whose up axis is not the capture's."""
 
 from __future__ import annotations
 
-from pxr import Usd, UsdSkel, Vt
+from pxr import Sdf, Usd, UsdSkel, Vt
 
-from .bad_common import rig
+from .bad_common import edited, rig
 
 
 def _without(path, words: tuple[str, ...]) -> None:
@@ -56,6 +56,15 @@ def b_sublayer_into_a_shot_that_references_at_an_offset(d):
 def b_look_at_its_own_skeleton(d):
     r = rig(d)
     return ["apply", str(r.path), "--look-at", f"{r.skeleton}@10", "--out", str(d / "gaze.usdc")]
+
+
+def b_look_at_a_prim_under_its_skeleton(d):
+    """A marker Xform authored under the Skeleton prim (it moves with the skeleton's space)."""
+    def author(layer, r):
+        marker = Sdf.CreatePrimInLayer(layer, r.skeleton + "/Marker")
+        marker.specifier, marker.typeName = Sdf.SpecifierDef, "Xform"
+    src = edited(d, author)
+    return ["apply", str(src), "--look-at", "/Character/Skel/Marker@10", "--out", str(d / "gaze.usdc")]
 
 
 def _into_shot_over(d, name: str, text: str, out: str) -> list[str]:

@@ -291,9 +291,11 @@ def _check_target_prim(stage, target: str, clip: SkelClip) -> None:
         return
     path = Sdf.Path(target)
     if Sdf.Path(clip.skel_root).HasPrefix(path) or path.HasPrefix(Sdf.Path(clip.skeleton)):
-        raise UsdGazeError(f"{clip.source}:{target}: is the character {clip.skel_root} itself (or holds it, or is its "
-                           "Skeleton); a look-at target must be another prim (on a stage of several characters, --skel-root "
-                           "picks the one that looks)")
+        what = ("lies under the character's Skeleton " + clip.skeleton if path.HasPrefix(Sdf.Path(clip.skeleton))
+                and path != Sdf.Path(clip.skeleton) else
+                f"is the character {clip.skel_root} itself (or holds it, or is its Skeleton)")
+        raise UsdGazeError(f"{clip.source}:{target}: {what}; a look-at target must be another prim (on a stage of "
+                           "several characters, --skel-root picks the one that looks)")
     prim = stage.GetPrimAtPath(path)
     root = UsdSkel.Root.Find(prim) if prim else None
     if not root or root.GetPrim().GetPath() == path:
