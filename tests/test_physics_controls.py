@@ -14,24 +14,43 @@ from usdgaze.physics import controls
 from .test_physics_dynamics import body  # noqa: F401  (the CMU body and its reference, a module fixture)
 
 
-def _mujoco_differences(dyn, x, u):
-    """MuJoCo's finite differences of the whole step (A and B) at ``x``, ``u``, in its tangent space."""
+STATES = [(400, 0.0, 0.3), (100, 0.0, 2.0), (700, 0.4, 1.0), (250, -0.01, 0.5)]
+"""(reference frame, root lifted by m, velocity spread): on the ground, fast, in the air, pressed in."""
+
+
+def _mujoco_differences(dyn, x, u, centered: bool | None = None):
+    """MuJoCo's finite differences of the whole step (A and B) at ``x``, ``u``, in its tangent space
+    (``centered``: the body's own setting where None)."""
     dyn._load(x, u, 0)
     A = np.zeros((dyn.nx, dyn.nx))
     B = np.zeros((dyn.nx, dyn.nu))
-    mujoco.mjd_transitionFD(dyn.mj, dyn.data, dyn.eps, dyn.centered, A, B, None, None)
+    mujoco.mjd_transitionFD(dyn.mj, dyn.data, dyn.eps, dyn.centered if centered is None else centered,
+                            A, B, None, None)
     return A, B
 
 
-@pytest.mark.parametrize("frame, lift, speed", [(400, 0.0, 0.3), (100, 0.0, 2.0), (700, 0.4, 1.0), (250, -0.01, 0.5)])
-def test_control_columns_match_mujocos_differences(body, frame, lift, speed):
-    dyn, qpos = body
-    assert dyn.closed_controls
+def _state(dyn, qpos, frame, lift, speed):
+    """A state off the reference's ``frame`` (root raised ``lift`` m, velocities of spread ``speed``)
+    and controls, seeded by the frame."""
     rng = np.random.default_rng(frame)
     q = qpos[frame].copy()
     q[2] += lift
-    x = dyn.to_state(q, rng.normal(0, speed, dyn.nv))
-    u = rng.normal(0, 0.5, dyn.nu)
+    return dyn.to_state(q, rng.normal(0, speed, dyn.nv)), rng.normal(0, 0.5, dyn.nu)
+
+
+def _some_rows_push(dyn, x, u) -> None:
+    """At ``x``, ``u`` some contact rows push and some do not: the closed forms' active set is met."""
+    dyn._load(x, u, 0)
+    mujoco.mj_forward(dyn.mj, dyn.data)
+    pushing = np.asarray(dyn.data.efc_force) != 0
+    assert pushing.any() and not pushing.all(), "rows that push and rows that do not"
+
+
+@pytest.mark.parametrize("frame, lift, speed", STATES)
+def test_control_columns_match_mujocos_differences(body, frame, lift, speed):
+    dyn, qpos = body
+    assert dyn.closed_controls
+    x, u = _state(dyn, qpos, frame, lift, speed)
     limited = np.flatnonzero(dyn.mj.actuator_ctrllimited)
     assert len(limited) > 0
     u[limited[0]] = 1.5  # a toe motor beyond its range: clamped by MuJoCo, it moves nothing
@@ -45,10 +64,7 @@ def test_control_columns_match_mujocos_differences(body, frame, lift, speed):
     assert np.abs(B - B_fd).max() < 1e-6 * np.abs(B_fd).max()
     assert np.all(B[:, limited[0]] == 0.0) and np.all(B_fd[:, limited[0]] == 0.0)
     if lift <= 0.0:
-        dyn._load(x, u, 0)
-        mujoco.mj_forward(dyn.mj, dyn.data)
-        pushing = np.asarray(dyn.data.efc_force) != 0
-        assert pushing.any() and not pushing.all(), "rows that push and rows that do not"
+        _some_rows_push(dyn, x, u)
 
 
 def test_mujocos_differences_where_the_closed_form_does_not_apply(body):

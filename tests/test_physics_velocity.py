@@ -18,23 +18,8 @@ import pytest
 
 from usdgaze.physics import velocity
 
+from .test_physics_controls import STATES, _mujoco_differences, _some_rows_push, _state
 from .test_physics_dynamics import body  # noqa: F401  (the CMU body and its reference, a module fixture)
-
-
-def _mujoco_differences(dyn, x, u, centered):
-    """MuJoCo's finite differences of the whole step (A and B) at ``x``, ``u``, in its tangent space."""
-    dyn._load(x, u, 0)
-    A = np.zeros((dyn.nx, dyn.nx))
-    B = np.zeros((dyn.nx, dyn.nu))
-    mujoco.mjd_transitionFD(dyn.mj, dyn.data, dyn.eps, centered, A, B, None, None)
-    return A, B
-
-
-def _state(dyn, qpos, frame, lift, speed):
-    rng = np.random.default_rng(frame)
-    q = qpos[frame].copy()
-    q[2] += lift
-    return dyn.to_state(q, rng.normal(0, speed, dyn.nv)), rng.normal(0, 0.5, dyn.nu)
 
 
 def _close(A, A_fd):
@@ -43,7 +28,7 @@ def _close(A, A_fd):
 
 
 @pytest.mark.parametrize("centered", [False, True])
-@pytest.mark.parametrize("frame, lift, speed", [(400, 0.0, 0.3), (100, 0.0, 2.0), (700, 0.4, 1.0), (250, -0.01, 0.5)])
+@pytest.mark.parametrize("frame, lift, speed", STATES)
 def test_state_columns_match_mujocos_differences(body, frame, lift, speed, centered):
     dyn, qpos = body
     assert dyn._twin is not None
@@ -60,10 +45,7 @@ def test_state_columns_match_mujocos_differences(body, frame, lift, speed, cente
     _close(A[:, nv:], A_fd[:, nv:])
     _close(B, B_fd)
     if lift <= 0.0:
-        dyn._load(x, u, 0)
-        mujoco.mj_forward(dyn.mj, dyn.data)
-        pushing = np.asarray(dyn.data.efc_force) != 0
-        assert pushing.any() and not pushing.all(), "rows that push and rows that do not"
+        _some_rows_push(dyn, x, u)
 
 
 def test_pushed_body_and_the_coriolis_term(body):

@@ -63,16 +63,16 @@ def _check_no_root_property(prim, root, source: str) -> None:
     above it, ``pushes.read_pushes`` says where to author it instead.)"""
     from pxr import UsdSkel
 
-    from usdgaze.passes.pushes import PUSH_FORCE, PUSH_JOINT, CATCH
+    from usdgaze.passes.pushes import root_property
 
     path, here = root.GetPath(), prim.GetPath()
     if prim.IsA(UsdSkel.Root) or here.HasPrefix(path) or path.HasPrefix(here):
         return
-    for prop in prim.GetAuthoredPropertiesInNamespace("usdgaze:physics"):
-        if prop.GetName() in (PUSH_FORCE, PUSH_JOINT, CATCH):
-            what = "a ball to catch" if prop.GetName() == CATCH else "a push"
-            raise UsdGazeError(f"{source}:{prop.GetPath()}: {what} is read on a character's SkelRoot only, and "
-                               f"{here} is none; author it on {path}")
+    found = root_property(prim)
+    if found is not None:
+        prop, what = found
+        raise UsdGazeError(f"{source}:{prop.GetPath()}: {what} is read on a character's SkelRoot only, and "
+                           f"{here} is none; author it on {path}")
 
 
 def _check_spelling(prim, source: str) -> None:

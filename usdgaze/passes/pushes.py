@@ -45,6 +45,19 @@ ROOT_NAMES = (PUSH_FORCE, PUSH_JOINT, CATCH)
 """The physics attributes read on a SkelRoot (``usdgaze:physics:task`` is a stone's or an obstacle's)."""
 
 
+def root_property(prim):
+    """The first push or catch ``prim`` authors, read on a SkelRoot only, and what it is ("a push", "a
+    ball to catch"); None where it authors neither (a push attribute with no value is none)."""
+    for name in (PUSH_FORCE, PUSH_JOINT):
+        attr = prim.GetAttribute(name)
+        if attr and attr.HasAuthoredValue():
+            return attr, "a push"
+    catch = prim.GetRelationship(CATCH) or prim.GetAttribute(CATCH)
+    if catch and catch.IsAuthored():  # on the Skeleton or the SkelRoot's parent it caught nothing, exit 0
+        return catch, "a ball to catch"
+    return None
+
+
 def _check_on_the_root(root, source: str) -> None:
     """One line for a push attribute or a catch authored on a prim under the SkelRoot or above it: only the
     SkelRoot's are read (docs/physics.md), and one on the Skeleton or on the SkelRoot's parent was
@@ -56,17 +69,13 @@ def _check_on_the_root(root, source: str) -> None:
         ancestors.append(parent)
         parent = parent.GetParent()
     for prim in [*Usd.PrimRange(root, Usd.TraverseInstanceProxies()), *ancestors]:
-        if prim == root:
+        found = None if prim == root else root_property(prim)
+        if found is None:
             continue
-        for name in (PUSH_FORCE, PUSH_JOINT):
-            attr = prim.GetAttribute(name)
-            if attr and attr.HasAuthoredValue():
-                raise UsdGazeError(f"{source}:{attr.GetPath()}: a push is read on the SkelRoot only; author "
-                                   f"{PUSH_FORCE} and {PUSH_JOINT} on {root.GetPath()}")
-        catch = prim.GetRelationship(CATCH) or prim.GetAttribute(CATCH)
-        if catch and catch.IsAuthored():  # on the Skeleton or the SkelRoot's parent it caught nothing, exit 0
-            raise UsdGazeError(f"{source}:{catch.GetPath()}: a ball to catch is read on the SkelRoot only; author "
-                               f"{CATCH} on {root.GetPath()}")
+        prop, what = found
+        names = f"{PUSH_FORCE} and {PUSH_JOINT}" if what == "a push" else CATCH
+        raise UsdGazeError(f"{source}:{prop.GetPath()}: {what} is read on the SkelRoot only; author {names} on "
+                           f"{root.GetPath()}")
     # a misspelled catch is a relationship: every property, not only the attributes
     check_read(root.GetAuthoredProperties(), ROOT_NAMES, source, f"a SkelRoot's are {', '.join(ROOT_NAMES)}")
 

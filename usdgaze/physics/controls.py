@@ -69,10 +69,10 @@ def moments(mj) -> np.ndarray:
     return (moment * mj.actuator_gainprm[:, 0][:, None]).T.copy()
 
 
-def system(mj, d) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """``(M, H, Ja)`` at ``d`` after ``mj_forward``: the mass matrix, the constraint solver's Hessian
-    ``M + Ja^T Da Ja`` and the Jacobian rows that push (``(0, nv)`` if none). None where this step's
-    constraints are of a kind the rule does not cover."""
+def system(mj, d) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """``(M, H, Ja, active)`` at ``d`` after ``mj_forward``: the mass matrix, the constraint solver's
+    Hessian ``M + Ja^T Da Ja``, the Jacobian rows that push (``(0, nv)`` if none) and their mask over
+    the constraint rows. None where this step's constraints are of a kind the rule does not cover."""
     import mujoco
 
     active = _pushing_rows(d)
@@ -91,7 +91,7 @@ def system(mj, d) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
             J[:] = np.asarray(d.efc_J).reshape(d.nefc, nv)
         Ja = J[active]
         H += (Ja.T * d.efc_D[active]) @ Ja
-    return M, H, Ja
+    return M, H, Ja, active
 
 
 def _inverse_times(A: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -164,5 +164,5 @@ def closed_form(mj, d, ctrl: np.ndarray, rot_x: np.ndarray, force: np.ndarray) -
     got = system(mj, d)
     if got is None:
         return None
-    M, H, _ = got
+    M, H, _, _ = got
     return next_state(mj, d, damped(mj, M, H, clamped(mj, ctrl, force), np.asarray(d.qacc)), rot_x)

@@ -133,7 +133,7 @@ class StoneTask:
         self.ref_height, self.ref_frame = [], []
         self.stone = np.full((len(self.feet), len(ref_qpos)), -1)  # the stone of each contact step
         self.unreached: list[tuple[str, float, float]] = []  # footfalls with no stone in reach: (foot, s, m)
-        taken = set()
+        taken: set[int] = set()
         for f, (leg, ankle, toe) in enumerate(self.feet):
             p = fpos[:, toe]
             speed = np.linalg.norm(np.gradient(p[:, :2], fs, axis=0), axis=1) if len(p) > 1 else np.zeros(1)
@@ -155,7 +155,7 @@ class StoneTask:
             self.stone[f] = span[near]
             self.ref_height.append(xpos[:, toe, 2])
             self.ref_frame.append(xmat[:, ankle])
-        self.untaken = [i for i in range(len(self.stones)) if i not in taken]
+        self.taken = taken  # the stones some footfall of the reference takes
         self._onto_stones(ref_qpos)
 
     def notes(self, start_s: float = 0.0) -> list[str]:
@@ -165,7 +165,7 @@ class StoneTask:
         takes is not said: a shot cut from a take walks over some of the take's stones only."""
         if not len(self.stones) or not self.unreached:
             return []
-        if len(self.untaken) == len(self.stones):
+        if not self.taken:
             nearest = min(m for _, _, m in self.unreached)
             return [f"no stone within {100 * REACH_M:.0f} cm of any footfall of the reference (the nearest "
                     f"{100 * nearest:.0f} cm): none stepped on"]

@@ -68,9 +68,8 @@ def columns(mj, twin, d, rot_x: np.ndarray, force: np.ndarray) -> tuple[np.ndarr
     got = controls.system(mj, d)
     if got is None:
         return None
-    M, H, Ja = got
+    M, H, Ja, active = got
     nu = mj.nu
-    active = np.asarray(d.efc_force) != 0.0
     b = np.asarray(d.efc_KBIP).reshape(-1, 4)[active, 1]  # aref's velocity gain per pushing row
     drag = (Ja.T * (np.asarray(d.efc_D)[active] * b)) @ Ja
     force = controls.clamped(mj, np.asarray(d.ctrl), force)
