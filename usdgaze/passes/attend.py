@@ -19,7 +19,7 @@ from usdgaze.core.kinematics import Pose, forward, with_ancestors
 from usdgaze.core.rig import Chain, CharacterFrame
 from usdgaze.passes.aim import aim_eyes
 from usdgaze.passes.assemble import assemble
-from usdgaze.passes.chain import gaze_up, with_eyes
+from usdgaze.passes.chain import carried_axis, gaze_up, with_eyes
 from usdgaze.passes.hidden import hold_visible, restore
 from usdgaze.passes.options import EyeRange, PassOptions
 from usdgaze.planning.kinbody import BaseChain
@@ -79,13 +79,13 @@ def base_chain(clip: SkelClip, chain: Chain, frame: CharacterFrame, rig, base: P
                ) -> tuple[BaseChain, np.ndarray]:
     """The base motion's pivots, eye midpoint and head axes on the planner grid (world, metres)."""
     spine, neck = _spine_neck(chain)
-    s2w, mpu, up = clip.skel_to_world, clip.meters_per_unit, gaze_up(clip, frame, base, rig, chain)  # the head's yaw axis
+    s2w, mpu = clip.skel_to_world, clip.meters_per_unit
+    up = gaze_up(clip, frame, base, rig, chain)  # the head's yaw axis
     head = chain.head
     eyes = 0.5 * sum(base.place(int(rig.parents[e]), rig.local(e)[0]) for e in rig.eyes)
     pts = [(_world(s2w, base.position[j]) * mpu) for j in (spine, neck)] + [_world(s2w, eyes) * mpu]
-    to_rest = rot.multiply(base.rotation[head], rot.conjugate(rig.rest_q[head]))
-    axes = np.stack([rot.normalize(np.einsum("fij,fj->fi", s2w[:, :3, :3], rot.rotate(to_rest, np.broadcast_to(v, (len(to_rest), 3)))))
-                     for v in (frame.forward, frame.left, frame.up)], -1)
+    axes = np.stack([carried_axis(base, rig, head, v, s2w[:, :3, :3]) for v in (frame.forward, frame.left, frame.up)],
+                    -1)
     seconds = clip.seconds
     t = planner_times(seconds, h)
     P = [_interp(t, seconds, p) for p in pts]

@@ -259,15 +259,15 @@ def gaze_up(clip: SkelClip, frame: CharacterFrame, pose: Pose | None = None, rig
         return own
     if pose is None or rig is None or chain is None:
         return up_w
-    lying = _carried(pose, rig, chain.pelvis, frame.up, s2w) @ up_w <= upright
+    lying = carried_axis(pose, rig, chain.pelvis, frame.up, s2w) @ up_w <= upright
     # One axis serves the whole clip: the posture of most of its frames (a clip that gets up from the
     # floor and stands keeps the stage's up, which its standing frames need).
     if lying.mean() < 0.5:
         return up_w
-    return rot.normalize(_carried(pose, rig, chain.head, frame.up, s2w)[lying].mean(axis=0))
+    return rot.normalize(carried_axis(pose, rig, chain.head, frame.up, s2w)[lying].mean(axis=0))
 
 
-def _carried(pose: Pose, rig: Rig, joint: int, axis: np.ndarray, s2w: np.ndarray) -> np.ndarray:
+def carried_axis(pose: Pose, rig: Rig, joint: int, axis: np.ndarray, s2w: np.ndarray) -> np.ndarray:
     """A skeleton-space axis of the neutral pose carried by ``joint``'s base rotation into the world
     ``(F, 3)``, unit length."""
     to_rest = rot.multiply(pose.rotation[joint], rot.conjugate(rig.rest_q[joint]))
