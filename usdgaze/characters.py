@@ -143,13 +143,14 @@ TILT_NOTE_DEG = 1.0
 def _character_frame(clip: SkelClip, joints: list[str], forward, label: str) -> CharacterFrame:
     stage_up = _stage_up(clip)
     up_s = snap_up(stage_up)  # the character upright in its own space, as on a tilted parent
-    legs = body_up(joints, clip.neutral())
+    neutral = clip.neutral()
+    legs = body_up(joints, neutral)
     if legs is not None and np.degrees(np.arccos(np.clip(np.dot(legs, up_s), -1.0, 1.0))) >= UP_SNAP_DEG:
         # Its legs hang along another axis: a character modelled upright leaning or lying in the stage
         # (taking the stage's up missed every look-at target by the lean; flat, by 90 deg).
         up_s = legs
     where = f"{clip.source}:{clip.skeleton}"
-    frame = character_frame(joints, clip.neutral(), up_s, forward, where=where, forward_label=label,
+    frame = character_frame(joints, neutral, up_s, forward, where=where, forward_label=label,
                             stage_up=stage_up)
     tilt = float(np.degrees(np.arccos(np.clip(np.dot(up_s, stage_up), -1.0, 1.0))))
     if forward is not None:
