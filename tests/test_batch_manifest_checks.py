@@ -124,12 +124,23 @@ def test_a_pool_worker_ends_once_a_stop_signal_interrupted_its_shot(monkeypatch)
     assert worker.exitcode == 128 + signal.SIGINT
 
 
+def _run_refused(manifest, capsys, names: str) -> None:
+    """``batch MANIFEST`` refuses in one line naming ``names``, exit 2, before any shot: no output
+    folder, no summary."""
+    from usdgaze.console.main import main
+
+    capsys.readouterr()
+    assert main(["batch", str(manifest)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and names in err, err
+    folder = manifest.parent
+    assert not (folder / "out").exists() and not list(folder.glob("*.summary.json"))
+
+
 def test_a_shot_composing_another_shots_output_is_refused_before_that_output_exists(tmp_path, capsys):
     """Shot b's input sublayers shot a's output. Once a had run that was refused as a clash, but on
     the first run (the layer not there yet) both ran: b composed a's output or not depending on the
     order (or raced it on a farm), and the rerun then refused the manifest it had just run."""
-    from usdgaze.console.main import main
-
     from . import synthetic as syn
 
     syn.make_rig(tmp_path / "rig.usda", frames=48)
@@ -140,19 +151,13 @@ def test_a_shot_composing_another_shots_output_is_refused_before_that_output_exi
                         '[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usdc"\n'
                         '[[job]]\nname = "b"\ninput = "wrap.usda"\nout = "out/b.usdc"\n')
     _refused_naming(manifest, str(tmp_path / "out" / "a.usdc"), "job 0 'a' out", "job 1 'b'")
-    capsys.readouterr()
-    assert main(["batch", str(manifest)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "job 1 'b'" in err, err
-    assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.summary.json"))
+    _run_refused(manifest, capsys, "job 1 'b'")
 
 
 def test_a_shot_whose_map_composes_another_shots_output_is_refused(tmp_path, capsys):
     """Shot b's map file sublayers shot a's output. The input's layers were checked, the map's only as
     its one file: both shots ran, and b's map composed a's override or, run first (a pool, a farm),
     failed on it missing ('composition failed: Could not load sublayer'), by the order they ran in."""
-    from usdgaze.console.main import main
-
     from . import synthetic as syn
 
     syn.make_rig(tmp_path / "rig.usda", frames=48)
@@ -163,11 +168,7 @@ def test_a_shot_whose_map_composes_another_shots_output_is_refused(tmp_path, cap
                         '[[job]]\nname = "a"\ninput = "rig.usda"\nout = "out/a.usda"\n'
                         '[[job]]\nname = "b"\ninput = "rig2.usda"\nout = "out/b.usdc"\nmap = "map.usda:/GazeMap"\n')
     _refused_naming(manifest, str(tmp_path / "out" / "a.usda"), "job 0 'a' out", "map of job 1 'b'")
-    capsys.readouterr()
-    assert main(["batch", str(manifest)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "job 1 'b'" in err, err
-    assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.summary.json"))
+    _run_refused(manifest, capsys, "job 1 'b'")
 
 
 def test_an_output_folder_name_too_long_is_bad_input(tmp_path, capsys):
